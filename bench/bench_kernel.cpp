@@ -1,0 +1,171 @@
+// Refinement throughput of the Gibbs kernel, in token refinements per second
+// on one pinned core, against a straightforward implementation of the same
+// conditional (topic-major counts, std::discrete_distribution per word).
+//
+//   build/bench/bench_kernel --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+
+#include <benchmark/benchmark.h>
+
+#include <random>
+#include <sched.h>
+#include <vector>
+
+#include "rost/model.hpp"
+
+namespace {
+
+constexpr int kV = 5436;
+constexpr int kFrames = 24;
+constexpr int kWordsPerFrame = 2000;  // 80 cells of 64 px in 640x480: 25 words a cell
+
+// A word stream with some structure: each frame mixes a few Zipf-like word groups.
+struct Stream {
+    std::vector<std::vector<uint32_t>> words;
+    std::vector<std::vector<rost::Position>> pos;
+    explicit Stream(uint64_t seed) {
+        rost::Rng r(seed);
+        for (int f = 0; f < kFrames; ++f) {
+            std::vector<uint32_t> w(kWordsPerFrame);
+            std::vector<rost::Position> p(kWordsPerFrame);
+            for (int i = 0; i < kWordsPerFrame; ++i) {
+                p[i] = {static_cast<int32_t>(r.below(640)), static_cast<int32_t>(r.below(480))};
+                const uint32_t region = static_cast<uint32_t>((p[i].x / 160 + p[i].y / 160 + f / 8) % 6);
+                const uint32_t rank = r.below(r.below(900) + 1);
+                w[i] = (region * 900 + rank) % kV;
+            }
+            words.push_back(std::move(w));
+            pos.push_back(std::move(p));
+        }
+    }
+};
+
+rost::Config benchConfig(int K) {
+    rost::Config c;
+    c.K = K;
+    c.V = kV;
+    c.ring_steps = kFrames;
+    c.cell_capacity = 64;
+    return c;
+}
+
+void BM_Refine(benchmark::State& state) {
+    const int K = static_cast<int>(state.range(0));
+    const bool scalar = state.range(1) != 0;
+    static const Stream stream(42);
+    rost::Model m(benchConfig(K));
+    if (scalar) m.setKernelPath(rost::kernel::Path::Scalar);
+    for (int f = 0; f < kFrames; ++f) m.addObservation(stream.words[f], stream.pos[f]);
+    m.refineAll(5);  // past the random start
+    const uint64_t before = m.tokensRefined();
+    int64_t t = 0;
+    for (auto _ : state) {
+        m.refineStep(t);
+        t = (t + 1) % kFrames;
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(m.tokensRefined() - before));
+    state.counters["words_per_cell"] = static_cast<double>(kWordsPerFrame) / m.cellsPerStep();
+}
+
+// The straightforward kernel: topic-major n_k^v, neighbourhood summed per
+// word, a std::discrete_distribution built for every word, std::mt19937.
+class NaiveModel {
+public:
+    NaiveModel(int K, const Stream& s) : K_(K), nkv_(static_cast<std::size_t>(K) * kV, 0), nk_(K, 0) {
+        std::mt19937 init(1);
+        for (int f = 0; f < kFrames; ++f) {
+            std::vector<Cell> cells(80);
+            for (std::size_t i = 0; i < s.words[f].size(); ++i) {
+                const int c = s.pos[f][i].y / 64 * 10 + s.pos[f][i].x / 64;
+                const int z = static_cast<int>(init() % static_cast<unsigned>(K));
+                cells[c].words.push_back(s.words[f][i]);
+                cells[c].z.push_back(z);
+                cells[c].nck.resize(K, 0);
+                ++cells[c].nck[z];
+                ++nkv_[static_cast<std::size_t>(z) * kV + s.words[f][i]];
+                ++nk_[z];
+            }
+            for (auto& c : cells) c.nck.resize(K, 0);
+            steps_.push_back(std::move(cells));
+        }
+    }
+    uint64_t refineStep(int t) {
+        uint64_t n = 0;
+        for (int c = 0; c < 80; ++c) {
+            Cell& cell = steps_[t][c];
+            for (std::size_t i = 0; i < cell.words.size(); ++i) {
+                const uint32_t v = cell.words[i];
+                const int z = cell.z[i];
+                --nkv_[static_cast<std::size_t>(z) * kV + v];
+                --nk_[z];
+                --cell.nck[z];
+                std::vector<double> weights(K_);
+                for (int k = 0; k < K_; ++k) {
+                    int g = neighbourCount(t, c, k);
+                    weights[k] = (nkv_[static_cast<std::size_t>(k) * kV + v] + 0.5) / (nk_[k] + kV * 0.5) * (g + 0.1);
+                }
+                std::discrete_distribution<int> d(weights.begin(), weights.end());
+                const int k = d(rng_);
+                ++nkv_[static_cast<std::size_t>(k) * kV + v];
+                ++nk_[k];
+                ++cell.nck[k];
+                cell.z[i] = k;
+                ++n;
+            }
+        }
+        return n;
+    }
+
+private:
+    struct Cell {
+        std::vector<uint32_t> words;
+        std::vector<int> z;
+        std::vector<int> nck;
+    };
+    int neighbourCount(int t, int c, int k) const {
+        const int cx = c % 10, cy = c / 10;
+        int g = steps_[t][c].nck[k];
+        if (cx > 0) g += steps_[t][c - 1].nck[k];
+        if (cx < 9) g += steps_[t][c + 1].nck[k];
+        if (cy > 0) g += steps_[t][c - 10].nck[k];
+        if (cy < 7) g += steps_[t][c + 10].nck[k];
+        if (t > 0) g += steps_[t - 1][c].nck[k];
+        if (t + 1 < kFrames) g += steps_[t + 1][c].nck[k];
+        return g;
+    }
+    int K_;
+    std::vector<int> nkv_, nk_;
+    std::vector<std::vector<Cell>> steps_;
+    std::mt19937 rng_{7};
+};
+
+void BM_RefineNaive(benchmark::State& state) {
+    const int K = static_cast<int>(state.range(0));
+    static const Stream stream(42);
+    NaiveModel m(K, stream);
+    uint64_t tokens = 0;
+    int t = 0;
+    for (auto _ : state) {
+        tokens += m.refineStep(t);
+        t = (t + 1) % kFrames;
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(tokens));
+}
+
+} // namespace
+
+BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{16, 32, 64, 100}, {0}})->UseRealTime();
+BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{16, 64}, {1}})->UseRealTime();
+BENCHMARK(BM_RefineNaive)->ArgNames({"K"})->Arg(16)->Arg(64)->UseRealTime();
+
+int main(int argc, char** argv) {
+    // One pinned core, as the refiner thread runs.
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(0, &set);
+    sched_setaffinity(0, sizeof(set), &set);
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    benchmark::RunSpecifiedBenchmarks();
+    benchmark::Shutdown();
+    return 0;
+}

@@ -1,0 +1,234 @@
+#pragma once
+
+// The spatiotemporal topic model of the paper (sections III-V) over a fixed
+// ring of temporal cells. Single-threaded: exactly one thread (the refiner)
+// may call its mutating functions. Nothing allocates after construction.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "rost/aligned_buffer.hpp"
+#include "rost/config.hpp"
+#include "rost/kernel.hpp"
+#include "rost/random.hpp"
+#include "rost/status.hpp"
+
+namespace rost {
+
+// A word's pixel position.
+struct Position {
+    int32_t x = 0;
+    int32_t y = 0;
+};
+
+enum class AddError : uint8_t {
+    None,
+    SizeMismatch,        // words and positions differ in length
+    WordOutOfRange,      // a word id >= V
+    PositionOutOfRange,  // a position outside [0, width) x [0, height)
+};
+const char* toString(AddError e) noexcept;
+
+struct AddResult {
+    AddError error = AddError::None;
+    uint32_t index = 0;          // the offending word's index when error != None
+    uint32_t kept = 0;           // words that entered cells
+    uint32_t dropped_frame = 0;  // words beyond max_words_per_frame (uniformly subsampled away)
+    uint32_t dropped_cell = 0;   // words beyond a cell's capacity (uniformly subsampled away)
+    [[nodiscard]] bool ok() const noexcept { return error == AddError::None; }
+};
+
+// Sum of -log p(w) over some words; perplexity = exp(nll / words).
+struct LogLoss {
+    double nll = 0.0;
+    uint64_t words = 0;
+    [[nodiscard]] double perplexity() const noexcept;
+    LogLoss& operator+=(const LogLoss& o) noexcept {
+        nll += o.nll;
+        words += o.words;
+        return *this;
+    }
+};
+
+class Model {
+public:
+    // Throws std::invalid_argument with Config::validate()'s message on a bad configuration.
+    explicit Model(const Config& config);
+    // Non-throwing factory: returns nullptr and sets status on a bad configuration.
+    static std::unique_ptr<Model> create(const Config& config, Status& status);
+
+    Model(const Model&) = delete;
+    Model& operator=(const Model&) = delete;
+
+    const Config& config() const noexcept { return cfg_; }
+    int K() const noexcept { return K_; }
+    int V() const noexcept { return V_; }
+    int cellsPerStep() const noexcept { return cells_; }
+
+    // ---- ingest ---------------------------------------------------------
+    // Adds one observation (the next time step). Words land in cell
+    // (t / cell.time, x / cell.space, y / cell.space) with uniformly random
+    // initial topics (paper Algorithm 2). Input beyond max_words_per_frame or
+    // a cell's capacity is uniformly subsampled (selection sampling, seeded)
+    // and counted. On error nothing changes. Never allocates.
+    AddResult addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept;
+
+    uint64_t observations() const noexcept { return frames_; }
+    // Temporal cells so far (the paper's T, counting from 1). Step indices run 0..steps()-1.
+    int64_t steps() const noexcept { return steps_; }
+    // Oldest step still in the ring (refinable).
+    int64_t oldestStep() const noexcept { return steps_ > ring_ ? steps_ - ring_ : 0; }
+    bool inWindow(int64_t step) const noexcept { return step >= oldestStep() && step < steps_; }
+    int64_t stepOfObservation(uint64_t frame) const noexcept { return static_cast<int64_t>(frame) / cfg_.cell_time; }
+    bool observationInWindow(uint64_t frame) const noexcept {
+        return frame < frames_ && inWindow(stepOfObservation(frame));
+    }
+
+    // ---- refinement -------------------------------------------------------
+    // Refines every word of one cell / one time step once. Returns the number
+    // of tokens refined (0 for a step outside the window).
+    uint32_t refineCell(int64_t step, int cell) noexcept;
+    uint32_t refineStep(int64_t step) noexcept;
+    // Batch Gibbs (paper Algorithm 1): `sweeps` passes over every cell of the window.
+    uint64_t refineAll(int sweeps = 1) noexcept;
+    uint64_t tokensRefined() const noexcept { return tokens_refined_; }
+    // Words currently in cells of a step.
+    uint32_t wordsInStep(int64_t step) const noexcept;
+
+    // Selects the scalar reference or the SIMD kernel (default: SIMD).
+    void setKernelPath(kernel::Path p) noexcept { path_ = p; }
+    kernel::Path kernelPath() const noexcept { return path_; }
+
+    // ---- perplexity -----------------------------------------------------
+    // p(w_i) = sum_k phi_k(w_i) theta_G(k), with word i left out of its own
+    // counts (n_k^v, n_k and n_G^k each lose one at z_i): the predictive
+    // probability of the word given every other label, the same quantity
+    // whose terms eq. 5 normalises. Used identically for every perplexity.
+    LogLoss cellLogLoss(int64_t step, int cell) const noexcept;
+    LogLoss stepLogLoss(int64_t step) const noexcept;
+    double stepPerplexity(int64_t step) const noexcept { return stepLogLoss(step).perplexity(); }
+    double cellPerplexity(int64_t step, int cell) const noexcept { return cellLogLoss(step, cell).perplexity(); }
+    // log p(w_i) of one stored word (slot within its cell).
+    double wordLogProb(int64_t step, int cell, uint32_t slot) const noexcept;
+
+    // ---- curiosity ------------------------------------------------------
+    // Surprise of an observation, computed when it is added, before its own
+    // words touch any count: the perplexity of its words under the model as
+    // it stood, p(w) = sum_k phi_k(w) theta_past(k), where theta_past is the
+    // topic mix of the cell's neighbourhood in earlier steps (same spatial
+    // shape, steps t-1 .. t-g.time; the global topic mix when that is empty).
+    // Per cell, and per observation (over all its words).
+    double observationSurprise(uint64_t frame) const noexcept;
+    // Surprise of each cell of the observation's step as of its latest
+    // observation; cells with no words hold 0.
+    std::span<const float> cellSurprise(int64_t step) const noexcept;
+
+    // ---- outputs --------------------------------------------------------
+    // Kept words and positions of an observation, in input order.
+    uint32_t observationSize(uint64_t frame) const noexcept;
+    void observationWords(uint64_t frame, std::span<uint32_t> out) const noexcept;
+    void observationPositions(uint64_t frame, std::span<Position> out) const noexcept;
+    // Maximum-likelihood topic of each kept word (argmax of the left-out
+    // conditional, ties to the lowest topic), in input order.
+    void observationLabels(uint64_t frame, std::span<uint16_t> out) const noexcept;
+    // The current Gibbs sample z_i of each kept word, in input order.
+    void observationSamples(uint64_t frame, std::span<uint16_t> out) const noexcept;
+    // n_c^k of a cell (K values).
+    std::span<const int32_t> cellHistogram(int64_t step, int cell) const noexcept;
+    uint32_t cellWordCount(int64_t step, int cell) const noexcept;
+
+    int32_t topicWordCount(int k, int v) const noexcept { return nkv_[static_cast<std::size_t>(v) * Kp_ + k]; }
+    int32_t topicCount(int k) const noexcept { return nk_[k]; }
+    // Words counted in n_k^v (with EvictionPolicy::Keep this includes evicted steps).
+    uint64_t wordsInModel() const noexcept { return words_in_model_; }
+    // phi (K x V): phi_k(v) = (n_k^v + beta) / (n_k + V beta).
+    Eigen::MatrixXd topicModel() const;
+    // Adds K x V counts (row-major, topic by word) learned elsewhere to n_k^v and n_k;
+    // they act as a prior that refinement never removes. Set-up only.
+    Status addTopicCounts(std::span<const int32_t> counts);
+
+    // Recomputes every count from the labels and compares; on failure `why` says what differs.
+    bool checkInvariants(std::string* why = nullptr) const;
+
+    // Bytes allocated for all tables and the ring; fixed at construction.
+    std::size_t memoryBytes() const noexcept { return memory_bytes_; }
+
+    Rng& rng() noexcept { return rng_; }
+
+private:
+    std::size_t slotOf(int64_t step) const noexcept { return static_cast<std::size_t>(step % ring_); }
+    int32_t* nck(std::size_t slot, int cell) noexcept {
+        return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
+    }
+    const int32_t* nck(std::size_t slot, int cell) const noexcept {
+        return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
+    }
+    void neighbourhood(int64_t step, int cell, int32_t* out, bool pastOnly) const noexcept;
+    void evict(std::size_t slot) noexcept;
+    double logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum) const noexcept;
+    int mlTopic(uint32_t v, int z, const int32_t* nG) const noexcept;
+    template <typename F>
+    void forEachInput(uint64_t frame, F&& f) const noexcept;
+
+    Config cfg_;
+    int K_, Kp_, V_, gw_, gh_, cells_, cap_, maxw_, ct_;
+    int64_t ring_;
+    float alpha_f_, beta_f_, vbeta_f_;
+
+    // Topic model: n_k^v (V x Kp, word-major), n_k, cached reciprocals.
+    AlignedBuffer<int32_t> nkv_;
+    AlignedBuffer<int32_t> nk_;
+    AlignedBuffer<float> inv_;
+    AlignedBuffer<float> inv_dec_;
+    AlignedBuffer<float> inv_inc_;
+
+    // Ring of temporal cells (slot = step % ring_steps).
+    AlignedBuffer<int64_t> slot_step_;   // which step a slot holds, -1 when empty
+    AlignedBuffer<uint32_t> cell_n_;     // ring x cells: words in the cell
+    AlignedBuffer<uint32_t> cell_words_; // ring x cells x cap
+    AlignedBuffer<uint16_t> cell_z_;     // ring x cells x cap
+    AlignedBuffer<int32_t> nck_;         // ring x cells x Kp
+    AlignedBuffer<float> cell_surprise_; // ring x cells
+    // Inputs of each observation in arrival order (ring x cell.time x max words).
+    AlignedBuffer<uint32_t> in_word_;
+    AlignedBuffer<uint32_t> in_pos_;     // x | y << 16
+    AlignedBuffer<uint32_t> in_slot_;    // cell * cap + slot, or kDropped | cell
+    AlignedBuffer<uint32_t> in_n_;       // ring x cell.time
+    AlignedBuffer<float> obs_surprise_;  // ring x cell.time
+
+    // Neighbourhood geometry: spatial neighbours of each cell (itself first).
+    AlignedBuffer<uint32_t> nbr_begin_;  // cells + 1
+    AlignedBuffer<uint32_t> nbr_cell_;
+
+    // Scratch for ingest and refinement.
+    AlignedBuffer<uint32_t> scratch_cell_;   // per input: its cell
+    AlignedBuffer<uint32_t> scratch_count_;  // per cell
+    AlignedBuffer<uint32_t> scratch_need_;   // per cell
+    AlignedBuffer<int32_t> scratch_g_;       // Kp
+    AlignedBuffer<double> scratch_ll_;       // per cell (surprise)
+    AlignedBuffer<uint32_t> scratch_wn_;     // per cell (surprise word counts)
+
+    Rng rng_;
+    kernel::Path path_ = kernel::Path::Simd;
+    using CellKernel = void (*)(kernel::Tables&, int32_t*, int32_t*, const uint32_t*, uint16_t*, uint32_t, Rng&);
+    CellKernel simd_kernel_;
+    CellKernel scalar_kernel_;
+    kernel::Tables tables_;
+
+    uint64_t frames_ = 0;
+    int64_t steps_ = 0;
+    uint64_t tokens_refined_ = 0;
+    uint64_t words_in_model_ = 0;
+    bool nkv_is_window_ = true;  // false once counts outside the window (prior, kept evictions) exist
+    std::size_t memory_bytes_ = 0;
+
+public:
+    static constexpr uint32_t kDropped = 0x80000000u;
+};
+
+} // namespace rost

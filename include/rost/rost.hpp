@@ -1,0 +1,8 @@
+#pragma once
+
+// Umbrella header for the rost core.
+#include "rost/config.hpp"
+#include "rost/kernel.hpp"
+#include "rost/model.hpp"
+#include "rost/random.hpp"
+#include "rost/status.hpp"

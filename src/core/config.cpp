@@ -1,0 +1,80 @@
+#include "rost/config.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace rost {
+namespace {
+
+template <typename T>
+Status rangeError(const char* field, T value, const char* range) {
+    std::ostringstream os;
+    os << "invalid configuration: " << field << " = " << value << ", allowed " << range;
+    return Status::error(os.str());
+}
+
+Status checkInt(const char* field, long long value, long long lo, long long hi) {
+    if (value < lo || value > hi) {
+        std::ostringstream range;
+        range << "[" << lo << ", " << hi << "]";
+        return rangeError(field, value, range.str().c_str());
+    }
+    return {};
+}
+
+Status checkPositive(const char* field, double value, double hi) {
+    if (!std::isfinite(value) || value <= 0.0 || value > hi) {
+        std::ostringstream range;
+        range << "(0, " << hi << "]";
+        return rangeError(field, value, range.str().c_str());
+    }
+    return {};
+}
+
+} // namespace
+
+Status Config::validate() const {
+    const Status checks[] = {
+        checkInt("K", K, 1, 1024),
+        checkInt("V", V, 1, 1 << 24),
+        checkPositive("alpha", alpha, 1e6),
+        checkPositive("beta", beta, 1e6),
+        checkInt("cell.space", cell_space, 1, 1 << 16),
+        checkInt("cell.time", cell_time, 1, 1024),
+        checkInt("g.space", g_space, 0, 16),
+        checkInt("g.time", g_time, 0, 64),
+        checkInt("frame.width", frame_width, 1, 1 << 16),
+        checkInt("frame.height", frame_height, 1, 1 << 16),
+        checkInt("ring.steps", ring_steps, 1, 1 << 20),
+        checkInt("cell.capacity", cell_capacity, 1, 1 << 20),
+        checkInt("max.words", max_words_per_frame, 1, 1 << 22),
+    };
+    for (const Status& s : checks)
+        if (!s.ok()) return s;
+    if (g_time >= ring_steps && ring_steps > 1)
+        return rangeError("g.time", g_time, "smaller than ring.steps");
+    const double words = static_cast<double>(ring_steps) * cellsPerStep() * cell_capacity;
+    const double bytes = words * 8.0;
+    if (bytes > 64.0 * 1024 * 1024 * 1024)
+        return Status::error("invalid configuration: ring of " + std::to_string(static_cast<long long>(words)) +
+                             " words needs more than 64 GiB; lower ring.steps or cell.capacity");
+    return {};
+}
+
+const char* toString(EvictionPolicy p) noexcept {
+    return p == EvictionPolicy::Keep ? "keep" : "subtract";
+}
+
+Status parseEvictionPolicy(const std::string& text, EvictionPolicy& out) {
+    if (text == "keep") {
+        out = EvictionPolicy::Keep;
+        return {};
+    }
+    if (text == "subtract") {
+        out = EvictionPolicy::Subtract;
+        return {};
+    }
+    return Status::error("invalid eviction policy '" + text + "', allowed keep|subtract");
+}
+
+} // namespace rost

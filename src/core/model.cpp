@@ -1,0 +1,598 @@
+#include "rost/model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace rost {
+
+namespace {
+
+constexpr int kMaxKp = 1024;
+
+template <int KP>
+void simdKernel(kernel::Tables& t, int32_t* g, int32_t* nc, const uint32_t* w, uint16_t* z, uint32_t n, Rng& r) {
+    kernel::refineCell<KP, kernel::Path::Simd>(t, g, nc, w, z, n, r);
+}
+template <int KP>
+void scalarKernel(kernel::Tables& t, int32_t* g, int32_t* nc, const uint32_t* w, uint16_t* z, uint32_t n, Rng& r) {
+    kernel::refineCell<KP, kernel::Path::Scalar>(t, g, nc, w, z, n, r);
+}
+
+} // namespace
+
+const char* toString(AddError e) noexcept {
+    switch (e) {
+    case AddError::None: return "ok";
+    case AddError::SizeMismatch: return "words and positions differ in length";
+    case AddError::WordOutOfRange: return "word id out of range";
+    case AddError::PositionOutOfRange: return "position outside the frame";
+    }
+    return "unknown";
+}
+
+double LogLoss::perplexity() const noexcept {
+    if (words == 0) return std::numeric_limits<double>::quiet_NaN();
+    return std::exp(nll / static_cast<double>(words));
+}
+
+std::unique_ptr<Model> Model::create(const Config& config, Status& status) {
+    status = config.validate();
+    if (!status.ok()) return nullptr;
+    return std::make_unique<Model>(config);
+}
+
+Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
+    const Status st = cfg_.validate();
+    if (!st.ok()) throw std::invalid_argument(st.message());
+    K_ = cfg_.K;
+    Kp_ = kernel::paddedK(K_);
+    V_ = cfg_.V;
+    gw_ = cfg_.gridWidth();
+    gh_ = cfg_.gridHeight();
+    cells_ = gw_ * gh_;
+    cap_ = cfg_.cell_capacity;
+    maxw_ = cfg_.max_words_per_frame;
+    ct_ = cfg_.cell_time;
+    ring_ = cfg_.ring_steps;
+    alpha_f_ = static_cast<float>(cfg_.alpha);
+    beta_f_ = static_cast<float>(cfg_.beta);
+    vbeta_f_ = static_cast<float>(static_cast<double>(V_) * cfg_.beta);
+
+    const auto ring = static_cast<std::size_t>(ring_);
+    const auto cells = static_cast<std::size_t>(cells_);
+    const auto cap = static_cast<std::size_t>(cap_);
+    const auto Kp = static_cast<std::size_t>(Kp_);
+    const auto inputs = ring * static_cast<std::size_t>(ct_) * static_cast<std::size_t>(maxw_);
+
+    nkv_.reset(static_cast<std::size_t>(V_) * Kp);
+    nk_.reset(Kp);
+    inv_.reset(Kp);
+    inv_dec_.reset(Kp);
+    inv_inc_.reset(Kp);
+
+    slot_step_.reset(ring);
+    for (std::size_t s = 0; s < ring; ++s) slot_step_[s] = -1;
+    cell_n_.reset(ring * cells);
+    cell_words_.reset(ring * cells * cap);
+    cell_z_.reset(ring * cells * cap);
+    nck_.reset(ring * cells * Kp);
+    cell_surprise_.reset(ring * cells);
+    in_word_.reset(inputs);
+    in_pos_.reset(inputs);
+    in_slot_.reset(inputs);
+    in_n_.reset(ring * static_cast<std::size_t>(ct_));
+    obs_surprise_.reset(ring * static_cast<std::size_t>(ct_));
+
+    // Spatial neighbourhood: the cell itself, then every cell within
+    // Manhattan distance g.space (g.space = 1: the paper's 4 neighbours).
+    std::vector<uint32_t> begin(cells + 1), list;
+    const int r = cfg_.g_space;
+    for (int cy = 0; cy < gh_; ++cy)
+        for (int cx = 0; cx < gw_; ++cx) {
+            begin[static_cast<std::size_t>(cy * gw_ + cx)] = static_cast<uint32_t>(list.size());
+            list.push_back(static_cast<uint32_t>(cy * gw_ + cx));
+            for (int dy = -r; dy <= r; ++dy)
+                for (int dx = -r; dx <= r; ++dx) {
+                    if ((dx == 0 && dy == 0) || std::abs(dx) + std::abs(dy) > r) continue;
+                    const int x = cx + dx, y = cy + dy;
+                    if (x < 0 || y < 0 || x >= gw_ || y >= gh_) continue;
+                    list.push_back(static_cast<uint32_t>(y * gw_ + x));
+                }
+        }
+    begin[cells] = static_cast<uint32_t>(list.size());
+    nbr_begin_.reset(cells + 1);
+    std::copy(begin.begin(), begin.end(), nbr_begin_.data());
+    nbr_cell_.reset(list.size());
+    std::copy(list.begin(), list.end(), nbr_cell_.data());
+
+    scratch_cell_.reset(static_cast<std::size_t>(maxw_));
+    scratch_count_.reset(cells);
+    scratch_need_.reset(cells);
+    scratch_g_.reset(Kp);
+    scratch_ll_.reset(cells);
+    scratch_wn_.reset(cells);
+
+    switch (Kp_) {
+    case 16: simd_kernel_ = simdKernel<16>; scalar_kernel_ = scalarKernel<16>; break;
+    case 32: simd_kernel_ = simdKernel<32>; scalar_kernel_ = scalarKernel<32>; break;
+    case 64: simd_kernel_ = simdKernel<64>; scalar_kernel_ = scalarKernel<64>; break;
+    default: simd_kernel_ = simdKernel<0>; scalar_kernel_ = scalarKernel<0>; break;
+    }
+    tables_.nkv = nkv_.data();
+    tables_.nk = nk_.data();
+    tables_.inv = inv_.data();
+    tables_.dec = inv_dec_.data();
+    tables_.inc = inv_inc_.data();
+    tables_.K = K_;
+    tables_.Kp = Kp_;
+    tables_.alpha = alpha_f_;
+    tables_.beta = beta_f_;
+    tables_.vbeta = vbeta_f_;
+    kernel::refreshReciprocals(tables_);
+
+    memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
+                    cell_words_.bytes() + cell_z_.bytes() + nck_.bytes() + cell_surprise_.bytes() +
+                    in_word_.bytes() + in_pos_.bytes() + in_slot_.bytes() + in_n_.bytes() + obs_surprise_.bytes() +
+                    nbr_begin_.bytes() + nbr_cell_.bytes() + scratch_cell_.bytes() + scratch_count_.bytes() +
+                    scratch_need_.bytes() + scratch_g_.bytes() + scratch_ll_.bytes() + scratch_wn_.bytes() +
+                    sizeof(Model);
+}
+
+void Model::evict(std::size_t slot) noexcept {
+    if (cfg_.eviction == EvictionPolicy::Subtract) {
+        for (int c = 0; c < cells_; ++c) {
+            const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
+            const uint32_t n = cell_n_[slot * cells_ + c];
+            for (uint32_t i = 0; i < n; ++i) {
+                const uint32_t v = cell_words_[base + i];
+                const int z = cell_z_[base + i];
+                --nkv_[static_cast<std::size_t>(v) * Kp_ + z];
+                --nk_[z];
+            }
+            words_in_model_ -= n;
+        }
+        kernel::refreshReciprocals(tables_);
+    } else {
+        nkv_is_window_ = false;
+    }
+    std::fill_n(cell_n_.data() + slot * cells_, cells_, 0u);
+    std::fill_n(nck_.data() + slot * cells_ * Kp_, static_cast<std::size_t>(cells_) * Kp_, 0);
+    std::fill_n(cell_surprise_.data() + slot * cells_, cells_, 0.f);
+    slot_step_[slot] = -1;
+}
+
+void Model::neighbourhood(int64_t step, int cell, int32_t* out, bool pastOnly) const noexcept {
+    std::fill_n(out, Kp_, 0);
+    auto addCell = [&](int64_t s, uint32_t c) {
+        const int32_t* h = nck(slotOf(s), static_cast<int>(c));
+        for (int k = 0; k < Kp_; ++k) out[k] += h[k];
+    };
+    const uint32_t b = nbr_begin_[cell], e = nbr_begin_[cell + 1];
+    if (pastOnly) {
+        // Earlier steps only, with the spatial shape (a moving camera sees
+        // this cell's content in a neighbouring cell of the previous frame).
+        const int gt = std::max(cfg_.g_time, 1);
+        for (int dt = 1; dt <= gt; ++dt)
+            if (inWindow(step - dt))
+                for (uint32_t j = b; j < e; ++j) addCell(step - dt, nbr_cell_[j]);
+        return;
+    }
+    // G(c): the cell and its spatial neighbours, and the same cell at steps t +- 1..g.time.
+    for (uint32_t j = b; j < e; ++j) addCell(step, nbr_cell_[j]);
+    for (int dt = 1; dt <= cfg_.g_time; ++dt) {
+        if (inWindow(step - dt)) addCell(step - dt, static_cast<uint32_t>(cell));
+        if (inWindow(step + dt)) addCell(step + dt, static_cast<uint32_t>(cell));
+    }
+}
+
+AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept {
+    AddResult res;
+    const auto n = static_cast<uint32_t>(std::min<std::size_t>(words.size(), UINT32_MAX));
+    if (words.size() != positions.size()) {
+        res.error = AddError::SizeMismatch;
+        res.index = static_cast<uint32_t>(std::min(words.size(), positions.size()));
+        return res;
+    }
+    for (uint32_t i = 0; i < n; ++i) {
+        if (words[i] >= static_cast<uint32_t>(V_)) {
+            res.error = AddError::WordOutOfRange;
+            res.index = i;
+            return res;
+        }
+        const Position p = positions[i];
+        if (p.x < 0 || p.y < 0 || p.x >= cfg_.frame_width || p.y >= cfg_.frame_height) {
+            res.error = AddError::PositionOutOfRange;
+            res.index = i;
+            return res;
+        }
+    }
+
+    const uint64_t frame = frames_;
+    const int64_t step = stepOfObservation(frame);
+    const int sub = static_cast<int>(frame % static_cast<uint64_t>(ct_));
+    const std::size_t slot = slotOf(step);
+    if (sub == 0) {
+        if (slot_step_[slot] >= 0) evict(slot);
+        slot_step_[slot] = step;
+        steps_ = step + 1;
+    }
+    const std::size_t obs = slot * ct_ + static_cast<std::size_t>(sub);
+    const std::size_t ibase = obs * static_cast<std::size_t>(maxw_);
+
+    // Frame-level uniform subsample (selection sampling keeps input order).
+    const uint32_t m = std::min<uint32_t>(n, static_cast<uint32_t>(maxw_));
+    uint32_t need = m, j = 0;
+    for (uint32_t i = 0; i < n && need > 0; ++i) {
+        if (n > m && rng_.below(n - i) >= need) continue;
+        in_word_[ibase + j] = words[i];
+        in_pos_[ibase + j] = static_cast<uint32_t>(positions[i].x) | (static_cast<uint32_t>(positions[i].y) << 16);
+        ++j;
+        --need;
+    }
+    res.dropped_frame = n - m;
+    in_n_[obs] = m;
+
+    // Cells of the kept inputs, and how many each cell can still take.
+    uint32_t* cellOf = scratch_cell_.data();
+    uint32_t* count = scratch_count_.data();
+    uint32_t* needc = scratch_need_.data();
+    uint32_t* firstNew = scratch_wn_.data();
+    std::fill_n(count, cells_, 0u);
+    for (uint32_t i = 0; i < m; ++i) {
+        const uint32_t packed = in_pos_[ibase + i];
+        const uint32_t cx = (packed & 0xFFFFu) / static_cast<uint32_t>(cfg_.cell_space);
+        const uint32_t cy = (packed >> 16) / static_cast<uint32_t>(cfg_.cell_space);
+        cellOf[i] = cy * static_cast<uint32_t>(gw_) + cx;
+        ++count[cellOf[i]];
+    }
+    uint32_t* cellN = cell_n_.data() + slot * cells_;
+    for (int c = 0; c < cells_; ++c) {
+        needc[c] = std::min<uint32_t>(count[c], static_cast<uint32_t>(cap_) - cellN[c]);
+        firstNew[c] = cellN[c];
+    }
+    // Cell-level uniform subsample, again by selection sampling.
+    for (uint32_t i = 0; i < m; ++i) {
+        const uint32_t c = cellOf[i];
+        const bool keep = needc[c] > 0 && (needc[c] == count[c] || rng_.below(count[c]) < needc[c]);
+        --count[c];
+        if (keep) {
+            --needc[c];
+            const uint32_t s = cellN[c]++;
+            cell_words_[(slot * cells_ + c) * cap_ + s] = in_word_[ibase + i];
+            in_slot_[ibase + i] = c * static_cast<uint32_t>(cap_) + s;
+            ++res.kept;
+        } else {
+            in_slot_[ibase + i] = kDropped | c;
+            ++res.dropped_cell;
+        }
+    }
+
+    // Surprise, before the new words touch any count.
+    {
+        alignas(64) int32_t g[kMaxKp];
+        double globalSum = 0.0;
+        for (int k = 0; k < K_; ++k) globalSum += nk_[k];
+        double frameNll = 0.0;
+        uint64_t frameWords = 0;
+        float* cs = cell_surprise_.data() + slot * cells_;
+        for (int c = 0; c < cells_; ++c) {
+            const uint32_t s0 = firstNew[c], s1 = cellN[c];
+            if (s1 == s0) continue;
+            neighbourhood(step, c, g, true);
+            double gsum = 0.0;
+            for (int k = 0; k < K_; ++k) gsum += g[k];
+            const int32_t* prior = g;
+            if (gsum == 0.0) {
+                prior = nk_.data();
+                gsum = globalSum;
+            }
+            const double thetaNorm = 1.0 / (gsum + K_ * cfg_.alpha);
+            double nll = 0.0;
+            const uint32_t* w = cell_words_.data() + (slot * cells_ + c) * cap_;
+            for (uint32_t s = s0; s < s1; ++s) {
+                const int32_t* row = nkv_.data() + static_cast<std::size_t>(w[s]) * Kp_;
+                double p = 0.0;
+                for (int k = 0; k < K_; ++k)
+                    p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
+                nll -= std::log(p * thetaNorm);
+            }
+            cs[c] = static_cast<float>(std::exp(nll / (s1 - s0)));
+            frameNll += nll;
+            frameWords += s1 - s0;
+        }
+        obs_surprise_[obs] =
+            frameWords ? static_cast<float>(std::exp(frameNll / static_cast<double>(frameWords))) : 0.f;
+    }
+
+    // Initial labels z ~ Uniform(K) (paper Algorithm 2) and their counts.
+    for (int c = 0; c < cells_; ++c) {
+        const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
+        int32_t* h = nck(slot, c);
+        for (uint32_t s = firstNew[c]; s < cellN[c]; ++s) {
+            const int z = static_cast<int>(rng_.below(static_cast<uint32_t>(K_)));
+            cell_z_[base + s] = static_cast<uint16_t>(z);
+            ++nkv_[static_cast<std::size_t>(cell_words_[base + s]) * Kp_ + z];
+            ++nk_[z];
+            ++h[z];
+        }
+    }
+    kernel::refreshReciprocals(tables_);
+    words_in_model_ += res.kept;
+    ++frames_;
+    return res;
+}
+
+uint32_t Model::refineCell(int64_t step, int cell) noexcept {
+    if (!inWindow(step) || cell < 0 || cell >= cells_) return 0;
+    const std::size_t slot = slotOf(step);
+    const uint32_t n = cell_n_[slot * cells_ + cell];
+    if (n == 0) return 0;
+    int32_t* g = scratch_g_.data();
+    neighbourhood(step, cell, g, false);
+    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    (path_ == kernel::Path::Simd ? simd_kernel_ : scalar_kernel_)(tables_, g, nck(slot, cell),
+                                                                   cell_words_.data() + base,
+                                                                   cell_z_.data() + base, n, rng_);
+    tokens_refined_ += n;
+    return n;
+}
+
+uint32_t Model::refineStep(int64_t step) noexcept {
+    if (!inWindow(step)) return 0;
+    uint32_t total = 0;
+    for (int c = 0; c < cells_; ++c) total += refineCell(step, c);
+    return total;
+}
+
+uint64_t Model::refineAll(int sweeps) noexcept {
+    uint64_t total = 0;
+    for (int s = 0; s < sweeps; ++s)
+        for (int64_t t = oldestStep(); t < steps_; ++t) total += refineStep(t);
+    return total;
+}
+
+uint32_t Model::wordsInStep(int64_t step) const noexcept {
+    if (!inWindow(step)) return 0;
+    const std::size_t slot = slotOf(step);
+    uint32_t total = 0;
+    for (int c = 0; c < cells_; ++c) total += cell_n_[slot * cells_ + c];
+    return total;
+}
+
+double Model::logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum) const noexcept {
+    const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+    const double vb = V_ * cfg_.beta;
+    double p = 0.0;
+    for (int k = 0; k < K_; ++k) {
+        const int own = k == z ? 1 : 0;
+        p += (row[k] - own + cfg_.beta) / (nk_[k] - own + vb) * (nG[k] - own + cfg_.alpha);
+    }
+    const double norm = (nGsum - (z >= 0 ? 1 : 0)) + K_ * cfg_.alpha;
+    return std::log(p / norm);
+}
+
+int Model::mlTopic(uint32_t v, int z, const int32_t* nG) const noexcept {
+    const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+    const double vb = V_ * cfg_.beta;
+    int best = 0;
+    double bestP = -1.0;
+    for (int k = 0; k < K_; ++k) {
+        const int own = k == z ? 1 : 0;
+        const double p = (row[k] - own + cfg_.beta) / (nk_[k] - own + vb) * (nG[k] - own + cfg_.alpha);
+        if (p > bestP) {
+            bestP = p;
+            best = k;
+        }
+    }
+    return best;
+}
+
+LogLoss Model::cellLogLoss(int64_t step, int cell) const noexcept {
+    LogLoss out;
+    if (!inWindow(step) || cell < 0 || cell >= cells_) return out;
+    const std::size_t slot = slotOf(step);
+    const uint32_t n = cell_n_[slot * cells_ + cell];
+    if (n == 0) return out;
+    alignas(64) int32_t g[kMaxKp];
+    neighbourhood(step, cell, g, false);
+    int32_t gsum = 0;
+    for (int k = 0; k < K_; ++k) gsum += g[k];
+    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    for (uint32_t i = 0; i < n; ++i) out.nll -= logProbLeftOut(cell_words_[base + i], cell_z_[base + i], g, gsum);
+    out.words = n;
+    return out;
+}
+
+LogLoss Model::stepLogLoss(int64_t step) const noexcept {
+    LogLoss out;
+    for (int c = 0; c < cells_; ++c) out += cellLogLoss(step, c);
+    return out;
+}
+
+double Model::wordLogProb(int64_t step, int cell, uint32_t slot) const noexcept {
+    if (!inWindow(step) || cell < 0 || cell >= cells_) return std::numeric_limits<double>::quiet_NaN();
+    const std::size_t s = slotOf(step);
+    if (slot >= cell_n_[s * cells_ + cell]) return std::numeric_limits<double>::quiet_NaN();
+    alignas(64) int32_t g[kMaxKp];
+    neighbourhood(step, cell, g, false);
+    int32_t gsum = 0;
+    for (int k = 0; k < K_; ++k) gsum += g[k];
+    const std::size_t base = (s * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    return logProbLeftOut(cell_words_[base + slot], cell_z_[base + slot], g, gsum);
+}
+
+double Model::observationSurprise(uint64_t frame) const noexcept {
+    if (!observationInWindow(frame)) return std::numeric_limits<double>::quiet_NaN();
+    const std::size_t slot = slotOf(stepOfObservation(frame));
+    return obs_surprise_[slot * ct_ + frame % static_cast<uint64_t>(ct_)];
+}
+
+std::span<const float> Model::cellSurprise(int64_t step) const noexcept {
+    if (!inWindow(step)) return {};
+    return {cell_surprise_.data() + slotOf(step) * cells_, static_cast<std::size_t>(cells_)};
+}
+
+uint32_t Model::observationSize(uint64_t frame) const noexcept {
+    if (!observationInWindow(frame)) return 0;
+    return in_n_[slotOf(stepOfObservation(frame)) * ct_ + frame % static_cast<uint64_t>(ct_)];
+}
+
+template <typename F>
+void Model::forEachInput(uint64_t frame, F&& f) const noexcept {
+    if (!observationInWindow(frame)) return;
+    const std::size_t obs = slotOf(stepOfObservation(frame)) * ct_ + frame % static_cast<uint64_t>(ct_);
+    const std::size_t base = obs * static_cast<std::size_t>(maxw_);
+    for (uint32_t i = 0; i < in_n_[obs]; ++i) f(i, base + i);
+}
+
+void Model::observationWords(uint64_t frame, std::span<uint32_t> out) const noexcept {
+    forEachInput(frame, [&](uint32_t i, std::size_t at) {
+        if (i < out.size()) out[i] = in_word_[at];
+    });
+}
+
+void Model::observationPositions(uint64_t frame, std::span<Position> out) const noexcept {
+    forEachInput(frame, [&](uint32_t i, std::size_t at) {
+        if (i < out.size()) out[i] = {static_cast<int32_t>(in_pos_[at] & 0xFFFFu), static_cast<int32_t>(in_pos_[at] >> 16)};
+    });
+}
+
+void Model::observationLabels(uint64_t frame, std::span<uint16_t> out) const noexcept {
+    const int64_t step = stepOfObservation(frame);
+    const std::size_t slot = slotOf(step);
+    alignas(64) int32_t g[kMaxKp];
+    uint32_t lastCell = UINT32_MAX;
+    forEachInput(frame, [&](uint32_t i, std::size_t at) {
+        if (i >= out.size()) return;
+        const uint32_t s = in_slot_[at];
+        const bool dropped = (s & kDropped) != 0;
+        const uint32_t cell = dropped ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
+        if (cell != lastCell) {
+            neighbourhood(step, static_cast<int>(cell), g, false);
+            lastCell = cell;
+        }
+        const int z = dropped ? -1 : cell_z_[slot * cells_ * cap_ + s];
+        out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], z, g));
+    });
+}
+
+void Model::observationSamples(uint64_t frame, std::span<uint16_t> out) const noexcept {
+    const int64_t step = stepOfObservation(frame);
+    const std::size_t slot = slotOf(step);
+    alignas(64) int32_t g[kMaxKp];
+    forEachInput(frame, [&](uint32_t i, std::size_t at) {
+        if (i >= out.size()) return;
+        const uint32_t s = in_slot_[at];
+        if (s & kDropped) {
+            neighbourhood(step, static_cast<int>(s & ~kDropped), g, false);
+            out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], -1, g));
+        } else {
+            out[i] = cell_z_[slot * cells_ * cap_ + s];
+        }
+    });
+}
+
+std::span<const int32_t> Model::cellHistogram(int64_t step, int cell) const noexcept {
+    if (!inWindow(step) || cell < 0 || cell >= cells_) return {};
+    return {nck(slotOf(step), cell), static_cast<std::size_t>(K_)};
+}
+
+uint32_t Model::cellWordCount(int64_t step, int cell) const noexcept {
+    if (!inWindow(step) || cell < 0 || cell >= cells_) return 0;
+    return cell_n_[slotOf(step) * cells_ + cell];
+}
+
+Eigen::MatrixXd Model::topicModel() const {
+    Eigen::MatrixXd phi(K_, V_);
+    const double vb = V_ * cfg_.beta;
+    for (int v = 0; v < V_; ++v)
+        for (int k = 0; k < K_; ++k) phi(k, v) = (topicWordCount(k, v) + cfg_.beta) / (nk_[k] + vb);
+    return phi;
+}
+
+Status Model::addTopicCounts(std::span<const int32_t> counts) {
+    const std::size_t expect = static_cast<std::size_t>(K_) * static_cast<std::size_t>(V_);
+    if (counts.size() != expect)
+        return Status::error("topic model has " + std::to_string(counts.size()) + " counts, expected K x V = " +
+                             std::to_string(expect));
+    for (std::size_t i = 0; i < counts.size(); ++i)
+        if (counts[i] < 0)
+            return Status::error("topic model count at topic " + std::to_string(i / V_) + ", word " +
+                                 std::to_string(i % V_) + " is negative");
+    uint64_t added = 0;
+    for (int k = 0; k < K_; ++k)
+        for (int v = 0; v < V_; ++v) {
+            const int32_t c = counts[static_cast<std::size_t>(k) * V_ + v];
+            nkv_[static_cast<std::size_t>(v) * Kp_ + k] += c;
+            nk_[k] += c;
+            added += static_cast<uint64_t>(c);
+        }
+    kernel::refreshReciprocals(tables_);
+    words_in_model_ += added;
+    if (added) nkv_is_window_ = false;
+    return {};
+}
+
+bool Model::checkInvariants(std::string* why) const {
+    std::ostringstream os;
+    auto fail = [&](const std::string& msg) {
+        if (why) *why = msg;
+        return false;
+    };
+    std::vector<int64_t> nk(Kp_, 0);
+    for (int v = 0; v < V_; ++v)
+        for (int k = 0; k < Kp_; ++k) {
+            const int32_t c = nkv_[static_cast<std::size_t>(v) * Kp_ + k];
+            if (c < 0) return fail("n_k^v negative at word " + std::to_string(v) + ", topic " + std::to_string(k));
+            if (k >= K_ && c != 0) return fail("padding count non-zero at word " + std::to_string(v));
+            nk[k] += c;
+        }
+    int64_t total = 0;
+    for (int k = 0; k < Kp_; ++k) {
+        if (nk[k] != nk_[k])
+            return fail("n_k[" + std::to_string(k) + "] = " + std::to_string(nk_[k]) + " but sum_v n_k^v = " +
+                        std::to_string(nk[k]));
+        if (k < K_ && (inv_[k] != kernel::reciprocal(nk_[k], vbeta_f_) ||
+                       inv_dec_[k] != kernel::reciprocal(nk_[k] - 1, vbeta_f_) ||
+                       inv_inc_[k] != kernel::reciprocal(nk_[k] + 1, vbeta_f_)))
+            return fail("cached reciprocal stale for topic " + std::to_string(k));
+        total += nk[k];
+    }
+    if (static_cast<uint64_t>(total) != words_in_model_)
+        return fail("sum n_k^v = " + std::to_string(total) + " but words in model = " +
+                    std::to_string(words_in_model_));
+    std::vector<int32_t> hist;
+    if (nkv_is_window_) hist.assign(static_cast<std::size_t>(V_) * Kp_, 0);
+    for (int64_t t = oldestStep(); t < steps_; ++t) {
+        const std::size_t slot = slotOf(t);
+        if (slot_step_[slot] != t) return fail("ring slot " + std::to_string(slot) + " does not hold step " + std::to_string(t));
+        for (int c = 0; c < cells_; ++c) {
+            std::vector<int32_t> h(Kp_, 0);
+            const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
+            const uint32_t n = cell_n_[slot * cells_ + c];
+            if (n > static_cast<uint32_t>(cap_)) return fail("cell over capacity");
+            for (uint32_t i = 0; i < n; ++i) {
+                const int z = cell_z_[base + i];
+                if (z >= K_) return fail("label out of range in step " + std::to_string(t));
+                ++h[z];
+                if (nkv_is_window_) ++hist[static_cast<std::size_t>(cell_words_[base + i]) * Kp_ + z];
+            }
+            const int32_t* stored = nck(slot, c);
+            for (int k = 0; k < Kp_; ++k)
+                if (stored[k] != h[k])
+                    return fail("n_c^k mismatch at step " + std::to_string(t) + ", cell " + std::to_string(c) +
+                                ", topic " + std::to_string(k));
+        }
+    }
+    if (nkv_is_window_)
+        for (std::size_t i = 0; i < hist.size(); ++i)
+            if (hist[i] != nkv_[i])
+                return fail("n_k^v mismatch at word " + std::to_string(i / Kp_) + ", topic " + std::to_string(i % Kp_));
+    return true;
+}
+
+} // namespace rost

@@ -1,0 +1,56 @@
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "rost/config.hpp"
+#include "rost/model.hpp"
+
+namespace {
+
+TEST(Config, DefaultsAreValid) { EXPECT_TRUE(rost::Config{}.validate().ok()); }
+
+struct BadField {
+    const char* field;
+    void (*mutate)(rost::Config&);
+    const char* range;
+};
+
+TEST(Config, InvalidValueNamesFieldAndRange) {
+    const BadField cases[] = {
+        {"K", [](rost::Config& c) { c.K = 0; }, "[1, 1024]"},
+        {"V", [](rost::Config& c) { c.V = -3; }, "[1, 16777216]"},
+        {"alpha", [](rost::Config& c) { c.alpha = 0.0; }, "(0, "},
+        {"beta", [](rost::Config& c) { c.beta = -1.0; }, "(0, "},
+        {"cell.space", [](rost::Config& c) { c.cell_space = 0; }, "[1, 65536]"},
+        {"cell.time", [](rost::Config& c) { c.cell_time = 0; }, "[1, 1024]"},
+        {"g.space", [](rost::Config& c) { c.g_space = -1; }, "[0, 16]"},
+        {"g.time", [](rost::Config& c) { c.g_time = 99; }, "[0, 64]"},
+        {"ring.steps", [](rost::Config& c) { c.ring_steps = 0; }, "[1, 1048576]"},
+        {"cell.capacity", [](rost::Config& c) { c.cell_capacity = 0; }, "[1, 1048576]"},
+    };
+    for (const auto& bad : cases) {
+        rost::Config c;
+        bad.mutate(c);
+        const rost::Status s = c.validate();
+        ASSERT_FALSE(s.ok()) << bad.field;
+        EXPECT_NE(s.message().find(std::string(bad.field) + " ="), std::string::npos) << s.message();
+        EXPECT_NE(s.message().find(bad.range), std::string::npos) << s.message();
+    }
+}
+
+TEST(Config, NanAlphaRejected) {
+    rost::Config c;
+    c.alpha = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_FALSE(c.validate().ok());
+}
+
+TEST(Config, ModelConstructorThrowsAndFactoryReports) {
+    rost::Config c;
+    c.K = 5000;
+    EXPECT_THROW(rost::Model m(c), std::invalid_argument);
+    rost::Status st;
+    EXPECT_EQ(rost::Model::create(c, st), nullptr);
+    EXPECT_NE(st.message().find("K = 5000"), std::string::npos);
+}
+
+} // namespace
