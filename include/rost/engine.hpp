@@ -1,0 +1,256 @@
+#pragma once
+
+// The realtime engine (paper Algorithm 2 with a fixed-memory design):
+//
+//   producer (capture) --tryPush--> ObservationQueue (SPSC, preallocated slots)
+//        --> refiner (the only writer of the Model): ingest one observation,
+//            refine time steps t ~ P(t|T) until the budget is spent, publish
+//        --> readers: readSnapshot() (lock-free seqlock), counters()
+//
+// Two ways to drive it, with the same code path and the same results:
+//  * threaded: start() spawns the refiner thread; a producer thread calls
+//    tryPush(); any thread reads snapshots and counters; stop().
+//  * synchronous: processNow() ingests and refines one observation on the
+//    calling thread (replay, the tool's non-realtime path, tests).
+// Under a count budget (steps or tokens per observation) both give identical
+// labels for the same seed and stream, bit for bit, whatever the timing.
+//
+// After start() nothing on the producer, refiner or reader path allocates,
+// locks, throws or makes a blocking syscall. (The refiner sleeps in 50 us
+// steps when it has nothing to do; hooks run on the refiner thread and are
+// the caller's responsibility.) See docs/engine.md.
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <thread>
+
+#include "rost/config.hpp"
+#include "rost/model.hpp"
+#include "rost/realtime.hpp"
+#include "rost/snapshot.hpp"
+#include "rost/status.hpp"
+#include "rost/strategy.hpp"
+
+namespace rost {
+
+class ObservationQueue;
+
+// Refinement budget per observation.
+enum class BudgetKind : uint8_t {
+    Steps,   // `count` time-step refinements (the paper's R); deterministic
+    Tokens,  // refine cell by cell until `count` tokens were refined; deterministic
+    Time,    // refine until `ms` (the paper's T_R) after the observation was taken up
+};
+struct Budget {
+    BudgetKind kind = BudgetKind::Steps;
+    uint64_t count = 4;  // Steps or Tokens
+    double ms = 40.0;    // Time
+
+    static Budget steps(uint64_t r) noexcept { return {BudgetKind::Steps, r, 0.0}; }
+    static Budget tokens(uint64_t n) noexcept { return {BudgetKind::Tokens, n, 0.0}; }
+    static Budget time(double ms) noexcept { return {BudgetKind::Time, 0, ms}; }
+    bool deterministic() const noexcept { return kind != BudgetKind::Time; }
+};
+
+// What happens when the producer pushes into a full queue. Either way the
+// loss is counted and nothing else breaks.
+enum class DropPolicy : uint8_t {
+    DropNewest,  // the pushed observation is refused (tryPush returns false)
+    DropOldest,  // the oldest queued observation not yet taken up by the refiner is
+                 // discarded and the new one queued (keeps the freshest frames);
+                 // if the refiner is taking up the only candidate, the newest is dropped
+};
+const char* toString(DropPolicy p) noexcept;
+Status parseDropPolicy(const std::string& text, DropPolicy& out);  // "newest" | "oldest"
+
+struct EngineFlags {
+    // Compute the instantaneous perplexity of step t just before step t+1 is
+    // added (O(words K) per step, on the refiner).
+    bool instantaneous_perplexity = true;
+    // Compute the newest step's perplexity when publishing (O(words K)).
+    bool snapshot_perplexity = true;
+    // Publish the newest observation's labels and cell histograms.
+    bool snapshot_labels = true;
+    // Time budget only: stop refining as soon as a newer observation is
+    // queued (paper Algorithm 2, "while no new observation").
+    bool stop_on_arrival = false;
+};
+
+struct EngineConfig {
+    Config model;
+    StrategyConfig strategy;
+    Budget budget;
+    int queue_slots = 8;  // observations the queue holds, 1..65536
+    DropPolicy drop = DropPolicy::DropOldest;
+    ThreadSettings thread;  // refiner thread scheduling (defaults: none requested)
+    EngineFlags flags;
+
+    // Checks everything (Model config included); the message names the field.
+    [[nodiscard]] Status validate() const;
+};
+
+// One observation as the producer hands it over: it is copied into a queue
+// slot, so the spans need only live for the call.
+struct ObservationView {
+    int64_t timestamp = 0;  // any unit (frame number, microseconds); carried through
+    std::span<const uint32_t> words;
+    std::span<const Position> positions;  // same length as words
+};
+
+// Results of one observation, handed to the observation hook on the thread
+// that refined it, after its budget was spent and its snapshot published.
+struct ObservationResult {
+    uint64_t observation = 0;  // index among ingested observations (Model frame index)
+    uint64_t sequence = 0;     // producer sequence number
+    int64_t timestamp = 0;
+    int64_t step = -1;         // Model's 0-based step (-1 if rejected)
+    AddResult add;             // what the model did with the words (error when rejected)
+    double surprise = std::numeric_limits<double>::quiet_NaN();
+    // Instantaneous perplexity of step `previous_step` (= step - 1), computed
+    // just before this observation opened a new step; NaN when this
+    // observation did not open a step, for the first step, or when disabled.
+    int64_t previous_step = -1;
+    double previous_perplexity = std::numeric_limits<double>::quiet_NaN();
+    double perplexity = std::numeric_limits<double>::quiet_NaN();  // of `step` after refinement
+    uint64_t refinements = 0;  // time-step draws
+    uint64_t tokens = 0;       // tokens refined
+    int64_t elapsed_ns = 0;    // take-up to publish
+    int64_t overrun_ns = 0;    // past the time-budget deadline (0 when met or not a time budget)
+};
+
+// An observation still in the ring: handed to the eviction hook just before
+// its time step leaves the window (labels still readable from the model),
+// and by visitWindow().
+struct WindowObservation {
+    uint64_t observation = 0;
+    uint64_t sequence = 0;
+    int64_t timestamp = 0;
+    int64_t step = 0;
+};
+
+using ObservationHook = std::function<void(const ObservationResult&, const Model&)>;
+using EvictionHook = std::function<void(const WindowObservation&, const Model&)>;
+
+struct EngineMemory {
+    std::size_t model = 0;     // Model::memoryBytes()
+    std::size_t queue = 0;     // observation slots
+    std::size_t snapshot = 0;  // publisher buffers + the refiner's staging snapshot
+    std::size_t other = 0;     // per-observation bookkeeping of the window
+    std::size_t total() const noexcept { return model + queue + snapshot + other; }
+};
+
+class Engine {
+public:
+    // Throws std::invalid_argument with validate()'s message on a bad configuration.
+    explicit Engine(const EngineConfig& cfg);
+    // Non-throwing factory: nullptr and `status` set on a bad configuration.
+    static std::unique_ptr<Engine> create(const EngineConfig& cfg, Status& status);
+    ~Engine();  // stops the refiner if running (draining nothing)
+
+    Engine(const Engine&) = delete;
+    Engine& operator=(const Engine&) = delete;
+    Engine(Engine&&) = delete;
+    Engine& operator=(Engine&&) = delete;
+
+    const EngineConfig& config() const noexcept { return cfg_; }
+    // Everything allocated, known before start() and never grown.
+    EngineMemory memory() const noexcept;
+    std::size_t memoryBytes() const noexcept { return memory().total(); }
+
+    // ---- set-up (not while running) -----------------------------------------
+    // Called on the refining thread after each observation (see ObservationResult).
+    void setObservationHook(ObservationHook hook);
+    // Called on the refining thread for each observation of a step about to
+    // leave the window, before the observation that evicts it is added.
+    void setEvictionHook(EvictionHook hook);
+    // The model, for set-up (Model::addTopicCounts) and for reading when the
+    // engine is not running (after stop(), or in synchronous mode).
+    Model& model() noexcept { return *model_; }
+    const Model& model() const noexcept { return *model_; }
+    // Strategy draws use the model's Rng, so Model::rng() is the engine's whole random state.
+    const Strategy& strategy() const noexcept { return strategy_; }
+
+    // ---- threaded mode ------------------------------------------------------
+    // Spawns the refiner thread with the configured ThreadSettings (fallbacks
+    // logged to stderr once). Error if already running.
+    Status start();
+    enum class StopMode : uint8_t {
+        Drain,    // the refiner first takes up every queued observation, each with its budget
+        Discard,  // the refiner stops after the observation in hand; queued ones stay queued
+    };
+    // Signals the refiner and joins it. Idempotent.
+    void stop(StopMode mode = StopMode::Drain);
+    bool running() const noexcept { return running_.load(std::memory_order_acquire); }
+
+    // ---- producer (one thread at a time) ------------------------------------
+    // Copies the observation into a free slot and publishes it. Never blocks,
+    // never allocates. Words beyond max_words_per_frame are uniformly
+    // subsampled (seeded by the sequence number) and counted. Returns false
+    // when the observation itself was dropped (queue full); under DropOldest
+    // it is queued and an older one is dropped instead whenever possible.
+    [[nodiscard]] bool tryPush(const ObservationView& obs) noexcept;
+    // For producers that must not lose data (offline replay through the
+    // threads): waits (yield, then 50 us sleeps) until a slot is free, never
+    // drops. False on timeout, or if the engine is not running.
+    bool pushWait(const ObservationView& obs,
+                  std::chrono::nanoseconds timeout = std::chrono::nanoseconds::max()) noexcept;
+    // Observations queued and not yet taken up (approximate while running).
+    uint32_t queued() const noexcept;
+
+    // ---- readers (any thread) -----------------------------------------------
+    // Copies the newest published results into `out` (sized for this
+    // engine's Config by Snapshot::reserve / makeSnapshot). Never blocks the
+    // refiner. False when nothing was published yet or `out` is too small.
+    bool readSnapshot(Snapshot& out) const noexcept;
+    Snapshot makeSnapshot() const { return Snapshot(cfg_.model); }  // allocates: set-up only
+    // Counters right now (each field read atomically; fields may be from
+    // slightly different instants while running).
+    EngineCounters counters() const noexcept;
+
+    // ---- synchronous mode (engine not running) ------------------------------
+    // Pushes `obs` and processes it on the calling thread: ingest, budget,
+    // publish, hooks. Same path and results as the refiner thread. Returns
+    // the observation's result (add.error set when the model rejected it).
+    ObservationResult processNow(const ObservationView& obs) noexcept;
+    // Processes observations queued by tryPush() on the calling thread.
+    // Returns how many were taken up.
+    uint64_t processPending() noexcept;
+    // Spends `budget` (counted or timed) more with the strategy, on the calling
+    // thread, without a new observation: e.g. the idle time at the end of a stream.
+    uint64_t refineExtra(const Budget& budget) noexcept;
+    // Final pass: `sweeps` batch Gibbs sweeps over the whole window (Model::refineAll).
+    uint64_t finalPass(int sweeps) noexcept;
+    // Calls `visit` for every observation still in the window, oldest first
+    // (e.g. to record final labels at the end of a stream).
+    void visitWindow(const EvictionHook& visit) const;
+    // Same, with the eviction hook: after this, every ingested observation
+    // has passed through the eviction hook exactly once.
+    void flushWindowToEvictionHook() const;
+
+private:
+    struct Refiner;
+    bool takeUpOne(ObservationResult* out) noexcept;
+    void refinerMain() noexcept;
+    uint64_t spend(const Budget& budget, std::chrono::steady_clock::time_point deadline, bool newest,
+                   uint64_t* tokens_out) noexcept;
+    void publish(const ObservationResult& r) noexcept;
+
+    EngineConfig cfg_;
+    std::unique_ptr<Model> model_;
+    Strategy strategy_;
+    std::unique_ptr<ObservationQueue> queue_;
+    std::unique_ptr<SnapshotPublisher> publisher_;
+    std::unique_ptr<Refiner> refiner_;  // refiner-side state (staging snapshot, window bookkeeping)
+    ObservationHook on_observation_;
+    EvictionHook on_evict_;
+    std::thread thread_;
+    std::atomic<bool> running_{false};
+    alignas(kCacheLine) std::atomic<int> stop_request_{0};  // 0 none, 1 drain, 2 discard
+};
+
+} // namespace rost
