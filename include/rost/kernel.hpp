@@ -107,6 +107,92 @@ inline int selectScalar(const float* cum, int Kp, int K, float u) noexcept {
     return count < K ? count : K - 1;
 }
 
+// ---- 4-lane vector wrapper used by the register-resident kernel --------------
+
+namespace v4 {
+#if defined(ROST_SIMD_SSE2)
+using F = __m128;
+using I = __m128i;
+inline F load(const float* p) noexcept { return _mm_loadu_ps(p); }
+inline I load(const int32_t* p) noexcept { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
+inline void store(float* p, F x) noexcept { _mm_storeu_ps(p, x); }
+inline void store(int32_t* p, I x) noexcept { _mm_storeu_si128(reinterpret_cast<__m128i*>(p), x); }
+inline F set(float x) noexcept { return _mm_set1_ps(x); }
+inline I seti(int32_t x) noexcept { return _mm_set1_epi32(x); }
+inline I iota(int32_t b) noexcept { return _mm_setr_epi32(b, b + 1, b + 2, b + 3); }
+inline I niota(int32_t b) noexcept { return _mm_setr_epi32(-b, -b - 1, -b - 2, -b - 3); }
+inline F add(F a, F b) noexcept { return _mm_add_ps(a, b); }
+inline F mul(F a, F b) noexcept { return _mm_mul_ps(a, b); }
+inline I add(I a, I b) noexcept { return _mm_add_epi32(a, b); }
+inline I sub(I a, I b) noexcept { return _mm_sub_epi32(a, b); }
+inline F cvt(I a) noexcept { return _mm_cvtepi32_ps(a); }
+inline I eq(I a, I b) noexcept { return _mm_cmpeq_epi32(a, b); }  // all ones where equal
+inline I le(F a, F b) noexcept { return _mm_castps_si128(_mm_cmple_ps(a, b)); }
+inline F select(I m, F a, F b) noexcept {
+    const F mf = _mm_castsi128_ps(m);
+    return _mm_or_ps(_mm_and_ps(mf, a), _mm_andnot_ps(mf, b));
+}
+inline F scan(F p) noexcept {
+    p = _mm_add_ps(p, _mm_castsi128_ps(_mm_slli_si128(_mm_castps_si128(p), 4)));
+    return _mm_add_ps(p, _mm_castsi128_ps(_mm_slli_si128(_mm_castps_si128(p), 8)));
+}
+inline F last(F p) noexcept { return _mm_shuffle_ps(p, p, _MM_SHUFFLE(3, 3, 3, 3)); }
+inline float first(F p) noexcept { return _mm_cvtss_f32(p); }
+inline int32_t hsum(I a) noexcept {
+    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(1, 0, 3, 2)));
+    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(2, 3, 0, 1)));
+    return _mm_cvtsi128_si32(a);
+}
+inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
+    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(1, 0, 3, 2)));
+    return _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(2, 3, 0, 1)));
+}
+inline int32_t firsti(I a) noexcept { return _mm_cvtsi128_si32(a); }
+#elif defined(ROST_SIMD_NEON)
+using F = float32x4_t;
+using I = int32x4_t;
+inline F load(const float* p) noexcept { return vld1q_f32(p); }
+inline I load(const int32_t* p) noexcept { return vld1q_s32(p); }
+inline void store(float* p, F x) noexcept { vst1q_f32(p, x); }
+inline void store(int32_t* p, I x) noexcept { vst1q_s32(p, x); }
+inline F set(float x) noexcept { return vdupq_n_f32(x); }
+inline I seti(int32_t x) noexcept { return vdupq_n_s32(x); }
+inline I iota(int32_t b) noexcept {
+    const int32_t v[4] = {b, b + 1, b + 2, b + 3};
+    return vld1q_s32(v);
+}
+inline I niota(int32_t b) noexcept {
+    const int32_t v[4] = {-b, -b - 1, -b - 2, -b - 3};
+    return vld1q_s32(v);
+}
+inline F add(F a, F b) noexcept { return vaddq_f32(a, b); }
+inline F mul(F a, F b) noexcept { return vmulq_f32(a, b); }
+inline I add(I a, I b) noexcept { return vaddq_s32(a, b); }
+inline I sub(I a, I b) noexcept { return vsubq_s32(a, b); }
+inline F cvt(I a) noexcept { return vcvtq_f32_s32(a); }
+inline I eq(I a, I b) noexcept { return vreinterpretq_s32_u32(vceqq_s32(a, b)); }
+inline I le(F a, F b) noexcept { return vreinterpretq_s32_u32(vcleq_f32(a, b)); }
+inline F select(I m, F a, F b) noexcept { return vbslq_f32(vreinterpretq_u32_s32(m), a, b); }
+inline F scan(F p) noexcept {
+    const F zero = vdupq_n_f32(0.f);
+    p = vaddq_f32(p, vextq_f32(zero, p, 3));
+    return vaddq_f32(p, vextq_f32(zero, p, 2));
+}
+inline F last(F p) noexcept { return vdupq_n_f32(vgetq_lane_f32(p, 3)); }
+inline float first(F p) noexcept { return vgetq_lane_f32(p, 0); }
+inline int32_t hsum(I a) noexcept {
+    const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));
+    return vget_lane_s32(vpadd_s32(h, h), 0);
+}
+inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
+    const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));
+    const int32x2_t s = vpadd_s32(h, h);
+    return vcombine_s32(s, s);
+}
+inline int32_t firsti(I a) noexcept { return vgetq_lane_s32(a, 0); }
+#endif
+} // namespace v4
+
 // ---- SIMD path --------------------------------------------------------------
 
 inline float weightsAndScanSimd(const int32_t* row, const float* inv, const int32_t* nG, float alpha, float beta,
@@ -170,87 +256,6 @@ inline int selectSimd(const float* cum, int Kp, int K, float u) noexcept {
 #endif
 }
 
-// ---- 4-lane vector wrapper used by the register-resident kernel --------------
-
-namespace v4 {
-#if defined(ROST_SIMD_SSE2)
-using F = __m128;
-using I = __m128i;
-inline F load(const float* p) noexcept { return _mm_loadu_ps(p); }
-inline I load(const int32_t* p) noexcept { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
-inline void store(float* p, F x) noexcept { _mm_storeu_ps(p, x); }
-inline void store(int32_t* p, I x) noexcept { _mm_storeu_si128(reinterpret_cast<__m128i*>(p), x); }
-inline F set(float x) noexcept { return _mm_set1_ps(x); }
-inline I seti(int32_t x) noexcept { return _mm_set1_epi32(x); }
-inline I iota(int32_t b) noexcept { return _mm_setr_epi32(b, b + 1, b + 2, b + 3); }
-inline F add(F a, F b) noexcept { return _mm_add_ps(a, b); }
-inline F mul(F a, F b) noexcept { return _mm_mul_ps(a, b); }
-inline I add(I a, I b) noexcept { return _mm_add_epi32(a, b); }
-inline I sub(I a, I b) noexcept { return _mm_sub_epi32(a, b); }
-inline F cvt(I a) noexcept { return _mm_cvtepi32_ps(a); }
-inline I eq(I a, I b) noexcept { return _mm_cmpeq_epi32(a, b); }  // all ones where equal
-inline I le(F a, F b) noexcept { return _mm_castps_si128(_mm_cmple_ps(a, b)); }
-inline F select(I m, F a, F b) noexcept {
-    const F mf = _mm_castsi128_ps(m);
-    return _mm_or_ps(_mm_and_ps(mf, a), _mm_andnot_ps(mf, b));
-}
-inline F scan(F p) noexcept {
-    p = _mm_add_ps(p, _mm_castsi128_ps(_mm_slli_si128(_mm_castps_si128(p), 4)));
-    return _mm_add_ps(p, _mm_castsi128_ps(_mm_slli_si128(_mm_castps_si128(p), 8)));
-}
-inline F last(F p) noexcept { return _mm_shuffle_ps(p, p, _MM_SHUFFLE(3, 3, 3, 3)); }
-inline float first(F p) noexcept { return _mm_cvtss_f32(p); }
-inline int32_t hsum(I a) noexcept {
-    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(1, 0, 3, 2)));
-    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(2, 3, 0, 1)));
-    return _mm_cvtsi128_si32(a);
-}
-inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
-    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(1, 0, 3, 2)));
-    return _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(2, 3, 0, 1)));
-}
-inline int32_t firsti(I a) noexcept { return _mm_cvtsi128_si32(a); }
-#elif defined(ROST_SIMD_NEON)
-using F = float32x4_t;
-using I = int32x4_t;
-inline F load(const float* p) noexcept { return vld1q_f32(p); }
-inline I load(const int32_t* p) noexcept { return vld1q_s32(p); }
-inline void store(float* p, F x) noexcept { vst1q_f32(p, x); }
-inline void store(int32_t* p, I x) noexcept { vst1q_s32(p, x); }
-inline F set(float x) noexcept { return vdupq_n_f32(x); }
-inline I seti(int32_t x) noexcept { return vdupq_n_s32(x); }
-inline I iota(int32_t b) noexcept {
-    const int32_t v[4] = {b, b + 1, b + 2, b + 3};
-    return vld1q_s32(v);
-}
-inline F add(F a, F b) noexcept { return vaddq_f32(a, b); }
-inline F mul(F a, F b) noexcept { return vmulq_f32(a, b); }
-inline I add(I a, I b) noexcept { return vaddq_s32(a, b); }
-inline I sub(I a, I b) noexcept { return vsubq_s32(a, b); }
-inline F cvt(I a) noexcept { return vcvtq_f32_s32(a); }
-inline I eq(I a, I b) noexcept { return vreinterpretq_s32_u32(vceqq_s32(a, b)); }
-inline I le(F a, F b) noexcept { return vreinterpretq_s32_u32(vcleq_f32(a, b)); }
-inline F select(I m, F a, F b) noexcept { return vbslq_f32(vreinterpretq_u32_s32(m), a, b); }
-inline F scan(F p) noexcept {
-    const F zero = vdupq_n_f32(0.f);
-    p = vaddq_f32(p, vextq_f32(zero, p, 3));
-    return vaddq_f32(p, vextq_f32(zero, p, 2));
-}
-inline F last(F p) noexcept { return vdupq_n_f32(vgetq_lane_f32(p, 3)); }
-inline float first(F p) noexcept { return vgetq_lane_f32(p, 0); }
-inline int32_t hsum(I a) noexcept {
-    const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));
-    return vget_lane_s32(vpadd_s32(h, h), 0);
-}
-inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
-    const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));
-    const int32x2_t s = vpadd_s32(h, h);
-    return vcombine_s32(s, s);
-}
-inline int32_t firsti(I a) noexcept { return vgetq_lane_s32(a, 0); }
-#endif
-} // namespace v4
-
 // ---- one cell ---------------------------------------------------------------
 
 // Refines every word of one cell once (paper eq. 5): the word leaves its
@@ -305,22 +310,25 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
     const int Kp = KP > 0 ? KP : t.Kp;
     const int nb = Kp / kBlock;
     constexpr int kArr = KP > 0 ? KP / kBlock : kMaxBlocks;
-    // Reciprocals of n_k - 1 and n_k + 1 (t.dec, t.inc) let a token's
-    // decrement and increment pick their new 1/(n_k + V beta) with a load, so
-    // the divisions run off the dependency chain (same values as the reference).
+    // t.dec / t.inc hold 1/(n_k -+ 1 + V beta), so a token's decrement and
+    // increment take their new reciprocal with a load and the divisions run
+    // off the dependency chain (the values are the reference's).
+    float* const inv = t.inv;
     float* const dec = t.dec;
     float* const inc = t.inc;
     v4::I g[kArr], r[kArr];
-    v4::F inv[kArr], cum[kArr];
+    v4::F iv[kArr], cum[kArr];
     for (int b = 0; b < nb; ++b) {
         g[b] = v4::load(nG + kBlock * b);
-        inv[b] = v4::load(t.inv + kBlock * b);
+        iv[b] = v4::load(inv + kBlock * b);
     }
     const v4::F beta = v4::set(t.beta), alpha = v4::set(t.alpha);
     for (uint32_t i = 0; i < n; ++i) {
         int32_t* row = t.nkv + static_cast<std::size_t>(words[i]) * static_cast<std::size_t>(Kp);
         const int z = topics[i];
         const float u01 = rng.uniformFloat();
+        // Word i leaves topic z (eq. 5's -i): n_k^v and n_G^k in registers by
+        // lane mask; n_k and the reciprocals in memory.
         const int32_t nz = --t.nk[z];
         const float invZ = dec[z];
         const v4::I zz = v4::seti(z);
@@ -330,34 +338,41 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
             const v4::I m = v4::eq(v4::iota(kBlock * b), zz);
             r[b] = v4::add(v4::load(row + kBlock * b), m);
             g[b] = v4::add(g[b], m);
-            inv[b] = v4::select(m, vz, inv[b]);
+            iv[b] = v4::select(m, vz, iv[b]);
             const v4::F p = v4::scan(
-                v4::mul(v4::mul(v4::add(v4::cvt(r[b]), beta), inv[b]), v4::add(v4::cvt(g[b]), alpha)));
-            cum[b] = v4::add(p, carry);
-            // carry + last lane of the block's scan: the same sum as cum's last
-            // lane, with the shuffle off the chain.
-            carry = v4::add(carry, v4::last(p));
+                v4::mul(v4::mul(v4::add(v4::cvt(r[b]), beta), iv[b]), v4::add(v4::cvt(g[b]), alpha)));
+            // cum = scan + carry, and the next carry = carry + the block's last
+            // lane: the reference's sums, with the shuffle off the chain
+            // (block 0's carry is zero, and x + 0 = x exactly).
+            if (b == 0) {
+                cum[b] = p;
+                carry = v4::last(p);
+            } else {
+                cum[b] = v4::add(p, carry);
+                carry = v4::add(carry, v4::last(p));
+            }
         }
         const v4::F uu = v4::mul(v4::set(u01), carry);
-        // Number of prefix sums <= u, broadcast to every lane (negated).
-        // u < total = cum[K-1] always, so it never exceeds K - 1.
+        // -(number of prefix sums <= u) in every lane. u < total = cum[K-1],
+        // so the count never exceeds K - 1 and needs no clamp.
         v4::I count = v4::le(cum[0], uu);
         for (int b = 1; b < nb; ++b) count = v4::add(count, v4::le(cum[b], uu));
         count = v4::hbroadcast(count);
-        const v4::I kk = v4::sub(v4::seti(0), count);
-        const int k = v4::firsti(kk);
+        const int k = -v4::firsti(count);
+        // Word i joins topic k. When k == z (common once converged) every
+        // value is restored and nothing else is written.
         float invK;
         if (k == z) {
             ++t.nk[z];
-            invK = t.inv[z];
+            invK = inv[z];
         } else {
-            inc[z] = t.inv[z];
-            t.inv[z] = invZ;
+            inc[z] = inv[z];
+            inv[z] = invZ;
             dec[z] = reciprocal(nz - 1, t.vbeta);
             const int32_t nk = ++t.nk[k];
             invK = inc[k];
-            dec[k] = t.inv[k];
-            t.inv[k] = invK;
+            dec[k] = inv[k];
+            inv[k] = invK;
             inc[k] = reciprocal(nk + 1, t.vbeta);
             --nc[z];
             ++nc[k];
@@ -365,10 +380,10 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
         }
         const v4::F vk = v4::set(invK);
         for (int b = 0; b < nb; ++b) {
-            const v4::I m = v4::eq(v4::iota(kBlock * b), kk);
+            const v4::I m = v4::eq(v4::niota(kBlock * b), count);  // lane j is topic k <=> -j == count
             v4::store(row + kBlock * b, v4::sub(r[b], m));
             g[b] = v4::sub(g[b], m);
-            inv[b] = v4::select(m, vk, inv[b]);
+            iv[b] = v4::select(m, vk, iv[b]);
         }
     }
     for (int b = 0; b < nb; ++b) v4::store(nG + kBlock * b, g[b]);

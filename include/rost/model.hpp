@@ -169,6 +169,18 @@ private:
         return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
     }
     void neighbourhood(int64_t step, int cell, int32_t* out, bool pastOnly) const noexcept;
+    // Ring slots of a step and of its temporal neighbours in the window,
+    // computed once per step so a cell's refinement does no division.
+    struct StepSlots {
+        std::size_t self = 0;
+        int count = 0;
+        std::size_t temporal[2 * 64];
+    };
+    void stepSlots(int64_t step, StepSlots& out) const noexcept;
+    // Refines cells [c0, c1) of the step in `slots`; KP is the padded K
+    // when specialised at compile time (0: runtime).
+    template <int KP, kernel::Path P>
+    uint32_t refineCells(const StepSlots& slots, int c0, int c1) noexcept;
     void evict(std::size_t slot) noexcept;
     double logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum) const noexcept;
     int mlTopic(uint32_t v, int z, const int32_t* nG) const noexcept;
@@ -215,9 +227,9 @@ private:
 
     Rng rng_;
     kernel::Path path_ = kernel::Path::Simd;
-    using CellKernel = void (*)(kernel::Tables&, int32_t*, int32_t*, const uint32_t*, uint16_t*, uint32_t, Rng&);
-    CellKernel simd_kernel_;
-    CellKernel scalar_kernel_;
+    using CellsKernel = uint32_t (Model::*)(const StepSlots&, int, int) noexcept;
+    CellsKernel simd_kernel_;
+    CellsKernel scalar_kernel_;
     kernel::Tables tables_;
 
     uint64_t frames_ = 0;

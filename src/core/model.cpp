@@ -13,15 +13,6 @@ namespace {
 
 constexpr int kMaxKp = 1024;
 
-template <int KP>
-void simdKernel(kernel::Tables& t, int32_t* g, int32_t* nc, const uint32_t* w, uint16_t* z, uint32_t n, Rng& r) {
-    kernel::refineCell<KP, kernel::Path::Simd>(t, g, nc, w, z, n, r);
-}
-template <int KP>
-void scalarKernel(kernel::Tables& t, int32_t* g, int32_t* nc, const uint32_t* w, uint16_t* z, uint32_t n, Rng& r) {
-    kernel::refineCell<KP, kernel::Path::Scalar>(t, g, nc, w, z, n, r);
-}
-
 } // namespace
 
 const char* toString(AddError e) noexcept {
@@ -116,11 +107,24 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     scratch_ll_.reset(cells);
     scratch_wn_.reset(cells);
 
+    // Compile-time K for the common sizes (unrolled blocks, registers).
     switch (Kp_) {
-    case 16: simd_kernel_ = simdKernel<16>; scalar_kernel_ = scalarKernel<16>; break;
-    case 32: simd_kernel_ = simdKernel<32>; scalar_kernel_ = scalarKernel<32>; break;
-    case 64: simd_kernel_ = simdKernel<64>; scalar_kernel_ = scalarKernel<64>; break;
-    default: simd_kernel_ = simdKernel<0>; scalar_kernel_ = scalarKernel<0>; break;
+    case 16:
+        simd_kernel_ = &Model::refineCells<16, kernel::Path::Simd>;
+        scalar_kernel_ = &Model::refineCells<16, kernel::Path::Scalar>;
+        break;
+    case 32:
+        simd_kernel_ = &Model::refineCells<32, kernel::Path::Simd>;
+        scalar_kernel_ = &Model::refineCells<32, kernel::Path::Scalar>;
+        break;
+    case 64:
+        simd_kernel_ = &Model::refineCells<64, kernel::Path::Simd>;
+        scalar_kernel_ = &Model::refineCells<64, kernel::Path::Scalar>;
+        break;
+    default:
+        simd_kernel_ = &Model::refineCells<0, kernel::Path::Simd>;
+        scalar_kernel_ = &Model::refineCells<0, kernel::Path::Scalar>;
+        break;
     }
     tables_.nkv = nkv_.data();
     tables_.nk = nk_.data();
@@ -326,26 +330,56 @@ AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const
     return res;
 }
 
+void Model::stepSlots(int64_t step, StepSlots& out) const noexcept {
+    out.self = slotOf(step);
+    out.count = 0;
+    for (int dt = 1; dt <= cfg_.g_time; ++dt) {
+        if (inWindow(step - dt)) out.temporal[out.count++] = slotOf(step - dt);
+        if (inWindow(step + dt)) out.temporal[out.count++] = slotOf(step + dt);
+    }
+}
+
+template <int KP, kernel::Path P>
+uint32_t Model::refineCells(const StepSlots& slots, int c0, int c1) noexcept {
+    const int Kp = KP > 0 ? KP : Kp_;
+    const std::size_t slot = slots.self;
+    int32_t* g = scratch_g_.data();
+    uint32_t total = 0;
+    for (int cell = c0; cell < c1; ++cell) {
+        const uint32_t n = cell_n_[slot * cells_ + cell];
+        if (n == 0) continue;
+        // G(c): the cell, its spatial neighbours, the same cell at t +- 1..g.time.
+        const int32_t* h = nck(slot, nbr_cell_[nbr_begin_[cell]]);
+        for (int k = 0; k < Kp; ++k) g[k] = h[k];
+        for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
+            h = nck(slot, static_cast<int>(nbr_cell_[j]));
+            for (int k = 0; k < Kp; ++k) g[k] += h[k];
+        }
+        for (int j = 0; j < slots.count; ++j) {
+            h = nck(slots.temporal[j], cell);
+            for (int k = 0; k < Kp; ++k) g[k] += h[k];
+        }
+        const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+        kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
+                                  rng_);
+        total += n;
+    }
+    tokens_refined_ += total;
+    return total;
+}
+
 uint32_t Model::refineCell(int64_t step, int cell) noexcept {
     if (!inWindow(step) || cell < 0 || cell >= cells_) return 0;
-    const std::size_t slot = slotOf(step);
-    const uint32_t n = cell_n_[slot * cells_ + cell];
-    if (n == 0) return 0;
-    int32_t* g = scratch_g_.data();
-    neighbourhood(step, cell, g, false);
-    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
-    (path_ == kernel::Path::Simd ? simd_kernel_ : scalar_kernel_)(tables_, g, nck(slot, cell),
-                                                                   cell_words_.data() + base,
-                                                                   cell_z_.data() + base, n, rng_);
-    tokens_refined_ += n;
-    return n;
+    StepSlots slots;
+    stepSlots(step, slots);
+    return (this->*(path_ == kernel::Path::Simd ? simd_kernel_ : scalar_kernel_))(slots, cell, cell + 1);
 }
 
 uint32_t Model::refineStep(int64_t step) noexcept {
     if (!inWindow(step)) return 0;
-    uint32_t total = 0;
-    for (int c = 0; c < cells_; ++c) total += refineCell(step, c);
-    return total;
+    StepSlots slots;
+    stepSlots(step, slots);
+    return (this->*(path_ == kernel::Path::Simd ? simd_kernel_ : scalar_kernel_))(slots, 0, cells_);
 }
 
 uint64_t Model::refineAll(int sweeps) noexcept {
