@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Installs what rost needs to build, test and run on Debian 12 (as root, or
+# through sudo). Safe to run again.
+set -euo pipefail
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libeigen3-dev libopencv-dev libcamera-dev libcli11-dev
+  libgtest-dev googletest libgmock-dev libbenchmark-dev
+  g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
+  clang libclang-rt-14-dev valgrind ffmpeg
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing: ${missing[*]}"
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
