@@ -1,0 +1,269 @@
+#include "rost/word_stream.hpp"
+
+#include <cerrno>
+#include <charconv>
+#include <cstdio>
+#include <cstring>
+#include <fcntl.h>
+#include <limits>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace rost {
+namespace {
+
+// Iterates the lines of a text, tracking 1-based line numbers.
+class Lines {
+public:
+    explicit Lines(std::string_view text) : text_(text) {}
+    bool next(std::string_view& line, int& number) {
+        while (pos_ < text_.size() || (pos_ == text_.size() && !done_)) {
+            if (pos_ == text_.size()) {
+                done_ = true;
+                return false;
+            }
+            std::size_t end = text_.find('\n', pos_);
+            if (end == std::string_view::npos) end = text_.size();
+            line = text_.substr(pos_, end - pos_);
+            pos_ = end + 1;
+            ++line_;
+            if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+            if (line.empty() || line.front() == '#') continue;
+            number = line_;
+            return true;
+        }
+        return false;
+    }
+
+private:
+    std::string_view text_;
+    std::size_t pos_ = 0;
+    int line_ = 0;
+    bool done_ = false;
+};
+
+std::string where(std::string_view name, int line, std::size_t column) {
+    return std::string(name) + ":" + std::to_string(line) + ":" + std::to_string(column) + ": ";
+}
+
+// Splits a line at commas and parses each field as a signed 64-bit integer.
+// `columns` receives the 1-based column of each field's first character.
+Status parseFields(std::string_view line, std::string_view name, int number, std::vector<int64_t>& values,
+                   std::vector<std::size_t>& columns) {
+    values.clear();
+    columns.clear();
+    std::size_t pos = 0;
+    while (true) {
+        std::size_t end = line.find(',', pos);
+        if (end == std::string_view::npos) end = line.size();
+        std::string_view field = line.substr(pos, end - pos);
+        std::size_t lead = 0;
+        while (lead < field.size() && (field[lead] == ' ' || field[lead] == '\t')) ++lead;
+        std::size_t trail = field.size();
+        while (trail > lead && (field[trail - 1] == ' ' || field[trail - 1] == '\t')) --trail;
+        const std::string_view f = field.substr(lead, trail - lead);
+        if (f.empty()) {
+            // A trailing comma after the last value is tolerated.
+            if (end == line.size() && !values.empty()) break;
+            return Status::error(where(name, number, pos + 1) + "empty field");
+        }
+        int64_t v = 0;
+        const auto [ptr, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
+        if (ec == std::errc::result_out_of_range)
+            return Status::error(where(name, number, pos + lead + 1) + "number '" + std::string(f) + "' out of range");
+        if (ec != std::errc() || ptr != f.data() + f.size())
+            return Status::error(where(name, number, pos + lead + 1) + "expected an integer, found '" +
+                                 std::string(f.substr(0, 32)) + "'");
+        values.push_back(v);
+        columns.push_back(pos + lead + 1);
+        if (end == line.size()) break;
+        pos = end + 1;
+    }
+    return {};
+}
+
+} // namespace
+
+Status parseWordStream(std::string_view wordsText, std::string_view positionsText, const WordStreamLimits& limits,
+                       WordStream& out, std::string_view wordsName, std::string_view positionsName) {
+    out.observations.clear();
+    out.has_positions = !positionsText.empty();
+    std::vector<int64_t> values;
+    std::vector<std::size_t> columns;
+    Lines lines(wordsText);
+    std::string_view line;
+    int number = 0;
+    while (lines.next(line, number)) {
+        Status st = parseFields(line, wordsName, number, values, columns);
+        if (!st.ok()) return st;
+        if (values.size() - 1 > limits.max_words)
+            return Status::error(where(wordsName, number, 1) + std::to_string(values.size() - 1) +
+                                 " words in one observation, at most " + std::to_string(limits.max_words));
+        StreamObservation obs;
+        obs.timestamp = values[0];
+        obs.words.reserve(values.size() - 1);
+        for (std::size_t i = 1; i < values.size(); ++i) {
+            const int64_t w = values[i];
+            if (w < 0 || w > std::numeric_limits<uint32_t>::max() ||
+                (limits.vocabulary != 0 && w >= static_cast<int64_t>(limits.vocabulary)))
+                return Status::error(where(wordsName, number, columns[i]) + "word id " + std::to_string(w) +
+                                     " out of range [0, " +
+                                     (limits.vocabulary ? std::to_string(limits.vocabulary) : std::string("2^32")) +
+                                     ")");
+            obs.words.push_back(static_cast<uint32_t>(w));
+        }
+        out.observations.push_back(std::move(obs));
+    }
+    if (!out.has_positions) {
+        for (auto& obs : out.observations) obs.positions.assign(obs.words.size(), Position{0, 0});
+        return {};
+    }
+    Lines plines(positionsText);
+    std::size_t index = 0;
+    while (plines.next(line, number)) {
+        Status st = parseFields(line, positionsName, number, values, columns);
+        if (!st.ok()) return st;
+        if (index >= out.observations.size())
+            return Status::error(where(positionsName, number, 1) + "more observations than " + std::string(wordsName) +
+                                 " has (" + std::to_string(out.observations.size()) + ")");
+        StreamObservation& obs = out.observations[index];
+        if (values[0] != obs.timestamp)
+            return Status::error(where(positionsName, number, 1) + "timestamp " + std::to_string(values[0]) +
+                                 " differs from " + std::string(wordsName) + "'s " + std::to_string(obs.timestamp) +
+                                 " for observation " + std::to_string(index + 1));
+        if (values.size() - 1 != 2 * obs.words.size())
+            return Status::error(where(positionsName, number, 1) + std::to_string(values.size() - 1) +
+                                 " coordinates for " + std::to_string(obs.words.size()) + " words (expected " +
+                                 std::to_string(2 * obs.words.size()) + ")");
+        obs.positions.resize(obs.words.size());
+        for (std::size_t i = 0; i < obs.words.size(); ++i) {
+            const int64_t x = values[1 + 2 * i], y = values[2 + 2 * i];
+            const bool badX = x < 0 || x > std::numeric_limits<int32_t>::max() || (limits.width > 0 && x >= limits.width);
+            const bool badY = y < 0 || y > std::numeric_limits<int32_t>::max() || (limits.height > 0 && y >= limits.height);
+            if (badX || badY) {
+                const std::size_t col = columns[badX ? 1 + 2 * i : 2 + 2 * i];
+                std::string msg = where(positionsName, number, col);
+                msg += "position (";
+                msg += std::to_string(x);
+                msg += ", ";
+                msg += std::to_string(y);
+                msg += ") outside the frame";
+                if (limits.width > 0) {
+                    msg += ' ';
+                    msg += std::to_string(limits.width);
+                    msg += 'x';
+                    msg += std::to_string(limits.height);
+                }
+                return Status::error(msg);
+            }
+            obs.positions[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
+        }
+        ++index;
+    }
+    if (index != out.observations.size())
+        return Status::error(std::string(positionsName) + ": " + std::to_string(index) + " observations, but " +
+                             std::string(wordsName) + " has " + std::to_string(out.observations.size()));
+    return {};
+}
+
+Status readFile(const std::string& path, std::string& out) {
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
+    out.clear();
+    char buf[1 << 16];
+    std::size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
+    const bool failed = std::ferror(f) != 0;
+    std::fclose(f);
+    if (failed) return Status::error(path + ": read error");
+    return {};
+}
+
+Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
+                      const WordStreamLimits& limits, WordStream& out) {
+    std::string words, positions;
+    Status st = readFile(wordsPath, words);
+    if (!st.ok()) return st;
+    if (!positionsPath.empty()) {
+        st = readFile(positionsPath, positions);
+        if (!st.ok()) return st;
+        if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+            return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+    }
+    return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
+}
+
+Status writeFileAtomic(const std::string& path, std::string_view content) {
+    const std::size_t slash = path.find_last_of('/');
+    const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+    const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
+    std::string tmp = dir + "/." + base + ".tmpXXXXXX";
+    const int fd = ::mkstemp(tmp.data());
+    if (fd < 0) return Status::error(path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
+    const char* p = content.data();
+    std::size_t left = content.size();
+    while (left > 0) {
+        const ssize_t n = ::write(fd, p, left);
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            const std::string why = std::strerror(errno);
+            ::close(fd);
+            ::unlink(tmp.c_str());
+            return Status::error(path + ": write failed: " + why);
+        }
+        p += n;
+        left -= static_cast<std::size_t>(n);
+    }
+    ::fchmod(fd, 0644);
+    if (::fsync(fd) != 0 || ::close(fd) != 0) {
+        const std::string why = std::strerror(errno);
+        ::unlink(tmp.c_str());
+        return Status::error(path + ": flush failed: " + why);
+    }
+    if (::rename(tmp.c_str(), path.c_str()) != 0) {
+        const std::string why = std::strerror(errno);
+        ::unlink(tmp.c_str());
+        return Status::error(path + ": rename failed: " + why);
+    }
+    // Make the rename itself durable.
+    const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+    if (dfd >= 0) {
+        ::fsync(dfd);
+        ::close(dfd);
+    }
+    return {};
+}
+
+namespace {
+template <typename T>
+void appendValues(std::string& out, int64_t timestamp, const T* values, std::size_t n) {
+    char buf[24];
+    auto put = [&](int64_t v) {
+        const auto r = std::to_chars(buf, buf + sizeof buf, v);
+        out.append(buf, r.ptr);
+    };
+    put(timestamp);
+    for (std::size_t i = 0; i < n; ++i) {
+        out.push_back(',');
+        put(static_cast<int64_t>(values[i]));
+    }
+    out.push_back('\n');
+}
+} // namespace
+
+void appendCsvLine(std::string& out, int64_t timestamp, const uint32_t* values, std::size_t n) {
+    appendValues(out, timestamp, values, n);
+}
+void appendCsvLine(std::string& out, int64_t timestamp, const uint16_t* values, std::size_t n) {
+    appendValues(out, timestamp, values, n);
+}
+void appendPositionsLine(std::string& out, int64_t timestamp, const Position* p, std::size_t n) {
+    std::vector<int32_t> flat(2 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        flat[2 * i] = p[i].x;
+        flat[2 * i + 1] = p[i].y;
+    }
+    appendValues(out, timestamp, flat.data(), flat.size());
+}
+
+} // namespace rost
