@@ -25,8 +25,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <span>
+#include <string>
 #include <thread>
 
 #include "rost/config.hpp"

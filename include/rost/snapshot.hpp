@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -83,6 +84,7 @@ public:
 
 private:
     friend class SnapshotPublisher;
+    friend class Engine;
     int K_ = 0;
     int cells_ = 0;
     uint32_t n_words_ = 0;
@@ -111,20 +113,27 @@ public:
     // Reader side: copies the newest publication into `out` (sized by
     // Snapshot::reserve for the same configuration). Returns false when
     // nothing was published yet, `out` is too small, or the writer lapped the
-    // reader `max_retries` times in a row (then `out` is unchanged... in part).
+    // reader `max_retries` times in a row (then `out` holds a torn copy and
+    // must not be used).
     bool read(Snapshot& out, int max_retries = 1000) const noexcept;
-    uint64_t version() const noexcept { return seq_.load(std::memory_order_acquire) >> 1; }
+    uint64_t version() const noexcept { return published_.load(std::memory_order_acquire); }
 
     std::size_t memoryBytes() const noexcept;
 
 private:
+    // Layout of one buffer, in 64-bit words: a fixed header, then the
+    // labels, word ids, positions, cell histograms and cell surprise.
+    std::size_t off_labels_ = 0, off_words_ = 0, off_positions_ = 0, off_hist_ = 0, off_surprise_ = 0;
     std::size_t words_per_buffer_ = 0;
-    std::size_t capacity_words_ = 0;  // max words per observation
+    uint32_t capacity_ = 0;  // max words per observation
     int K_ = 0;
     int cells_ = 0;
-    // seq_ = 2 * publications + (1 while writing). Buffer of publication n is n % 2.
-    alignas(kCacheLine) std::atomic<uint64_t> seq_{0};
-    alignas(kCacheLine) AlignedBuffer<std::atomic<uint64_t>> buf_[2];
+    uint64_t written_ = 0;  // writer-private: publications so far
+    // Publications completed; the newest is in buffer (published_ - 1) % 2.
+    alignas(kCacheLine) std::atomic<uint64_t> published_{0};
+    // Per-buffer sequence numbers: odd while the writer fills that buffer.
+    alignas(kCacheLine) std::atomic<uint64_t> bseq_[2] = {0, 0};
+    std::unique_ptr<std::atomic<uint64_t>[]> buf_[2];
 };
 
 } // namespace rost

@@ -1,0 +1,644 @@
+#include "rost/engine.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+#include "rost/observation_queue.hpp"
+
+namespace rost {
+
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// Single-writer counter update: a load and a store, no read-modify-write.
+inline void bump(std::atomic<uint64_t>& a, uint64_t d = 1) noexcept {
+    a.store(a.load(std::memory_order_relaxed) + d, std::memory_order_relaxed);
+}
+
+inline uint64_t bitsOf(double d) noexcept { return std::bit_cast<uint64_t>(d); }
+inline double doubleOf(uint64_t u) noexcept { return std::bit_cast<double>(u); }
+
+// Byte copies into and out of relaxed atomic words (the seqlock payload).
+void storeBytes(std::atomic<uint64_t>* dst, const void* src, std::size_t bytes) noexcept {
+    const auto* s = static_cast<const unsigned char*>(src);
+    std::size_t i = 0;
+    for (; i + 8 <= bytes; i += 8) {
+        uint64_t v;
+        std::memcpy(&v, s + i, 8);
+        dst[i / 8].store(v, std::memory_order_relaxed);
+    }
+    if (i < bytes) {
+        uint64_t v = 0;
+        std::memcpy(&v, s + i, bytes - i);
+        dst[i / 8].store(v, std::memory_order_relaxed);
+    }
+}
+void loadBytes(void* dst, const std::atomic<uint64_t>* src, std::size_t bytes) noexcept {
+    auto* d = static_cast<unsigned char*>(dst);
+    std::size_t i = 0;
+    for (; i + 8 <= bytes; i += 8) {
+        const uint64_t v = src[i / 8].load(std::memory_order_relaxed);
+        std::memcpy(d + i, &v, 8);
+    }
+    if (i < bytes) {
+        const uint64_t v = src[i / 8].load(std::memory_order_relaxed);
+        std::memcpy(d + i, &v, bytes - i);
+    }
+}
+constexpr std::size_t wordsFor(std::size_t bytes) noexcept { return (bytes + 7) / 8; }
+
+// Header of a snapshot buffer, in 64-bit words.
+enum Header : std::size_t {
+    kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kWords,
+    kPushed, kDroppedNewest, kDroppedOldest, kWordsTruncated, kIngested, kRejected, kWordsDroppedCell,
+    kRefinements, kTokens, kOverruns, kMaxOverrun, kPublished,
+    kHeaderWords
+};
+
+} // namespace
+
+// ---- Snapshot ---------------------------------------------------------------
+
+void Snapshot::reserve(const Config& cfg) {
+    K_ = cfg.K;
+    cells_ = cfg.cellsPerStep();
+    const auto cap = static_cast<std::size_t>(cfg.max_words_per_frame);
+    labels_.assign(cap, 0);
+    words_.assign(cap, 0);
+    positions_.assign(cap, Position{});
+    hist_.assign(static_cast<std::size_t>(cells_) * static_cast<std::size_t>(K_), 0);
+    cell_surprise_.assign(static_cast<std::size_t>(cells_), 0.f);
+    n_words_ = 0;
+}
+
+// ---- SnapshotPublisher --------------------------------------------------------
+
+SnapshotPublisher::SnapshotPublisher(const Config& cfg)
+    : capacity_(static_cast<uint32_t>(cfg.max_words_per_frame)), K_(cfg.K), cells_(cfg.cellsPerStep()) {
+    const std::size_t cap = capacity_;
+    const std::size_t hk = static_cast<std::size_t>(cells_) * static_cast<std::size_t>(K_);
+    off_labels_ = kHeaderWords;
+    off_words_ = off_labels_ + wordsFor(cap * sizeof(uint16_t));
+    off_positions_ = off_words_ + wordsFor(cap * sizeof(uint32_t));
+    off_hist_ = off_positions_ + wordsFor(cap * sizeof(Position));
+    off_surprise_ = off_hist_ + wordsFor(hk * sizeof(int32_t));
+    words_per_buffer_ = off_surprise_ + wordsFor(static_cast<std::size_t>(cells_) * sizeof(float));
+    for (auto& b : buf_) {
+        b = std::make_unique<std::atomic<uint64_t>[]>(words_per_buffer_);
+        for (std::size_t i = 0; i < words_per_buffer_; ++i) b[i].store(0, std::memory_order_relaxed);
+    }
+}
+
+std::size_t SnapshotPublisher::memoryBytes() const noexcept {
+    return 2 * words_per_buffer_ * sizeof(uint64_t) + sizeof(*this);
+}
+
+void SnapshotPublisher::publish(const Snapshot& s) noexcept {
+    // Publication n goes to buffer n % 2; readers are directed to buffer
+    // (n - 1) % 2 until published_ moves on, so they rarely see this one
+    // change under them (only a reader still copying publication n - 2).
+    const uint64_t n = written_;
+    const std::size_t b = n % 2;
+    std::atomic<uint64_t>* d = buf_[b].get();
+    const uint64_t seq = bseq_[b].load(std::memory_order_relaxed);
+    bseq_[b].store(seq + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+
+    const uint32_t nw = std::min(s.n_words_, capacity_);
+    auto put = [&](std::size_t at, uint64_t v) { d[at].store(v, std::memory_order_relaxed); };
+    put(kObservation, s.observation);
+    put(kSequence, s.sequence);
+    put(kTimestamp, static_cast<uint64_t>(s.timestamp));
+    put(kStep, static_cast<uint64_t>(s.step));
+    put(kPerplexity, bitsOf(s.perplexity));
+    put(kSurprise, bitsOf(s.surprise));
+    put(kPrevStep, static_cast<uint64_t>(s.previous_step));
+    put(kPrevPerplexity, bitsOf(s.previous_perplexity));
+    put(kWords, nw);
+    const EngineCounters& c = s.counters;
+    put(kPushed, c.pushed);
+    put(kDroppedNewest, c.dropped_newest);
+    put(kDroppedOldest, c.dropped_oldest);
+    put(kWordsTruncated, c.words_truncated);
+    put(kIngested, c.ingested);
+    put(kRejected, c.rejected);
+    put(kWordsDroppedCell, c.words_dropped_cell);
+    put(kRefinements, c.refinements);
+    put(kTokens, c.tokens);
+    put(kOverruns, c.overruns);
+    put(kMaxOverrun, static_cast<uint64_t>(c.max_overrun_ns));
+    put(kPublished, n + 1);
+    if (s.labels_.size() >= nw && s.words_.size() >= nw && s.positions_.size() >= nw) {
+        storeBytes(d + off_labels_, s.labels_.data(), nw * sizeof(uint16_t));
+        storeBytes(d + off_words_, s.words_.data(), nw * sizeof(uint32_t));
+        storeBytes(d + off_positions_, s.positions_.data(), nw * sizeof(Position));
+    }
+    const std::size_t hk = static_cast<std::size_t>(cells_) * static_cast<std::size_t>(K_);
+    if (s.hist_.size() == hk) storeBytes(d + off_hist_, s.hist_.data(), hk * sizeof(int32_t));
+    if (s.cell_surprise_.size() == static_cast<std::size_t>(cells_))
+        storeBytes(d + off_surprise_, s.cell_surprise_.data(), static_cast<std::size_t>(cells_) * sizeof(float));
+
+    bseq_[b].store(seq + 2, std::memory_order_release);
+    written_ = n + 1;
+    published_.store(n + 1, std::memory_order_release);
+}
+
+bool SnapshotPublisher::read(Snapshot& out, int max_retries) const noexcept {
+    if (out.K_ != K_ || out.cells_ != cells_ || out.labels_.size() < capacity_ || out.words_.size() < capacity_ ||
+        out.positions_.size() < capacity_)
+        return false;
+    const std::size_t hk = static_cast<std::size_t>(cells_) * static_cast<std::size_t>(K_);
+    for (int attempt = 0; attempt <= max_retries; ++attempt) {
+        const uint64_t n = published_.load(std::memory_order_acquire);
+        if (n == 0) return false;
+        const std::size_t b = (n - 1) % 2;
+        const uint64_t s1 = bseq_[b].load(std::memory_order_acquire);
+        if (s1 & 1u) continue;
+        const std::atomic<uint64_t>* d = buf_[b].get();
+        auto get = [&](std::size_t at) { return d[at].load(std::memory_order_relaxed); };
+        out.version = get(kPublished);
+        out.observation = get(kObservation);
+        out.sequence = get(kSequence);
+        out.timestamp = static_cast<int64_t>(get(kTimestamp));
+        out.step = static_cast<int64_t>(get(kStep));
+        out.perplexity = doubleOf(get(kPerplexity));
+        out.surprise = doubleOf(get(kSurprise));
+        out.previous_step = static_cast<int64_t>(get(kPrevStep));
+        out.previous_perplexity = doubleOf(get(kPrevPerplexity));
+        const auto nw = static_cast<uint32_t>(std::min<uint64_t>(get(kWords), capacity_));
+        out.n_words_ = nw;
+        EngineCounters& c = out.counters;
+        c.pushed = get(kPushed);
+        c.dropped_newest = get(kDroppedNewest);
+        c.dropped_oldest = get(kDroppedOldest);
+        c.words_truncated = get(kWordsTruncated);
+        c.ingested = get(kIngested);
+        c.rejected = get(kRejected);
+        c.words_dropped_cell = get(kWordsDroppedCell);
+        c.refinements = get(kRefinements);
+        c.tokens = get(kTokens);
+        c.overruns = get(kOverruns);
+        c.max_overrun_ns = static_cast<int64_t>(get(kMaxOverrun));
+        c.published = out.version;
+        loadBytes(out.labels_.data(), d + off_labels_, nw * sizeof(uint16_t));
+        loadBytes(out.words_.data(), d + off_words_, nw * sizeof(uint32_t));
+        loadBytes(out.positions_.data(), d + off_positions_, nw * sizeof(Position));
+        loadBytes(out.hist_.data(), d + off_hist_, hk * sizeof(int32_t));
+        loadBytes(out.cell_surprise_.data(), d + off_surprise_, static_cast<std::size_t>(cells_) * sizeof(float));
+        std::atomic_thread_fence(std::memory_order_acquire);
+        if (bseq_[b].load(std::memory_order_relaxed) == s1) return true;
+    }
+    return false;
+}
+
+// ---- configuration --------------------------------------------------------------
+
+const char* toString(DropPolicy p) noexcept {
+    return p == DropPolicy::DropNewest ? "newest" : "oldest";
+}
+
+Status parseDropPolicy(const std::string& text, DropPolicy& out) {
+    if (text == "newest") {
+        out = DropPolicy::DropNewest;
+        return {};
+    }
+    if (text == "oldest") {
+        out = DropPolicy::DropOldest;
+        return {};
+    }
+    return Status::error("unknown drop policy '" + text + "' (expected newest or oldest)");
+}
+
+Status EngineConfig::validate() const {
+    if (Status s = model.validate(); !s.ok()) return s;
+    if (Status s = strategy.validate(); !s.ok()) return s;
+    if (budget.kind == BudgetKind::Time && !(budget.ms > 0.0 && budget.ms <= 3.6e6))
+        return Status::error("budget.ms = " + std::to_string(budget.ms) +
+                             " is out of range (expected 0 < ms <= 3600000)");
+    if (budget.kind != BudgetKind::Time && budget.count > (1ull << 40))
+        return Status::error("budget.count = " + std::to_string(budget.count) +
+                             " is out of range (expected at most 2^40)");
+    if (queue_slots < 1 || queue_slots > 65536)
+        return Status::error("queue_slots = " + std::to_string(queue_slots) +
+                             " is out of range (expected 1..65536)");
+    if (thread.fifo && (thread.priority < 1 || thread.priority > 99))
+        return Status::error("thread.priority = " + std::to_string(thread.priority) +
+                             " is out of range (expected 1..99 for SCHED_FIFO)");
+    if (thread.cpu < -1 || thread.cpu >= 1024)
+        return Status::error("thread.cpu = " + std::to_string(thread.cpu) +
+                             " is out of range (expected -1 for none, or 0..1023)");
+    return {};
+}
+
+// ---- Engine -------------------------------------------------------------------
+
+// Refiner-side state: written only by the thread that refines (the refiner
+// thread, or the caller in synchronous mode).
+struct Engine::Refiner {
+    explicit Refiner(const Config& cfg)
+        : staging(cfg), win_cap(static_cast<std::size_t>(cfg.ring_steps) * static_cast<std::size_t>(cfg.cell_time)),
+          win_ts(win_cap), win_seq(win_cap) {}
+
+    Snapshot staging;
+    std::size_t win_cap;
+    AlignedBuffer<int64_t> win_ts;   // time stamp of each observation in the window (frame % win_cap)
+    AlignedBuffer<uint64_t> win_seq; // its producer sequence number
+
+    // Time-budget predictors: upper envelopes (fast attack, slow decay) of
+    // the cost of a token and of a publication, so the last cell started
+    // still ends before the deadline.
+    double ns_per_token = 40.0;
+    double publish_ns = 20000.0;
+
+    alignas(kCacheLine) std::atomic<uint64_t> ingested{0};
+    std::atomic<uint64_t> rejected{0};
+    std::atomic<uint64_t> words_dropped_cell{0};
+    std::atomic<uint64_t> refinements{0};
+    std::atomic<uint64_t> tokens{0};
+    std::atomic<uint64_t> overruns{0};
+    std::atomic<int64_t> max_overrun_ns{0};
+    std::atomic<uint64_t> published{0};
+    alignas(kCacheLine) std::atomic<bool> ready{false};
+};
+
+Engine::Engine(const EngineConfig& cfg) : cfg_(cfg) {
+    if (Status s = cfg.validate(); !s.ok()) throw std::invalid_argument(s.message());
+    model_ = std::make_unique<Model>(cfg.model);
+    strategy_ = Strategy(cfg.strategy);
+    queue_ = std::make_unique<ObservationQueue>(static_cast<uint32_t>(cfg.queue_slots),
+                                                static_cast<uint32_t>(cfg.model.max_words_per_frame),
+                                                cfg.model.seed ^ 0x5DEECE66Dull);
+    publisher_ = std::make_unique<SnapshotPublisher>(cfg.model);
+    refiner_ = std::make_unique<Refiner>(cfg.model);
+}
+
+std::unique_ptr<Engine> Engine::create(const EngineConfig& cfg, Status& status) {
+    status = cfg.validate();
+    if (!status.ok()) return nullptr;
+    try {
+        return std::make_unique<Engine>(cfg);
+    } catch (const std::exception& e) {
+        status = Status::error(std::string("engine: ") + e.what());
+        return nullptr;
+    }
+}
+
+Engine::~Engine() { stop(StopMode::Discard); }
+
+EngineMemory Engine::memory() const noexcept {
+    EngineMemory m;
+    m.model = model_->memoryBytes();
+    m.queue = queue_->memoryBytes();
+    const Snapshot& s = refiner_->staging;
+    m.snapshot = publisher_->memoryBytes() + s.labels_.capacity() * sizeof(uint16_t) +
+                 s.words_.capacity() * sizeof(uint32_t) + s.positions_.capacity() * sizeof(Position) +
+                 s.hist_.capacity() * sizeof(int32_t) + s.cell_surprise_.capacity() * sizeof(float);
+    m.other = refiner_->win_ts.bytes() + refiner_->win_seq.bytes() + sizeof(Refiner) + sizeof(Engine);
+    return m;
+}
+
+void Engine::setObservationHook(ObservationHook hook) { on_observation_ = std::move(hook); }
+void Engine::setEvictionHook(EvictionHook hook) { on_evict_ = std::move(hook); }
+
+bool Engine::tryPush(const ObservationView& obs) noexcept {
+    return queue_->tryPush(obs.timestamp, obs.words, obs.positions, cfg_.drop == DropPolicy::DropOldest) !=
+           ObservationQueue::Push::Dropped;
+}
+
+bool Engine::pushWait(const ObservationView& obs, std::chrono::nanoseconds timeout) noexcept {
+    const auto start = Clock::now();
+    int spins = 0;
+    while (!queue_->hasSpace()) {
+        if (!running()) return false;
+        if (timeout != std::chrono::nanoseconds::max() && Clock::now() - start >= timeout) return false;
+        if (++spins < 64)
+            std::this_thread::yield();
+        else
+            std::this_thread::sleep_for(std::chrono::microseconds(50));
+    }
+    return tryPush(obs);
+}
+
+uint32_t Engine::queued() const noexcept { return queue_->size(); }
+
+bool Engine::readSnapshot(Snapshot& out) const noexcept { return publisher_->read(out); }
+
+EngineCounters Engine::counters() const noexcept {
+    EngineCounters c;
+    c.pushed = queue_->pushed();
+    c.dropped_newest = queue_->droppedNewest();
+    c.dropped_oldest = queue_->droppedOldest();
+    c.words_truncated = queue_->wordsTruncated();
+    const Refiner& r = *refiner_;
+    c.ingested = r.ingested.load(std::memory_order_relaxed);
+    c.rejected = r.rejected.load(std::memory_order_relaxed);
+    c.words_dropped_cell = r.words_dropped_cell.load(std::memory_order_relaxed);
+    c.refinements = r.refinements.load(std::memory_order_relaxed);
+    c.tokens = r.tokens.load(std::memory_order_relaxed);
+    c.overruns = r.overruns.load(std::memory_order_relaxed);
+    c.max_overrun_ns = r.max_overrun_ns.load(std::memory_order_relaxed);
+    c.published = r.published.load(std::memory_order_relaxed);
+    return c;
+}
+
+// Refines time steps drawn by the strategy until the budget is spent (paper
+// Algorithm 2, inner loop). Returns the number of draws.
+uint64_t Engine::spend(const Budget& budget, Clock::time_point deadline, bool newest, uint64_t* tokens_out) noexcept {
+    Model& m = *model_;
+    Refiner& R = *refiner_;
+    uint64_t draws = 0, tokens = 0;
+    const int64_t T = m.steps();
+    if (T == 0) {
+        if (tokens_out) *tokens_out = 0;
+        return 0;
+    }
+    const int64_t W = T - m.oldestStep();
+    const int cells = m.cellsPerStep();
+    Rng& rng = m.rng();
+    switch (budget.kind) {
+    case BudgetKind::Steps:
+        for (uint64_t i = 0; i < budget.count; ++i) {
+            tokens += m.refineStep(strategy_.drawStep(T, W, rng));
+            ++draws;
+        }
+        break;
+    case BudgetKind::Tokens:
+        // At most `count` draws, so a window of empty steps cannot loop forever.
+        while (tokens < budget.count && draws < budget.count) {
+            const int64_t s = strategy_.drawStep(T, W, rng);
+            ++draws;
+            for (int c = 0; c < cells && tokens < budget.count; ++c) tokens += m.refineCell(s, c);
+        }
+        break;
+    case BudgetKind::Time: {
+        // Stop early enough that the publication also ends by the deadline.
+        const auto end = deadline - std::chrono::nanoseconds(static_cast<int64_t>(R.publish_ns));
+        auto now = Clock::now();
+        bool out = false;
+        while (!out && now < end) {
+            if (newest && cfg_.flags.stop_on_arrival && queue_->pending()) break;
+            const int64_t s = strategy_.drawStep(T, W, rng);
+            bool started = false;
+            for (int c = 0; c < cells; ++c) {
+                const uint32_t n = m.cellWordCount(s, c);
+                if (n == 0) continue;
+                const auto predicted = std::chrono::nanoseconds(static_cast<int64_t>(R.ns_per_token * (n + 4)));
+                if (now + predicted > end) {
+                    out = true;
+                    break;
+                }
+                tokens += m.refineCell(s, c);
+                started = true;
+                const auto after = Clock::now();
+                const double per = static_cast<double>((after - now).count()) / (n + 4);
+                R.ns_per_token = per > R.ns_per_token ? per : R.ns_per_token + 0.01 * (per - R.ns_per_token);
+                now = after;
+            }
+            if (started) ++draws;
+            now = Clock::now();
+        }
+        break;
+    }
+    }
+    bump(R.refinements, draws);
+    bump(R.tokens, tokens);
+    if (tokens_out) *tokens_out = tokens;
+    return draws;
+}
+
+void Engine::publish(const ObservationResult& r) noexcept {
+    Refiner& R = *refiner_;
+    const Model& m = *model_;
+    Snapshot& s = R.staging;
+    s.observation = r.observation;
+    s.sequence = r.sequence;
+    s.timestamp = r.timestamp;
+    s.step = r.step;
+    s.perplexity = r.perplexity;
+    s.surprise = r.surprise;
+    s.previous_step = r.previous_step;
+    s.previous_perplexity = r.previous_perplexity;
+    if (cfg_.flags.snapshot_labels) {
+        const uint32_t n = std::min<uint32_t>(m.observationSize(r.observation), static_cast<uint32_t>(s.labels_.size()));
+        s.n_words_ = n;
+        m.observationLabels(r.observation, {s.labels_.data(), n});
+        m.observationWords(r.observation, {s.words_.data(), n});
+        m.observationPositions(r.observation, {s.positions_.data(), n});
+        const auto K = static_cast<std::size_t>(m.K());
+        for (int c = 0; c < m.cellsPerStep(); ++c) {
+            const auto h = m.cellHistogram(r.step, c);
+            if (h.size() == K) std::copy(h.begin(), h.end(), s.hist_.begin() + static_cast<std::ptrdiff_t>(c * K));
+        }
+        const auto cs = m.cellSurprise(r.step);
+        if (cs.size() == s.cell_surprise_.size()) std::copy(cs.begin(), cs.end(), s.cell_surprise_.begin());
+    } else {
+        s.n_words_ = 0;
+    }
+    bump(R.published);
+    s.counters = counters();
+    publisher_->publish(s);
+}
+
+bool Engine::takeUpOne(ObservationResult* out) noexcept {
+    ObservationQueue::Item it;
+    if (!queue_->claim(it)) return false;
+    const auto t0 = Clock::now();
+    const bool timed = cfg_.budget.kind == BudgetKind::Time;
+    const auto deadline =
+        t0 + std::chrono::nanoseconds(timed ? static_cast<int64_t>(cfg_.budget.ms * 1e6) : int64_t{0});
+    Model& m = *model_;
+    Refiner& R = *refiner_;
+    ObservationResult r;
+    r.sequence = it.sequence;
+    r.timestamp = it.timestamp;
+    const uint64_t frame = m.observations();
+    r.observation = frame;
+
+    // Validate first, so the eviction hook and the instantaneous perplexity
+    // run only for an observation that will enter the model.
+    AddError err = AddError::None;
+    uint32_t at = 0;
+    if (it.size_mismatch) {
+        err = AddError::SizeMismatch;
+        at = it.mismatch_index;
+    } else {
+        const auto V = static_cast<uint32_t>(m.V());
+        const int fw = m.config().frame_width, fh = m.config().frame_height;
+        for (uint32_t i = 0; i < it.size; ++i) {
+            const Position p = it.positions[i];
+            if (it.words[i] >= V) {
+                err = AddError::WordOutOfRange;
+            } else if (p.x < 0 || p.y < 0 || p.x >= fw || p.y >= fh) {
+                err = AddError::PositionOutOfRange;
+            } else {
+                continue;
+            }
+            at = i;
+            break;
+        }
+    }
+    if (err != AddError::None) {
+        queue_->release();
+        bump(R.rejected);
+        r.add.error = err;
+        r.add.index = at;
+        r.step = -1;
+        r.elapsed_ns = (Clock::now() - t0).count();
+        if (on_observation_) on_observation_(r, m);
+        if (out) *out = r;
+        return true;
+    }
+
+    const auto ct = static_cast<uint64_t>(m.config().cell_time);
+    if (frame % ct == 0 && frame > 0) {
+        const auto newStep = static_cast<int64_t>(frame / ct);
+        // Instantaneous perplexity of the step just completed: one step after
+        // its arrival, before the next observation touches the model.
+        if (cfg_.flags.instantaneous_perplexity) {
+            r.previous_step = newStep - 1;
+            r.previous_perplexity = m.stepPerplexity(newStep - 1);
+        }
+        const int64_t ring = m.config().ring_steps;
+        if (on_evict_ && newStep >= ring) {
+            const int64_t gone = newStep - ring;
+            for (uint64_t f = static_cast<uint64_t>(gone) * ct; f < static_cast<uint64_t>(gone + 1) * ct; ++f) {
+                const std::size_t w = f % R.win_cap;
+                on_evict_(WindowObservation{f, R.win_seq[w], R.win_ts[w], gone}, m);
+            }
+        }
+    }
+    r.add = m.addObservation({it.words, it.size}, {it.positions, it.size});
+    queue_->release();
+    if (!r.add.ok()) {  // not reached: validated above
+        bump(R.rejected);
+        r.step = -1;
+        if (on_observation_) on_observation_(r, m);
+        if (out) *out = r;
+        return true;
+    }
+    const std::size_t w = frame % R.win_cap;
+    R.win_ts[w] = it.timestamp;
+    R.win_seq[w] = it.sequence;
+    r.step = m.stepOfObservation(frame);
+    r.surprise = m.observationSurprise(frame);
+    bump(R.ingested);
+    bump(R.words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
+
+    r.refinements = spend(cfg_.budget, deadline, true, &r.tokens);
+
+    const auto tp = Clock::now();
+    if (cfg_.flags.snapshot_perplexity) r.perplexity = m.stepPerplexity(r.step);
+    publish(r);
+    const auto t1 = Clock::now();
+    if (timed) {
+        const double pub = static_cast<double>((t1 - tp).count());
+        R.publish_ns = pub > R.publish_ns ? pub : R.publish_ns + 0.05 * (pub - R.publish_ns);
+        const int64_t over = (t1 - deadline).count();
+        if (over > 0) {
+            r.overrun_ns = over;
+            bump(R.overruns);
+            if (over > R.max_overrun_ns.load(std::memory_order_relaxed))
+                R.max_overrun_ns.store(over, std::memory_order_relaxed);
+        }
+    }
+    r.elapsed_ns = (t1 - t0).count();
+    if (on_observation_) on_observation_(r, m);
+    if (out) *out = r;
+    return true;
+}
+
+void Engine::refinerMain() noexcept {
+    applyToCurrentThread(cfg_.thread);  // set-up: may allocate, logs fallbacks once
+    refiner_->ready.store(true, std::memory_order_release);
+    int idle = 0;
+    for (;;) {
+        const int req = stop_request_.load(std::memory_order_acquire);
+        if (req == 2) break;
+        if (takeUpOne(nullptr)) {
+            idle = 0;
+            continue;
+        }
+        if (req == 1) break;  // drained: nothing left after the stop request
+        // Nothing to do: yield a while, then sleep in short steps.
+        if (++idle < 64)
+            std::this_thread::yield();
+        else
+            std::this_thread::sleep_for(std::chrono::microseconds(50));
+    }
+}
+
+Status Engine::start() {
+    if (running()) return Status::error("engine: start() called while already running");
+    if (cfg_.thread.lock_memory) lockProcessMemory();
+    stop_request_.store(0, std::memory_order_release);
+    refiner_->ready.store(false, std::memory_order_release);
+    running_.store(true, std::memory_order_release);
+    try {
+        thread_ = std::thread([this] { refinerMain(); });
+    } catch (const std::exception& e) {
+        running_.store(false, std::memory_order_release);
+        return Status::error(std::string("engine: could not start the refiner thread: ") + e.what());
+    }
+    // Return only once the thread has applied its settings, so every set-up
+    // allocation has happened by the time start() returns.
+    while (!refiner_->ready.load(std::memory_order_acquire)) std::this_thread::yield();
+    return {};
+}
+
+void Engine::stop(StopMode mode) {
+    if (!thread_.joinable()) return;
+    stop_request_.store(mode == StopMode::Drain ? 1 : 2, std::memory_order_release);
+    thread_.join();
+    running_.store(false, std::memory_order_release);
+}
+
+ObservationResult Engine::processNow(const ObservationView& obs) noexcept {
+    ObservationResult r;
+    if (running()) return r;  // step -1: not processed
+    while (!queue_->hasSpace()) takeUpOne(nullptr);  // observations queued earlier go first
+    if (!tryPush(obs)) return r;
+    while (takeUpOne(&r)) {
+    }
+    return r;
+}
+
+uint64_t Engine::processPending() noexcept {
+    if (running()) return 0;
+    uint64_t n = 0;
+    while (takeUpOne(nullptr)) ++n;
+    return n;
+}
+
+uint64_t Engine::refineExtra(const Budget& budget) noexcept {
+    if (running()) return 0;
+    const auto deadline = Clock::now() + std::chrono::nanoseconds(static_cast<int64_t>(budget.ms * 1e6));
+    return spend(budget, deadline, false, nullptr);
+}
+
+uint64_t Engine::finalPass(int sweeps) noexcept {
+    if (running()) return 0;
+    const uint64_t t = model_->refineAll(sweeps);
+    bump(refiner_->tokens, t);
+    return t;
+}
+
+void Engine::visitWindow(const EvictionHook& visit) const {
+    if (!visit) return;
+    const Model& m = *model_;
+    const uint64_t frames = m.observations();
+    if (frames == 0) return;
+    const auto ct = static_cast<uint64_t>(m.config().cell_time);
+    for (uint64_t f = static_cast<uint64_t>(m.oldestStep()) * ct; f < frames; ++f) {
+        const std::size_t w = f % refiner_->win_cap;
+        visit(WindowObservation{f, refiner_->win_seq[w], refiner_->win_ts[w], m.stepOfObservation(f)}, m);
+    }
+}
+
+void Engine::flushWindowToEvictionHook() const { visitWindow(on_evict_); }
+
+} // namespace rost

@@ -1,0 +1,2 @@
+# Realtime engine (issue 3): strategies, queue, refiner, snapshots, replay.
+rost_add_test(test_strategy SOURCES test_strategy.cpp)
