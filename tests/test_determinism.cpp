@@ -16,6 +16,10 @@
 #include "rost/kernel.hpp"
 #include "rost/model.hpp"
 #include "rost/random.hpp"
+#if defined(ROST_TEST_ENGINE)
+#include "rost/engine.hpp"
+#include "rost/strategy.hpp"
+#endif
 
 namespace {
 
@@ -25,6 +29,9 @@ namespace {
 // update this constant only after `scripts/cross-test.sh all` and the host
 // build agree on the new value, and say so in the commit message.
 constexpr uint64_t kExpectedChecksum = 0x813b9d81028da383ull;
+// The same stream through the engine's synchronous mode, once per refinement
+// strategy (all eight of section VI), with a count budget; one checksum over all.
+constexpr uint64_t kExpectedEngineChecksum = 0xb38cd0f70b105d7dull;
 
 // FNV-1a over 64-bit values fed as numbers, so the checksum does not depend on
 // the byte order or width of the types being hashed.
@@ -83,6 +90,30 @@ void makeFrame(rost::Rng& r, int frame, std::vector<uint32_t>& words, std::vecto
     }
 }
 
+// Every label, sample and count the model exposes.
+void hashModel(const rost::Model& m, Checksum& h) {
+    std::vector<uint16_t> labels, samples;
+    for (uint64_t f = 0; f < m.observations(); ++f) {
+        if (!m.observationInWindow(f)) continue;
+        const uint32_t n = m.observationSize(f);
+        labels.resize(n);
+        samples.resize(n);
+        m.observationLabels(f, labels);
+        m.observationSamples(f, samples);
+        h.add(f);
+        h.add(n);
+        for (uint32_t i = 0; i < n; ++i) {
+            h.add(labels[i]);
+            h.add(samples[i]);
+        }
+    }
+    for (int v = 0; v < m.V(); ++v)
+        for (int k = 0; k < m.K(); ++k) h.add(static_cast<uint32_t>(m.topicWordCount(k, v)));
+    for (int k = 0; k < m.K(); ++k) h.add(static_cast<uint32_t>(m.topicCount(k)));
+    h.add(m.tokensRefined());
+    h.add(m.wordsInModel());
+}
+
 struct Replay {
     uint64_t checksum = 0;
     uint64_t tokens = 0;
@@ -123,26 +154,7 @@ Replay replay(rost::kernel::Path path) {
     if (!m.checkInvariants(&out.invariants) && out.invariants.empty()) out.invariants = "invariants failed";
 
     Checksum h;
-    std::vector<uint16_t> labels, samples;
-    for (uint64_t f = 0; f < m.observations(); ++f) {
-        if (!m.observationInWindow(f)) continue;
-        const uint32_t n = m.observationSize(f);
-        labels.resize(n);
-        samples.resize(n);
-        m.observationLabels(f, labels);
-        m.observationSamples(f, samples);
-        h.add(f);
-        h.add(n);
-        for (uint32_t i = 0; i < n; ++i) {
-            h.add(labels[i]);
-            h.add(samples[i]);
-        }
-    }
-    for (int v = 0; v < m.V(); ++v)
-        for (int k = 0; k < m.K(); ++k) h.add(static_cast<uint32_t>(m.topicWordCount(k, v)));
-    for (int k = 0; k < m.K(); ++k) h.add(static_cast<uint32_t>(m.topicCount(k)));
-    h.add(m.tokensRefined());
-    h.add(m.wordsInModel());
+    hashModel(m, h);
     out.checksum = h.value();
     out.tokens = m.tokensRefined();
     out.surpriseBits = surprise.value();
@@ -185,6 +197,53 @@ TEST(CrossArchReplay, ScalarReferenceGivesTheSameChecksumAsTheSimdPath) {
     EXPECT_EQ(scalar.tokens, simd.tokens);
     EXPECT_EQ(hex(scalar.checksum), hex(kExpectedChecksum));
 }
+
+#if defined(ROST_TEST_ENGINE)
+// Deterministic replay through the engine (synchronous mode: the same code
+// path as the refiner thread): the strategies draw time steps with
+// Rng::uniformDouble and libm (sqrt, log1p, expm1, pow), so this also checks
+// that those agree across the targets' C libraries on this stream.
+TEST(CrossArchReplay, EngineWithCountBudgetGivesTheRecordedChecksumForEveryStrategy) {
+    const rost::StrategyKind kinds[] = {
+        rost::StrategyKind::Now,
+        rost::StrategyKind::Uniform,
+        rost::StrategyKind::AgeProportional,
+        rost::StrategyKind::Exponential,
+        rost::StrategyKind::UniformNow,
+        rost::StrategyKind::AgeProportionalNow,
+        rost::StrategyKind::UniformExponential,
+        rost::StrategyKind::AgeProportionalExponential,
+    };
+    Checksum all;
+    for (const rost::StrategyKind kind : kinds) {
+        rost::EngineConfig ec;
+        ec.model = streamConfig();
+        ec.strategy.kind = kind;
+        ec.strategy.eta = 0.5;
+        ec.strategy.q = 0.1;
+        ec.budget = rost::Budget::steps(4);
+        rost::Engine engine(ec);
+        rost::Rng stream(99);
+        std::vector<uint32_t> words;
+        std::vector<rost::Position> pos;
+        for (int f = 0; f < kFrames; ++f) {
+            makeFrame(stream, f, words, pos);
+            const rost::ObservationResult r = engine.processNow({f, words, pos});
+            ASSERT_TRUE(r.add.ok()) << rost::toString(kind) << " frame " << f << ": " << rost::toString(r.add.error);
+            ASSERT_EQ(r.refinements, 4u) << rost::toString(kind) << " frame " << f;
+        }
+        engine.finalPass(2);
+        std::string why;
+        ASSERT_TRUE(engine.model().checkInvariants(&why)) << rost::toString(kind) << ": " << why;
+        Checksum h;
+        hashModel(engine.model(), h);
+        std::printf("[ replay   ] engine strategy %-8s checksum %s\n", rost::toString(kind), hex(h.value()).c_str());
+        all.add(h.value());
+    }
+    EXPECT_EQ(hex(all.value()), hex(kExpectedEngineChecksum))
+        << "engine replay differs from the recording (see the per-strategy lines above)";
+}
+#endif
 
 // The vector path the tests exercise is the one the target's users run.
 TEST(CrossArchReplay, SimdPathIsTheTargetsNativeOne) {
