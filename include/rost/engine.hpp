@@ -170,6 +170,8 @@ public:
     // Called on the refining thread for each observation of a step about to
     // leave the window, before the observation that evicts it is added.
     void setEvictionHook(EvictionHook hook);
+    const ObservationHook& observationHook() const noexcept { return on_observation_; }
+    const EvictionHook& evictionHook() const noexcept { return on_evict_; }
     // The model, for set-up (Model::addTopicCounts) and for reading when the
     // engine is not running (after stop(), or in synchronous mode).
     Model& model() noexcept { return *model_; }
@@ -233,6 +235,24 @@ public:
     // Same, with the eviction hook: after this, every ingested observation
     // has passed through the eviction hook exactly once.
     void flushWindowToEvictionHook() const;
+
+    // ---- checkpoint support (rost/checkpoint.hpp) ---------------------------
+    // The engine's state outside the Model, as named sections of fixed size
+    // (set by the Config) in a fixed order: "engine.counters" (12 x uint64:
+    // the refiner's and the producer's counters and the next producer
+    // sequence number), "engine.predictors" (2 x double: the time-budget
+    // cost predictors), "engine.window.timestamp" and
+    // "engine.window.sequence" (ring_steps x cell_time x int64/uint64).
+    // Model::visitState plus these sections is the engine's whole state.
+    using StateReader = void (*)(void* context, const char* name, const void* data, std::size_t bytes);
+    using StateWriter = void (*)(void* context, const char* name, void* data, std::size_t bytes);
+    // When the engine is not running, or on the refining thread (in the
+    // observation hook). Copies counters into locals first: no allocation, no lock.
+    void readState(StateReader read, void* context) const noexcept;
+    // Overwrites the sections with what `write` puts in them. Set-up only:
+    // error when running or when observations are queued. The producer's next
+    // push gets the saved next sequence number.
+    Status writeState(StateWriter write, void* context);
 
 private:
     struct Refiner;

@@ -1,0 +1,524 @@
+// The engine in synchronous mode and its parts: configuration, budgets,
+// determinism, hooks, snapshots, drop policies, thread settings, replay.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rost/engine.hpp"
+#include "rost/observation_queue.hpp"
+#include "rost/realtime.hpp"
+#include "rost/replay.hpp"
+#include "test_engine_support.hpp"
+
+namespace rost {
+namespace {
+
+using rost::testing::Frame;
+using rost::testing::makeStream;
+using rost::testing::smallConfig;
+
+EngineConfig engineConfig(Budget b, StrategyKind k = StrategyKind::UniformNow) {
+    EngineConfig e;
+    e.model = smallConfig();
+    e.budget = b;
+    e.strategy.kind = k;
+    e.queue_slots = 4;
+    return e;
+}
+
+WordStream toStream(const std::vector<Frame>& frames) {
+    WordStream s;
+    s.has_positions = true;
+    for (const Frame& f : frames) s.observations.push_back({f.timestamp, f.words, f.positions});
+    return s;
+}
+
+bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+ReplayResult replayOf(const EngineConfig& cfg, const std::vector<Frame>& frames, bool threaded, int sweeps = 0) {
+    Engine engine(cfg);
+    ReplayResult r;
+    ReplayOptions o;
+    o.threaded = threaded;
+    o.final_sweeps = sweeps;
+    const Status s = replay(engine, toStream(frames), o, r);
+    EXPECT_TRUE(s.ok()) << s.message();
+    std::string why;
+    EXPECT_TRUE(engine.model().checkInvariants(&why)) << why;
+    return r;
+}
+
+// Compares two replays bit for bit; returns how many observations differ.
+int differences(const ReplayResult& a, const ReplayResult& b) {
+    int diff = 0;
+    EXPECT_EQ(a.observations.size(), b.observations.size());
+    for (std::size_t i = 0; i < a.observations.size() && i < b.observations.size(); ++i) {
+        const auto& x = a.observations[i];
+        const auto& y = b.observations[i];
+        if (x.labels != y.labels || !sameBits(x.final_perplexity, y.final_perplexity) ||
+            !sameBits(x.instantaneous_perplexity, y.instantaneous_perplexity) || !sameBits(x.surprise, y.surprise))
+            ++diff;
+    }
+    return diff;
+}
+
+// ---- configuration -------------------------------------------------------------
+
+TEST(EngineConfig, ValidateNamesTheOffendingField) {
+    auto messageOf = [](auto edit) {
+        EngineConfig c;
+        edit(c);
+        return c.validate().message();
+    };
+    EXPECT_NE(messageOf([](EngineConfig& c) { c.queue_slots = 0; }).find("queue_slots = 0"), std::string::npos);
+    EXPECT_NE(messageOf([](EngineConfig& c) { c.budget = Budget::time(0.0); }).find("budget.ms"), std::string::npos);
+    EXPECT_NE(messageOf([](EngineConfig& c) { c.strategy.eta = 2.0; }).find("strategy.eta"), std::string::npos);
+    EXPECT_NE(messageOf([](EngineConfig& c) {
+                  c.thread.fifo = true;
+                  c.thread.priority = 0;
+              }).find("thread.priority"),
+              std::string::npos);
+    EXPECT_NE(messageOf([](EngineConfig& c) { c.thread.cpu = 5000; }).find("thread.cpu"), std::string::npos);
+    EXPECT_FALSE(messageOf([](EngineConfig& c) { c.model.K = 0; }).empty());
+    EXPECT_TRUE(EngineConfig{}.validate().ok());
+}
+
+TEST(EngineConfig, CreateReturnsNullWithTheMessageAndTheConstructorThrows) {
+    EngineConfig c;
+    c.queue_slots = -3;
+    Status s;
+    EXPECT_EQ(Engine::create(c, s), nullptr);
+    EXPECT_NE(s.message().find("queue_slots"), std::string::npos) << s.message();
+    EXPECT_THROW(Engine{c}, std::invalid_argument);
+}
+
+TEST(EngineConfig, DropPolicyNamesParseAndUnknownOnesAreRejected) {
+    DropPolicy p = DropPolicy::DropOldest;
+    ASSERT_TRUE(parseDropPolicy("newest", p).ok());
+    EXPECT_EQ(p, DropPolicy::DropNewest);
+    ASSERT_TRUE(parseDropPolicy(toString(DropPolicy::DropOldest), p).ok());
+    EXPECT_EQ(p, DropPolicy::DropOldest);
+    EXPECT_NE(parseDropPolicy("latest", p).message().find("'latest'"), std::string::npos);
+}
+
+// ---- memory -------------------------------------------------------------------
+
+TEST(EngineMemory, IsReportedBeforeStartAndDoesNotGrow) {
+    EngineConfig c = engineConfig(Budget::steps(2));
+    c.queue_slots = 8;
+    Engine e(c);
+    const EngineMemory m = e.memory();
+    EXPECT_EQ(m.model, e.model().memoryBytes());
+    const std::size_t maxw = static_cast<std::size_t>(c.model.max_words_per_frame);
+    EXPECT_GE(m.queue, 8 * maxw * (sizeof(uint32_t) + sizeof(Position)));
+    EXPECT_GE(m.snapshot, 3 * maxw * (sizeof(uint16_t) + sizeof(uint32_t) + sizeof(Position)));  // 2 buffers + staging
+    EXPECT_EQ(e.memoryBytes(), m.model + m.queue + m.snapshot + m.other);
+    for (const Frame& f : makeStream(c.model, 100, 300, 1)) e.processNow(f.view());
+    EXPECT_EQ(e.memoryBytes(), m.total());
+}
+
+// ---- budgets ------------------------------------------------------------------
+
+TEST(EngineBudget, StepBudgetRefinesExactlyRTimeStepsPerObservation) {
+    Engine e(engineConfig(Budget::steps(3)));
+    const auto frames = makeStream(e.config().model, 40, 200, 2);
+    for (const Frame& f : frames) {
+        const ObservationResult r = e.processNow(f.view());
+        ASSERT_TRUE(r.add.ok());
+        EXPECT_EQ(r.refinements, 3u);
+    }
+    const EngineCounters c = e.counters();
+    EXPECT_EQ(c.refinements, 3u * frames.size());
+    EXPECT_EQ(c.tokens, e.model().tokensRefined());
+    EXPECT_EQ(c.ingested, frames.size());
+}
+
+TEST(EngineBudget, TokenBudgetRefinesAtLeastCountTokensAndAtMostOneCellMore) {
+    EngineConfig c = engineConfig(Budget::tokens(100));
+    Engine e(c);
+    for (const Frame& f : makeStream(c.model, 30, 200, 3)) {
+        const ObservationResult r = e.processNow(f.view());
+        EXPECT_GE(r.tokens, 100u);
+        EXPECT_LT(r.tokens, 100u + static_cast<uint64_t>(c.model.cell_capacity));
+    }
+}
+
+TEST(EngineBudget, TokenBudgetEndsOnAWindowWithoutWords) {
+    Engine e(engineConfig(Budget::tokens(1000)));
+    const ObservationResult r = e.processNow({0, {}, {}});  // an empty frame
+    EXPECT_TRUE(r.add.ok());
+    EXPECT_EQ(r.tokens, 0u);
+    EXPECT_LE(r.refinements, 1000u);
+}
+
+TEST(EngineBudget, RefineExtraAndFinalPassSpendMoreWithoutNewObservations) {
+    Engine e(engineConfig(Budget::steps(1)));
+    for (const Frame& f : makeStream(e.config().model, 20, 100, 4)) e.processNow(f.view());
+    const uint64_t before = e.model().tokensRefined();
+    EXPECT_EQ(e.refineExtra(Budget::steps(5)), 5u);
+    const uint64_t afterExtra = e.model().tokensRefined();
+    EXPECT_GT(afterExtra, before);
+    EXPECT_EQ(e.finalPass(2), 2 * 16 * 100u);  // two sweeps over the 16 steps in the ring
+    EXPECT_GT(e.model().tokensRefined(), afterExtra);
+    std::string why;
+    EXPECT_TRUE(e.model().checkInvariants(&why)) << why;
+}
+
+// ---- determinism ----------------------------------------------------------------
+
+TEST(EngineDeterminism, SameSeedStreamAndCountBudgetGiveIdenticalLabelsOnTwoRunsForEveryStrategy) {
+    for (StrategyKind k : {StrategyKind::Now, StrategyKind::Uniform, StrategyKind::AgeProportional,
+                           StrategyKind::Exponential, StrategyKind::UniformNow, StrategyKind::AgeProportionalNow,
+                           StrategyKind::UniformExponential, StrategyKind::AgeProportionalExponential}) {
+        const EngineConfig c = engineConfig(Budget::steps(2), k);
+        const auto frames = makeStream(c.model, 40, 150, 5);
+        const ReplayResult a = replayOf(c, frames, false);
+        const ReplayResult b = replayOf(c, frames, false);
+        EXPECT_EQ(differences(a, b), 0) << toString(k);
+    }
+}
+
+TEST(EngineDeterminism, ADifferentSeedGivesDifferentLabels) {
+    EngineConfig c = engineConfig(Budget::steps(2));
+    const auto frames = makeStream(c.model, 40, 150, 5);
+    const ReplayResult a = replayOf(c, frames, false);
+    c.model.seed += 1;
+    const ReplayResult b = replayOf(c, frames, false);
+    EXPECT_GT(differences(a, b), 20);
+}
+
+TEST(EngineDeterminism, ThreadedReplayMatchesSynchronousBitForBitUnderStepAndTokenBudgets) {
+    for (const Budget budget : {Budget::steps(3), Budget::tokens(500)}) {
+        EngineConfig c = engineConfig(budget, StrategyKind::AgeProportionalExponential);
+        c.model.cell_time = 2;
+        c.queue_slots = 2;  // the producer waits on the refiner often
+        const auto frames = makeStream(c.model, 80, 150, 6);
+        const ReplayResult sync = replayOf(c, frames, false, 1);
+        const ReplayResult threaded = replayOf(c, frames, true, 1);
+        EXPECT_EQ(differences(sync, threaded), 0);
+        EXPECT_EQ(threaded.counters.dropped(), 0u);
+        EXPECT_EQ(threaded.counters.ingested, frames.size());
+        EXPECT_EQ(sync.counters.tokens, threaded.counters.tokens);
+    }
+}
+
+// ---- hooks and perplexity --------------------------------------------------------
+
+TEST(EngineHooks, EvictionHookSeesEveryObservationOnceWhileStillInTheWindow) {
+    EngineConfig c = engineConfig(Budget::steps(1));
+    c.model.cell_time = 2;
+    c.model.ring_steps = 5;
+    Engine e(c);
+    std::vector<int> seen;
+    e.setEvictionHook([&](const WindowObservation& w, const Model& m) {
+        EXPECT_TRUE(m.observationInWindow(w.observation)) << w.observation;
+        EXPECT_EQ(w.step, m.stepOfObservation(w.observation));
+        EXPECT_EQ(w.sequence, w.observation);  // nothing dropped or rejected here
+        EXPECT_EQ(w.timestamp, 1000 + 40 * static_cast<int64_t>(w.observation));
+        EXPECT_EQ(seen.size(), w.observation) << "in order";
+        seen.push_back(static_cast<int>(w.observation));
+    });
+    const auto frames = makeStream(c.model, 51, 60, 7);
+    for (const Frame& f : frames) e.processNow(f.view());
+    EXPECT_EQ(seen.size(), 51u - 9u);  // the last 4 full steps and the newest half step remain
+    e.flushWindowToEvictionHook();
+    ASSERT_EQ(seen.size(), frames.size());
+}
+
+TEST(EnginePerplexity, InstantaneousPerplexityIsThePreviousStepsJustBeforeTheNextStepIsAdded) {
+    EngineConfig c = engineConfig(Budget::steps(2));
+    c.model.cell_time = 2;
+    Engine e(c);
+    int opened = 0;
+    for (const Frame& f : makeStream(c.model, 30, 120, 8)) {
+        const Model& m = e.model();
+        const bool opensStep = m.observations() % 2 == 0 && m.steps() > 0;
+        const double expected = opensStep ? m.stepPerplexity(m.steps() - 1) : std::nan("");
+        const int64_t prev = opensStep ? m.steps() - 1 : -1;
+        const ObservationResult r = e.processNow(f.view());
+        EXPECT_EQ(r.previous_step, prev);
+        if (opensStep) {
+            ++opened;
+            EXPECT_TRUE(sameBits(r.previous_perplexity, expected));
+            EXPECT_TRUE(std::isfinite(r.previous_perplexity) && r.previous_perplexity > 1.0);
+        } else {
+            EXPECT_TRUE(std::isnan(r.previous_perplexity));
+        }
+        EXPECT_TRUE(sameBits(r.perplexity, e.model().stepPerplexity(r.step)));
+    }
+    EXPECT_EQ(opened, 14);
+}
+
+// ---- snapshots ------------------------------------------------------------------
+
+TEST(EngineSnapshot, HoldsTheNewestObservationsLabelsHistogramsSurpriseAndCounters) {
+    const EngineConfig c = engineConfig(Budget::steps(2));
+    Engine e(c);
+    Snapshot s = e.makeSnapshot();
+    EXPECT_FALSE(e.readSnapshot(s)) << "nothing published yet";
+    const auto frames = makeStream(c.model, 25, 180, 9);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const ObservationResult r = e.processNow(frames[i].view());
+        ASSERT_TRUE(e.readSnapshot(s));
+        const Model& m = e.model();
+        EXPECT_EQ(s.version, i + 1);
+        EXPECT_EQ(s.observation, i);
+        EXPECT_EQ(s.timestamp, frames[i].timestamp);
+        EXPECT_EQ(s.step, r.step);
+        ASSERT_EQ(s.words(), m.observationSize(i));
+        std::vector<uint16_t> labels(s.words());
+        m.observationLabels(i, labels);
+        EXPECT_TRUE(std::equal(labels.begin(), labels.end(), s.labels().begin()));
+        EXPECT_TRUE(std::equal(frames[i].words.begin(), frames[i].words.end(), s.wordIds().begin()));
+        for (int cell = 0; cell < m.cellsPerStep(); ++cell) {
+            const auto h = m.cellHistogram(r.step, cell);
+            EXPECT_TRUE(std::equal(h.begin(), h.end(), s.histogram(cell).begin())) << cell;
+        }
+        const auto cs = m.cellSurprise(r.step);
+        EXPECT_TRUE(std::equal(cs.begin(), cs.end(), s.cellSurprise().begin()));
+        EXPECT_TRUE(sameBits(s.perplexity, r.perplexity));
+        EXPECT_TRUE(sameBits(s.surprise, m.observationSurprise(i)));
+        EXPECT_TRUE(sameBits(s.previous_perplexity, r.previous_perplexity));
+        EXPECT_EQ(s.counters.ingested, i + 1);
+        EXPECT_EQ(s.counters.pushed, i + 1);
+        EXPECT_EQ(s.counters.refinements, 2 * (i + 1));
+    }
+}
+
+TEST(EngineSnapshot, ReadIsRefusedForASnapshotSizedForAnotherConfiguration) {
+    const EngineConfig c = engineConfig(Budget::steps(1));
+    Engine e(c);
+    e.processNow(makeStream(c.model, 1, 10, 1)[0].view());
+    Snapshot unsized;
+    EXPECT_FALSE(e.readSnapshot(unsized));
+    Config other = c.model;
+    other.K = 4;
+    Snapshot wrong(other);
+    EXPECT_FALSE(e.readSnapshot(wrong));
+    Snapshot right = e.makeSnapshot();
+    EXPECT_TRUE(e.readSnapshot(right));
+}
+
+// ---- bad input ----------------------------------------------------------------------
+
+TEST(EngineInput, RejectsAnOutOfRangeWordOrPositionNamingTheIndexAndCountsIt) {
+    const EngineConfig c = engineConfig(Budget::steps(1));
+    Engine e(c);
+    Frame f = makeStream(c.model, 1, 20, 1)[0];
+    f.words[5] = static_cast<uint32_t>(c.model.V);
+    ObservationResult r = e.processNow(f.view());
+    EXPECT_EQ(r.add.error, AddError::WordOutOfRange);
+    EXPECT_EQ(r.add.index, 5u);
+    EXPECT_EQ(r.step, -1);
+    f.words[5] = 0;
+    f.positions[7] = {c.model.frame_width, 0};
+    r = e.processNow(f.view());
+    EXPECT_EQ(r.add.error, AddError::PositionOutOfRange);
+    EXPECT_EQ(r.add.index, 7u);
+    f.positions.pop_back();
+    r = e.processNow(f.view());
+    EXPECT_EQ(r.add.error, AddError::SizeMismatch);
+    EXPECT_EQ(r.add.index, 19u);
+    EXPECT_EQ(e.counters().rejected, 3u);
+    EXPECT_EQ(e.counters().ingested, 0u);
+    EXPECT_EQ(e.model().observations(), 0u);
+    Snapshot s = e.makeSnapshot();
+    EXPECT_FALSE(e.readSnapshot(s)) << "rejected observations are not published";
+}
+
+// More words than max_words_per_frame: a uniform subsample, in input order.
+// Word id = input index, so the kept indices show which were kept: over 20
+// frames of 2048 words (512 kept each) the four quarters of the input must
+// be kept equally often (chi-square, 3 df, false-failure rate 1e-6).
+TEST(EngineInput, SubsamplesAnOversizeObservationUniformlyInInputOrderAndCountsTheWords) {
+    EngineConfig c = engineConfig(Budget::steps(0));
+    c.model.V = 2048;
+    c.model.cell_capacity = 512;
+    c.model.frame_width = c.model.frame_height = 64;  // one cell
+    Engine e(c);
+    std::vector<uint32_t> words(2048);
+    std::vector<Position> pos(2048, Position{1, 1});
+    for (uint32_t i = 0; i < 2048; ++i) words[i] = i;
+    double quarter[4] = {0, 0, 0, 0};
+    for (int f = 0; f < 20; ++f) {
+        const ObservationResult r = e.processNow({f, words, pos});
+        ASSERT_TRUE(r.add.ok());
+        ASSERT_EQ(e.model().observationSize(static_cast<uint64_t>(f)), 512u);
+        std::vector<uint32_t> kept(512);
+        e.model().observationWords(static_cast<uint64_t>(f), kept);
+        for (std::size_t i = 1; i < kept.size(); ++i) ASSERT_LT(kept[i - 1], kept[i]) << "input order";
+        for (uint32_t w : kept) quarter[w / 512] += 1;
+    }
+    EXPECT_EQ(e.counters().words_truncated, 20u * (2048 - 512));
+    double chi = 0;
+    for (double q : quarter) chi += (q - 2560.0) * (q - 2560.0) / 2560.0;
+    EXPECT_LT(chi, 30.7);  // chi-square 3 df, upper 1e-6 quantile
+}
+
+// ---- queue and drop policies ---------------------------------------------------------
+
+TEST(EngineDrop, DropNewestRefusesPushesToAFullQueueAndCountsThem) {
+    EngineConfig c = engineConfig(Budget::steps(1));
+    c.drop = DropPolicy::DropNewest;
+    Engine e(c);
+    const auto frames = makeStream(c.model, 10, 30, 1);
+    int accepted = 0;
+    for (const Frame& f : frames) accepted += e.tryPush(f.view()) ? 1 : 0;
+    EXPECT_EQ(accepted, 4);
+    EXPECT_EQ(e.counters().dropped_newest, 6u);
+    EXPECT_EQ(e.queued(), 4u);
+    std::vector<int64_t> ts;
+    e.setObservationHook([&](const ObservationResult& r, const Model&) { ts.push_back(r.timestamp); });
+    EXPECT_EQ(e.processPending(), 4u);
+    EXPECT_EQ(ts, (std::vector<int64_t>{1000, 1040, 1080, 1120})) << "the oldest four were kept";
+    const EngineCounters k = e.counters();
+    EXPECT_EQ(k.ingested + k.dropped(), k.pushed);
+}
+
+TEST(EngineDrop, DropOldestKeepsTheFreshestObservationsAndCountsTheDiscarded) {
+    EngineConfig c = engineConfig(Budget::steps(1));
+    c.drop = DropPolicy::DropOldest;
+    Engine e(c);
+    const auto frames = makeStream(c.model, 10, 30, 1);
+    for (const Frame& f : frames) EXPECT_TRUE(e.tryPush(f.view()));
+    EXPECT_EQ(e.counters().dropped_oldest, 6u);
+    std::vector<uint64_t> seq;
+    e.setObservationHook([&](const ObservationResult& r, const Model&) { seq.push_back(r.sequence); });
+    EXPECT_EQ(e.processPending(), 4u);
+    EXPECT_EQ(seq, (std::vector<uint64_t>{6, 7, 8, 9})) << "the newest four were kept";
+    const EngineCounters k = e.counters();
+    EXPECT_EQ(k.ingested + k.dropped(), k.pushed);
+}
+
+TEST(ObservationQueue, DropOldestDropsTheNewestInsteadWhileTheConsumerIsReadingTheOldest) {
+    ObservationQueue q(2, 8, 1);
+    const uint32_t w[1] = {3};
+    const Position p[1] = {{0, 0}};
+    EXPECT_EQ(q.tryPush(1, w, p, true), ObservationQueue::Push::Queued);
+    EXPECT_EQ(q.tryPush(2, w, p, true), ObservationQueue::Push::Queued);
+    ObservationQueue::Item it;
+    ASSERT_TRUE(q.claim(it));  // the consumer reads observation 0 ...
+    EXPECT_EQ(it.timestamp, 1);
+    // ... so its slot cannot be reused: the newest is dropped.
+    EXPECT_EQ(q.tryPush(3, w, p, true), ObservationQueue::Push::Dropped);
+    q.release();
+    EXPECT_EQ(q.tryPush(4, w, p, true), ObservationQueue::Push::Queued);  // the released slot
+    EXPECT_EQ(q.tryPush(5, w, p, true), ObservationQueue::Push::QueuedDroppedOldest);  // discards 2
+    ASSERT_TRUE(q.claim(it));
+    EXPECT_EQ(it.timestamp, 4);
+    EXPECT_EQ(it.words[0], 3u);
+    q.release();
+    ASSERT_TRUE(q.claim(it));
+    EXPECT_EQ(it.timestamp, 5);
+    q.release();
+    EXPECT_FALSE(q.claim(it));
+    EXPECT_EQ(q.droppedNewest(), 1u);
+    EXPECT_EQ(q.droppedOldest(), 1u);
+    EXPECT_EQ(q.pushed(), 5u);
+}
+
+static_assert(noexcept(std::declval<ObservationQueue&>().tryPush(0, {}, {}, true)));
+static_assert(noexcept(std::declval<ObservationQueue&>().claim(std::declval<ObservationQueue::Item&>())));
+static_assert(noexcept(std::declval<Engine&>().tryPush(std::declval<const ObservationView&>())));
+static_assert(noexcept(std::declval<const Engine&>().readSnapshot(std::declval<Snapshot&>())));
+static_assert(noexcept(std::declval<Engine&>().processNow(std::declval<const ObservationView&>())));
+static_assert(!std::is_copy_constructible_v<Engine> && !std::is_move_constructible_v<Engine>);
+static_assert(!std::is_copy_constructible_v<ObservationQueue>);
+
+// ---- thread settings ----------------------------------------------------------------
+
+TEST(ThreadSettings, PinningToAMissingCpuFallsBackWithAMessageNamingTheCpu) {
+    ThreadSettingsReport report;
+    std::thread t([&] {
+        ThreadSettings s;
+        s.cpu = 1000;
+        report = applyToCurrentThread(s);
+    });
+    t.join();
+    EXPECT_FALSE(report.pinned);
+    EXPECT_NE(report.message.find("CPU 1000"), std::string::npos) << report.message;
+}
+
+TEST(ThreadSettings, OnboardRequestsFifoPinningAndLockedMemory) {
+    const ThreadSettings s = ThreadSettings::onboard();
+    EXPECT_TRUE(s.fifo);
+    EXPECT_TRUE(s.lock_memory);
+    EXPECT_GE(s.priority, 1);
+    EXPECT_LE(s.priority, 99);
+    EXPECT_EQ(ThreadSettings{}.fifo, false) << "the library default asks for nothing";
+}
+
+// ---- replay ------------------------------------------------------------------------------
+
+TEST(Replay, RecordsPerplexitySurpriseAndFinalLabelsForEveryObservation) {
+    EngineConfig c = engineConfig(Budget::steps(2));
+    const auto frames = makeStream(c.model, 60, 100, 10);
+    const ReplayResult r = replayOf(c, frames, false, 2);
+    ASSERT_EQ(r.observations.size(), frames.size());
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const ReplayObservation& o = r.observations[i];
+        EXPECT_EQ(o.timestamp, frames[i].timestamp);
+        EXPECT_EQ(o.step, static_cast<int64_t>(i));
+        EXPECT_TRUE(std::isfinite(o.instantaneous_perplexity) && o.instantaneous_perplexity > 1.0) << i;
+        EXPECT_TRUE(std::isfinite(o.final_perplexity) && o.final_perplexity > 1.0) << i;
+        EXPECT_TRUE(std::isfinite(o.surprise)) << i;
+        ASSERT_EQ(o.labels.size(), frames[i].words.size());
+        for (uint16_t z : o.labels) ASSERT_LT(z, c.model.K);
+    }
+    EXPECT_TRUE(std::isnan(r.observations[0].surprise) || r.observations[0].surprise > 0);
+    EXPECT_EQ(r.counters.ingested, frames.size());
+}
+
+TEST(Replay, LearnsTheStreamsStructureAndMoreBudgetLowersPerplexity) {
+    auto meanLogs = [](int R) {
+        EngineConfig c = engineConfig(Budget::steps(static_cast<uint64_t>(R)), StrategyKind::UniformNow);
+        const auto frames = makeStream(c.model, 120, 150, 11);
+        const ReplayResult r = replayOf(c, frames, false, 5);
+        double inst = 0, fin = 0;
+        for (const auto& o : r.observations) {
+            inst += std::log(o.instantaneous_perplexity);
+            fin += std::log(o.final_perplexity);
+        }
+        const auto n = static_cast<double>(r.observations.size());
+        return std::pair<double, double>{std::exp(inst / n), std::exp(fin / n)};
+    };
+    const auto [inst4, fin4] = meanLogs(4);
+    const auto [inst20, fin20] = meanLogs(20);
+    EXPECT_LT(fin4, inst4) << "refinement after arrival improves each step";
+    EXPECT_LT(fin4, 0.7 * 400) << "well below a uniform model's perplexity (V = 400)";
+    EXPECT_LT(fin20, 0.9 * fin4) << "five times the budget learns more";
+    EXPECT_LT(inst20, inst4);
+}
+
+TEST(Replay, RejectsAStreamWhosePositionsDoNotMatchItsWordsNamingTheObservation) {
+    const EngineConfig c = engineConfig(Budget::steps(1));
+    auto frames = makeStream(c.model, 3, 10, 1);
+    frames[1].positions.pop_back();
+    Engine e(c);
+    ReplayResult r;
+    const Status s = replay(e, toStream(frames), {}, r);
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.message().find("observation 1"), std::string::npos) << s.message();
+    EXPECT_NE(s.message().find("10 words but 9 positions"), std::string::npos) << s.message();
+}
+
+TEST(Replay, AStreamWithoutPositionsPutsEveryWordInTheFirstCell) {
+    const EngineConfig c = engineConfig(Budget::steps(1));
+    WordStream s;
+    s.has_positions = false;
+    for (int i = 0; i < 5; ++i) s.observations.push_back({i, {1, 2, 3}, {}});
+    Engine e(c);
+    ReplayResult r;
+    ASSERT_TRUE(replay(e, s, {}, r).ok());
+    EXPECT_EQ(e.model().cellWordCount(4, 0), 3u);
+    EXPECT_EQ(r.observations[4].labels.size(), 3u);
+}
+
+} // namespace
+} // namespace rost
