@@ -1,3 +1,5 @@
 # Realtime engine (issue 3): strategies, queue, refiner, snapshots, replay.
 rost_add_test(test_strategy SOURCES test_strategy.cpp)
-rost_add_test(test_engine SOURCES test_engine.cpp)
+rost_add_test(test_engine SOURCES test_engine.cpp test_engine_threads.cpp)
+# Replaces operator new and the malloc family with counting versions: its own binary.
+rost_add_test(test_nomalloc SOURCES test_nomalloc.cpp)

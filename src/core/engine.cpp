@@ -20,6 +20,14 @@ inline void bump(std::atomic<uint64_t>& a, uint64_t d = 1) noexcept {
     a.store(a.load(std::memory_order_relaxed) + d, std::memory_order_relaxed);
 }
 
+// Exponential average that a single outlier (the thread preempted in the
+// middle of a cell) moves by at most 10%: each sample is clamped to
+// [0.5, 3] times the current average first.
+inline double robustAverage(double avg, double sample) noexcept {
+    const double s = std::clamp(sample, 0.5 * avg, 3.0 * avg);
+    return avg + 0.05 * (s - avg);
+}
+
 inline uint64_t bitsOf(double d) noexcept { return std::bit_cast<uint64_t>(d); }
 inline double doubleOf(uint64_t u) noexcept { return std::bit_cast<double>(u); }
 
@@ -249,11 +257,12 @@ struct Engine::Refiner {
     AlignedBuffer<int64_t> win_ts;   // time stamp of each observation in the window (frame % win_cap)
     AlignedBuffer<uint64_t> win_seq; // its producer sequence number
 
-    // Time-budget predictors: upper envelopes (fast attack, slow decay) of
-    // the cost of a token and of a publication, so the last cell started
-    // still ends before the deadline.
+    // Time-budget predictors: running averages of the cost of a token and of
+    // a publication, so the last cell started still ends before the deadline
+    // (a cell is started only if 1.5x its predicted cost fits).
     double ns_per_token = 40.0;
     double publish_ns = 20000.0;
+    uint64_t next_sequence = 0;  // producer sequence after the last observation taken up (checkpoints)
 
     alignas(kCacheLine) std::atomic<uint64_t> ingested{0};
     std::atomic<uint64_t> rejected{0};
@@ -387,7 +396,8 @@ uint64_t Engine::spend(const Budget& budget, Clock::time_point deadline, bool ne
             for (int c = 0; c < cells; ++c) {
                 const uint32_t n = m.cellWordCount(s, c);
                 if (n == 0) continue;
-                const auto predicted = std::chrono::nanoseconds(static_cast<int64_t>(R.ns_per_token * (n + 4)));
+                const auto predicted =
+                    std::chrono::nanoseconds(static_cast<int64_t>(1.5 * R.ns_per_token * (n + 4)));
                 if (now + predicted > end) {
                     out = true;
                     break;
@@ -395,8 +405,7 @@ uint64_t Engine::spend(const Budget& budget, Clock::time_point deadline, bool ne
                 tokens += m.refineCell(s, c);
                 started = true;
                 const auto after = Clock::now();
-                const double per = static_cast<double>((after - now).count()) / (n + 4);
-                R.ns_per_token = per > R.ns_per_token ? per : R.ns_per_token + 0.01 * (per - R.ns_per_token);
+                R.ns_per_token = robustAverage(R.ns_per_token, static_cast<double>((after - now).count()) / (n + 4));
                 now = after;
             }
             if (started) ++draws;
@@ -447,6 +456,7 @@ void Engine::publish(const ObservationResult& r) noexcept {
 bool Engine::takeUpOne(ObservationResult* out) noexcept {
     ObservationQueue::Item it;
     if (!queue_->claim(it)) return false;
+    refiner_->next_sequence = it.sequence + 1;
     const auto t0 = Clock::now();
     const bool timed = cfg_.budget.kind == BudgetKind::Time;
     const auto deadline =
@@ -536,8 +546,7 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     publish(r);
     const auto t1 = Clock::now();
     if (timed) {
-        const double pub = static_cast<double>((t1 - tp).count());
-        R.publish_ns = pub > R.publish_ns ? pub : R.publish_ns + 0.05 * (pub - R.publish_ns);
+        R.publish_ns = robustAverage(R.publish_ns, static_cast<double>((t1 - tp).count()));
         const int64_t over = (t1 - deadline).count();
         if (over > 0) {
             r.overrun_ns = over;
@@ -640,5 +649,59 @@ void Engine::visitWindow(const EvictionHook& visit) const {
 }
 
 void Engine::flushWindowToEvictionHook() const { visitWindow(on_evict_); }
+
+// ---- checkpoint support -------------------------------------------------------
+
+namespace {
+constexpr std::size_t kStateCounters = 12;
+} // namespace
+
+void Engine::readState(StateReader read, void* context) const noexcept {
+    const Refiner& R = *refiner_;
+    const uint64_t c[kStateCounters] = {
+        R.ingested.load(std::memory_order_relaxed),
+        R.rejected.load(std::memory_order_relaxed),
+        R.words_dropped_cell.load(std::memory_order_relaxed),
+        R.refinements.load(std::memory_order_relaxed),
+        R.tokens.load(std::memory_order_relaxed),
+        R.overruns.load(std::memory_order_relaxed),
+        static_cast<uint64_t>(R.max_overrun_ns.load(std::memory_order_relaxed)),
+        R.published.load(std::memory_order_relaxed),
+        queue_->droppedNewest(),
+        queue_->droppedOldest(),
+        queue_->wordsTruncated(),
+        R.next_sequence,
+    };
+    read(context, "engine.counters", c, sizeof c);
+    const double p[2] = {R.ns_per_token, R.publish_ns};
+    read(context, "engine.predictors", p, sizeof p);
+    read(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.bytes());
+    read(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.bytes());
+}
+
+Status Engine::writeState(StateWriter write, void* context) {
+    if (running()) return Status::error("engine: cannot restore state while running");
+    if (queue_->size() != 0) return Status::error("engine: cannot restore state while observations are queued");
+    Refiner& R = *refiner_;
+    uint64_t c[kStateCounters] = {};
+    write(context, "engine.counters", c, sizeof c);
+    double p[2] = {R.ns_per_token, R.publish_ns};
+    write(context, "engine.predictors", p, sizeof p);
+    write(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.bytes());
+    write(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.bytes());
+    R.ingested.store(c[0], std::memory_order_relaxed);
+    R.rejected.store(c[1], std::memory_order_relaxed);
+    R.words_dropped_cell.store(c[2], std::memory_order_relaxed);
+    R.refinements.store(c[3], std::memory_order_relaxed);
+    R.tokens.store(c[4], std::memory_order_relaxed);
+    R.overruns.store(c[5], std::memory_order_relaxed);
+    R.max_overrun_ns.store(static_cast<int64_t>(c[6]), std::memory_order_relaxed);
+    R.published.store(c[7], std::memory_order_relaxed);
+    R.next_sequence = c[11];
+    queue_->restoreProducer(c[11], c[8], c[9], c[10]);
+    R.ns_per_token = p[0];
+    R.publish_ns = p[1];
+    return {};
+}
 
 } // namespace rost

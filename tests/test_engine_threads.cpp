@@ -1,0 +1,236 @@
+// The engine with its threads: a producer, the refiner, readers.
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rost/engine.hpp"
+#include "test_engine_support.hpp"
+
+namespace rost {
+namespace {
+
+using rost::testing::Frame;
+using rost::testing::makeStream;
+using rost::testing::smallConfig;
+using namespace std::chrono_literals;
+
+// Resident set size of this process in bytes (Linux), 0 when unknown.
+std::size_t residentBytes() {
+    std::ifstream f("/proc/self/statm");
+    std::size_t pages = 0, resident = 0;
+    if (!(f >> pages >> resident)) return 0;
+    return resident * 4096;
+}
+
+EngineConfig threadedConfig(Budget b) {
+    EngineConfig e;
+    e.model = smallConfig();
+    e.budget = b;
+    e.queue_slots = 8;
+    return e;
+}
+
+TEST(EngineThreads, TimeBudgetKeepsCountsConsistentAfterStopWithProducerAndReaderRunning) {
+    EngineConfig c = threadedConfig(Budget::time(1.0));
+    c.drop = DropPolicy::DropOldest;
+    Engine e(c);
+    const auto frames = makeStream(c.model, 300, 200, 21);
+    Snapshot snap = e.makeSnapshot();
+    ASSERT_TRUE(e.start().ok());
+    std::atomic<bool> done{false};
+    std::atomic<uint64_t> reads{0};
+    std::thread reader([&] {
+        Snapshot s = e.makeSnapshot();
+        while (!done.load()) {
+            if (e.readSnapshot(s)) reads.fetch_add(1);
+            std::this_thread::sleep_for(100us);
+        }
+    });
+    for (const Frame& f : frames) {
+        (void)e.tryPush(f.view());
+        std::this_thread::sleep_for(500us);
+    }
+    e.stop();
+    done.store(true);
+    reader.join();
+    std::string why;
+    EXPECT_TRUE(e.model().checkInvariants(&why)) << why;
+    const EngineCounters k = e.counters();
+    EXPECT_EQ(k.pushed, frames.size());
+    EXPECT_EQ(k.ingested + k.dropped(), k.pushed);
+    EXPECT_EQ(k.ingested, e.model().observations());
+    EXPECT_GT(k.refinements, 0u);
+    EXPECT_LE(k.overruns, k.ingested);
+    EXPECT_GT(reads.load(), 0u);
+    ASSERT_TRUE(e.readSnapshot(snap));
+    EXPECT_EQ(snap.observation + 1, k.ingested);
+}
+
+TEST(EngineThreads, EachObservationRefinesUntilNearItsTimeBudgetDeadline) {
+    Engine e(threadedConfig(Budget::time(5.0)));
+    std::vector<int64_t> elapsed;
+    elapsed.reserve(64);
+    e.setObservationHook([&](const ObservationResult& r, const Model&) { elapsed.push_back(r.elapsed_ns); });
+    const auto frames = makeStream(e.config().model, 20, 200, 22);
+    ASSERT_TRUE(e.start().ok());
+    for (const Frame& f : frames) ASSERT_TRUE(e.pushWait(f.view()));
+    e.stop();
+    ASSERT_EQ(elapsed.size(), frames.size());
+    for (int64_t ns : elapsed) EXPECT_GE(ns, 4'000'000) << "spends (nearly) its whole 5 ms budget";
+}
+
+TEST(EngineThreads, StopOnArrivalEndsATimeBudgetEarlyWhenANewerObservationWaits) {
+    EngineConfig c = threadedConfig(Budget::time(300.0));
+    c.flags.stop_on_arrival = true;
+    Engine e(c);
+    std::vector<int64_t> elapsed;
+    elapsed.reserve(8);
+    e.setObservationHook([&](const ObservationResult& r, const Model&) { elapsed.push_back(r.elapsed_ns); });
+    const auto frames = makeStream(c.model, 5, 200, 23);
+    for (const Frame& f : frames) ASSERT_TRUE(e.tryPush(f.view()));  // queued before the refiner starts
+    ASSERT_TRUE(e.start().ok());
+    e.stop();  // drains
+    ASSERT_EQ(elapsed.size(), 5u);
+    for (int i = 0; i < 4; ++i) EXPECT_LT(elapsed[i], 150'000'000) << "a newer observation was waiting";
+    EXPECT_GE(elapsed[4], 200'000'000) << "the newest refines until its deadline";
+}
+
+// A producer far faster than the refiner: frames are lost, every loss is
+// counted, and nothing grows.
+void overload(DropPolicy policy) {
+    EngineConfig c = threadedConfig(Budget::steps(30));
+    c.drop = policy;
+    Engine e(c);
+    const auto frames = makeStream(c.model, 64, 200, 24);
+    const std::size_t memory = e.memoryBytes();
+    ASSERT_TRUE(e.start().ok());
+    const uint64_t pushes = 20000;
+    uint64_t accepted = 0;
+    std::size_t rssAfterWarmup = 0;
+    for (uint64_t i = 0; i < pushes; ++i) {
+        accepted += e.tryPush(frames[i % frames.size()].view()) ? 1 : 0;
+        if (i == 2000) rssAfterWarmup = residentBytes();
+    }
+    const std::size_t rssEnd = residentBytes();
+    e.stop();
+    const EngineCounters k = e.counters();
+    EXPECT_EQ(k.pushed, pushes);
+    EXPECT_EQ(k.ingested + k.dropped(), k.pushed) << "every frame is either ingested or counted as dropped";
+    EXPECT_EQ(k.ingested, e.model().observations());
+    EXPECT_GT(k.dropped(), pushes / 2) << "the producer really was faster";
+    EXPECT_EQ(accepted, pushes - k.dropped_newest);
+    if (policy == DropPolicy::DropNewest) {
+        EXPECT_EQ(k.dropped_oldest, 0u);
+    }
+    EXPECT_EQ(e.memoryBytes(), memory);
+    if (rssAfterWarmup > 0) {
+        EXPECT_LT(rssEnd, rssAfterWarmup + (1u << 20)) << "resident memory stays flat";
+    }
+    std::string why;
+    EXPECT_TRUE(e.model().checkInvariants(&why)) << why;
+}
+
+TEST(EngineThreads, OverloadWithDropOldestLosesOnlyCountedFramesAndMemoryStaysFlat) { overload(DropPolicy::DropOldest); }
+TEST(EngineThreads, OverloadWithDropNewestLosesOnlyCountedFramesAndMemoryStaysFlat) { overload(DropPolicy::DropNewest); }
+
+// Each observation carries its sequence number in every word and in its
+// size, so a reader can tell a torn snapshot from a consistent one.
+TEST(EngineThreads, ReadersNeverSeeATornSnapshotWhileTheRefinerPublishes) {
+    EngineConfig c = threadedConfig(Budget::steps(1));
+    c.model.V = 997;
+    c.model.cell_capacity = 400;
+    c.drop = DropPolicy::DropOldest;
+    Engine e(c);
+    ASSERT_TRUE(e.start().ok());
+    std::atomic<bool> done{false};
+    std::atomic<int> torn{0};
+    std::atomic<uint64_t> reads{0};
+    auto readLoop = [&] {
+        Snapshot s = e.makeSnapshot();
+        uint64_t lastVersion = 0;
+        while (!done.load(std::memory_order_relaxed)) {
+            if (!e.readSnapshot(s)) continue;
+            reads.fetch_add(1, std::memory_order_relaxed);
+            const auto seq = static_cast<uint64_t>(s.timestamp);
+            bool ok = s.version >= lastVersion && s.words() == 1 + seq % 300 && s.sequence == seq;
+            for (uint32_t w : s.wordIds()) ok = ok && w == seq % 997;
+            int64_t total = 0;
+            for (int32_t h : s.histograms()) total += h;
+            ok = ok && total == static_cast<int64_t>(s.words());
+            if (!ok) torn.fetch_add(1);
+            lastVersion = s.version;
+        }
+    };
+    std::thread r1(readLoop), r2(readLoop);
+    std::vector<uint32_t> words(300);
+    std::vector<Position> pos(300);
+    for (uint64_t seq = 0; seq < 3000; ++seq) {
+        const auto n = static_cast<std::size_t>(1 + seq % 300);
+        for (std::size_t i = 0; i < n; ++i) {
+            words[i] = static_cast<uint32_t>(seq % 997);
+            pos[i] = {static_cast<int32_t>(i % 256), static_cast<int32_t>((i * 7) % 192)};
+        }
+        (void)e.tryPush({static_cast<int64_t>(seq), {words.data(), n}, {pos.data(), n}});
+        if (seq % 16 == 0) std::this_thread::yield();
+    }
+    e.stop();
+    done.store(true);
+    r1.join();
+    r2.join();
+    EXPECT_EQ(torn.load(), 0);
+    EXPECT_GT(reads.load(), 0u);
+}
+
+TEST(EngineThreads, StopDrainTakesUpEveryQueuedObservation) {
+    EngineConfig c = threadedConfig(Budget::steps(2));
+    c.queue_slots = 64;
+    Engine e(c);
+    const auto frames = makeStream(c.model, 64, 100, 25);
+    for (const Frame& f : frames) ASSERT_TRUE(e.tryPush(f.view()));
+    ASSERT_TRUE(e.start().ok());
+    e.stop(Engine::StopMode::Drain);
+    EXPECT_EQ(e.counters().ingested, 64u);
+    EXPECT_EQ(e.queued(), 0u);
+}
+
+TEST(EngineThreads, StopDiscardLeavesQueuedObservationsAccountedFor) {
+    EngineConfig c = threadedConfig(Budget::time(20.0));
+    c.queue_slots = 64;
+    Engine e(c);
+    const auto frames = makeStream(c.model, 64, 100, 26);
+    for (const Frame& f : frames) ASSERT_TRUE(e.tryPush(f.view()));
+    ASSERT_TRUE(e.start().ok());
+    std::this_thread::sleep_for(5ms);
+    e.stop(Engine::StopMode::Discard);
+    const EngineCounters k = e.counters();
+    EXPECT_LT(k.ingested, 64u) << "did not drain 64 x 20 ms";
+    EXPECT_EQ(k.ingested + e.queued(), 64u);
+    // The engine restarts and drains the rest.
+    ASSERT_TRUE(e.start().ok());
+    e.stop(Engine::StopMode::Drain);
+    EXPECT_EQ(e.counters().ingested, 64u);
+}
+
+TEST(EngineThreads, SynchronousCallsAreRefusedWhileRunningAndStartTwiceIsAnError) {
+    Engine e(threadedConfig(Budget::steps(1)));
+    const auto frames = makeStream(e.config().model, 1, 10, 27);
+    ASSERT_TRUE(e.start().ok());
+    EXPECT_TRUE(e.running());
+    const Status again = e.start();
+    EXPECT_FALSE(again.ok());
+    EXPECT_NE(again.message().find("already running"), std::string::npos);
+    EXPECT_EQ(e.processNow(frames[0].view()).step, -1);
+    EXPECT_EQ(e.processPending(), 0u);
+    e.stop();
+    EXPECT_FALSE(e.running());
+}
+
+} // namespace
+} // namespace rost

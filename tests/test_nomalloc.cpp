@@ -1,0 +1,263 @@
+// Zero heap allocations on the capture (tryPush), refiner and reader paths
+// after start(), and in synchronous processNow(). This binary replaces
+// operator new/delete and the malloc family with counting versions (the
+// technique of Eigen's test/nomalloc.cpp); counting is armed only around
+// the code under test, and the first test shows the counter does catch
+// allocations. (Under ThreadSanitizer, which owns malloc, only operator new
+// and delete are replaced.)
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <thread>
+#include <vector>
+
+#include "rost/engine.hpp"
+#include "test_engine_support.hpp"
+
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+#define ROST_TEST_REPLACE_MALLOC 0
+#else
+#define ROST_TEST_REPLACE_MALLOC 1
+#endif
+
+namespace {
+std::atomic<bool> g_armed{false};
+std::atomic<uint64_t> g_allocations{0};
+inline void noteAllocation() noexcept {
+    if (g_armed.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+}
+} // namespace
+
+#if ROST_TEST_REPLACE_MALLOC
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void* __libc_memalign(std::size_t, std::size_t);
+void __libc_free(void*);
+
+void* malloc(std::size_t n) {
+    noteAllocation();
+    return __libc_malloc(n);
+}
+void* calloc(std::size_t a, std::size_t b) {
+    noteAllocation();
+    return __libc_calloc(a, b);
+}
+void* realloc(void* p, std::size_t n) {
+    noteAllocation();
+    return __libc_realloc(p, n);
+}
+void* aligned_alloc(std::size_t a, std::size_t n) {
+    noteAllocation();
+    return __libc_memalign(a, n);
+}
+void* memalign(std::size_t a, std::size_t n) {
+    noteAllocation();
+    return __libc_memalign(a, n);
+}
+int posix_memalign(void** out, std::size_t a, std::size_t n) {
+    noteAllocation();
+    void* p = __libc_memalign(a, n);
+    if (p == nullptr) return 12;  // ENOMEM
+    *out = p;
+    return 0;
+}
+void free(void* p) { __libc_free(p); }
+}
+#endif
+
+// operator new counts itself and allocates without going through the
+// (counting) malloc, so one allocation counts once.
+namespace {
+void* rawMalloc(std::size_t n) noexcept {
+#if ROST_TEST_REPLACE_MALLOC
+    return __libc_malloc(n ? n : 1);
+#else
+    return std::malloc(n ? n : 1);
+#endif
+}
+void* rawAligned(std::size_t al, std::size_t n) noexcept {
+#if ROST_TEST_REPLACE_MALLOC
+    return __libc_memalign(al, n ? n : 1);
+#else
+    return std::aligned_alloc(al, (n + al - 1) / al * al);
+#endif
+}
+} // namespace
+
+void* operator new(std::size_t n) {
+    noteAllocation();
+    if (void* p = rawMalloc(n)) return p;
+    throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
+    noteAllocation();
+    return rawMalloc(n);
+}
+void* operator new[](std::size_t n, const std::nothrow_t& t) noexcept { return operator new(n, t); }
+void* operator new(std::size_t n, std::align_val_t a) {
+    noteAllocation();
+    if (void* p = rawAligned(static_cast<std::size_t>(a), n)) return p;
+    throw std::bad_alloc();
+}
+void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+
+namespace rost {
+namespace {
+
+using rost::testing::Frame;
+using rost::testing::makeStream;
+using rost::testing::smallConfig;
+
+// Arms the counter for its lifetime and reports what it counted.
+class Counting {
+public:
+    Counting() {
+        g_allocations.store(0);
+        g_armed.store(true);
+    }
+    ~Counting() { g_armed.store(false); }
+    uint64_t count() const { return g_allocations.load(); }
+};
+
+TEST(NoMalloc, TheCounterCatchesNewMallocAndAGrowingVector) {
+    {
+        Counting c;
+        int* p = new int(3);
+        delete p;
+        EXPECT_EQ(c.count(), 1u) << "operator new";
+    }
+#if ROST_TEST_REPLACE_MALLOC
+    {
+        Counting c;
+        void* volatile p = std::malloc(64);
+        std::free(p);
+        EXPECT_EQ(c.count(), 1u) << "malloc";
+    }
+#endif
+    {
+        Counting c;
+        std::vector<int> v;
+        for (int i = 0; i < 100; ++i) v.push_back(i);
+        EXPECT_GT(c.count(), 0u) << "std::vector growth";
+    }
+    {
+        Counting c;
+        std::thread t([] {});
+        t.join();
+        EXPECT_GT(c.count(), 0u) << "starting a thread";
+    }
+}
+
+EngineConfig config(Budget b, DropPolicy drop);
+
+// The counter also sees allocations made on the refiner thread: a hook that
+// allocates is caught.
+TEST(NoMalloc, TheCounterCatchesAnAllocationOnTheRefinerThread) {
+    EngineConfig c;
+    c.model = smallConfig();
+    c.budget = Budget::steps(1);
+    Engine e(c);
+    e.setObservationHook([](const ObservationResult&, const Model&) {
+        std::vector<int>* volatile v = new std::vector<int>(16);
+        delete v;
+    });
+    const auto frames = makeStream(c.model, 8, 50, 30);
+    ASSERT_TRUE(e.start().ok());
+    uint64_t counted = 0;
+    {
+        Counting count;
+        for (const Frame& f : frames) ASSERT_TRUE(e.pushWait(f.view()));
+        while (e.counters().ingested < frames.size()) std::this_thread::yield();
+        counted = count.count();
+    }
+    e.stop();
+    EXPECT_GE(counted, frames.size());
+}
+
+EngineConfig config(Budget b, DropPolicy drop) {
+    EngineConfig e;
+    e.model = smallConfig();
+    e.budget = b;
+    e.drop = drop;
+    e.queue_slots = 4;
+    return e;
+}
+
+// Thousands of observations through tryPush, the refiner thread and
+// snapshot reads, under each budget kind and drop policy: nothing allocates
+// between start() returning and stop().
+void runThreaded(Budget b, DropPolicy drop) {
+    Engine e(config(b, drop));
+    const auto frames = makeStream(e.config().model, 64, 300, 31);
+    Snapshot snap = e.makeSnapshot();
+    ASSERT_TRUE(e.start().ok());
+    uint64_t reads = 0, accepted = 0;
+    {
+        Counting c;
+        for (int i = 0; i < 4000; ++i) {
+            // Nine pushes in ten wait for a free slot (pushWait); the tenth
+            // may hit a full queue and exercise the drop path.
+            const ObservationView v = frames[static_cast<std::size_t>(i) % frames.size()].view();
+            accepted += (i % 10 != 0 ? e.pushWait(v) : e.tryPush(v)) ? 1 : 0;
+            if (i % 4 == 0) reads += e.readSnapshot(snap) ? 1 : 0;
+            if (i % 8 == 0) (void)e.counters();
+            if (i % 2 == 0) std::this_thread::yield();
+        }
+        // Let the refiner catch up while still counting.
+        while (e.queued() > 0) std::this_thread::yield();
+        reads += e.readSnapshot(snap) ? 1 : 0;
+        EXPECT_EQ(c.count(), 0u) << "allocations on the realtime paths";
+    }
+    e.stop();
+    const EngineCounters k = e.counters();
+    EXPECT_EQ(k.pushed, 4000u);
+    EXPECT_EQ(k.ingested + k.dropped(), k.pushed);
+    EXPECT_GT(k.ingested, 3000u) << "thousands of observations went through";
+    EXPECT_GT(reads, 0u);
+    EXPECT_GT(accepted, 0u);
+}
+
+TEST(NoMalloc, ThreadedEngineMakesNoAllocationAfterStartWithAStepBudget) {
+    runThreaded(Budget::steps(2), DropPolicy::DropOldest);
+}
+TEST(NoMalloc, ThreadedEngineMakesNoAllocationAfterStartWithATokenBudget) {
+    runThreaded(Budget::tokens(300), DropPolicy::DropNewest);
+}
+TEST(NoMalloc, ThreadedEngineMakesNoAllocationAfterStartWithATimeBudget) {
+    runThreaded(Budget::time(0.2), DropPolicy::DropOldest);
+}
+
+TEST(NoMalloc, SynchronousProcessNowEvictionAndFinalPassMakeNoAllocation) {
+    Engine e(config(Budget::steps(2), DropPolicy::DropOldest));
+    const auto frames = makeStream(e.config().model, 64, 300, 32);
+    Snapshot snap = e.makeSnapshot();
+    uint64_t evicted = 0;
+    e.setEvictionHook([&](const WindowObservation&, const Model&) { ++evicted; });
+    {
+        Counting c;
+        for (int i = 0; i < 2000; ++i) e.processNow(frames[static_cast<std::size_t>(i) % frames.size()].view());
+        EXPECT_TRUE(e.readSnapshot(snap));
+        e.refineExtra(Budget::steps(10));
+        e.finalPass(1);
+        e.flushWindowToEvictionHook();
+        EXPECT_EQ(c.count(), 0u);
+    }
+    EXPECT_EQ(evicted, 2000u);
+}
+
+} // namespace
+} // namespace rost
