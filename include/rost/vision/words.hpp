@@ -1,0 +1,127 @@
+#pragma once
+
+// Visual words of a frame (paper section VII): ORB words quantised with a
+// vocabulary, intensity words and hue words on a thumbnail grid, each word
+// with the pixel position it was seen at, so it lands in a cell. The word
+// ids of the extractors that run are offset into one vocabulary, in the
+// order ORB, intensity, hue; with all three and a 5000-word ORB vocabulary
+// that is V = 5000 + 256 + 180 = 5436, the paper's mixed vocabulary.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "rost/model.hpp"
+#include "rost/status.hpp"
+#include "rost/vision/vocabulary.hpp"
+
+namespace cv {
+class ORB;
+}
+
+namespace rost::vision {
+
+struct ExtractorConfig {
+    // ORB words: keypoints and descriptors by OpenCV's ORB, each descriptor
+    // quantised to its nearest vocabulary word, positioned at its keypoint.
+    bool orb = true;
+    int orb_features = 1000;       // keypoints per frame at most (strongest kept)
+    float orb_scale_factor = 1.2f; // pyramid scale step
+    int orb_levels = 8;            // pyramid levels
+    int orb_fast_threshold = 20;   // FAST corner threshold
+    SearchMethod search = SearchMethod::Indexed;
+
+    // Intensity and hue words: the frame is shrunk (area average) so each
+    // thumbnail pixel covers a thumb_cell x thumb_cell block; each thumbnail
+    // pixel gives one intensity word (grey level 0..255) and, where colour is
+    // defined, one hue word (OpenCV 8-bit hue 0..179), positioned at the
+    // block's centre.
+    bool intensity = true;
+    bool hue = true;
+    int thumb_cell = 16;           // pixels per thumbnail pixel, 1..256
+    // Hue is meaningless for grey or dark pixels: no hue word below these
+    // (OpenCV 8-bit HSV saturation and value, 0..255).
+    int hue_min_saturation = 32;
+    int hue_min_value = 32;
+
+    // Checks every field; the message names the field and the allowed range.
+    [[nodiscard]] Status validate() const;
+};
+
+// Which ids belong to which extractor.
+struct WordLayout {
+    uint32_t orb_offset = 0, orb_size = 0;
+    uint32_t intensity_offset = 0, intensity_size = 0;
+    uint32_t hue_offset = 0, hue_size = 0;
+    [[nodiscard]] uint32_t size() const noexcept { return hue_offset + hue_size; }
+    // "orb", "intensity", "hue" or "?" for an id.
+    [[nodiscard]] const char* kindOf(uint32_t word) const noexcept;
+};
+
+// Words of one frame. Reused across frames: clear() keeps the capacity, so a
+// steady stream of similar frames stops allocating in these vectors.
+struct FrameWords {
+    std::vector<uint32_t> words;
+    std::vector<Position> positions;
+    uint32_t orb = 0, intensity = 0, hue = 0;  // per-extractor counts of this frame
+    [[nodiscard]] uint32_t size() const noexcept { return static_cast<uint32_t>(words.size()); }
+    void clear() noexcept {
+        words.clear();
+        positions.clear();
+        orb = intensity = hue = 0;
+    }
+};
+
+class WordExtractor {
+public:
+    static constexpr uint32_t kIntensityWords = 256;
+    static constexpr uint32_t kHueWords = 180;
+
+    // `vocabulary` is needed when config.orb is set (shared: several
+    // extractors, e.g. one per thread, may use one vocabulary).
+    static std::unique_ptr<WordExtractor> create(const ExtractorConfig& config,
+                                                 std::shared_ptr<const Vocabulary> vocabulary, Status& status);
+    ~WordExtractor();
+    WordExtractor(const WordExtractor&) = delete;
+    WordExtractor& operator=(const WordExtractor&) = delete;
+
+    const ExtractorConfig& config() const noexcept { return cfg_; }
+    const WordLayout& layout() const noexcept { return layout_; }
+    // The vocabulary size V a model needs for these words.
+    uint32_t vocabularySize() const noexcept { return layout_.size(); }
+
+    // Extracts the words of an 8-bit BGR (3 channels) or grey (1 channel)
+    // frame into `out` (cleared first). Positions lie in [0, cols) x [0, rows).
+    // Deterministic: the same image gives the same words in the same order
+    // (ORB words first, strongest keypoint first; then intensity and hue
+    // words in raster order of the thumbnail). Returns false for an empty or
+    // unsupported image.
+    bool extract(const cv::Mat& image, FrameWords& out);
+
+    // The intensity and hue words alone, for a given thumbnail (used by extract; exposed for tests).
+    void thumbnailWords(const cv::Mat& bgr, FrameWords& out);
+
+private:
+    WordExtractor(const ExtractorConfig& cfg, std::shared_ptr<const Vocabulary> vocabulary);
+
+    ExtractorConfig cfg_;
+    WordLayout layout_;
+    std::shared_ptr<const Vocabulary> vocabulary_;
+    cv::Ptr<cv::ORB> orb_;
+    // Scratch reused across frames.
+    cv::Mat grey_, thumb_, hsv_, descriptors_;
+    std::vector<cv::KeyPoint> keypoints_;
+};
+
+// Layout of the word ids for a configuration and an ORB vocabulary size.
+WordLayout makeLayout(const ExtractorConfig& config, uint32_t orb_vocabulary_size) noexcept;
+
+// The vocabulary shipped with rost (share/rost/default.rostvoc, compiled into
+// the library). Loaded and checked on first use; its note says what footage
+// it was trained on.
+std::shared_ptr<const Vocabulary> defaultVocabulary(Status& status);
+
+} // namespace rost::vision

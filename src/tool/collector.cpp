@@ -1,0 +1,197 @@
+#include "collector.hpp"
+
+#include <cmath>
+
+#include "rost/word_stream.hpp"
+
+namespace rost::tool {
+
+Collector::Collector(Engine& engine, std::size_t slots)
+    : engine_(engine),
+      K_(engine.model().K()),
+      cells_(engine.model().cellsPerStep()),
+      maxw_(static_cast<std::size_t>(engine.model().config().max_words_per_frame)),
+      obs_(slots,
+           [&](ObservationRecord& r) {
+               r.dominant.resize(static_cast<std::size_t>(cells_));
+               r.cell_surprise.resize(static_cast<std::size_t>(cells_));
+               r.topic_share.resize(static_cast<std::size_t>(K_));
+           }),
+      final_(slots, [&](FinalRecord& f) {
+          f.words.resize(maxw_);
+          f.positions.resize(maxw_);
+          f.labels.resize(maxw_);
+      }) {
+    engine_.setObservationHook([this](const ObservationResult& r, const Model& m) { onObservationHook(r, m); });
+    engine_.setEvictionHook([this](const WindowObservation& w, const Model& m) { onEvictionHook(w, m); });
+}
+
+// Refiner thread: copy out, no allocation.
+void Collector::onObservationHook(const ObservationResult& r, const Model& m) noexcept {
+    ObservationRecord* o = obs_.beginPush();
+    if (!o) {
+        lost_.fetch_add(1, std::memory_order_relaxed);
+        return;
+    }
+    o->frame = r.timestamp;
+    o->observation = r.observation;
+    o->step = r.step;
+    o->rejected = !r.add.ok();
+    o->error = r.add.error;
+    o->error_index = r.add.index;
+    o->kept = r.add.kept;
+    o->surprise = r.surprise;
+    o->previous_step = r.previous_step;
+    o->previous_perplexity = r.previous_perplexity;
+    o->refinements = r.refinements;
+    o->elapsed_ns = r.elapsed_ns;
+    if (!o->rejected) {
+        const std::span<const float> cs = m.cellSurprise(r.step);
+        double total = 0.0;
+        std::fill(o->topic_share.begin(), o->topic_share.end(), 0.f);
+        for (int c = 0; c < cells_; ++c) {
+            const auto uc = static_cast<std::size_t>(c);
+            o->cell_surprise[uc] = c < static_cast<int>(cs.size()) ? cs[uc] : 0.f;
+            const std::span<const int32_t> h = m.cellHistogram(r.step, c);
+            int best = -1;
+            int32_t bestN = 0;
+            for (int k = 0; k < K_; ++k) {
+                const int32_t n = h[static_cast<std::size_t>(k)];
+                o->topic_share[static_cast<std::size_t>(k)] += static_cast<float>(n);
+                total += n;
+                if (n > bestN) best = k, bestN = n;
+            }
+            o->dominant[uc] = best < 0 ? ObservationRecord::kNoTopic : static_cast<uint16_t>(best);
+        }
+        if (total > 0)
+            for (auto& s : o->topic_share) s = static_cast<float>(s / total);
+    }
+    obs_.commitPush();
+}
+
+void Collector::fillFinal(FinalRecord& f, const WindowObservation& w, const Model& m) noexcept {
+    f.observation = w.observation;
+    f.frame = w.timestamp;
+    f.step = w.step;
+    f.perplexity = m.stepPerplexity(w.step);
+    f.n = std::min<uint32_t>(m.observationSize(w.observation), static_cast<uint32_t>(maxw_));
+    m.observationWords(w.observation, {f.words.data(), f.n});
+    m.observationPositions(w.observation, {f.positions.data(), f.n});
+    m.observationLabels(w.observation, {f.labels.data(), f.n});
+}
+
+void Collector::onEvictionHook(const WindowObservation& w, const Model& m) noexcept {
+    FinalRecord* f = final_.beginPush();
+    if (!f) {
+        lost_.fetch_add(1, std::memory_order_relaxed);
+        return;
+    }
+    fillFinal(*f, w, m);
+    final_.commitPush();
+}
+
+void Collector::takeFinal(const FinalRecord& f) {
+    if (f.observation < rows_.size()) rows_[f.observation].final = f.perplexity;
+    appendCsvLine(words_, f.frame, f.words.data(), f.n);
+    appendPositionsLine(positions_, f.frame, f.positions.data(), f.n);
+    appendCsvLine(topics_, f.frame, f.labels.data(), f.n);
+    ++finals_;
+}
+
+void Collector::drain(const std::function<void(const ObservationRecord&)>& onObservation) {
+    // Observations first: a final record always refers to an earlier observation.
+    while (ObservationRecord* o = obs_.front()) {
+        if (onObservation) onObservation(*o);
+        if (o->rejected) {
+            if (rejection_.empty())
+                rejection_ = "frame " + std::to_string(o->frame) + ": the model rejected the observation (" +
+                             toString(o->error) + " at word " + std::to_string(o->error_index) + ")";
+        } else {
+            FrameRow row;
+            row.frame = o->frame;
+            row.ingested = true;
+            row.observation = o->observation;
+            row.step = o->step;
+            row.kept = o->kept;
+            row.surprise = o->surprise;
+            row.refinements = o->refinements;
+            row.refine_ms = static_cast<double>(o->elapsed_ns) * 1e-6;
+            row.cell_surprise = o->cell_surprise;
+            row.topic_share = o->topic_share;
+            if (rows_.size() == o->observation) rows_.push_back(std::move(row));
+            // Instantaneous perplexity of the step before, for each of its observations.
+            if (o->previous_step >= 0)
+                for (auto it = rows_.rbegin(); it != rows_.rend(); ++it) {
+                    if (it->step < o->previous_step) break;
+                    if (it->step == o->previous_step) it->instantaneous = o->previous_perplexity;
+                }
+        }
+        obs_.pop();
+    }
+    while (FinalRecord* f = final_.front()) {
+        takeFinal(*f);
+        final_.pop();
+    }
+}
+
+void Collector::finish(int sweeps) {
+    drain();
+    Model& m = engine_.model();
+    if (m.steps() > 0) {
+        // The last step has no successor: its instantaneous perplexity is
+        // taken now, at the end of its budget, before any final sweeps.
+        const int64_t last = m.steps() - 1;
+        const double p = m.stepPerplexity(last);
+        for (auto it = rows_.rbegin(); it != rows_.rend() && it->step == last; ++it) it->instantaneous = p;
+    }
+    if (sweeps > 0) engine_.finalPass(sweeps);
+    FinalRecord f;
+    f.words.resize(maxw_);
+    f.positions.resize(maxw_);
+    f.labels.resize(maxw_);
+    engine_.visitWindow([&](const WindowObservation& w, const Model& model) {
+        fillFinal(f, w, model);
+        takeFinal(f);
+    });
+}
+
+std::string Collector::perplexityCsv() const {
+    std::string s = "frame,instantaneous,final\n";
+    for (const auto& r : rows_) {
+        s += std::to_string(r.frame);
+        s += ',';
+        appendNumber(s, r.instantaneous);
+        s += ',';
+        appendNumber(s, r.final);
+        s += '\n';
+    }
+    return s;
+}
+
+std::string Collector::surpriseCsv() const {
+    std::string s = "frame,surprise\n";
+    for (const auto& r : rows_) {
+        s += std::to_string(r.frame);
+        s += ',';
+        appendNumber(s, r.surprise);
+        s += '\n';
+    }
+    return s;
+}
+
+std::string Collector::cellSurpriseCsv() const {
+    std::string s = "frame";
+    for (int c = 0; c < cells_; ++c) s += ",cell" + std::to_string(c);
+    s += '\n';
+    for (const auto& r : rows_) {
+        s += std::to_string(r.frame);
+        for (float v : r.cell_surprise) {
+            s += ',';
+            appendNumber(s, v);
+        }
+        s += '\n';
+    }
+    return s;
+}
+
+} // namespace rost::tool

@@ -1,0 +1,102 @@
+#pragma once
+
+// Collects what an engine run produces, for `rost run` and `rost refine`:
+// the engine's hooks (on the refiner thread under --realtime) copy each
+// observation's results and each leaving observation's final labels into
+// preallocated records of two single-producer rings; the writer thread
+// drains them into per-frame rows and CSV text. The hooks neither allocate
+// nor lock.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "outputs.hpp"
+#include "rost/engine.hpp"
+#include "spsc_ring.hpp"
+
+namespace rost::tool {
+
+// One observation's results, right after its refinement budget.
+struct ObservationRecord {
+    int64_t frame = 0;  // the observation's timestamp: input frame index
+    uint64_t observation = 0;
+    int64_t step = -1;
+    bool rejected = false;
+    AddError error = AddError::None;
+    uint32_t error_index = 0;
+    uint32_t kept = 0;
+    double surprise = 0.0;
+    int64_t previous_step = -1;
+    double previous_perplexity = 0.0;
+    uint64_t refinements = 0;
+    int64_t elapsed_ns = 0;
+    std::vector<uint16_t> dominant;      // per cell: topic with the most labels, kNoTopic when empty
+    std::vector<float> cell_surprise;    // per cell
+    std::vector<float> topic_share;      // K
+    static constexpr uint16_t kNoTopic = 0xFFFF;
+};
+
+// An observation leaving the window (or still in it at the end): its final labels.
+struct FinalRecord {
+    uint64_t observation = 0;
+    int64_t frame = 0;
+    int64_t step = 0;
+    double perplexity = 0.0;  // of its step, now
+    uint32_t n = 0;
+    std::vector<uint32_t> words;
+    std::vector<Position> positions;
+    std::vector<uint16_t> labels;
+};
+
+class Collector {
+public:
+    // Installs the engine's hooks. `slots` records per ring.
+    Collector(Engine& engine, std::size_t slots);
+    Collector(const Collector&) = delete;
+    Collector& operator=(const Collector&) = delete;
+
+    // Writer side: moves every published record into rows and CSV text.
+    // `onObservation` sees each observation record first (e.g. to draw the overlay).
+    void drain(const std::function<void(const ObservationRecord&)>& onObservation = {});
+    // End of stream (engine stopped): the last step's instantaneous
+    // perplexity, `sweeps` batch sweeps, then the final labels of everything
+    // still in the window.
+    void finish(int sweeps);
+
+    // Records a hook could not store because the writer fell behind (realtime only).
+    uint64_t lost() const noexcept { return lost_.load(std::memory_order_relaxed); }
+    // First observation the model rejected, if any ("" when none).
+    const std::string& rejection() const noexcept { return rejection_; }
+
+    const std::vector<FrameRow>& rows() const noexcept { return rows_; }
+    std::vector<FrameRow>& rows() noexcept { return rows_; }
+    // CSV bodies (earlier ROST formats: timestamp,values...).
+    const std::string& wordsCsv() const noexcept { return words_; }
+    const std::string& positionsCsv() const noexcept { return positions_; }
+    const std::string& topicsCsv() const noexcept { return topics_; }
+    std::string perplexityCsv() const;
+    std::string surpriseCsv() const;
+    std::string cellSurpriseCsv() const;
+
+private:
+    void onObservationHook(const ObservationResult& r, const Model& m) noexcept;
+    void onEvictionHook(const WindowObservation& w, const Model& m) noexcept;
+    void fillFinal(FinalRecord& f, const WindowObservation& w, const Model& m) noexcept;
+    void takeFinal(const FinalRecord& f);
+
+    Engine& engine_;
+    int K_, cells_;
+    std::size_t maxw_;
+    SpscRing<ObservationRecord> obs_;
+    SpscRing<FinalRecord> final_;
+    std::atomic<uint64_t> lost_{0};
+    std::vector<FrameRow> rows_;
+    std::string words_, positions_, topics_;
+    std::string rejection_;
+    uint64_t finals_ = 0;
+};
+
+} // namespace rost::tool

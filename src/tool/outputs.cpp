@@ -1,0 +1,428 @@
+#include "outputs.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "rost/word_stream.hpp"
+
+namespace fs = std::filesystem;
+
+namespace rost::tool {
+
+// ---- output directory -----------------------------------------------------------
+
+OutputDir::~OutputDir() {
+    if (!committed_) abandon();
+}
+
+Status OutputDir::open(const std::string& dir) {
+    if (dir.empty()) return Status::error("--out: no output directory given");
+    std::error_code ec;
+    if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) return Status::error(dir + ": exists and is not a directory");
+    fs::create_directories(dir, ec);
+    if (ec) return Status::error(dir + ": cannot create the output directory: " + ec.message());
+    if (::access(dir.c_str(), W_OK) != 0) return Status::error(dir + ": cannot write: " + std::strerror(errno));
+    dir_ = dir;
+    std::string tmpl = dir + "/.rost-partial-XXXXXX";
+    std::vector<char> buf(tmpl.begin(), tmpl.end());
+    buf.push_back('\0');
+    if (!::mkdtemp(buf.data())) return Status::error(dir + ": cannot create a staging directory: " + std::strerror(errno));
+    staging_ = buf.data();
+    return {};
+}
+
+Status OutputDir::write(const std::string& name, const std::string& content) {
+    const std::string path = staged(name);
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    if (!f) return Status::error(path + ": cannot write: " + std::strerror(errno));
+    f.write(content.data(), static_cast<std::streamsize>(content.size()));
+    f.flush();
+    if (!f) return Status::error(path + ": write failed: " + std::strerror(errno));
+    track(name);
+    return {};
+}
+
+Status OutputDir::commit() {
+    for (const auto& name : files_) {
+        std::error_code ec;
+        fs::rename(staged(name), final(name), ec);
+        if (ec) return Status::error(final(name) + ": cannot move into place: " + ec.message());
+    }
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+    committed_ = true;
+    return {};
+}
+
+void OutputDir::abandon() noexcept {
+    if (staging_.empty()) return;
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+    staging_.clear();
+}
+
+void appendNumber(std::string& out, double v) {
+    if (std::isnan(v)) {
+        out += "nan";
+        return;
+    }
+    char buf[32];
+    const auto [p, ec] = std::to_chars(buf, buf + sizeof buf, v);
+    out.append(buf, ec == std::errc() ? p : buf);
+}
+
+void appendNumber(std::string& out, float v) {
+    if (std::isnan(v)) {
+        out += "nan";
+        return;
+    }
+    char buf[32];
+    const auto [p, ec] = std::to_chars(buf, buf + sizeof buf, v);
+    out.append(buf, ec == std::errc() ? p : buf);
+}
+
+// ---- topic model -------------------------------------------------------------------
+
+std::string topicModelCsv(const Model& m) {
+    std::string s;
+    s.reserve(static_cast<std::size_t>(m.K()) * m.V() * 2);
+    char buf[16];
+    for (int k = 0; k < m.K(); ++k) {
+        for (int v = 0; v < m.V(); ++v) {
+            if (v) s += ',';
+            const auto [p, ec] = std::to_chars(buf, buf + sizeof buf, m.topicWordCount(k, v));
+            s.append(buf, p);
+        }
+        s += '\n';
+    }
+    return s;
+}
+
+Status readTopicModelCsv(const std::string& path, int K, int V, std::vector<int32_t>& counts) {
+    std::string text;
+    Status st = readFile(path, text);
+    if (!st.ok()) return st;
+    counts.assign(static_cast<std::size_t>(K) * V, 0);
+    int row = 0, line = 0;
+    std::size_t pos = 0;
+    while (pos < text.size()) {
+        std::size_t end = text.find('\n', pos);
+        if (end == std::string::npos) end = text.size();
+        std::string_view l(text.data() + pos, end - pos);
+        pos = end + 1;
+        ++line;
+        if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
+        if (l.empty() || l.front() == '#') continue;
+        if (row == K)
+            return Status::error(path + ":" + std::to_string(line) + ":1: more than K = " + std::to_string(K) +
+                                 " rows (the topic model has one row per topic)");
+        std::size_t col = 0, at = 0;
+        while (true) {
+            std::size_t e = l.find(',', at);
+            if (e == std::string_view::npos) e = l.size();
+            const std::string_view f = l.substr(at, e - at);
+            if (static_cast<int>(col) == V)
+                return Status::error(path + ":" + std::to_string(line) + ":" + std::to_string(at + 1) +
+                                     ": more than V = " + std::to_string(V) + " columns");
+            int32_t v = 0;
+            const auto [p, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
+            if (f.empty() || ec != std::errc() || p != f.data() + f.size() || v < 0)
+                return Status::error(path + ":" + std::to_string(line) + ":" + std::to_string(at + 1) +
+                                     ": expected a count (integer >= 0), found '" + std::string(f.substr(0, 24)) + "'");
+            counts[static_cast<std::size_t>(row) * V + col] = v;
+            ++col;
+            if (e == l.size()) break;
+            at = e + 1;
+        }
+        if (static_cast<int>(col) != V)
+            return Status::error(path + ":" + std::to_string(line) + ":" + std::to_string(l.size() + 1) + ": " +
+                                 std::to_string(col) + " columns, expected V = " + std::to_string(V));
+        ++row;
+    }
+    if (row != K)
+        return Status::error(path + ": " + std::to_string(row) + " rows, expected K = " + std::to_string(K));
+    return {};
+}
+
+// ---- drawing -----------------------------------------------------------------------
+
+cv::Scalar topicColour(int k) {
+    // Tableau-like palette (BGR), then golden-angle hues for larger K.
+    static const cv::Scalar kPalette[] = {
+        {180, 119, 31}, {14, 127, 255}, {44, 160, 44},  {40, 39, 214},   {189, 103, 148}, {75, 86, 140},
+        {194, 119, 227}, {127, 127, 127}, {34, 189, 188}, {207, 190, 23}, {232, 199, 174}, {120, 187, 255},
+        {138, 223, 152}, {150, 152, 255}, {213, 176, 197}, {148, 156, 196}};
+    constexpr int n = sizeof kPalette / sizeof kPalette[0];
+    if (k < n) return kPalette[k];
+    cv::Mat hsv(1, 1, CV_8UC3, cv::Scalar(static_cast<int>(k * 137.508) % 180, 200, 220)), bgr;
+    cv::cvtColor(hsv, bgr, cv::COLOR_HSV2BGR);
+    const cv::Vec3b c = bgr.at<cv::Vec3b>(0, 0);
+    return {static_cast<double>(c[0]), static_cast<double>(c[1]), static_cast<double>(c[2])};
+}
+
+std::vector<std::size_t> surprisePeaks(std::span<const FrameRow> rows, std::size_t count, std::size_t separation) {
+    std::vector<std::size_t> idx;
+    for (std::size_t i = 0; i < rows.size(); ++i)
+        if (std::isfinite(rows[i].surprise)) idx.push_back(i);
+    std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return rows[a].surprise > rows[b].surprise; });
+    std::vector<std::size_t> peaks;
+    for (std::size_t i : idx) {
+        if (peaks.size() == count) break;
+        bool near = false;
+        for (std::size_t p : peaks)
+            if ((i > p ? i - p : p - i) < separation) near = true;
+        if (!near) peaks.push_back(i);
+    }
+    return peaks;
+}
+
+namespace {
+
+const cv::Scalar kInk(40, 40, 40), kGrid(228, 228, 228), kAxis(150, 150, 150), kWhite(255, 255, 255);
+const cv::Scalar kInstant(14, 127, 255), kFinal(180, 119, 31), kSurprise(40, 39, 214), kPeak(40, 39, 214);
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+
+void text(cv::Mat& img, const std::string& s, cv::Point at, double scale, cv::Scalar colour, int thickness = 1) {
+    cv::putText(img, s, at, kFont, scale, colour, thickness, cv::LINE_AA);
+}
+int textWidth(const std::string& s, double scale, int thickness = 1) {
+    int base = 0;
+    return cv::getTextSize(s, kFont, scale, thickness, &base).width;
+}
+
+double niceStep(double range, int target) {
+    if (!(range > 0)) return 1.0;
+    const double raw = range / target;
+    const double mag = std::pow(10.0, std::floor(std::log10(raw)));
+    for (double m : {1.0, 2.0, 2.5, 5.0, 10.0})
+        if (raw <= m * mag) return m * mag;
+    return 10.0 * mag;
+}
+
+std::string tickLabel(double v, double step) {
+    char buf[32];
+    if (step >= 1.0 || v == 0.0) std::snprintf(buf, sizeof buf, "%.0f", v);
+    else if (step >= 0.1) std::snprintf(buf, sizeof buf, "%.1f", v);
+    else std::snprintf(buf, sizeof buf, "%.2f", v);
+    return buf;
+}
+
+struct Axes {
+    cv::Rect box;
+    double x0, x1, y0, y1;
+    int px(double x) const { return box.x + static_cast<int>(std::lround((x - x0) / (x1 - x0) * (box.width - 1))); }
+    int py(double y) const {
+        return box.y + box.height - 1 - static_cast<int>(std::lround((y - y0) / (y1 - y0) * (box.height - 1)));
+    }
+};
+
+void drawFrame(cv::Mat& img, const Axes& a, const std::string& ylabel, bool xLabels) {
+    // Horizontal grid and y ticks.
+    const double ys = niceStep(a.y1 - a.y0, 4);
+    for (double y = std::ceil(a.y0 / ys) * ys; y <= a.y1 + 1e-9; y += ys) {
+        const int p = a.py(y);
+        cv::line(img, {a.box.x, p}, {a.box.x + a.box.width - 1, p}, kGrid, 1, cv::LINE_AA);
+        const std::string s = tickLabel(y, ys);
+        text(img, s, {a.box.x - 8 - textWidth(s, 0.42), p + 5}, 0.42, kInk);
+    }
+    // Vertical grid and x ticks.
+    const double xs = std::max(1.0, niceStep(a.x1 - a.x0, 10));
+    for (double x = std::ceil(a.x0 / xs) * xs; x <= a.x1 + 1e-9; x += xs) {
+        const int p = a.px(x);
+        cv::line(img, {p, a.box.y}, {p, a.box.y + a.box.height - 1}, kGrid, 1, cv::LINE_AA);
+        if (xLabels) {
+            const std::string s = tickLabel(x, xs);
+            text(img, s, {p - textWidth(s, 0.42) / 2, a.box.y + a.box.height + 17}, 0.42, kInk);
+        }
+    }
+    cv::rectangle(img, a.box, kAxis, 1);
+    // Rotated y label: draw into a small image and rotate.
+    const int w = textWidth(ylabel, 0.5) + 4;
+    cv::Mat lab(22, w, CV_8UC3, kWhite);
+    text(lab, ylabel, {2, 16}, 0.5, kInk);
+    cv::Mat rot;
+    cv::rotate(lab, rot, cv::ROTATE_90_COUNTERCLOCKWISE);
+    const int x = 8, y = a.box.y + (a.box.height - rot.rows) / 2;
+    if (y >= 0 && y + rot.rows <= img.rows) rot.copyTo(img(cv::Rect(x, y, rot.cols, rot.rows)));
+}
+
+void polyline(cv::Mat& img, const Axes& a, std::span<const FrameRow> rows, double FrameRow::*field, cv::Scalar c,
+              int thickness) {
+    std::vector<cv::Point> pts;
+    auto flush = [&] {
+        if (pts.size() > 1) cv::polylines(img, pts, false, c, thickness, cv::LINE_AA);
+        else if (pts.size() == 1) cv::circle(img, pts[0], thickness, c, -1, cv::LINE_AA);
+        pts.clear();
+    };
+    for (const auto& r : rows) {
+        const double v = r.*field;
+        if (!std::isfinite(v)) {
+            flush();
+            continue;
+        }
+        pts.emplace_back(a.px(static_cast<double>(r.frame)), a.py(std::clamp(v, a.y0, a.y1)));
+    }
+    flush();
+}
+
+void range(std::span<const FrameRow> rows, std::initializer_list<double FrameRow::*> fields, double& lo, double& hi) {
+    lo = std::numeric_limits<double>::infinity();
+    hi = -lo;
+    for (const auto& r : rows)
+        for (auto f : fields) {
+            const double v = r.*f;
+            if (std::isfinite(v)) {
+                lo = std::min(lo, v);
+                hi = std::max(hi, v);
+            }
+        }
+    if (!std::isfinite(lo)) lo = 0, hi = 1;
+    if (hi - lo < 1e-9) hi = lo + 1.0;
+    const double pad = 0.06 * (hi - lo);
+    lo = std::max(0.0, lo - pad);
+    hi += pad;
+}
+
+void legend(cv::Mat& img, cv::Point at, std::initializer_list<std::pair<const char*, cv::Scalar>> items) {
+    int x = at.x;
+    for (const auto& [name, c] : items) {
+        cv::line(img, {x, at.y - 5}, {x + 22, at.y - 5}, c, 3, cv::LINE_AA);
+        text(img, name, {x + 28, at.y}, 0.45, kInk);
+        x += 40 + textWidth(name, 0.45) + 18;
+    }
+}
+
+} // namespace
+
+cv::Mat drawSummary(const SummaryInput& in) {
+    const std::span<const FrameRow> rows = in.rows;
+    const int W = 1600, left = 96, right = 36;
+    const int plotW = W - left - right;
+    const bool thumbs = !in.thumbs.empty();
+    const int titleH = 78, pplH = 230, gap = 38, surH = 190, topH = 46;
+    // Thumbnail strip: as many as fit side by side.
+    int tw = 0, th = 0, nThumbs = 0;
+    if (thumbs) {
+        const cv::Size s = in.thumbs[0].size();
+        nThumbs = std::min<int>(static_cast<int>(in.thumbs.size()), 10);
+        tw = (plotW - (nThumbs - 1) * 8) / nThumbs;
+        th = static_cast<int>(std::lround(static_cast<double>(tw) * s.height / std::max(1, s.width)));
+    }
+    const int stripTop = titleH + pplH + gap + surH + 22 + topH + 26;
+    const int H = stripTop + (thumbs ? 36 + th + 34 : 20);
+    cv::Mat img(H, W, CV_8UC3, kWhite);
+
+    text(img, in.title, {left, 34}, 0.8, kInk, 2);
+    text(img, in.subtitle, {left, 60}, 0.5, cv::Scalar(90, 90, 90));
+
+    double f0 = 0, f1 = 1;
+    if (!rows.empty()) {
+        f0 = static_cast<double>(rows.front().frame);
+        f1 = std::max(f0 + 1.0, static_cast<double>(rows.back().frame));
+    }
+    const std::vector<std::size_t> peaks = surprisePeaks(rows, 3, std::max<std::size_t>(5, rows.size() / 20));
+
+    // Perplexity.
+    double lo, hi;
+    range(rows, {&FrameRow::instantaneous, &FrameRow::final}, lo, hi);
+    Axes ppl{cv::Rect(left, titleH, plotW, pplH), f0, f1, lo, hi};
+    drawFrame(img, ppl, "perplexity", false);
+    polyline(img, ppl, rows, &FrameRow::instantaneous, kInstant, 2);
+    polyline(img, ppl, rows, &FrameRow::final, kFinal, 2);
+    legend(img, {left + 12, titleH + 22}, {{"instantaneous", kInstant}, {"final", kFinal}});
+
+    // Surprise, filled, with its peaks marked.
+    range(rows, {&FrameRow::surprise}, lo, hi);
+    Axes sur{cv::Rect(left, titleH + pplH + gap, plotW, surH), f0, f1, lo, hi};
+    drawFrame(img, sur, "surprise", true);
+    {
+        std::vector<cv::Point> poly;
+        for (const auto& r : rows)
+            if (std::isfinite(r.surprise))
+                poly.emplace_back(sur.px(static_cast<double>(r.frame)), sur.py(r.surprise));
+        if (poly.size() > 1) {
+            std::vector<cv::Point> fill = poly;
+            fill.emplace_back(poly.back().x, sur.py(lo));
+            fill.emplace_back(poly.front().x, sur.py(lo));
+            cv::Mat layer = img.clone();
+            cv::fillPoly(layer, std::vector<std::vector<cv::Point>>{fill}, cv::Scalar(190, 190, 240), cv::LINE_AA);
+            cv::addWeighted(layer, 0.55, img, 0.45, 0, img);
+            drawFrame(img, sur, "surprise", true);
+            cv::polylines(img, poly, false, kSurprise, 2, cv::LINE_AA);
+        }
+    }
+    for (std::size_t p : peaks) {
+        const int x = sur.px(static_cast<double>(rows[p].frame));
+        for (int y = ppl.box.y; y < sur.box.y + sur.box.height; y += 8)
+            cv::line(img, {x, y}, {x, std::min(y + 4, sur.box.y + sur.box.height - 1)}, kPeak, 1, cv::LINE_AA);
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "frame %lld", static_cast<long long>(rows[p].frame));
+        const int w = textWidth(buf, 0.45);
+        const int tx = std::clamp(x - w / 2, sur.box.x + 2, sur.box.x + sur.box.width - w - 2);
+        cv::rectangle(img, {tx - 3, sur.box.y + 4}, {tx + w + 3, sur.box.y + 22}, kWhite, -1);
+        text(img, buf, {tx, sur.box.y + 18}, 0.45, kPeak);
+    }
+
+    // Topic mix over time: a column per pixel, stacked topic shares.
+    const int topY = titleH + pplH + gap + surH + 26;
+    {
+        cv::Rect box(left, topY, plotW, topH);
+        for (int x = 0; x < box.width; ++x) {
+            const double f = f0 + (f1 - f0) * x / std::max(1, box.width - 1);
+            auto it = std::lower_bound(rows.begin(), rows.end(), f,
+                                       [](const FrameRow& r, double v) { return static_cast<double>(r.frame) < v; });
+            if (it == rows.end()) it = rows.end() - (rows.empty() ? 0 : 1);
+            if (it == rows.end() || it->topic_share.empty()) continue;
+            double acc = 0.0;
+            for (int k = 0; k < static_cast<int>(it->topic_share.size()); ++k) {
+                const double s = it->topic_share[static_cast<std::size_t>(k)];
+                if (s <= 0) continue;
+                const int yA = box.y + static_cast<int>(std::lround(acc * box.height));
+                acc += s;
+                const int yB = box.y + static_cast<int>(std::lround(acc * box.height));
+                if (yB > yA) cv::line(img, {box.x + x, yA}, {box.x + x, yB - 1}, topicColour(k), 1);
+            }
+        }
+        cv::rectangle(img, box, kAxis, 1);
+        text(img, "topics", {left - 8 - textWidth("topics", 0.42), topY + topH / 2 + 5}, 0.42, kInk);
+    }
+
+    // Thumbnails, each tied to its frame on the time axis.
+    if (thumbs) {
+        const int y = stripTop + 36;
+        std::vector<int64_t> peakFrames;
+        for (std::size_t p : peaks) peakFrames.push_back(rows[p].frame);
+        for (int i = 0; i < nThumbs; ++i) {
+            const std::size_t idx = in.thumbs.size() == static_cast<std::size_t>(nThumbs)
+                                        ? static_cast<std::size_t>(i)
+                                        : static_cast<std::size_t>(std::lround(
+                                              static_cast<double>(i) * (in.thumbs.size() - 1) / std::max(1, nThumbs - 1)));
+            const int x = left + i * (tw + 8);
+            cv::Mat t;
+            cv::resize(in.thumbs[idx], t, cv::Size(tw, th), 0, 0, cv::INTER_AREA);
+            t.copyTo(img(cv::Rect(x, y, tw, th)));
+            const int64_t fr = in.thumb_frames[idx];
+            const bool isPeak = std::find(peakFrames.begin(), peakFrames.end(), fr) != peakFrames.end();
+            cv::rectangle(img, cv::Rect(x - 1, y - 1, tw + 2, th + 2), isPeak ? kPeak : kAxis, isPeak ? 3 : 1);
+            const int fx = sur.px(static_cast<double>(fr));
+            cv::line(img, {fx, topY + topH + 1}, {x + tw / 2, y - 3}, cv::Scalar(170, 170, 170), 1, cv::LINE_AA);
+            cv::circle(img, {fx, topY + topH + 1}, 3, isPeak ? kPeak : kAxis, -1, cv::LINE_AA);
+            char buf[32];
+            std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(fr));
+            text(img, buf, {x + tw / 2 - textWidth(buf, 0.45) / 2, y + th + 20}, 0.45, isPeak ? kPeak : kInk);
+        }
+        text(img, "frame", {left - 8 - textWidth("frame", 0.42), y + th + 20}, 0.42, kInk);
+    }
+    return img;
+}
+
+} // namespace rost::tool

@@ -1,0 +1,96 @@
+#pragma once
+
+// What `rost run` and `rost refine` write, and how: every file is written
+// into a hidden staging directory inside the output directory and renamed
+// into place only when the whole run succeeded, so an interrupted or failed
+// run never leaves files that look complete.
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "rost/model.hpp"
+#include "rost/status.hpp"
+
+namespace rost::tool {
+
+class OutputDir {
+public:
+    OutputDir() = default;
+    ~OutputDir();  // removes the staging directory unless commit() succeeded
+    OutputDir(const OutputDir&) = delete;
+    OutputDir& operator=(const OutputDir&) = delete;
+
+    // Creates `dir` if needed and a fresh staging directory inside it.
+    Status open(const std::string& dir);
+    // Path of a file in the staging directory.
+    std::string staged(const std::string& name) const { return staging_ + "/" + name; }
+    std::string final(const std::string& name) const { return dir_ + "/" + name; }
+    // Writes a whole file into staging.
+    Status write(const std::string& name, const std::string& content);
+    // Renames every staged file into the output directory; removes staging.
+    Status commit();
+    // Removes the staging directory and everything in it.
+    void abandon() noexcept;
+    const std::string& dir() const noexcept { return dir_; }
+    const std::vector<std::string>& files() const noexcept { return files_; }
+    void track(const std::string& name) { files_.push_back(name); }
+
+private:
+    std::string dir_, staging_;
+    std::vector<std::string> files_;
+    bool committed_ = false;
+};
+
+// Number formatting for CSV: shortest round-trip representation; NaN as "nan".
+void appendNumber(std::string& out, double v);
+void appendNumber(std::string& out, float v);
+
+// Per-frame results the tool collects (one row per ingested observation).
+struct FrameRow {
+    int64_t frame = 0;          // input frame index (the observation's timestamp)
+    int64_t timestamp_us = 0;
+    uint32_t words = 0;         // extracted
+    uint32_t orb = 0, intensity = 0, hue = 0;
+    bool ingested = false;      // false when dropped before the model (full queue, realtime)
+    uint64_t observation = 0;
+    int64_t step = -1;
+    uint32_t kept = 0;          // words in cells
+    double surprise = std::nan("");
+    double instantaneous = std::nan("");  // perplexity of its step one step after arrival
+    double final = std::nan("");          // perplexity of its step at eviction or at the end
+    uint64_t refinements = 0;
+    double refine_ms = 0.0;
+    std::vector<float> cell_surprise;     // per cell
+    std::vector<float> topic_share;       // K: share of its step's labels per topic (for the summary)
+};
+
+// Topic model CSV: K rows of V comma-separated counts.
+std::string topicModelCsv(const Model& m);
+// Parses one; errors name the file, line and column.
+Status readTopicModelCsv(const std::string& path, int K, int V, std::vector<int32_t>& counts);
+
+// Colour of topic k (BGR), a fixed palette of well-separated hues.
+cv::Scalar topicColour(int k);
+
+// Draws summary.png: perplexity and surprise over the frames, the topic mix
+// over time, and a strip of thumbnails (may be empty).
+struct SummaryInput {
+    std::string title;
+    std::string subtitle;
+    int K = 0;
+    std::span<const FrameRow> rows;
+    // Thumbnails of some frames and their frame indices.
+    std::span<const cv::Mat> thumbs;
+    std::span<const int64_t> thumb_frames;
+};
+cv::Mat drawSummary(const SummaryInput& in);
+
+// Frames of the largest surprise peaks (local maxima at least `separation` frames apart), strongest first.
+std::vector<std::size_t> surprisePeaks(std::span<const FrameRow> rows, std::size_t count, std::size_t separation);
+
+} // namespace rost::tool

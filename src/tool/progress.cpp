@@ -1,0 +1,55 @@
+#include "progress.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace rost::tool {
+
+bool stderrIsTerminal() noexcept { return ::isatty(STDERR_FILENO) == 1; }
+
+Progress::Progress(std::string label, int64_t total, bool quiet)
+    : label_(std::move(label)), total_(total), enabled_(!quiet && stderrIsTerminal()) {
+    start_ = last_ = std::chrono::steady_clock::now();
+}
+
+void Progress::update(int64_t done, const std::string& note) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const bool last = total_ > 0 && done >= total_;
+    if (drawn_ && !last && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    drawn_ = true;
+    const double secs = std::chrono::duration<double>(now - start_).count();
+    const double fps = secs > 0 ? static_cast<double>(done) / secs : 0.0;
+    char line[256];
+    if (total_ > 0) {
+        constexpr int kWidth = 28;
+        const double f = std::min(1.0, static_cast<double>(done) / static_cast<double>(total_));
+        const int filled = static_cast<int>(f * kWidth);
+        char bar[kWidth + 1];
+        for (int i = 0; i < kWidth; ++i) bar[i] = i < filled ? '#' : '-';
+        bar[kWidth] = '\0';
+        const double eta = fps > 0 ? static_cast<double>(total_ - done) / fps : 0.0;
+        const int e = static_cast<int>(eta + 0.5);
+        std::snprintf(line, sizeof line, "\r%s [%s] %lld/%lld frames  %.1f frames/s  ETA %d:%02d  %s\033[K",
+                      label_.c_str(), bar, static_cast<long long>(done), static_cast<long long>(total_), fps, e / 60,
+                      e % 60, note.c_str());
+    } else {
+        std::snprintf(line, sizeof line, "\r%s %lld frames  %.1f frames/s  %s\033[K", label_.c_str(),
+                      static_cast<long long>(done), fps, note.c_str());
+    }
+    std::fputs(line, stderr);
+    std::fflush(stderr);
+}
+
+void Progress::finish() {
+    if (enabled_ && drawn_) {
+        std::fputs("\r\033[K", stderr);
+        std::fflush(stderr);
+    }
+    drawn_ = false;
+}
+
+} // namespace rost::tool

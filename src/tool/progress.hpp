@@ -1,0 +1,37 @@
+#pragma once
+
+// A one-line progress bar on stderr (frames, frames/s, ETA), drawn only when
+// stderr is a terminal and the user did not ask for quiet.
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace rost::tool {
+
+class Progress {
+public:
+    // total < 0: unknown length (no bar, no ETA).
+    Progress(std::string label, int64_t total, bool quiet);
+    ~Progress() { finish(); }
+    Progress(const Progress&) = delete;
+    Progress& operator=(const Progress&) = delete;
+
+    bool enabled() const noexcept { return enabled_; }
+    // Redraws at most ten times a second (and always for the last frame).
+    void update(int64_t done, const std::string& note = {});
+    // Clears the line.
+    void finish();
+
+private:
+    std::string label_;
+    int64_t total_;
+    bool enabled_;
+    bool drawn_ = false;
+    std::chrono::steady_clock::time_point start_, last_;
+};
+
+// Whether stderr is a terminal.
+bool stderrIsTerminal() noexcept;
+
+} // namespace rost::tool

@@ -1,0 +1,118 @@
+// `rost refine WORDS.csv [--positions POSITIONS.csv] --out DIR`: a word
+// stream made elsewhere (earlier ROST tools, another extractor) through the
+// same engine and outputs as `rost run`, with a count budget, reproducibly.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "collector.hpp"
+#include "outputs.hpp"
+#include "progress.hpp"
+#include "rost/word_stream.hpp"
+#include "tool.hpp"
+
+namespace rost::tool {
+
+int refineCommand(const RefineOptions& o) {
+    const auto started = std::chrono::steady_clock::now();
+    WordStreamLimits limits;
+    limits.vocabulary = o.model.V > 0 ? static_cast<uint32_t>(o.model.V) : 0;
+    limits.width = o.width;
+    limits.height = o.height;
+    limits.max_words = static_cast<uint32_t>(std::max(1, o.model.max_words));
+    WordStream ws;
+    Status st = readWordStream(o.words, o.positions, limits, ws);
+    if (!st.ok()) return fail(st.message());
+    if (ws.observations.empty()) return fail(o.words + ": no observations (the file has no data lines)");
+
+    // V and the frame geometry from the data unless given.
+    uint32_t maxWord = 0;
+    int32_t maxX = 0, maxY = 0;
+    for (const auto& ob : ws.observations) {
+        for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
+        for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
+    }
+    const int V = o.model.V > 0 ? o.model.V : static_cast<int>(maxWord) + 1;
+    int width = o.width > 0 ? o.width : maxX + 1;
+    int height = o.height > 0 ? o.height : maxY + 1;
+    if (!ws.has_positions) {
+        // No positions: every word at (0, 0), one cell per time step (a temporal topic model).
+        width = height = 1;
+        for (auto& ob : ws.observations) ob.positions.assign(ob.words.size(), Position{});
+    }
+
+    EngineConfig ec;
+    st = makeEngineConfig(o.model, width, height, V, static_cast<int64_t>(ws.observations.size()), false, ec);
+    if (!st.ok()) return fail(st.message());
+    std::unique_ptr<Engine> engine = Engine::create(ec, st);
+    if (!engine) return fail(st.message());
+    if (!o.model.in_topicmodel.empty()) {
+        std::vector<int32_t> counts;
+        st = readTopicModelCsv(o.model.in_topicmodel, ec.model.K, V, counts);
+        if (st.ok()) st = engine->model().addTopicCounts(counts);
+        if (!st.ok()) return fail("--in.topicmodel: " + st.message());
+    }
+    OutputDir out;
+    st = out.open(o.out);
+    if (!st.ok()) return fail(st.message());
+
+    Collector collector(*engine, 4);
+    Progress progress("rost refine", static_cast<int64_t>(ws.observations.size()), o.quiet);
+    int64_t done = 0;
+    for (const auto& ob : ws.observations) {
+        ObservationView v;
+        v.timestamp = ob.timestamp;
+        v.words = ob.words;
+        v.positions = ob.positions;
+        if (!engine->tryPush(v)) return fail("internal: the engine queue refused an observation");
+        engine->processPending();
+        collector.drain();
+        progress.update(++done);
+    }
+    progress.finish();
+    if (!collector.rejection().empty()) return fail(o.words + ": " + collector.rejection());
+    collector.finish(o.model.final_sweeps);
+
+    struct File {
+        const char* name;
+        std::string body;
+    };
+    const File files[] = {
+        {"topics.csv", collector.topicsCsv()},
+        {"perplexity.csv", collector.perplexityCsv()},
+        {"surprise.csv", collector.surpriseCsv()},
+        {"surprise_cells.csv", collector.cellSurpriseCsv()},
+        {"topicmodel.csv", topicModelCsv(engine->model())},
+    };
+    for (const auto& f : files) {
+        st = out.write(f.name, f.body);
+        if (!st.ok()) return fail(st.message());
+    }
+    if (o.summary) {
+        SummaryInput si;
+        si.title = "rost refine: " + o.words;
+        char sub[200];
+        std::snprintf(sub, sizeof sub, "K = %d, V = %d, %s, %llu refines per observation, %zu observations", ec.model.K, V,
+                      toString(ec.strategy.kind), static_cast<unsigned long long>(ec.budget.count),
+                      collector.rows().size());
+        si.subtitle = sub;
+        si.K = ec.model.K;
+        si.rows = collector.rows();
+        if (!cv::imwrite(out.staged("summary.png"), drawSummary(si)))
+            return fail(out.staged("summary.png") + ": cannot write");
+        out.track("summary.png");
+    }
+    st = out.commit();
+    if (!st.ok()) return fail(st.message());
+    if (!o.quiet) {
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+        std::fprintf(stderr, "rost: %zu observations in %.1f s; outputs in %s\n", ws.observations.size(), s,
+                     o.out.c_str());
+    }
+    return kExitOk;
+}
+
+} // namespace rost::tool

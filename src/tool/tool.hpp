@@ -1,0 +1,116 @@
+#pragma once
+
+// The `rost` command-line tool: options shared by its commands and the
+// commands themselves. main.cpp parses the command line (CLI11) into these
+// structs; each command returns an exit code.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "rost/engine.hpp"
+#include "rost/vision/frame_source.hpp"
+#include "rost/vision/words.hpp"
+
+namespace CLI {
+class App;
+}
+
+namespace rost::tool {
+
+// Exit codes.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitError = 2;        // bad input, bad option, unreadable file, write failure
+inline constexpr int kExitInterrupted = 130; // Ctrl-C on a file input (outputs discarded)
+
+// Model and refinement options, named as earlier ROST tools named them.
+struct ModelOptions {
+    int K = 16;
+    int V = 0;  // 0: what the words need (the extractors' vocabulary, or the largest id + 1)
+    double alpha = 0.1;
+    double beta = 0.5;
+    int cell_space = 64;
+    int cell_time = 1;
+    int g_space = 1;
+    int g_time = 1;
+    std::string sampler = "uni+now";
+    double eta = 0.5;
+    double q = 0.1;
+    uint64_t budget_refines = 8;  // time steps refined per observation (count budget)
+    double budget_ms = 0.0;       // > 0: time budget per observation instead
+    uint64_t seed = 1;
+    int ring = 0;                 // steps kept refinable; 0: the whole input when its length is known (up to 2048), else 256
+    int cell_capacity = 256;
+    int max_words = 4096;
+    std::string eviction = "keep";
+    int final_sweeps = 0;         // batch Gibbs sweeps over the window at the end of the stream
+    std::string in_topicmodel;    // K x V counts to start from
+};
+
+// Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
+Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, bool realtime,
+                        EngineConfig& out);
+
+struct RunOptions {
+    std::vector<std::string> inputs;
+    std::string out;
+    ModelOptions model;
+    // Words.
+    std::string vocabulary;  // empty: the built-in default
+    vision::ExtractorConfig words;
+    // Frames.
+    int width = 0;  // resize frames to this width (height keeps the aspect ratio unless given)
+    int height = 0;
+    int64_t max_frames = 0;  // 0: all
+    int camera_width = 640, camera_height = 480;
+    std::string camera_format;
+    // Realtime.
+    bool realtime = false;
+    int queue = 8;
+    std::string drop = "oldest";
+    bool fifo = false;
+    int cpu = -1;
+    // Outputs.
+    bool overlay = true;
+    std::string overlay_format = "mp4";  // mp4 or avi
+    bool summary = true;
+    bool quiet = false;
+    std::string command_line;  // recorded in run.txt
+};
+
+struct RefineOptions {
+    std::string words;
+    std::string positions;
+    std::string out;
+    ModelOptions model;
+    int width = 0, height = 0;  // frame size for positions; 0: from the largest position
+    bool summary = true;
+    bool quiet = false;
+    std::string command_line;
+};
+
+struct VocabOptions {
+    std::vector<std::string> inputs;
+    std::string out;
+    uint32_t words = 5000;
+    int features = 500;   // ORB keypoints per frame used for training
+    int every = 1;        // use every N-th frame
+    int64_t max_frames = 0;
+    int64_t max_descriptors = 400000;
+    int iterations = 25;
+    uint64_t seed = 1;
+    int threads = 2;
+    int width = 0;
+    bool quiet = false;
+    std::string command_line;
+};
+
+int runCommand(const RunOptions& o);
+int refineCommand(const RefineOptions& o);
+int vocabCommand(const VocabOptions& o);
+int camerasCommand();
+
+// Prints "rost: error: <message>" on one line to stderr and returns kExitError.
+int fail(const std::string& message);
+
+} // namespace rost::tool

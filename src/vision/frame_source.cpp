@@ -1,0 +1,311 @@
+#include "rost/vision/frame_source.hpp"
+
+#include <glob.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "camera_source.hpp"
+
+namespace fs = std::filesystem;
+
+namespace rost::vision {
+
+namespace {
+
+std::string lower(std::string s) {
+    for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+bool isImageFile(const fs::path& p) {
+    static const char* kExt[] = {".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pnm", ".pbm",
+                                 ".bmp", ".tif", ".tiff", ".webp"};
+    const std::string e = lower(p.extension().string());
+    return std::any_of(std::begin(kExt), std::end(kExt), [&](const char* x) { return e == x; });
+}
+
+// Brings a decoded image to 8-bit BGR at the source's size.
+bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
+    if (in.empty()) return false;
+    cv::Mat m = in;
+    if (m.depth() != CV_8U) {
+        cv::Mat t;
+        m.convertTo(t, CV_8U, m.depth() == CV_16U ? 1.0 / 257.0 : 1.0);
+        m = t;
+    }
+    cv::Mat bgr;
+    if (m.channels() == 3) bgr = m;
+    else if (m.channels() == 1) cv::cvtColor(m, bgr, cv::COLOR_GRAY2BGR);
+    else if (m.channels() == 4) cv::cvtColor(m, bgr, cv::COLOR_BGRA2BGR);
+    else return false;
+    if (bgr.cols == width && bgr.rows == height) {
+        if (bgr.data == out.data) return true;
+        bgr.copyTo(out);
+    } else {
+        const bool shrink = bgr.cols > width || bgr.rows > height;
+        cv::resize(bgr, out, cv::Size(width, height), 0, 0, shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
+    }
+    return true;
+}
+
+// Checks that a path exists, is a regular file and can be read.
+Status checkReadable(const std::string& path) {
+    std::error_code ec;
+    const auto st = fs::status(path, ec);
+    if (ec || !fs::exists(st)) return Status::error(path + ": no such file or directory");
+    if (!fs::is_regular_file(st) && !fs::is_directory(st)) return Status::error(path + ": not a regular file");
+    if (::access(path.c_str(), R_OK) != 0) return Status::error(path + ": cannot read: " + std::strerror(errno));
+    return {};
+}
+
+void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info) {
+    if (o.width > 0 && o.height > 0) {
+        info.width = o.width;
+        info.height = o.height;
+    } else if (o.width > 0) {  // keep the aspect ratio
+        info.width = o.width;
+        info.height = std::max(1, static_cast<int>(std::lround(static_cast<double>(h) * o.width / w)));
+    } else {
+        info.width = w;
+        info.height = h;
+    }
+}
+
+class ImageSequenceSource final : public FrameSource {
+public:
+    ImageSequenceSource(std::vector<std::string> files, std::string what) : files_(std::move(files)), what_(std::move(what)) {}
+
+    Status open(const SourceOptions& o) {
+        // The first image fixes the size.
+        cv::Mat first = cv::imread(files_[0], cv::IMREAD_UNCHANGED);
+        if (first.empty()) return Status::error(files_[0] + ": cannot decode image");
+        chooseSize(o, first.cols, first.rows, info_);
+        info_.frames = static_cast<int64_t>(files_.size());
+        info_.description = what_ + " (" + std::to_string(files_.size()) + " images, " + std::to_string(info_.width) +
+                            "x" + std::to_string(info_.height) + ")";
+        pending_ = first;
+        return {};
+    }
+
+    ReadStatus read(Frame& out) override {
+        if (next_ >= files_.size()) return ReadStatus::End;
+        cv::Mat img;
+        if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
+        else img = cv::imread(files_[next_], cv::IMREAD_UNCHANGED);
+        if (!normalise(img, info_.width, info_.height, out.image)) {
+            error_ = files_[next_] + ": cannot decode image";
+            return ReadStatus::Error;
+        }
+        out.index = static_cast<int64_t>(next_);
+        out.timestamp_us = static_cast<int64_t>(next_);
+        ++next_;
+        return ReadStatus::Ok;
+    }
+
+private:
+    std::vector<std::string> files_;
+    std::string what_;
+    std::size_t next_ = 0;
+    cv::Mat pending_;
+};
+
+class VideoSource final : public FrameSource {
+public:
+    explicit VideoSource(std::string path) : path_(std::move(path)) {}
+
+    Status open(const SourceOptions& o) {
+        if (!cap_.open(path_, cv::CAP_ANY) || !cap_.isOpened())
+            return Status::error(path_ + ": cannot decode video (OpenCV cannot open it)");
+        if (!cap_.read(pending_) || pending_.empty())
+            return Status::error(path_ + ": cannot decode video (no frame could be decoded)");
+        chooseSize(o, pending_.cols, pending_.rows, info_);
+        info_.fps = cap_.get(cv::CAP_PROP_FPS);
+        if (!(info_.fps > 0.0 && info_.fps < 1000.0)) info_.fps = 0.0;
+        const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
+        info_.frames = n >= 1.0 ? static_cast<int64_t>(n) : -1;
+        char fps[32];
+        std::snprintf(fps, sizeof fps, "%.3g fps", info_.fps);
+        info_.description = "video " + path_ + " (" + std::to_string(pending_.cols) + "x" +
+                            std::to_string(pending_.rows) + ", " + fps +
+                            (info_.frames > 0 ? ", " + std::to_string(info_.frames) + " frames" : std::string()) + ")";
+        return {};
+    }
+
+    ReadStatus read(Frame& out) override {
+        cv::Mat img;
+        if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
+        else if (!cap_.read(raw_) || raw_.empty()) return ReadStatus::End;
+        else img = raw_;
+        if (!normalise(img, info_.width, info_.height, out.image)) {
+            error_ = path_ + ": cannot decode frame " + std::to_string(next_);
+            return ReadStatus::Error;
+        }
+        out.index = next_;
+        out.timestamp_us = info_.fps > 0 ? static_cast<int64_t>(std::llround(next_ * 1e6 / info_.fps)) : next_;
+        ++next_;
+        return ReadStatus::Ok;
+    }
+
+private:
+    std::string path_;
+    cv::VideoCapture cap_;
+    cv::Mat pending_, raw_;
+    int64_t next_ = 0;
+};
+
+// Several sources one after the other at the first one's size.
+class ConcatSource final : public FrameSource {
+public:
+    explicit ConcatSource(std::vector<std::unique_ptr<FrameSource>> parts) : parts_(std::move(parts)) {
+        info_ = parts_[0]->info();
+        int64_t frames = 0;
+        info_.description.clear();
+        for (const auto& p : parts_) {
+            if (!info_.description.empty()) info_.description += " + ";
+            info_.description += p->info().description;
+            frames = (frames < 0 || p->info().frames < 0) ? -1 : frames + p->info().frames;
+            info_.live = info_.live || p->info().live;
+        }
+        info_.frames = frames;
+    }
+
+    ReadStatus read(Frame& out) override {
+        while (cur_ < parts_.size()) {
+            const ReadStatus s = parts_[cur_]->read(tmp_);
+            if (s == ReadStatus::Ok) {
+                if (!normalise(tmp_.image, info_.width, info_.height, out.image)) {
+                    error_ = "cannot convert a frame of " + parts_[cur_]->info().description;
+                    return ReadStatus::Error;
+                }
+                out.index = next_++;
+                out.timestamp_us = offset_us_ + tmp_.timestamp_us;
+                last_us_ = out.timestamp_us;
+                return ReadStatus::Ok;
+            }
+            if (s == ReadStatus::Error) {
+                error_ = parts_[cur_]->error();
+                return s;
+            }
+            ++cur_;
+            offset_us_ = last_us_ + 1;
+        }
+        return ReadStatus::End;
+    }
+
+    void interrupt() noexcept override {
+        for (auto& p : parts_) p->interrupt();
+    }
+
+private:
+    std::vector<std::unique_ptr<FrameSource>> parts_;
+    std::size_t cur_ = 0;
+    Frame tmp_;
+    int64_t next_ = 0, offset_us_ = 0, last_us_ = 0;
+};
+
+std::unique_ptr<FrameSource> openFiles(std::vector<std::string> files, const std::string& what,
+                                       const SourceOptions& o, Status& status) {
+    auto src = std::make_unique<ImageSequenceSource>(std::move(files), what);
+    status = src->open(o);
+    if (!status.ok()) return nullptr;
+    return src;
+}
+
+} // namespace
+
+bool isCameraInput(const std::string& input) noexcept { return input.rfind("camera:", 0) == 0; }
+
+std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const SourceOptions& o, Status& status) {
+    status = {};
+    if (input.empty()) {
+        status = Status::error("input: empty name");
+        return nullptr;
+    }
+    if (isCameraInput(input)) {
+        const std::string n = input.substr(7);
+        char* end = nullptr;
+        errno = 0;
+        const long idx = std::strtol(n.c_str(), &end, 10);
+        if (n.empty() || *end != '\0' || idx < 0 || errno) {
+            status = Status::error(input + ": expected camera:N with N a camera number from 0");
+            return nullptr;
+        }
+        return openCamera(static_cast<int>(idx), o, status);
+    }
+    if (input.find_first_of("*?[") != std::string::npos) {
+        glob_t g{};
+        const int rc = ::glob(input.c_str(), 0, nullptr, &g);
+        std::vector<std::string> files;
+        if (rc == 0)
+            for (std::size_t i = 0; i < g.gl_pathc; ++i)
+                if (fs::is_regular_file(g.gl_pathv[i])) files.emplace_back(g.gl_pathv[i]);
+        globfree(&g);
+        if (files.empty()) {
+            status = Status::error(input + ": no files match");
+            return nullptr;
+        }
+        std::sort(files.begin(), files.end());
+        for (const auto& f : files)
+            if (::access(f.c_str(), R_OK) != 0) {
+                status = Status::error(f + ": cannot read: " + std::strerror(errno));
+                return nullptr;
+            }
+        return openFiles(std::move(files), "images " + input, o, status);
+    }
+    status = checkReadable(input);
+    if (!status.ok()) return nullptr;
+    std::error_code ec;
+    if (fs::is_directory(input, ec)) {
+        std::vector<std::string> files;
+        for (const auto& e : fs::directory_iterator(input, ec))
+            if (e.is_regular_file() && isImageFile(e.path())) files.push_back(e.path().string());
+        if (ec) {
+            status = Status::error(input + ": cannot list directory: " + ec.message());
+            return nullptr;
+        }
+        if (files.empty()) {
+            status = Status::error(input + ": directory holds no images (png, jpg, jpeg, pgm, ppm, bmp, tif, webp)");
+            return nullptr;
+        }
+        std::sort(files.begin(), files.end());
+        return openFiles(std::move(files), "images in " + input, o, status);
+    }
+    if (isImageFile(input)) return openFiles({input}, "image " + input, o, status);
+    auto src = std::make_unique<VideoSource>(input);
+    status = src->open(o);
+    if (!status.ok()) return nullptr;
+    return src;
+}
+
+std::unique_ptr<FrameSource> openFrameSources(const std::vector<std::string>& inputs, const SourceOptions& o,
+                                              Status& status) {
+    if (inputs.empty()) {
+        status = Status::error("no input given");
+        return nullptr;
+    }
+    if (inputs.size() == 1) return openFrameSource(inputs[0], o, status);
+    std::vector<std::unique_ptr<FrameSource>> parts;
+    SourceOptions first = o;
+    for (const auto& in : inputs) {
+        auto s = openFrameSource(in, first, status);
+        if (!s) return nullptr;
+        if (parts.empty() && first.width <= 0) {
+            first.width = s->info().width;
+            first.height = s->info().height;
+        }
+        parts.push_back(std::move(s));
+    }
+    return std::make_unique<ConcatSource>(std::move(parts));
+}
+
+} // namespace rost::vision

@@ -1,0 +1,464 @@
+#include "rost/vision/vocabulary.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <thread>
+
+#include "rost/random.hpp"
+
+// x86-64's baseline has no popcount instruction; without one a 256-bit
+// distance costs ~4x more. Let the loader pick a POPCNT clone where the CPU
+// has it (every x86-64 since 2008). AArch64 and ARMv7 NEON have a byte
+// popcount (cnt / vcnt) that the compiler uses for __builtin_popcountll.
+#if defined(__x86_64__) && !defined(__POPCNT__) && defined(__GNUC__) && defined(__linux__)
+#define ROST_POPCOUNT_CLONES __attribute__((target_clones("popcnt", "default")))
+#else
+#define ROST_POPCOUNT_CLONES
+#endif
+
+namespace rost::vision {
+
+namespace {
+
+constexpr char kMagic[8] = {'R', 'O', 'S', 'T', 'V', 'O', 'C', '\0'};
+constexpr std::size_t kHeaderBytes = 32;
+
+inline int distanceInline(const Descriptor& a, const Descriptor& b) noexcept {
+    return __builtin_popcountll(a.w[0] ^ b.w[0]) + __builtin_popcountll(a.w[1] ^ b.w[1]) +
+           __builtin_popcountll(a.w[2] ^ b.w[2]) + __builtin_popcountll(a.w[3] ^ b.w[3]);
+}
+
+// Nearest of words[0..n) to d, keeping (best, bestId) when no word is strictly
+// closer or equally close with a lower id. ids == nullptr means id = index.
+ROST_POPCOUNT_CLONES
+void scan(const Descriptor* words, const uint32_t* ids, uint32_t n, const Descriptor& d, int& best,
+          uint32_t& bestId) noexcept {
+    for (uint32_t i = 0; i < n; ++i) {
+        const int dist = distanceInline(words[i], d);
+        const uint32_t id = ids ? ids[i] : i;
+        if (dist < best || (dist == best && id < bestId)) {
+            best = dist;
+            bestId = id;
+        }
+    }
+}
+
+// Bounded scan of one bucket: words whose distance to the bucket's centre
+// differs from the query's by more than `best` cannot beat it (triangle
+// inequality), so their distance is not computed.
+ROST_POPCOUNT_CLONES
+uint32_t scanBucket(const Descriptor* words, const uint32_t* ids, const uint16_t* centreDist, uint32_t n,
+                    const Descriptor& d, int dq, int& best, uint32_t& bestId) noexcept {
+    uint32_t visited = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        const int gap = dq > centreDist[i] ? dq - centreDist[i] : centreDist[i] - dq;
+        if (gap > best) continue;
+        ++visited;
+        const int dist = distanceInline(words[i], d);
+        if (dist < best || (dist == best && ids[i] < bestId)) {
+            best = dist;
+            bestId = ids[i];
+        }
+    }
+    return visited;
+}
+
+ROST_POPCOUNT_CLONES
+void distancesTo(const Descriptor* centres, uint32_t n, const Descriptor& d, int* out) noexcept {
+    for (uint32_t i = 0; i < n; ++i) out[i] = distanceInline(centres[i], d);
+}
+
+void putU32(std::vector<uint8_t>& b, std::size_t at, uint32_t v) {
+    for (int i = 0; i < 4; ++i) b[at + i] = static_cast<uint8_t>(v >> (8 * i));
+}
+uint32_t getU32(const uint8_t* p) {
+    return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 | static_cast<uint32_t>(p[2]) << 16 |
+           static_cast<uint32_t>(p[3]) << 24;
+}
+
+struct CrcTable {
+    uint32_t t[256];
+    constexpr CrcTable() : t{} {
+        for (uint32_t i = 0; i < 256; ++i) {
+            uint32_t c = i;
+            for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            t[i] = c;
+        }
+    }
+};
+constexpr CrcTable kCrc;
+
+} // namespace
+
+Descriptor Descriptor::fromBytes(const uint8_t* bytes) noexcept {
+    Descriptor d;
+    std::memcpy(d.w.data(), bytes, kBytes);
+    return d;
+}
+
+void Descriptor::toBytes(uint8_t* bytes) const noexcept { std::memcpy(bytes, w.data(), kBytes); }
+
+int hammingDistance(const Descriptor& a, const Descriptor& b) noexcept { return distanceInline(a, b); }
+
+const char* toString(SearchMethod m) noexcept {
+    switch (m) {
+    case SearchMethod::Linear: return "linear";
+    case SearchMethod::Indexed: return "indexed";
+    }
+    return "?";
+}
+
+uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc) noexcept {
+    crc = ~crc;
+    for (uint8_t b : bytes) crc = kCrc.t[(crc ^ b) & 0xFFu] ^ (crc >> 8);
+    return ~crc;
+}
+
+// ---- vocabulary -----------------------------------------------------------------
+
+Vocabulary::Vocabulary(std::vector<Descriptor> words, std::string note)
+    : words_(std::move(words)), note_(std::move(note)) {
+    buildIndex();
+}
+
+void Vocabulary::buildIndex() {
+    coarse_.clear();
+    bucket_begin_.clear();
+    bucket_words_.clear();
+    bucket_ids_.clear();
+    bucket_dist_.clear();
+    bucket_radius_.clear();
+    const auto W = static_cast<uint32_t>(words_.size());
+    if (W < 256) return;  // a linear scan is as fast
+    // About sqrt(W) coarse centres balances the two levels' work; they are a
+    // k-majority clustering of the words themselves (fixed seed: the index
+    // depends only on the vocabulary).
+    std::vector<Descriptor> distinct = words_;
+    std::sort(distinct.begin(), distinct.end(), [](const Descriptor& a, const Descriptor& b) { return a.w < b.w; });
+    distinct.erase(std::unique(distinct.begin(), distinct.end()), distinct.end());
+    auto C = static_cast<uint32_t>(std::max(2.0, std::round(std::sqrt(static_cast<double>(W)))));
+    C = std::min<uint32_t>(C, static_cast<uint32_t>(distinct.size()));
+    KMajorityOptions o;
+    o.words = C;
+    o.max_iterations = 10;
+    o.seed = 0x5EED;
+    o.threads = 1;
+    if (!trainKMajority(distinct, o, coarse_).ok()) {
+        coarse_.clear();
+        return;
+    }
+    std::vector<uint32_t> owner(W);
+    std::vector<int> dist(W);
+    std::vector<uint32_t> count(C, 0);
+    for (uint32_t i = 0; i < W; ++i) {
+        int best = std::numeric_limits<int>::max();
+        uint32_t id = 0;
+        scan(coarse_.data(), nullptr, C, words_[i], best, id);
+        owner[i] = id;
+        dist[i] = best;
+        ++count[id];
+    }
+    bucket_begin_.assign(C + 1, 0);
+    for (uint32_t c = 0; c < C; ++c) bucket_begin_[c + 1] = bucket_begin_[c] + count[c];
+    bucket_words_.resize(W);
+    bucket_ids_.resize(W);
+    bucket_dist_.resize(W);
+    bucket_radius_.assign(C, 0);
+    std::vector<uint32_t> fill(bucket_begin_.begin(), bucket_begin_.end() - 1);
+    for (uint32_t i = 0; i < W; ++i) {
+        const uint32_t at = fill[owner[i]]++;
+        bucket_words_[at] = words_[i];
+        bucket_ids_[at] = i;
+        bucket_dist_[at] = static_cast<uint16_t>(dist[i]);
+        bucket_radius_[owner[i]] = std::max<uint16_t>(bucket_radius_[owner[i]], static_cast<uint16_t>(dist[i]));
+    }
+}
+
+uint32_t Vocabulary::linear(const Descriptor& d, int& best) const noexcept {
+    best = std::numeric_limits<int>::max();
+    uint32_t id = 0;
+    scan(words_.data(), nullptr, size(), d, best, id);
+    return id;
+}
+
+uint32_t Vocabulary::indexed(const Descriptor& d, int& best, uint32_t* visited) const noexcept {
+    const auto C = static_cast<uint32_t>(coarse_.size());
+    if (C == 0) {
+        if (visited) *visited = size();
+        return linear(d, best);
+    }
+    // Coarse level: distance to every centre, buckets visited nearest first
+    // so `best` shrinks early and bounds prune the rest.
+    constexpr uint32_t kMaxCoarse = 1024;
+    int dc[kMaxCoarse];
+    uint16_t order[kMaxCoarse];
+    const uint32_t n = std::min(C, kMaxCoarse);
+    distancesTo(coarse_.data(), n, d, dc);
+    // Counting sort by distance (0..256): no allocation, stable.
+    uint16_t hist[258] = {};
+    for (uint32_t c = 0; c < n; ++c) ++hist[dc[c] + 1];
+    for (int i = 1; i < 258; ++i) hist[i] = static_cast<uint16_t>(hist[i] + hist[i - 1]);
+    for (uint32_t c = 0; c < n; ++c) order[hist[dc[c]]++] = static_cast<uint16_t>(c);
+
+    best = std::numeric_limits<int>::max();
+    uint32_t id = 0, seen = n;
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t c = order[i];
+        // Every word w of bucket c has d(q, w) >= d(q, c) - radius(c).
+        if (dc[c] - static_cast<int>(bucket_radius_[c]) > best) continue;
+        const uint32_t b = bucket_begin_[c], e = bucket_begin_[c + 1];
+        seen += scanBucket(bucket_words_.data() + b, bucket_ids_.data() + b, bucket_dist_.data() + b, e - b, d, dc[c],
+                           best, id);
+    }
+    if (visited) *visited = seen;
+    return id;
+}
+
+uint32_t Vocabulary::quantize(const Descriptor& d, SearchMethod m) const noexcept {
+    int best = 0;
+    return quantize(d, best, m);
+}
+
+uint32_t Vocabulary::quantize(const Descriptor& d, int& distance, SearchMethod m) const noexcept {
+    return m == SearchMethod::Linear ? linear(d, distance) : indexed(d, distance, nullptr);
+}
+
+uint32_t Vocabulary::candidatesVisited(const Descriptor& d) const noexcept {
+    int best = 0;
+    uint32_t visited = 0;
+    (void)indexed(d, best, &visited);
+    return visited;
+}
+
+void Vocabulary::quantizeRows(const uint8_t* rows, std::size_t stride, std::size_t count, uint32_t* out,
+                              SearchMethod m) const noexcept {
+    for (std::size_t i = 0; i < count; ++i) out[i] = quantize(Descriptor::fromBytes(rows + i * stride), m);
+}
+
+// ---- file format ------------------------------------------------------------------
+
+std::vector<uint8_t> Vocabulary::serialize() const {
+    const std::size_t payload = note_.size() + words_.size() * Descriptor::kBytes;
+    std::vector<uint8_t> b(kHeaderBytes + payload, 0);
+    std::memcpy(b.data(), kMagic, sizeof kMagic);
+    putU32(b, 8, kFormatVersion);
+    putU32(b, 12, size());
+    putU32(b, 16, static_cast<uint32_t>(Descriptor::kBytes));
+    putU32(b, 20, static_cast<uint32_t>(note_.size()));
+    std::memcpy(b.data() + kHeaderBytes, note_.data(), note_.size());
+    uint8_t* p = b.data() + kHeaderBytes + note_.size();
+    for (const Descriptor& d : words_) {
+        d.toBytes(p);
+        p += Descriptor::kBytes;
+    }
+    putU32(b, 24, crc32({b.data() + kHeaderBytes, payload}));
+    return b;
+}
+
+Status Vocabulary::save(const std::string& path) const {
+    if (empty()) return Status::error("vocabulary " + path + ": nothing to save (no words)");
+    if (note_.size() > kMaxNoteBytes) return Status::error("vocabulary " + path + ": note longer than 65536 bytes");
+    const std::vector<uint8_t> bytes = serialize();
+    const std::string tmp = path + ".tmp";
+    {
+        std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+        if (!f) return Status::error("cannot write " + tmp + ": " + std::strerror(errno));
+        f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+        f.flush();
+        if (!f) {
+            std::remove(tmp.c_str());
+            return Status::error("cannot write " + tmp + ": " + std::strerror(errno));
+        }
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) {
+        std::remove(tmp.c_str());
+        return Status::error("cannot rename " + tmp + " to " + path + ": " + ec.message());
+    }
+    return {};
+}
+
+Status Vocabulary::load(const std::string& path, Vocabulary& out) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) return Status::error("vocabulary " + path + ": no such file");
+    if (std::filesystem::is_directory(path, ec)) return Status::error("vocabulary " + path + ": is a directory");
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return Status::error("vocabulary " + path + ": cannot open: " + std::strerror(errno));
+    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    if (f.bad()) return Status::error("vocabulary " + path + ": read error: " + std::strerror(errno));
+    return parse(bytes, path, out);
+}
+
+Status Vocabulary::parse(std::span<const uint8_t> b, const std::string& name, Vocabulary& out) {
+    auto fail = [&](const std::string& why) { return Status::error("vocabulary " + name + ": " + why); };
+    if (b.size() < sizeof kMagic || std::memcmp(b.data(), kMagic, sizeof kMagic) != 0)
+        return fail("not a rost vocabulary (magic \"ROSTVOC\" missing at byte 0)");
+    if (b.size() < kHeaderBytes)
+        return fail("truncated header (" + std::to_string(b.size()) + " of " + std::to_string(kHeaderBytes) + " bytes)");
+    const uint32_t version = getU32(b.data() + 8);
+    const uint32_t W = getU32(b.data() + 12);
+    const uint32_t D = getU32(b.data() + 16);
+    const uint32_t N = getU32(b.data() + 20);
+    const uint32_t crc = getU32(b.data() + 24);
+    if (version != kFormatVersion)
+        return fail("format version " + std::to_string(version) + " is not supported (this build reads version " +
+                    std::to_string(kFormatVersion) + ")");
+    if (D != Descriptor::kBytes)
+        return fail("descriptor size " + std::to_string(D) + " bytes at byte 16, expected " +
+                    std::to_string(Descriptor::kBytes));
+    if (W == 0 || W > kMaxWords)
+        return fail("word count " + std::to_string(W) + " at byte 12 outside 1.." + std::to_string(kMaxWords));
+    if (N > kMaxNoteBytes) return fail("note length " + std::to_string(N) + " at byte 20 exceeds 65536");
+    const std::size_t expect = kHeaderBytes + N + static_cast<std::size_t>(W) * D;
+    if (b.size() < expect)
+        return fail("truncated: " + std::to_string(b.size()) + " bytes, the header promises " + std::to_string(expect));
+    if (b.size() > expect)
+        return fail(std::to_string(b.size() - expect) + " unexpected bytes after the last word (at byte " +
+                    std::to_string(expect) + ")");
+    const uint32_t actual = crc32(b.subspan(kHeaderBytes));
+    if (actual != crc) {
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "checksum mismatch (stored %08x, computed %08x): the file is corrupt", crc,
+                      actual);
+        return fail(buf);
+    }
+    std::vector<Descriptor> words(W);
+    const uint8_t* p = b.data() + kHeaderBytes + N;
+    for (uint32_t i = 0; i < W; ++i) words[i] = Descriptor::fromBytes(p + static_cast<std::size_t>(i) * D);
+    out = Vocabulary(std::move(words), std::string(reinterpret_cast<const char*>(b.data() + kHeaderBytes), N));
+    return {};
+}
+
+// ---- k-majority -------------------------------------------------------------------
+
+Status trainKMajority(std::span<const Descriptor> data, const KMajorityOptions& o, std::vector<Descriptor>& centres,
+                      KMajorityReport* report, const std::function<void(int, uint64_t)>& progress) {
+    const std::size_t N = data.size();
+    const uint32_t K = o.words;
+    if (K == 0) return Status::error("k-majority: the vocabulary size must be at least 1");
+    if (N < K)
+        return Status::error("k-majority: " + std::to_string(N) + " descriptors cannot make " + std::to_string(K) +
+                             " words; use more footage or fewer words");
+    if (o.max_iterations < 1) return Status::error("k-majority: max_iterations must be at least 1");
+
+    // Initial centres: distinct descriptors in a seeded random order.
+    Rng rng(o.seed);
+    std::vector<uint32_t> perm(N);
+    for (std::size_t i = 0; i < N; ++i) perm[i] = static_cast<uint32_t>(i);
+    centres.clear();
+    centres.reserve(K);
+    {
+        std::vector<Descriptor> taken;
+        taken.reserve(K);
+        for (std::size_t i = 0; i < N && centres.size() < K; ++i) {
+            const std::size_t j = i + rng.below(static_cast<uint32_t>(N - i));
+            std::swap(perm[i], perm[j]);
+            const Descriptor& d = data[perm[i]];
+            auto it = std::lower_bound(taken.begin(), taken.end(), d,
+                                       [](const Descriptor& a, const Descriptor& b) { return a.w < b.w; });
+            if (it != taken.end() && *it == d) continue;
+            taken.insert(it, d);
+            centres.push_back(d);
+        }
+    }
+    if (centres.size() < K)
+        return Status::error("k-majority: only " + std::to_string(centres.size()) + " distinct descriptors, " +
+                             std::to_string(K) + " words asked for");
+
+    std::vector<uint32_t> assign(N, UINT32_MAX);
+    std::vector<uint16_t> dist(N, 0);
+    std::vector<uint32_t> bits(static_cast<std::size_t>(K) * 256);
+    std::vector<uint32_t> members(K);
+    const int threads = std::max(1, o.threads);
+    KMajorityReport rep;
+    for (int it = 0; it < o.max_iterations; ++it) {
+        // Assignment (parallel; each descriptor independent, so the result is the same for any thread count).
+        std::atomic<uint64_t> changed{0};
+        auto work = [&](std::size_t b, std::size_t e) {
+            uint64_t ch = 0;
+            for (std::size_t i = b; i < e; ++i) {
+                int best = std::numeric_limits<int>::max();
+                uint32_t id = 0;
+                scan(centres.data(), nullptr, K, data[i], best, id);
+                if (id != assign[i]) ++ch;
+                assign[i] = id;
+                dist[i] = static_cast<uint16_t>(best);
+            }
+            changed += ch;
+        };
+        std::vector<std::thread> pool;
+        const std::size_t chunk = (N + threads - 1) / threads;
+        for (int t = 1; t < threads; ++t) {
+            const std::size_t b = std::min(N, t * chunk), e = std::min(N, (t + 1) * chunk);
+            if (b < e) pool.emplace_back(work, b, e);
+        }
+        work(0, std::min(N, chunk));
+        for (auto& th : pool) th.join();
+        rep.iterations = it + 1;
+        rep.changed_last = changed.load();
+        if (progress) progress(it + 1, rep.changed_last);
+        if (rep.changed_last == 0) break;
+
+        // Empty clusters take the descriptors farthest from their centres.
+        std::fill(members.begin(), members.end(), 0u);
+        for (std::size_t i = 0; i < N; ++i) ++members[assign[i]];
+        std::vector<uint32_t> empties;
+        for (uint32_t k = 0; k < K; ++k)
+            if (members[k] == 0) empties.push_back(k);
+        if (!empties.empty()) {
+            std::vector<uint32_t> far(N);
+            for (std::size_t i = 0; i < N; ++i) far[i] = static_cast<uint32_t>(i);
+            std::stable_sort(far.begin(), far.end(), [&](uint32_t a, uint32_t b) { return dist[a] > dist[b]; });
+            std::size_t next = 0;
+            for (uint32_t k : empties) {
+                while (next < N && members[assign[far[next]]] <= 1) ++next;  // do not empty another cluster
+                if (next == N) break;
+                const uint32_t i = far[next++];
+                --members[assign[i]];
+                assign[i] = k;
+                dist[i] = 0;
+                members[k] = 1;
+                ++rep.reseeded;
+            }
+        }
+
+        // Majority vote per bit (ties keep the old bit).
+        std::fill(bits.begin(), bits.end(), 0u);
+        for (std::size_t i = 0; i < N; ++i) {
+            uint32_t* c = bits.data() + static_cast<std::size_t>(assign[i]) * 256;
+            for (int w = 0; w < 4; ++w) {
+                uint64_t x = data[i].w[w];
+                while (x) {
+                    ++c[w * 64 + __builtin_ctzll(x)];
+                    x &= x - 1;
+                }
+            }
+        }
+        for (uint32_t k = 0; k < K; ++k) {
+            if (members[k] == 0) continue;
+            const uint32_t* c = bits.data() + static_cast<std::size_t>(k) * 256;
+            Descriptor nd = centres[k];
+            for (int b = 0; b < 256; ++b) {
+                const uint64_t mask = 1ull << (b & 63);
+                if (2 * c[b] > members[k]) nd.w[b >> 6] |= mask;
+                else if (2 * c[b] < members[k]) nd.w[b >> 6] &= ~mask;
+            }
+            centres[k] = nd;
+        }
+    }
+    double sum = 0.0;
+    for (std::size_t i = 0; i < N; ++i) sum += hammingDistance(data[i], centres[assign[i]]);
+    rep.mean_distance = sum / static_cast<double>(N);
+    if (report) *report = rep;
+    return {};
+}
+
+} // namespace rost::vision

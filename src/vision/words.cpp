@@ -1,0 +1,151 @@
+#include "rost/vision/words.hpp"
+
+#include <algorithm>
+
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace rost::vision {
+
+Status ExtractorConfig::validate() const {
+    auto bad = [](const char* field, double v, const char* range) {
+        return Status::error(std::string("extractor setting ") + field + " = " + std::to_string(v) + " outside " +
+                             range);
+    };
+    if (!orb && !intensity && !hue) return Status::error("extractor settings: no extractor enabled (orb, intensity, hue)");
+    if (orb) {
+        if (orb_features < 1 || orb_features > 100000) return bad("orb_features", orb_features, "1..100000");
+        if (!(orb_scale_factor > 1.0f && orb_scale_factor <= 4.0f))
+            return bad("orb_scale_factor", orb_scale_factor, "(1, 4]");
+        if (orb_levels < 1 || orb_levels > 32) return bad("orb_levels", orb_levels, "1..32");
+        if (orb_fast_threshold < 1 || orb_fast_threshold > 255)
+            return bad("orb_fast_threshold", orb_fast_threshold, "1..255");
+    }
+    if (intensity || hue) {
+        if (thumb_cell < 1 || thumb_cell > 256) return bad("thumb_cell", thumb_cell, "1..256");
+    }
+    if (hue) {
+        if (hue_min_saturation < 0 || hue_min_saturation > 255)
+            return bad("hue_min_saturation", hue_min_saturation, "0..255");
+        if (hue_min_value < 0 || hue_min_value > 255) return bad("hue_min_value", hue_min_value, "0..255");
+    }
+    return {};
+}
+
+const char* WordLayout::kindOf(uint32_t w) const noexcept {
+    if (w >= orb_offset && w < orb_offset + orb_size) return "orb";
+    if (w >= intensity_offset && w < intensity_offset + intensity_size) return "intensity";
+    if (w >= hue_offset && w < hue_offset + hue_size) return "hue";
+    return "?";
+}
+
+WordLayout makeLayout(const ExtractorConfig& c, uint32_t orbSize) noexcept {
+    WordLayout l;
+    l.orb_offset = 0;
+    l.orb_size = c.orb ? orbSize : 0;
+    l.intensity_offset = l.orb_offset + l.orb_size;
+    l.intensity_size = c.intensity ? WordExtractor::kIntensityWords : 0;
+    l.hue_offset = l.intensity_offset + l.intensity_size;
+    l.hue_size = c.hue ? WordExtractor::kHueWords : 0;
+    return l;
+}
+
+WordExtractor::WordExtractor(const ExtractorConfig& cfg, std::shared_ptr<const Vocabulary> vocabulary)
+    : cfg_(cfg), vocabulary_(std::move(vocabulary)) {
+    layout_ = makeLayout(cfg_, vocabulary_ ? vocabulary_->size() : 0);
+    if (cfg_.orb)
+        orb_ = cv::ORB::create(cfg_.orb_features, cfg_.orb_scale_factor, cfg_.orb_levels, 31, 0, 2,
+                               cv::ORB::HARRIS_SCORE, 31, cfg_.orb_fast_threshold);
+}
+
+WordExtractor::~WordExtractor() = default;
+
+std::unique_ptr<WordExtractor> WordExtractor::create(const ExtractorConfig& config,
+                                                     std::shared_ptr<const Vocabulary> vocabulary, Status& status) {
+    status = config.validate();
+    if (!status.ok()) return nullptr;
+    if (config.orb && (!vocabulary || vocabulary->empty())) {
+        status = Status::error("ORB words need a vocabulary (none given)");
+        return nullptr;
+    }
+    return std::unique_ptr<WordExtractor>(new WordExtractor(config, config.orb ? std::move(vocabulary) : nullptr));
+}
+
+void WordExtractor::thumbnailWords(const cv::Mat& bgr, FrameWords& out) {
+    if (!cfg_.intensity && !cfg_.hue) return;
+    const int s = cfg_.thumb_cell;
+    const int tw = std::max(1, bgr.cols / s), th = std::max(1, bgr.rows / s);
+    // Area averaging: each thumbnail pixel is the mean of its block, so the
+    // words describe the block rather than one aliased pixel.
+    if (s == 1) thumb_ = bgr;
+    else cv::resize(bgr, thumb_, cv::Size(tw, th), 0, 0, cv::INTER_AREA);
+    // Block centres in the full frame (the grid covers cols x rows scaled by
+    // cols / tw, so it spans the whole frame even when s does not divide it).
+    const double sx = static_cast<double>(bgr.cols) / tw, sy = static_cast<double>(bgr.rows) / th;
+    auto centre = [&](int x, int y) {
+        Position p;
+        p.x = std::min(bgr.cols - 1, static_cast<int32_t>((x + 0.5) * sx));
+        p.y = std::min(bgr.rows - 1, static_cast<int32_t>((y + 0.5) * sy));
+        return p;
+    };
+    if (cfg_.intensity) {
+        cv::cvtColor(thumb_, grey_, cv::COLOR_BGR2GRAY);
+        for (int y = 0; y < th; ++y) {
+            const uint8_t* row = grey_.ptr<uint8_t>(y);
+            for (int x = 0; x < tw; ++x) {
+                out.words.push_back(layout_.intensity_offset + row[x]);
+                out.positions.push_back(centre(x, y));
+                ++out.intensity;
+            }
+        }
+    }
+    if (cfg_.hue) {
+        cv::cvtColor(thumb_, hsv_, cv::COLOR_BGR2HSV);
+        for (int y = 0; y < th; ++y) {
+            const cv::Vec3b* row = hsv_.ptr<cv::Vec3b>(y);
+            for (int x = 0; x < tw; ++x) {
+                if (row[x][1] < cfg_.hue_min_saturation || row[x][2] < cfg_.hue_min_value) continue;
+                out.words.push_back(layout_.hue_offset + std::min<uint32_t>(row[x][0], kHueWords - 1));
+                out.positions.push_back(centre(x, y));
+                ++out.hue;
+            }
+        }
+    }
+}
+
+bool WordExtractor::extract(const cv::Mat& image, FrameWords& out) {
+    out.clear();
+    if (image.empty() || image.depth() != CV_8U) return false;
+    cv::Mat bgr;
+    if (image.channels() == 3) bgr = image;
+    else if (image.channels() == 1) cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
+    else if (image.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
+    else return false;
+
+    if (cfg_.orb) {
+        if (image.channels() == 1) grey_ = image;
+        else cv::cvtColor(bgr, grey_, cv::COLOR_BGR2GRAY);
+        keypoints_.clear();
+        orb_->detectAndCompute(grey_, cv::noArray(), keypoints_, descriptors_);
+        if (!keypoints_.empty() && (descriptors_.cols != static_cast<int>(Descriptor::kBytes) ||
+                                    descriptors_.type() != CV_8U))
+            return false;
+        const std::size_t n = keypoints_.size();
+        const std::size_t base = out.words.size();
+        out.words.resize(base + n);
+        vocabulary_->quantizeRows(descriptors_.data, descriptors_.step[0], n, out.words.data() + base, cfg_.search);
+        out.positions.reserve(base + n);
+        for (std::size_t i = 0; i < n; ++i) {
+            out.words[base + i] += layout_.orb_offset;
+            Position p;
+            p.x = std::clamp(static_cast<int32_t>(keypoints_[i].pt.x), 0, image.cols - 1);
+            p.y = std::clamp(static_cast<int32_t>(keypoints_[i].pt.y), 0, image.rows - 1);
+            out.positions.push_back(p);
+        }
+        out.orb = static_cast<uint32_t>(n);
+    }
+    thumbnailWords(bgr, out);
+    return true;
+}
+
+} // namespace rost::vision
