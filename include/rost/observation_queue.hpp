@@ -148,6 +148,17 @@ public:
     uint64_t droppedOldest() const noexcept { return p_.dropped_oldest.load(std::memory_order_relaxed); }
     uint64_t wordsTruncated() const noexcept { return p_.words_truncated.load(std::memory_order_relaxed); }
 
+    // Checkpoint restore (set-up: no producer or consumer running, queue
+    // empty): the next push gets sequence number `next_sequence` and the
+    // loss counters resume from the given values.
+    void restoreProducer(uint64_t next_sequence, uint64_t dropped_newest, uint64_t dropped_oldest,
+                         uint64_t words_truncated) noexcept {
+        p_.pushed.store(next_sequence, std::memory_order_relaxed);
+        p_.dropped_newest.store(dropped_newest, std::memory_order_relaxed);
+        p_.dropped_oldest.store(dropped_oldest, std::memory_order_relaxed);
+        p_.words_truncated.store(words_truncated, std::memory_order_relaxed);
+    }
+
 private:
     struct Meta {
         uint64_t sequence;

@@ -1,0 +1,38 @@
+#pragma once
+
+// The topic model alone, as the earlier ROST tools wrote it (`topicmodel.csv`,
+// read back with `--in.topicmodel`): K lines of V comma-separated counts,
+// line k+1 holding n_k^v for v = 0..V-1. Exported at the end of one mission
+// and imported at the start of the next, its counts become a prior that
+// refinement never removes (Model::addTopicCounts), so the new mission starts
+// with the topics learned before. Blank lines and '#' lines are skipped.
+// Set-up code: allocates.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rost/model.hpp"
+#include "rost/status.hpp"
+
+namespace rost {
+
+// The model's n_k^v as CSV text.
+std::string formatTopicModelCsv(const Model& model);
+// Written atomically (temporary file, fsync, rename).
+Status writeTopicModelCsv(const Model& model, const std::string& path);
+
+// Parses K x V counts (row-major, topic by word, as addTopicCounts takes
+// them). Errors name the file, line and column: "topicmodel.csv:3:118:
+// expected a count, found 'x'", "topicmodel.csv:2:1: 5435 counts, expected
+// V = 5436", "topicmodel.csv: 12 topic lines, expected K = 16". A topic's
+// total must stay below 2^31 (n_k is 32-bit).
+Status parseTopicModelCsv(std::string_view text, int K, int V, std::vector<int32_t>& counts,
+                          std::string_view name = "topicmodel.csv");
+
+// Reads `path` and adds its counts to `model` (Model::addTopicCounts);
+// refuses counts that would overflow the model's n_k. Set-up only.
+Status loadTopicModelCsv(const std::string& path, Model& model);
+
+} // namespace rost

@@ -1,0 +1,814 @@
+#include "rost/checkpoint.hpp"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <new>
+
+#include "rost/config_file.hpp"
+#include "rost/kernel.hpp"
+#include "rost/word_stream.hpp"
+
+namespace rost {
+
+// ---- CRC-32C ----------------------------------------------------------------------
+
+namespace {
+
+// Slice-by-8 tables: table[0] is the classic byte table; table[j][b] is the
+// CRC of byte b followed by j zero bytes.
+constexpr std::array<std::array<uint32_t, 256>, 8> makeCrcTables() {
+    std::array<std::array<uint32_t, 256>, 8> t{};
+    for (uint32_t b = 0; b < 256; ++b) {
+        uint32_t c = b;
+        for (int k = 0; k < 8; ++k) c = (c & 1u) ? (c >> 1) ^ 0x82F63B78u : c >> 1;
+        t[0][b] = c;
+    }
+    for (uint32_t b = 0; b < 256; ++b)
+        for (int j = 1; j < 8; ++j) t[j][b] = (t[j - 1][b] >> 8) ^ t[0][t[j - 1][b] & 0xFFu];
+    return t;
+}
+constexpr auto kCrc = makeCrcTables();
+
+} // namespace
+
+uint32_t crc32c(std::span<const uint8_t> bytes, uint32_t crc) noexcept {
+    uint32_t c = ~crc;
+    const uint8_t* p = bytes.data();
+    std::size_t n = bytes.size();
+    while (n >= 8) {
+        const uint32_t lo = c ^ (uint32_t{p[0]} | uint32_t{p[1]} << 8 | uint32_t{p[2]} << 16 | uint32_t{p[3]} << 24);
+        c = kCrc[7][lo & 0xFFu] ^ kCrc[6][(lo >> 8) & 0xFFu] ^ kCrc[5][(lo >> 16) & 0xFFu] ^ kCrc[4][lo >> 24] ^
+            kCrc[3][p[4]] ^ kCrc[2][p[5]] ^ kCrc[1][p[6]] ^ kCrc[0][p[7]];
+        p += 8;
+        n -= 8;
+    }
+    while (n-- > 0) c = (c >> 8) ^ kCrc[0][(c ^ *p++) & 0xFFu];
+    return ~c;
+}
+
+namespace {
+
+// ---- fixed-width little-endian encoding ----------------------------------------------
+
+constexpr char kMagic[8] = {'R', 'O', 'S', 'T', 'C', 'K', 'P', 'T'};
+constexpr std::size_t kFileHeader = 32;
+constexpr std::size_t kSectionHeader = 56;
+constexpr std::size_t kNameBytes = 32;
+constexpr uint32_t kMaxSections = 256;
+constexpr bool kLittleEndian = std::endian::native == std::endian::little;
+
+void putU32(uint8_t* p, uint32_t v) noexcept {
+    for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+void putU64(uint8_t* p, uint64_t v) noexcept {
+    for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+uint32_t getU32(const uint8_t* p) noexcept {
+    uint32_t v = 0;
+    for (int i = 0; i < 4; ++i) v |= uint32_t{p[i]} << (8 * i);
+    return v;
+}
+uint64_t getU64(const uint8_t* p) noexcept {
+    uint64_t v = 0;
+    for (int i = 0; i < 8; ++i) v |= uint64_t{p[i]} << (8 * i);
+    return v;
+}
+
+// Copies `bytes` of `width`-byte host elements to little-endian (or back:
+// the swap is its own inverse). A plain copy on little-endian hosts.
+void copyLittleEndian(uint8_t* dst, const uint8_t* src, std::size_t bytes, uint32_t width) noexcept {
+    if (kLittleEndian || width == 1) {
+        if (bytes) std::memcpy(dst, src, bytes);
+        return;
+    }
+    for (std::size_t i = 0; i + width <= bytes; i += width)
+        for (uint32_t j = 0; j < width; ++j) dst[i + j] = src[i + width - 1 - j];
+}
+
+// Element `i` of a little-endian payload as T (an integer or float type).
+template <typename T>
+T element(const uint8_t* payload, std::size_t i) noexcept {
+    using U = std::conditional_t<sizeof(T) == 1, uint8_t,
+                                 std::conditional_t<sizeof(T) == 2, uint16_t,
+                                                    std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
+    const uint8_t* p = payload + i * sizeof(T);
+    U u = 0;
+    for (std::size_t b = 0; b < sizeof(T); ++b) u = static_cast<U>(u | static_cast<U>(U{p[b]} << (8 * b)));
+    return std::bit_cast<T>(u);
+}
+
+// Element width of every state section (how it is byte-swapped on a
+// big-endian host). A section this table does not know is refused, so a
+// new state buffer cannot slip into checkpoints without a decision here.
+struct KnownSection {
+    const char* name;
+    uint32_t width;
+};
+constexpr KnownSection kKnown[] = {
+    {"config", 1},
+    {"counters.frames", 8},
+    {"counters.steps", 8},
+    {"counters.tokens_refined", 8},
+    {"counters.words_in_model", 8},
+    {"counters.nkv_is_window", 1},
+    {"rng", 4},
+    {"n_kv", 4},
+    {"n_k", 4},
+    {"inv", 4},
+    {"inv_dec", 4},
+    {"inv_inc", 4},
+    {"ring.slot_step", 8},
+    {"ring.cell_n", 4},
+    {"ring.cell_words", 4},
+    {"ring.cell_z", 2},
+    {"ring.n_ck", 4},
+    {"ring.cell_surprise", 4},
+    {"ring.in_word", 4},
+    {"ring.in_pos", 4},
+    {"ring.in_slot", 4},
+    {"ring.in_n", 4},
+    {"ring.obs_surprise", 4},
+    {"engine.counters", 8},
+    {"engine.predictors", 8},
+    {"engine.window.timestamp", 8},
+    {"engine.window.sequence", 8},
+};
+
+uint32_t knownWidth(std::string_view name) noexcept {
+    for (const auto& k : kKnown)
+        if (name == k.name) return k.width;
+    return 0;
+}
+
+struct LayoutEntry {
+    std::string name;
+    std::size_t bytes;
+    uint32_t width;
+};
+
+// The sections an engine's state consists of, after "config".
+Status engineLayout(Engine& engine, std::vector<LayoutEntry>& out) {
+    out.clear();
+    std::string unknown;
+    auto record = [&](const char* name, std::size_t bytes) {
+        const uint32_t w = knownWidth(name);
+        if (w == 0 || bytes % w != 0 || std::strlen(name) >= kNameBytes) {
+            if (unknown.empty()) unknown = name;
+            return;
+        }
+        out.push_back({name, bytes, w});
+    };
+    engine.model().visitState([&](const char* name, void*, std::size_t bytes) { record(name, bytes); });
+    engine.readState(
+        [](void* ctx, const char* name, const void*, std::size_t bytes) {
+            (*static_cast<decltype(record)*>(ctx))(name, bytes);
+        },
+        &record);
+    if (!unknown.empty())
+        return Status::error("checkpoint: state section '" + unknown +
+                             "' is not known to the checkpoint format (add its element width to checkpoint.cpp)");
+    return {};
+}
+
+// Lays out a file image: header, the config section (filled), then a
+// section per state buffer (headers filled, payloads left for fillImage).
+Status buildImage(Engine& engine, std::vector<uint8_t>& image, std::vector<detail::CheckpointSlot>& slots) {
+    std::vector<LayoutEntry> layout;
+    if (Status st = engineLayout(engine, layout); !st.ok()) return st;
+    const std::string config = formatConfig(engine.config());
+    layout.insert(layout.begin(), LayoutEntry{"config", config.size(), 1});
+    std::size_t size = kFileHeader;
+    slots.clear();
+    for (const LayoutEntry& e : layout) {
+        detail::CheckpointSlot s;
+        s.header = size;
+        s.payload = size + kSectionHeader;
+        s.bytes = e.bytes;
+        s.width = e.width;
+        slots.push_back(s);
+        size = s.payload + e.bytes;
+    }
+    image.assign(size, 0);
+    std::memcpy(image.data(), kMagic, sizeof kMagic);
+    putU32(image.data() + 8, kCheckpointVersion);
+    putU32(image.data() + 12, static_cast<uint32_t>(slots.size()));
+    putU64(image.data() + 16, size);
+    for (std::size_t i = 0; i < slots.size(); ++i) {
+        uint8_t* h = image.data() + slots[i].header;
+        std::memcpy(h, layout[i].name.data(), layout[i].name.size());
+        putU32(h + 32, slots[i].width);
+        putU64(h + 40, slots[i].bytes);
+    }
+    std::memcpy(image.data() + slots[0].payload, config.data(), config.size());
+    return {};
+}
+
+// Copies the engine's state into the payloads of slots[1..]. Runs on the
+// refining thread: no allocation, no lock.
+struct FillContext {
+    uint8_t* image;
+    const detail::CheckpointSlot* slots;
+    std::size_t count;
+    std::size_t cursor;
+    bool mismatch;
+};
+void fillOne(FillContext& f, const void* data, std::size_t bytes) noexcept {
+    if (f.cursor >= f.count || f.slots[f.cursor].bytes != bytes) {
+        f.mismatch = true;
+        ++f.cursor;
+        return;
+    }
+    const detail::CheckpointSlot& s = f.slots[f.cursor++];
+    copyLittleEndian(f.image + s.payload, static_cast<const uint8_t*>(data), bytes, s.width);
+}
+bool fillImage(Engine& engine, uint8_t* image, const std::vector<detail::CheckpointSlot>& slots) noexcept {
+    FillContext f{image, slots.data(), slots.size(), 1, false};
+    engine.model().visitState([&](const char*, void* data, std::size_t bytes) { fillOne(f, data, bytes); });
+    engine.readState(
+        [](void* ctx, const char*, const void* data, std::size_t bytes) {
+            fillOne(*static_cast<FillContext*>(ctx), data, bytes);
+        },
+        &f);
+    return !f.mismatch && f.cursor == slots.size();
+}
+
+// Computes every checksum of a filled image.
+void sealImage(std::vector<uint8_t>& image, const std::vector<detail::CheckpointSlot>& slots) noexcept {
+    for (const auto& s : slots) {
+        uint8_t* h = image.data() + s.header;
+        putU32(h + 48, crc32c({image.data() + s.payload, s.bytes}));
+        putU32(h + 52, crc32c({h, 52}));
+    }
+    putU32(image.data() + 28, crc32c({image.data(), 28}));
+}
+
+// ---- parsing ------------------------------------------------------------------------
+
+struct ParsedSection {
+    std::string name;
+    uint32_t width = 1;
+    std::size_t header = 0;
+    std::size_t payload = 0;
+    std::size_t bytes = 0;
+};
+
+struct Parsed {
+    uint32_t version = 0;
+    std::size_t size = 0;
+    std::vector<ParsedSection> sections;
+    EngineConfig config;
+};
+
+std::string prefix(std::string_view name) { return std::string(name) + ": "; }
+
+std::string range(std::size_t a, std::size_t b) {
+    return "bytes " + std::to_string(a) + ".." + std::to_string(b == 0 ? 0 : b - 1);
+}
+
+std::string hex32(uint32_t v) {
+    static const char* d = "0123456789abcdef";
+    std::string s = "0x";
+    for (int i = 7; i >= 0; --i) s += d[(v >> (4 * i)) & 0xFu];
+    return s;
+}
+
+Status parseImage(std::span<const uint8_t> bytes, std::string_view name, Parsed& out) {
+    const std::string P = prefix(name);
+    const std::size_t n = bytes.size();
+    const uint8_t* b = bytes.data();
+    if (n < sizeof kMagic) {
+        if (n == 0) return Status::error(P + "empty file, not a rost checkpoint");
+        return Status::error(P + "not a rost checkpoint (only " + std::to_string(n) + " bytes)");
+    }
+    if (std::memcmp(b, kMagic, sizeof kMagic) != 0) {
+        if (std::memcmp(b, "ROSTVOC", 7) == 0)
+            return Status::error(P + "this is a rost vocabulary file, not a checkpoint");
+        return Status::error(P + "not a rost checkpoint (no \"ROSTCKPT\" magic at byte 0)");
+    }
+    if (n < kFileHeader)
+        return Status::error(P + "truncated: " + std::to_string(n) + " bytes, the file header alone is " +
+                             std::to_string(kFileHeader));
+    const uint32_t headerCrc = getU32(b + 28);
+    const uint32_t version = getU32(b + 8);
+    if (crc32c({b, 28}) != headerCrc)
+        return Status::error(P + "file header (" + range(0, kFileHeader) + ") is corrupt: checksum mismatch");
+    if (version != kCheckpointVersion)
+        return Status::error(P + "checkpoint format version " + std::to_string(version) +
+                             " is not supported (this build reads version " + std::to_string(kCheckpointVersion) +
+                             ")");
+    const uint32_t count = getU32(b + 12);
+    const uint64_t declared = getU64(b + 16);
+    if (getU32(b + 24) != 0) return Status::error(P + "file header: reserved field at byte 24 is not 0");
+    if (count == 0 || count > kMaxSections)
+        return Status::error(P + "file header: " + std::to_string(count) + " sections (expected 1.." +
+                             std::to_string(kMaxSections) + ")");
+    out.version = version;
+    out.sections.clear();
+    std::size_t at = kFileHeader;
+    std::string previous = "the file header";
+    for (uint32_t i = 0; i < count; ++i) {
+        if (n - at < kSectionHeader)
+            return Status::error(P + "truncated: the file ends at byte " + std::to_string(n) + ", inside the header of section " +
+                                 std::to_string(i) + " (" + range(at, at + kSectionHeader) + ", after " + previous +
+                                 "); the header says the file has " + std::to_string(declared) + " bytes");
+        const uint8_t* h = b + at;
+        if (crc32c({h, 52}) != getU32(h + 52))
+            return Status::error(P + "header of section " + std::to_string(i) + " (" + range(at, at + kSectionHeader) +
+                                 ", after " + previous + ") is corrupt: checksum mismatch");
+        ParsedSection s;
+        std::size_t len = 0;
+        while (len < kNameBytes && h[len] != 0) ++len;
+        if (len == 0 || len == kNameBytes)
+            return Status::error(P + "section " + std::to_string(i) + " at byte " + std::to_string(at) +
+                                 ": name is empty or not NUL-terminated");
+        for (std::size_t j = 0; j < len; ++j)
+            if (h[j] < 0x21 || h[j] > 0x7e)
+                return Status::error(P + "section " + std::to_string(i) + " at byte " + std::to_string(at) +
+                                     ": name is not printable ASCII");
+        for (std::size_t j = len; j < kNameBytes; ++j)
+            if (h[j] != 0)
+                return Status::error(P + "section " + std::to_string(i) + " at byte " + std::to_string(at) +
+                                     ": name padding is not zero");
+        s.name.assign(reinterpret_cast<const char*>(h), len);
+        s.width = getU32(h + 32);
+        const uint64_t payloadBytes = getU64(h + 40);
+        const std::string S = P + "section '" + s.name + "' (header at byte " + std::to_string(at) + "): ";
+        if (s.width != 1 && s.width != 2 && s.width != 4 && s.width != 8)
+            return Status::error(S + "element width " + std::to_string(s.width) + " (expected 1, 2, 4 or 8)");
+        if (getU32(h + 36) != 0) return Status::error(S + "reserved field is not 0");
+        if (payloadBytes % s.width != 0)
+            return Status::error(S + std::to_string(payloadBytes) + " bytes is not a whole number of " +
+                                 std::to_string(s.width) + "-byte elements");
+        s.header = at;
+        s.payload = at + kSectionHeader;
+        if (payloadBytes > n - s.payload)
+            return Status::error(P + "truncated: the file ends at byte " + std::to_string(n) + ", inside section '" +
+                                 s.name + "' (payload " + range(s.payload, s.payload + payloadBytes) +
+                                 "); the header says the file has " + std::to_string(declared) + " bytes");
+        s.bytes = static_cast<std::size_t>(payloadBytes);
+        const uint32_t crc = crc32c({b + s.payload, s.bytes});
+        if (crc != getU32(h + 48))
+            return Status::error(P + "section '" + s.name + "' (payload " + range(s.payload, s.payload + s.bytes) +
+                                 ") is corrupt: checksum " + hex32(crc) + ", stored " + hex32(getU32(h + 48)));
+        at = s.payload + s.bytes;
+        previous = "section '" + s.name + "'";
+        out.sections.push_back(std::move(s));
+    }
+    if (at != declared)
+        return Status::error(P + "the sections end at byte " + std::to_string(at) + " but the header says the file has " +
+                             std::to_string(declared) + " bytes");
+    if (at != n)
+        return Status::error(P + std::to_string(n - at) + " unexpected bytes after the last section (from byte " +
+                             std::to_string(at) + ")");
+    out.size = n;
+    const ParsedSection& c = out.sections[0];
+    if (c.name != "config")
+        return Status::error(P + "section 0 is '" + c.name + "', expected 'config'");
+    const std::string_view text(reinterpret_cast<const char*>(b + c.payload), c.bytes);
+    EngineConfig cfg;
+    if (Status st = parseConfigText(text, std::string(name) + " [config section at byte " + std::to_string(c.payload) + "]", cfg);
+        !st.ok())
+        return st;
+    out.config = cfg;
+    return {};
+}
+
+const ParsedSection* findSection(const Parsed& p, std::string_view name) {
+    for (const auto& s : p.sections)
+        if (s.name == name) return &s;
+    return nullptr;
+}
+
+void fillInfo(const Parsed& p, std::span<const uint8_t> bytes, CheckpointInfo& info) {
+    info = CheckpointInfo{};
+    info.version = p.version;
+    info.bytes = p.size;
+    info.config = p.config;
+    const uint8_t* b = bytes.data();
+    if (const auto* s = findSection(p, "counters.frames"); s && s->bytes == 8) info.observations = getU64(b + s->payload);
+    if (const auto* s = findSection(p, "counters.steps"); s && s->bytes == 8)
+        info.steps = static_cast<int64_t>(getU64(b + s->payload));
+    if (const auto* s = findSection(p, "engine.counters"); s && s->bytes >= 12 * 8)
+        info.next_sequence = getU64(b + s->payload + 11 * 8);
+    if (const auto* s = findSection(p, "engine.window.timestamp"); s && s->bytes >= 8 && info.observations > 0) {
+        const std::size_t cap = s->bytes / 8;
+        info.last_timestamp = static_cast<int64_t>(getU64(b + s->payload + ((info.observations - 1) % cap) * 8));
+    }
+}
+
+// ---- semantic validation ---------------------------------------------------------------
+
+// Every value a Model or Engine could index with, divide by or count must
+// be in range, so a file with valid checksums but hostile contents is
+// refused instead of loaded. The counts are then checked against the labels
+// by Model::checkInvariants on a scratch model.
+class Validator {
+public:
+    Validator(const Parsed& p, std::span<const uint8_t> bytes, std::string_view name, const Config& cfg)
+        : p_(p), b_(bytes.data()), name_(name), c_(cfg) {}
+
+    Status run() {
+        const auto ring = static_cast<std::size_t>(c_.ring_steps);
+        const auto cells = static_cast<std::size_t>(c_.cellsPerStep());
+        const auto cap = static_cast<std::size_t>(c_.cell_capacity);
+        const auto ct = static_cast<std::size_t>(c_.cell_time);
+        const auto maxw = static_cast<std::size_t>(c_.max_words_per_frame);
+        const auto K = static_cast<std::size_t>(c_.K);
+        const auto Kp = static_cast<std::size_t>(kernel::paddedK(c_.K));
+        const auto V = static_cast<std::size_t>(c_.V);
+
+        const ParsedSection& framesS = sec("counters.frames");
+        const uint64_t frames = element<uint64_t>(pay(framesS), 0);
+        if (frames > (uint64_t{1} << 62)) return bad(framesS, 0, "observation count " + std::to_string(frames) + " is implausible");
+        const ParsedSection& stepsS = sec("counters.steps");
+        const auto steps = element<int64_t>(pay(stepsS), 0);
+        const auto expectSteps = static_cast<int64_t>((frames + ct - 1) / ct);
+        if (steps != expectSteps)
+            return bad(stepsS, 0, "step count " + std::to_string(steps) + " does not follow from " + std::to_string(frames) +
+                                      " observations and cell.time " + std::to_string(ct) + " (expected " +
+                                      std::to_string(expectSteps) + ")");
+        const ParsedSection& win = sec("counters.nkv_is_window");
+        const uint8_t isWindow = pay(win)[0];
+        if (isWindow > 1) return bad(win, 0, "flag value " + std::to_string(isWindow) + " (expected 0 or 1)");
+        const ParsedSection& rngS = sec("rng");
+        if (rngS.bytes != 16) return bad(rngS, 0, "expected 16 bytes of generator state");
+        if ((element<uint32_t>(pay(rngS), 0) | element<uint32_t>(pay(rngS), 1) | element<uint32_t>(pay(rngS), 2) |
+             element<uint32_t>(pay(rngS), 3)) == 0)
+            return bad(rngS, 0, "generator state is all zero (a stuck generator)");
+
+        const int64_t oldest = steps > c_.ring_steps ? steps - c_.ring_steps : 0;
+        auto inWindowSlot = [&](std::size_t slot, int64_t& step) {
+            // The step held by `slot` if one of the window's steps maps to it.
+            if (steps == 0) return false;
+            const int64_t newest = steps - 1;
+            const int64_t back = (static_cast<int64_t>(newest % c_.ring_steps) - static_cast<int64_t>(slot) + c_.ring_steps) %
+                                 c_.ring_steps;
+            step = newest - back;
+            return step >= oldest;
+        };
+
+        const ParsedSection& slotStep = sec("ring.slot_step");
+        const ParsedSection& cellN = sec("ring.cell_n");
+        const ParsedSection& cellWords = sec("ring.cell_words");
+        const ParsedSection& cellZ = sec("ring.cell_z");
+        const ParsedSection& nck = sec("ring.n_ck");
+        const ParsedSection& nkv = sec("n_kv");
+        std::vector<int64_t> windowCounts(isWindow ? 0 : V * Kp, 0);
+        for (std::size_t slot = 0; slot < ring; ++slot) {
+            int64_t step = -1;
+            const bool used = inWindowSlot(slot, step);
+            const auto stored = element<int64_t>(pay(slotStep), slot);
+            if (stored != (used ? step : -1))
+                return bad(slotStep, slot, "slot " + std::to_string(slot) + " holds step " + std::to_string(stored) +
+                                               ", expected " + std::to_string(used ? step : -1));
+            for (std::size_t c = 0; c < cells; ++c) {
+                const std::size_t ci = slot * cells + c;
+                const auto n = element<uint32_t>(pay(cellN), ci);
+                if (n > (used ? cap : 0))
+                    return bad(cellN, ci, std::to_string(n) + " words in cell " + std::to_string(c) + " of slot " +
+                                              std::to_string(slot) + (used ? ", capacity " + std::to_string(cap) : ", which is not in the window"));
+                if (!used)
+                    for (std::size_t k = 0; k < Kp; ++k)
+                        if (element<int32_t>(pay(nck), ci * Kp + k) != 0)
+                            return bad(nck, ci * Kp + k, "topic count in a slot outside the window");
+                for (std::size_t i = 0; i < n; ++i) {
+                    const std::size_t wi = ci * cap + i;
+                    const auto w = element<uint32_t>(pay(cellWords), wi);
+                    if (w >= V) return bad(cellWords, wi, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V) + ")");
+                    const auto z = element<uint16_t>(pay(cellZ), wi);
+                    if (z >= K) return bad(cellZ, wi, "topic label " + std::to_string(z) + " out of range [0, " + std::to_string(K) + ")");
+                    if (!isWindow) ++windowCounts[w * Kp + z];
+                }
+            }
+        }
+        // With counts kept from outside the window (a prior, or evicted
+        // steps), n_k^v must still hold at least the window's own words.
+        if (!isWindow)
+            for (std::size_t i = 0; i < windowCounts.size(); ++i)
+                if (element<int32_t>(pay(nkv), i) < windowCounts[i])
+                    return bad(nkv, i, "count " + std::to_string(element<int32_t>(pay(nkv), i)) + " of word " +
+                                           std::to_string(i / Kp) + ", topic " + std::to_string(i % Kp) +
+                                           " is below the " + std::to_string(windowCounts[i]) + " words in the window");
+
+        const ParsedSection& inN = sec("ring.in_n");
+        const ParsedSection& inWord = sec("ring.in_word");
+        const ParsedSection& inPos = sec("ring.in_pos");
+        const ParsedSection& inSlot = sec("ring.in_slot");
+        for (std::size_t o = 0; o < ring * ct; ++o)
+            if (element<uint32_t>(pay(inN), o) > maxw)
+                return bad(inN, o, std::to_string(element<uint32_t>(pay(inN), o)) + " words in an observation, at most " +
+                                       std::to_string(maxw));
+        for (uint64_t f = static_cast<uint64_t>(oldest) * ct; f < frames; ++f) {
+            const std::size_t slot = static_cast<std::size_t>((f / ct) % ring);
+            const std::size_t o = slot * ct + static_cast<std::size_t>(f % ct);
+            const auto n = element<uint32_t>(pay(inN), o);
+            for (std::size_t i = 0; i < n; ++i) {
+                const std::size_t at = o * maxw + i;
+                const auto w = element<uint32_t>(pay(inWord), at);
+                if (w >= V) return bad(inWord, at, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V) + ")");
+                const auto xy = element<uint32_t>(pay(inPos), at);
+                if ((xy & 0xFFFFu) >= static_cast<uint32_t>(c_.frame_width) || (xy >> 16) >= static_cast<uint32_t>(c_.frame_height))
+                    return bad(inPos, at, "position (" + std::to_string(xy & 0xFFFFu) + ", " + std::to_string(xy >> 16) +
+                                              ") outside the " + std::to_string(c_.frame_width) + "x" +
+                                              std::to_string(c_.frame_height) + " frame");
+                const auto s = element<uint32_t>(pay(inSlot), at);
+                if (s & Model::kDropped) {
+                    if ((s & ~Model::kDropped) >= cells) return bad(inSlot, at, "cell " + std::to_string(s & ~Model::kDropped) + " out of range");
+                } else {
+                    const std::size_t cell = s / cap, i2 = s % cap;
+                    if (cell >= cells || i2 >= element<uint32_t>(pay(cellN), slot * cells + cell))
+                        return bad(inSlot, at, "word slot " + std::to_string(s) + " does not refer to a word in a cell");
+                }
+            }
+        }
+        for (const char* fname : {"ring.cell_surprise", "ring.obs_surprise"}) {
+            const ParsedSection& s = sec(fname);
+            for (std::size_t i = 0; i < s.bytes / 4; ++i) {
+                const float v = element<float>(pay(s), i);
+                if (std::isnan(v) || v < 0.f) return bad(s, i, "surprise " + std::to_string(v) + " is not a non-negative number");
+            }
+        }
+        const ParsedSection& pred = sec("engine.predictors");
+        for (std::size_t i = 0; i < pred.bytes / 8; ++i) {
+            const double v = element<double>(pay(pred), i);
+            if (!(v > 0.0 && v < 1e12)) return bad(pred, i, "cost estimate " + std::to_string(v) + " ns is out of range (0, 1e12)");
+        }
+        return {};
+    }
+
+private:
+    const ParsedSection& sec(std::string_view n) const { return *findSection(p_, n); }
+    const uint8_t* pay(const ParsedSection& s) const { return b_ + s.payload; }
+    Status bad(const ParsedSection& s, std::size_t index, const std::string& what) const {
+        return Status::error(prefix(name_) + "section '" + s.name + "', element " + std::to_string(index) + " (byte " +
+                             std::to_string(s.payload + index * s.width) + "): " + what);
+    }
+
+    const Parsed& p_;
+    const uint8_t* b_;
+    std::string_view name_;
+    const Config& c_;
+};
+
+// Writes a parsed file's sections into visitState / writeState buffers, by order.
+struct RestoreContext {
+    const uint8_t* bytes;
+    const Parsed* parsed;
+    std::size_t cursor;
+};
+void restoreOne(RestoreContext& r, void* data, std::size_t bytes) noexcept {
+    if (r.cursor >= r.parsed->sections.size()) return;
+    const ParsedSection& s = r.parsed->sections[r.cursor++];
+    if (s.bytes != bytes) return;  // not reached: layouts were compared before
+    copyLittleEndian(static_cast<uint8_t*>(data), r.bytes + s.payload, bytes, s.width);
+}
+
+} // namespace
+
+// ---- public API -----------------------------------------------------------------------
+
+Status encodeCheckpoint(Engine& engine, std::vector<uint8_t>& out) {
+    std::vector<detail::CheckpointSlot> slots;
+    if (Status st = buildImage(engine, out, slots); !st.ok()) return st;
+    if (!fillImage(engine, out.data(), slots)) return Status::error("checkpoint: the engine's state changed size");
+    sealImage(out, slots);
+    return {};
+}
+
+Status saveCheckpoint(Engine& engine, const std::string& path) {
+    std::vector<uint8_t> image;
+    if (Status st = encodeCheckpoint(engine, image); !st.ok()) return st;
+    return writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(image.data()), image.size()));
+}
+
+Status inspectCheckpoint(std::span<const uint8_t> bytes, std::string_view name, CheckpointInfo& info) {
+    Parsed p;
+    if (Status st = parseImage(bytes, name, p); !st.ok()) return st;
+    fillInfo(p, bytes, info);
+    return {};
+}
+
+Status readCheckpointInfo(const std::string& path, CheckpointInfo& info) {
+    std::string data;
+    if (Status st = readFile(path, data); !st.ok()) return st;
+    return inspectCheckpoint({reinterpret_cast<const uint8_t*>(data.data()), data.size()}, path, info);
+}
+
+Status loadCheckpoint(std::span<const uint8_t> bytes, std::string_view name, Engine& engine,
+                      const CheckpointLoadOptions& options, CheckpointInfo* info) {
+    const std::string P = prefix(name);
+    if (engine.running()) return Status::error(P + "cannot load a checkpoint into a running engine (stop it first)");
+    if (engine.queued() != 0)
+        return Status::error(P + "cannot load a checkpoint while " + std::to_string(engine.queued()) +
+                             " observations are queued");
+    Parsed p;
+    if (Status st = parseImage(bytes, name, p); !st.ok()) return st;
+
+    // The configuration: the model keys define what the state means.
+    std::vector<std::string> diffs = configDifferences(p.config, engine.config(), {ConfigGroup::Model}, "the checkpoint",
+                                                       "this run");
+    if (!options.allow_refinement_change) {
+        auto more = configDifferences(p.config, engine.config(), {ConfigGroup::Refinement}, "the checkpoint", "this run");
+        diffs.insert(diffs.end(), more.begin(), more.end());
+    }
+    if (!diffs.empty()) {
+        std::string msg = P + "checkpoint was made with a different configuration: ";
+        for (std::size_t i = 0; i < diffs.size(); ++i) msg += (i ? "; " : "") + diffs[i];
+        return Status::error(msg);
+    }
+
+    // Every section by name and size, in order.
+    std::vector<LayoutEntry> layout;
+    if (Status st = engineLayout(engine, layout); !st.ok()) return st;
+    if (p.sections.size() != layout.size() + 1)
+        return Status::error(P + std::to_string(p.sections.size()) + " sections, this build expects " +
+                             std::to_string(layout.size() + 1) + " for this configuration");
+    for (std::size_t i = 0; i < layout.size(); ++i) {
+        const ParsedSection& s = p.sections[i + 1];
+        const LayoutEntry& e = layout[i];
+        if (s.name != e.name || s.bytes != e.bytes || s.width != e.width)
+            return Status::error(P + "section " + std::to_string(i + 1) + " (header at byte " + std::to_string(s.header) +
+                                 ") is '" + s.name + "' of " + std::to_string(s.bytes) + " bytes, expected '" + e.name +
+                                 "' of " + std::to_string(e.bytes) + " bytes");
+    }
+
+    // Every value in range, then every count against the labels, on a scratch model.
+    if (Status st = Validator(p, bytes, name, engine.config().model).run(); !st.ok()) return st;
+    try {
+        Model scratch(engine.config().model);
+        RestoreContext r{bytes.data(), &p, 1};
+        scratch.visitState([&](const char*, void* data, std::size_t n) { restoreOne(r, data, n); });
+        std::string why;
+        if (!scratch.checkInvariants(&why))
+            return Status::error(P + "the model state is inconsistent: " + why);
+    } catch (const std::bad_alloc&) {
+        return Status::error(P + "not enough memory to validate the checkpoint");
+    }
+
+    // Everything checked: now the engine.
+    RestoreContext r{bytes.data(), &p, 1};
+    engine.model().visitState([&](const char*, void* data, std::size_t n) { restoreOne(r, data, n); });
+    if (Status st = engine.writeState(
+            [](void* ctx, const char*, void* data, std::size_t n) { restoreOne(*static_cast<RestoreContext*>(ctx), data, n); },
+            &r);
+        !st.ok())
+        return Status::error(P + st.message());
+    if (info) fillInfo(p, bytes, *info);
+    return {};
+}
+
+Status loadCheckpoint(const std::string& path, Engine& engine, const CheckpointLoadOptions& options,
+                      CheckpointInfo* info) {
+    std::string data;
+    if (Status st = readFile(path, data); !st.ok()) return st;
+    return loadCheckpoint({reinterpret_cast<const uint8_t*>(data.data()), data.size()}, path, engine, options, info);
+}
+
+std::unique_ptr<Engine> resumeEngine(const std::string& path, Status& status, CheckpointInfo* info) {
+    std::string data;
+    status = readFile(path, data);
+    if (!status.ok()) return nullptr;
+    const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(data.data()), data.size());
+    CheckpointInfo i;
+    status = inspectCheckpoint(bytes, path, i);
+    if (!status.ok()) return nullptr;
+    auto engine = Engine::create(i.config, status);
+    if (!engine) {
+        status = Status::error(path + ": " + status.message());
+        return nullptr;
+    }
+    status = loadCheckpoint(bytes, path, *engine, {}, info);
+    if (!status.ok()) return nullptr;
+    return engine;
+}
+
+// ---- CheckpointWriter ---------------------------------------------------------------------
+
+CheckpointWriter::CheckpointWriter(Engine& engine, std::string path) : engine_(engine), path_(std::move(path)) {}
+
+std::unique_ptr<CheckpointWriter> CheckpointWriter::create(Engine& engine, std::string path, Status& status) {
+    if (path.empty()) {
+        status = Status::error("checkpoint: empty file name");
+        return nullptr;
+    }
+    std::unique_ptr<CheckpointWriter> w(new CheckpointWriter(engine, std::move(path)));
+    try {
+        status = buildImage(engine, w->image_, w->sections_);
+        if (!status.ok()) return nullptr;
+        // Temporary files of writes that a crash or kill interrupted
+        // (writeFileAtomic names them ".<name>.tmpXXXXXX").
+        namespace fs = std::filesystem;
+        const fs::path target(w->path_);
+        const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+        if (!fs::is_directory(dir)) {
+            status = Status::error(w->path_ + ": directory " + dir.string() + " does not exist");
+            return nullptr;
+        }
+        const std::string stale = "." + target.filename().string() + ".tmp";
+        std::error_code ec;
+        for (const auto& e : fs::directory_iterator(dir, ec)) {
+            const std::string f = e.path().filename().string();
+            if (f.size() == stale.size() + 6 && f.compare(0, stale.size(), stale) == 0) fs::remove(e.path(), ec);
+        }
+        w->thread_ = std::thread([p = w.get()] { p->writerMain(); });
+    } catch (const std::exception& e) {
+        status = Status::error(w->path_ + ": cannot set up checkpoints: " + e.what());
+        return nullptr;
+    }
+    status = {};
+    return w;
+}
+
+CheckpointWriter::~CheckpointWriter() {
+    if (!thread_.joinable()) return;
+    for (;;) {
+        uint32_t s = kIdle;
+        if (state_.compare_exchange_weak(s, kStopping, std::memory_order_acq_rel)) break;
+        if (s != kIdle) state_.wait(s, std::memory_order_acquire);
+    }
+    state_.notify_all();
+    thread_.join();
+}
+
+bool CheckpointWriter::capture() noexcept {
+    uint32_t s = kIdle;
+    if (!state_.compare_exchange_strong(s, kFilling, std::memory_order_acquire, std::memory_order_relaxed)) {
+        skipped_.fetch_add(1, std::memory_order_relaxed);
+        return false;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    const bool ok = fillImage(engine_, image_.data(), sections_);
+    const int64_t ns = (std::chrono::steady_clock::now() - t0).count();
+    last_capture_ns_.store(ns, std::memory_order_relaxed);
+    if (ns > max_capture_ns_.load(std::memory_order_relaxed)) max_capture_ns_.store(ns, std::memory_order_relaxed);
+    if (!ok) {  // not reached: the state's size is fixed by the configuration
+        failed_.fetch_add(1, std::memory_order_relaxed);
+        state_.store(kIdle, std::memory_order_release);
+        return false;
+    }
+    captured_.fetch_add(1, std::memory_order_relaxed);
+    state_.store(kPending, std::memory_order_release);
+    state_.notify_all();
+    return true;
+}
+
+bool CheckpointWriter::captureEvery(uint64_t every, const ObservationResult& r) noexcept {
+    if (every == 0 || r.step < 0 || (r.observation + 1) % every != 0) return false;
+    return capture();
+}
+
+void CheckpointWriter::writerMain() {
+    for (;;) {
+        uint32_t s = state_.load(std::memory_order_acquire);
+        while (s == kIdle || s == kFilling) {
+            state_.wait(s, std::memory_order_acquire);
+            s = state_.load(std::memory_order_acquire);
+        }
+        if (s == kStopping) return;
+        // kPending: the image is ours until we set kIdle.
+        const auto t0 = std::chrono::steady_clock::now();
+        sealImage(image_, sections_);
+        Status st = writeFileAtomic(path_, std::string_view(reinterpret_cast<const char*>(image_.data()), image_.size()));
+        const int64_t ns = (std::chrono::steady_clock::now() - t0).count();
+        last_write_ns_.store(ns, std::memory_order_relaxed);
+        if (ns > max_write_ns_.load(std::memory_order_relaxed)) max_write_ns_.store(ns, std::memory_order_relaxed);
+        {
+            std::lock_guard<std::mutex> lock(error_mutex_);
+            last_error_ = st.ok() ? std::string() : st.message();
+        }
+        (st.ok() ? written_ : failed_).fetch_add(1, std::memory_order_relaxed);
+        state_.store(kIdle, std::memory_order_release);
+        state_.notify_all();
+    }
+}
+
+Status CheckpointWriter::flush() {
+    for (;;) {
+        const uint32_t s = state_.load(std::memory_order_acquire);
+        if (s == kIdle || s == kStopping) break;
+        state_.wait(s, std::memory_order_acquire);
+    }
+    std::lock_guard<std::mutex> lock(error_mutex_);
+    return last_error_.empty() ? Status{} : Status::error(last_error_);
+}
+
+CheckpointWriter::Stats CheckpointWriter::stats() const noexcept {
+    Stats s;
+    s.captured = captured_.load(std::memory_order_relaxed);
+    s.skipped = skipped_.load(std::memory_order_relaxed);
+    s.written = written_.load(std::memory_order_relaxed);
+    s.failed = failed_.load(std::memory_order_relaxed);
+    s.last_capture_ns = last_capture_ns_.load(std::memory_order_relaxed);
+    s.max_capture_ns = max_capture_ns_.load(std::memory_order_relaxed);
+    s.last_write_ns = last_write_ns_.load(std::memory_order_relaxed);
+    s.max_write_ns = max_write_ns_.load(std::memory_order_relaxed);
+    return s;
+}
+
+} // namespace rost
