@@ -1,0 +1,95 @@
+#pragma once
+
+// The paper's section VII experiment, run through the library's own engine:
+//
+//  * online: the realtime engine (rost/engine.hpp) takes the stream one
+//    observation at a time with a strategy P(t|T) and a refinement budget
+//    per observation. A count budget (tokens) runs in synchronous mode
+//    (Engine::processNow), as fast as the machine allows and bit for bit
+//    reproducible; a time budget (T_R ms) runs through the threaded engine,
+//    as it would on a robot.
+//  * instantaneous perplexity of step t: the engine's, computed just before
+//    step t+1 is added (ObservationResult::previous_perplexity); for the last
+//    step, after its own budget, which is the same instant.
+//  * final perplexity of step t: after the whole stream and its last budget.
+//  * batch: paper Algorithm 1 over the whole stream (Model::refineAll) with
+//    the same total refinement as the online run it is compared with, in
+//    whole sweeps: sweeps = round(online tokens / words in the stream).
+//  * every perplexity is Model::stepPerplexity (word left out of its own
+//    counts, docs/design.md), so the three compare like with like.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "dataset.hpp"
+#include "rost/engine.hpp"
+#include "rost/strategy.hpp"
+
+namespace rost::experiment {
+
+// True when the strategy's formula uses eta / q.
+bool usesEta(StrategyKind k) noexcept;
+bool usesQ(StrategyKind k) noexcept;
+// The eight strategies in the order of the paper's tables.
+const std::vector<StrategyKind>& paperOrder();
+
+struct OnlineResult {
+    std::vector<double> instantaneous;  // per step
+    std::vector<double> final_ppx;      // per step
+    std::vector<uint64_t> tokens;       // refined in each observation's budget
+    uint64_t total_tokens = 0;          // all refinement of the run
+    double seconds = 0.0;               // wall time of the run
+    uint64_t overruns = 0;              // time budget: observations past their deadline
+    int64_t max_overrun_ns = 0;
+    uint64_t dropped = 0;               // observations lost to a full queue (must be 0)
+};
+
+struct BatchResult {
+    std::vector<double> ppx;  // per step
+    uint64_t tokens = 0;
+    int sweeps = 0;
+    double seconds = 0.0;
+};
+
+// Runs the stream online. Budget::Time runs threaded (start, pushWait every
+// observation so none is dropped, stop(Drain)); the other kinds run in
+// synchronous mode. Errors (rejected observation, words subsampled away,
+// dropped observations) go to `status`.
+OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConfig& strategy, const Budget& budget,
+                       Status& status);
+
+// Batch Gibbs over the whole stream with `sweeps` sweeps.
+BatchResult runBatch(const Dataset& d, const Config& model, int sweeps);
+// The number of whole sweeps closest to `tokens` token refinements (at least 1).
+int sweepsFor(uint64_t tokens, uint64_t words) noexcept;
+
+// Mean over steps of a[t] / b[t], skipping steps where either is not finite
+// (an empty step has no perplexity).
+double meanRatio(const std::vector<double>& a, const std::vector<double>& b) noexcept;
+double meanFinite(const std::vector<double>& a) noexcept;
+
+// ---- calibration: T_R (ms) -> tokens per observation ------------------------
+
+struct Calibration {
+    double tokens_per_second = 0.0;  // marginal refinement rate on the engine's path
+    double overhead_ms = 0.0;        // per observation besides refinement (ingest, perplexity, publish)
+    double batch_tokens_per_second = 0.0;  // Model::refineAll on the same stream, for reference
+    // tokens per observation that fill `tr_ms` of the engine's time per observation
+    [[nodiscard]] uint64_t tokensFor(double tr_ms) const noexcept;
+};
+
+// Measures the engine's cost per observation (take-up to publish,
+// ObservationResult::elapsed_ns) at two count budgets on the first `frames`
+// frames, `repeats` times, for each strategy; the rate is the slope, the
+// overhead the intercept (medians over observations, then over repeats and
+// strategies). `log` receives one line per measurement.
+Calibration calibrate(const Dataset& d, const ModelParams& p, const std::vector<StrategyKind>& strategies,
+                      int64_t frames, uint64_t budget_lo, uint64_t budget_hi, int repeats,
+                      const std::function<void(const std::string&)>& log);
+
+// Runs fn(i) for i in [0, n) on `jobs` threads (set-up code, not realtime).
+void parallelFor(std::size_t n, int jobs, const std::function<void(std::size_t)>& fn);
+
+} // namespace rost::experiment

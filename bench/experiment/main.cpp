@@ -1,0 +1,413 @@
+// rost_experiment: the paper's section VII on cached word streams
+// (bench/experiment/README.md).
+//
+//   rost_experiment calibrate --dataset DIR [--frames 60] [--tr-ms 40,160] [--out FILE]
+//       measures the engine's refinement rate on this machine and converts
+//       each T_R into a count budget (tokens per observation).
+//   rost_experiment run --dataset DIR --budget 40=tokens:N [--budget 40=time] --seeds 10 --out DIR
+//       online runs (every strategy x budget x seed) and their batch
+//       references; writes TAG.runs.csv (one row per run), TAG.steps.csv
+//       (one row per run and time step) and TAG.info.txt.
+
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "dataset.hpp"
+#include "harness.hpp"
+
+using namespace rost;
+using namespace rost::experiment;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+[[noreturn]] void fail(const std::string& what) {
+    std::fprintf(stderr, "rost_experiment: %s\n", what.c_str());
+    std::exit(1);
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+    std::vector<std::string> out;
+    std::string cur;
+    std::istringstream is(s);
+    while (std::getline(is, cur, ','))
+        if (!cur.empty()) out.push_back(cur);
+    return out;
+}
+
+std::vector<double> parseDoubles(const std::string& s, const char* what) {
+    std::vector<double> out;
+    for (const auto& f : splitList(s)) {
+        char* end = nullptr;
+        const double v = std::strtod(f.c_str(), &end);
+        if (end == f.c_str() || *end != '\0' || !std::isfinite(v)) fail(std::string(what) + ": '" + f + "' is not a number");
+        out.push_back(v);
+    }
+    if (out.empty()) fail(std::string(what) + ": empty list");
+    return out;
+}
+
+std::vector<StrategyKind> parseStrategies(const std::string& s) {
+    if (s == "all") return paperOrder();
+    if (s == "mixed")
+        return {StrategyKind::UniformNow, StrategyKind::AgeProportionalNow, StrategyKind::UniformExponential,
+                StrategyKind::AgeProportionalExponential};
+    std::vector<StrategyKind> out;
+    for (const auto& name : splitList(s)) {
+        StrategyKind k{};
+        if (Status st = parseStrategy(name, k); !st.ok()) fail("--strategies: " + st.message());
+        out.push_back(k);
+    }
+    if (out.empty()) fail("--strategies: empty list");
+    return out;
+}
+
+// --budget LABEL=tokens:N | LABEL=time   (LABEL: T_R in ms)
+struct BudgetSpec {
+    double tr_ms = 0.0;
+    Budget budget;
+    std::string text;
+};
+BudgetSpec parseBudget(const std::string& s) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos) fail("--budget '" + s + "': expected TR_MS=tokens:N or TR_MS=time");
+    BudgetSpec b;
+    b.text = s;
+    b.tr_ms = parseDoubles(s.substr(0, eq), "--budget T_R")[0];
+    if (!(b.tr_ms > 0.0)) fail("--budget '" + s + "': T_R must be > 0 ms");
+    const std::string spec = s.substr(eq + 1);
+    if (spec == "time") {
+        b.budget = Budget::time(b.tr_ms);
+    } else if (spec.rfind("tokens:", 0) == 0) {
+        char* end = nullptr;
+        const unsigned long long n = std::strtoull(spec.c_str() + 7, &end, 10);
+        if (end == spec.c_str() + 7 || *end != '\0' || n == 0) fail("--budget '" + s + "': bad token count");
+        b.budget = Budget::tokens(n);
+    } else {
+        fail("--budget '" + s + "': expected tokens:N or time after '='");
+    }
+    return b;
+}
+
+std::string fmt(double v, const char* f = "%.6g") {
+    if (!std::isfinite(v)) return "nan";
+    char b[64];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+
+std::string nowText() {
+    const std::time_t t = std::time(nullptr);
+    char b[64];
+    std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+    return b;
+}
+
+std::string joinArgs(int argc, char** argv) {
+    std::string s;
+    for (int i = 0; i < argc; ++i) s += (i ? " " : "") + std::string(argv[i]);
+    return s;
+}
+
+Dataset load(const std::string& dir, int64_t frames) {
+    Dataset d;
+    if (Status s = loadDataset(dir, frames, d); !s.ok()) fail(s.message());
+    return d;
+}
+
+// ---- calibrate ---------------------------------------------------------------
+
+struct CalibrateArgs {
+    std::string dataset;
+    int64_t frames = 60;
+    std::string strategies = "now,uniform,uni+now";
+    uint64_t lo = 50000, hi = 400000;
+    int repeats = 3;
+    std::string tr_ms = "40,160";
+    std::string out;
+};
+
+int doCalibrate(const CalibrateArgs& a, const std::string& command) {
+    const Dataset d = load(a.dataset, 0);
+    const auto trs = parseDoubles(a.tr_ms, "--tr-ms");
+    if (a.hi <= a.lo) fail("--hi must be larger than --lo");
+    const auto t0 = Clock::now();
+    const Calibration c = calibrate(d, ModelParams{}, parseStrategies(a.strategies), a.frames, a.lo, a.hi, a.repeats,
+                                    [](const std::string& l) { std::fprintf(stderr, "%s\n", l.c_str()); });
+    std::string text = "# rost_experiment calibrate: T_R -> tokens per observation on this machine\n";
+    text += "command=" + command + "\n";
+    text += "date=" + nowText() + "\n";
+    text += "dataset=" + d.name + "\n";
+    text += "frames=" + std::to_string(std::min<int64_t>(a.frames, d.steps())) + "\n";
+    text += "words_per_frame=" + fmt(d.wordsPerFrame(), "%.1f") + "\n";
+    text += "tokens_per_second=" + fmt(c.tokens_per_second, "%.0f") + "\n";
+    text += "overhead_ms=" + fmt(c.overhead_ms, "%.4f") + "\n";
+    text += "batch_tokens_per_second=" + fmt(c.batch_tokens_per_second, "%.0f") + "\n";
+    for (double tr : trs) text += "tokens_" + fmt(tr, "%g") + "ms=" + std::to_string(c.tokensFor(tr)) + "\n";
+    text += "seconds=" + fmt(std::chrono::duration<double>(Clock::now() - t0).count(), "%.1f") + "\n";
+    std::fputs(text.c_str(), stdout);
+    if (!a.out.empty())
+        if (Status s = writeFileAtomic(a.out, text); !s.ok()) fail(s.message());
+    return 0;
+}
+
+// ---- run ---------------------------------------------------------------------
+
+struct RunArgs {
+    std::string dataset;
+    std::string tag;
+    int64_t frames = 0;
+    std::string strategies = "all";
+    std::vector<std::string> budgets;
+    int seeds = 3;
+    uint64_t seed_base = 1;
+    std::string eta = "0.5";
+    std::string q = "0.1";
+    int jobs = 2;
+    std::string out;
+    bool steps_csv = true;
+    bool dry_run = false;
+};
+
+struct OnlineTask {
+    StrategyConfig strategy;
+    std::size_t budget = 0;  // index into budgets
+    uint64_t seed = 0;
+    OnlineResult result;
+    int batch = -1;  // index into batches
+};
+struct BatchTask {
+    uint64_t seed = 0;
+    int sweeps = 0;
+    BatchResult result;
+};
+
+int doRun(const RunArgs& a, const std::string& command) {
+    const Dataset d = load(a.dataset, a.frames);
+    const std::string tag = a.tag.empty() ? d.name : a.tag;
+    std::vector<BudgetSpec> budgets;
+    for (const auto& b : a.budgets) budgets.push_back(parseBudget(b));
+    if (budgets.empty()) fail("run: give at least one --budget TR_MS=tokens:N or TR_MS=time");
+    if (a.seeds < 1) fail("--seeds must be >= 1");
+    const auto kinds = parseStrategies(a.strategies);
+    const auto etas = parseDoubles(a.eta, "--eta");
+    const auto qs = parseDoubles(a.q, "--q");
+    const ModelParams params;
+
+    std::vector<OnlineTask> online;
+    for (std::size_t b = 0; b < budgets.size(); ++b)
+        for (StrategyKind k : kinds)
+            for (double eta : usesEta(k) ? etas : std::vector<double>{etas.front()})
+                for (double q : usesQ(k) ? qs : std::vector<double>{qs.front()})
+                    for (int s = 0; s < a.seeds; ++s) {
+                        OnlineTask t;
+                        t.strategy.kind = k;
+                        t.strategy.eta = eta;
+                        t.strategy.q = q;
+                        if (Status st = t.strategy.validate(); !st.ok()) fail(st.message());
+                        t.budget = b;
+                        t.seed = a.seed_base + static_cast<uint64_t>(s);
+                        online.push_back(t);
+                    }
+
+    // Batch references, shared by every run with the same seed and sweeps.
+    std::vector<BatchTask> batches;
+    std::map<std::pair<uint64_t, int>, int> batchIndex;
+    auto batchFor = [&](uint64_t seed, int sweeps) {
+        const auto key = std::make_pair(seed, sweeps);
+        const auto it = batchIndex.find(key);
+        if (it != batchIndex.end()) return it->second;
+        batches.push_back(BatchTask{seed, sweeps, {}});
+        return batchIndex[key] = static_cast<int>(batches.size() - 1);
+    };
+    double estimate = 0.0;  // core-seconds of refinement the runs are budgeted
+    for (auto& t : online) {
+        const BudgetSpec& b = budgets[t.budget];
+        if (b.budget.kind == BudgetKind::Steps) fail("run: step budgets are not supported here; use tokens:N");
+        // A run and its batch each cost about T x T_R of refinement.
+        estimate += static_cast<double>(d.steps()) * b.tr_ms * 1e-3;
+        const std::size_t before = batches.size();
+        if (b.budget.kind == BudgetKind::Tokens)
+            t.batch = batchFor(t.seed, sweepsFor(b.budget.count * static_cast<uint64_t>(d.steps()), d.words));
+        if (batches.size() != before || b.budget.kind == BudgetKind::Time)
+            estimate += static_cast<double>(d.steps()) * b.tr_ms * 1e-3;
+    }
+    std::fprintf(stderr,
+                 "run %s: %lld frames, %.0f words/frame, %zu online runs, %zu batch runs (more for time budgets), "
+                 "about %.0f core-seconds of refinement\n",
+                 tag.c_str(), static_cast<long long>(d.steps()), d.wordsPerFrame(), online.size(), batches.size(),
+                 estimate);
+    if (a.dry_run) return 0;
+
+    const auto t0 = Clock::now();
+    std::mutex logMutex;
+    std::size_t done = 0;
+    const std::size_t total = online.size() + batches.size();
+    auto progress = [&](const std::string& what, double secs) {
+        std::lock_guard<std::mutex> lock(logMutex);
+        ++done;
+        const double el = std::chrono::duration<double>(Clock::now() - t0).count();
+        std::fprintf(stderr, "[%zu/%zu %.0fs] %s (%.1fs)\n", done, total, el, what.c_str(), secs);
+    };
+    auto fatal = [&](const std::string& m) {
+        std::lock_guard<std::mutex> lock(logMutex);
+        fail(m);
+    };
+
+    // Phase 1: count-budget runs and their batches, in parallel.
+    std::vector<std::size_t> counted, timed;
+    for (std::size_t i = 0; i < online.size(); ++i)
+        (budgets[online[i].budget].budget.kind == BudgetKind::Time ? timed : counted).push_back(i);
+    const std::size_t nb = batches.size();
+    const Config base = modelConfig(d, params, 1);
+    parallelFor(nb + counted.size(), a.jobs, [&](std::size_t i) {
+        if (i < nb) {
+            BatchTask& bt = batches[i];
+            Config c = base;
+            c.seed = bt.seed;
+            bt.result = runBatch(d, c, bt.sweeps);
+            progress("batch seed=" + std::to_string(bt.seed) + " sweeps=" + std::to_string(bt.sweeps),
+                     bt.result.seconds);
+            return;
+        }
+        OnlineTask& t = online[counted[i - nb]];
+        Config c = base;
+        c.seed = t.seed;
+        Status st;
+        t.result = runOnline(d, c, t.strategy, budgets[t.budget].budget, st);
+        if (!st.ok()) fatal(d.name + " " + toString(t.strategy.kind) + ": " + st.message());
+        progress(std::string(toString(t.strategy.kind)) + " " + budgets[t.budget].text + " seed=" +
+                     std::to_string(t.seed),
+                 t.result.seconds);
+    });
+    // Phase 2: time-budget runs through the threaded engine, one at a time
+    // (each needs a core of its own for its deadlines to mean anything).
+    for (std::size_t i : timed) {
+        OnlineTask& t = online[i];
+        Config c = base;
+        c.seed = t.seed;
+        Status st;
+        t.result = runOnline(d, c, t.strategy, budgets[t.budget].budget, st);
+        if (!st.ok()) fatal(d.name + " " + toString(t.strategy.kind) + ": " + st.message());
+        progress(std::string(toString(t.strategy.kind)) + " " + budgets[t.budget].text + " seed=" +
+                     std::to_string(t.seed) + " tokens/obs=" +
+                     fmt(static_cast<double>(t.result.total_tokens) / static_cast<double>(d.steps()), "%.0f"),
+                 t.result.seconds);
+    }
+    // Phase 3: batches for the time-budget runs (same total refinement as each run).
+    const std::size_t nb0 = batches.size();
+    for (std::size_t i : timed)
+        online[i].batch = batchFor(online[i].seed, sweepsFor(online[i].result.total_tokens, d.words));
+    parallelFor(batches.size() - nb0, a.jobs, [&](std::size_t j) {
+        BatchTask& bt = batches[nb0 + j];
+        Config c = base;
+        c.seed = bt.seed;
+        bt.result = runBatch(d, c, bt.sweeps);
+        progress("batch seed=" + std::to_string(bt.seed) + " sweeps=" + std::to_string(bt.sweeps), bt.result.seconds);
+    });
+    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+
+    // Outputs.
+    std::string runs =
+        "dataset,frames,words,strategy,eta,q,tr_ms,budget_kind,budget_tokens,seed,inst_ratio,final_ratio,inst_ppx,"
+        "final_ppx,batch_ppx,online_tokens,tokens_per_obs_mean,tokens_per_obs_min,tokens_per_obs_max,batch_sweeps,"
+        "batch_tokens,online_s,batch_s,overruns,max_overrun_ms\n";
+    std::string steps = "dataset,strategy,eta,q,tr_ms,budget_kind,seed,step,words,inst_ppx,final_ppx,batch_ppx\n";
+    for (const auto& t : online) {
+        const BudgetSpec& b = budgets[t.budget];
+        const BatchResult& br = batches[static_cast<std::size_t>(t.batch)].result;
+        const OnlineResult& r = t.result;
+        const std::string eta = usesEta(t.strategy.kind) ? fmt(t.strategy.eta) : "";
+        const std::string q = usesQ(t.strategy.kind) ? fmt(t.strategy.q) : "";
+        const char* kind = b.budget.kind == BudgetKind::Time ? "time" : "tokens";
+        uint64_t tmin = UINT64_MAX, tmax = 0;
+        for (uint64_t x : r.tokens) {
+            tmin = std::min(tmin, x);
+            tmax = std::max(tmax, x);
+        }
+        runs += d.name + "," + std::to_string(d.steps()) + "," + std::to_string(d.words) + "," +
+                toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," + kind + "," +
+                (b.budget.kind == BudgetKind::Tokens ? std::to_string(b.budget.count) : "") + "," +
+                std::to_string(t.seed) + "," + fmt(meanRatio(r.instantaneous, br.ppx)) + "," +
+                fmt(meanRatio(r.final_ppx, br.ppx)) + "," + fmt(meanFinite(r.instantaneous)) + "," +
+                fmt(meanFinite(r.final_ppx)) + "," + fmt(meanFinite(br.ppx)) + "," + std::to_string(r.total_tokens) +
+                "," + fmt(static_cast<double>(r.total_tokens) / static_cast<double>(d.steps()), "%.0f") + "," +
+                std::to_string(tmin) + "," + std::to_string(tmax) + "," + std::to_string(br.sweeps) + "," +
+                std::to_string(br.tokens) + "," + fmt(r.seconds, "%.3f") + "," + fmt(br.seconds, "%.3f") + "," +
+                std::to_string(r.overruns) + "," + fmt(static_cast<double>(r.max_overrun_ns) * 1e-6, "%.3f") + "\n";
+        if (!a.steps_csv) continue;
+        for (std::size_t s = 0; s < r.final_ppx.size(); ++s)
+            steps += d.name + "," + toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," +
+                     kind + "," + std::to_string(t.seed) + "," + std::to_string(s) + "," +
+                     std::to_string(d.frames[s].words.size()) + "," + fmt(r.instantaneous[s]) + "," +
+                     fmt(r.final_ppx[s]) + "," + fmt(br.ppx[s]) + "\n";
+    }
+    const std::string prefix = a.out + "/" + tag;
+    if (Status s = writeFileAtomic(prefix + ".runs.csv", runs); !s.ok()) fail(s.message());
+    if (a.steps_csv)
+        if (Status s = writeFileAtomic(prefix + ".steps.csv", steps); !s.ok()) fail(s.message());
+    std::string info = "command=" + command + "\n";
+    info += "finished=" + nowText() + "\n";
+    info += "dataset=" + d.name + "\nframes=" + std::to_string(d.steps()) + "\nwords=" + std::to_string(d.words) +
+            "\nwords_per_frame=" + fmt(d.wordsPerFrame(), "%.1f") + "\n";
+    info += "cell_capacity=" + std::to_string(base.cell_capacity) + "\nmax_words_per_frame=" +
+            std::to_string(base.max_words_per_frame) + "\n";
+    info += "online_runs=" + std::to_string(online.size()) + "\nbatch_runs=" + std::to_string(batches.size()) + "\n";
+    info += "jobs=" + std::to_string(a.jobs) + "\nseconds=" + fmt(seconds, "%.1f") + "\n";
+    if (Status s = writeFileAtomic(prefix + ".info.txt", info); !s.ok()) fail(s.message());
+    std::fprintf(stderr, "run %s: done in %.1f s; wrote %s.runs.csv%s\n", tag.c_str(), seconds, prefix.c_str(),
+                 a.steps_csv ? " and .steps.csv" : "");
+    return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"rost_experiment: the paper's section VII (strategies x budgets x seeds against batch Gibbs)"};
+    app.require_subcommand(1);
+
+    CalibrateArgs ca;
+    auto* cal = app.add_subcommand("calibrate", "measure tokens/s on this machine and convert T_R to count budgets");
+    cal->add_option("--dataset", ca.dataset, "dataset directory (dataset.txt, words.csv, positions.csv)")->required();
+    cal->add_option("--frames", ca.frames, "frames to calibrate on")->capture_default_str();
+    cal->add_option("--strategies", ca.strategies, "strategies measured (rate: median over them)")->capture_default_str();
+    cal->add_option("--lo", ca.lo, "smaller token budget")->capture_default_str();
+    cal->add_option("--hi", ca.hi, "larger token budget")->capture_default_str();
+    cal->add_option("--repeats", ca.repeats, "repetitions")->capture_default_str()->check(CLI::Range(1, 100));
+    cal->add_option("--tr-ms", ca.tr_ms, "T_R values to convert (ms, comma-separated)")->capture_default_str();
+    cal->add_option("--out", ca.out, "also write the result (key=value) to this file");
+
+    RunArgs ra;
+    auto* run = app.add_subcommand("run", "online runs against batch references");
+    run->add_option("--dataset", ra.dataset, "dataset directory")->required();
+    run->add_option("--tag", ra.tag, "output file prefix (default: the dataset's name)");
+    run->add_option("--frames", ra.frames, "use the first N frames (0: all)")->capture_default_str();
+    run->add_option("--strategies", ra.strategies, "all | mixed | comma-separated names (now,uniform,agep,exp,...)")
+        ->capture_default_str();
+    run->add_option("--budget", ra.budgets, "TR_MS=tokens:N (count budget) or TR_MS=time (threaded, timed); repeat")
+        ->required();
+    run->add_option("--seeds", ra.seeds, "random restarts (seeds seed-base .. seed-base+N-1)")->capture_default_str();
+    run->add_option("--seed-base", ra.seed_base, "first seed")->capture_default_str();
+    run->add_option("--eta", ra.eta, "eta values for the mixed strategies (comma-separated)")->capture_default_str();
+    run->add_option("--q", ra.q, "q values for the exponential strategies (comma-separated)")->capture_default_str();
+    run->add_option("--jobs", ra.jobs, "runs in parallel (count budgets)")->capture_default_str()->check(CLI::Range(1, 64));
+    run->add_option("--out", ra.out, "output directory")->required();
+    run->add_flag("!--no-steps", ra.steps_csv, "do not write the per-step CSV");
+    run->add_flag("--dry-run", ra.dry_run, "print the plan and its estimated cost only");
+
+    CLI11_PARSE(app, argc, argv);
+    const std::string command = joinArgs(argc, argv);
+    if (cal->parsed()) return doCalibrate(ca, command);
+    return doRun(ra, command);
+}
