@@ -45,6 +45,5 @@ if(ROST_BUILD_TESTS AND COMMAND rost_add_test)
   if(TARGET GTest::gtest)
     rost_add_test(test_experiment SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/experiment/test_experiment.cpp
                   LIBS rost_experiment_lib)
-    target_include_directories(test_experiment PRIVATE ${PROJECT_SOURCE_DIR}/tests)
   endif()
 endif()
