@@ -87,6 +87,14 @@ void* rawAligned(std::size_t al, std::size_t n) noexcept {
     return std::aligned_alloc(al, (n + al - 1) / al * al);
 #endif
 }
+// Out of line, so the compiler does not pair operator new with free().
+[[gnu::noinline]] void rawFree(void* p) noexcept {
+#if ROST_TEST_REPLACE_MALLOC
+    __libc_free(p);
+#else
+    std::free(p);
+#endif
+}
 } // namespace
 
 void* operator new(std::size_t n) {
@@ -106,14 +114,14 @@ void* operator new(std::size_t n, std::align_val_t a) {
     throw std::bad_alloc();
 }
 void* operator new[](std::size_t n, std::align_val_t a) { return operator new(n, a); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p) noexcept { rawFree(p); }
+void operator delete[](void* p) noexcept { rawFree(p); }
+void operator delete(void* p, std::size_t) noexcept { rawFree(p); }
+void operator delete[](void* p, std::size_t) noexcept { rawFree(p); }
+void operator delete(void* p, std::align_val_t) noexcept { rawFree(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { rawFree(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { rawFree(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { rawFree(p); }
 
 namespace rost {
 namespace {

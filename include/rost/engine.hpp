@@ -203,7 +203,10 @@ public:
     // drops. False on timeout, or if the engine is not running.
     bool pushWait(const ObservationView& obs,
                   std::chrono::nanoseconds timeout = std::chrono::nanoseconds::max()) noexcept;
+    // Producer side: a slot is free, so a tryPush() now would not drop.
+    bool canPush() noexcept;
     // Observations queued and not yet taken up (approximate while running).
+    // A slot being ingested is not counted here but is not free either.
     uint32_t queued() const noexcept;
 
     // ---- readers (any thread) -----------------------------------------------

@@ -99,9 +99,9 @@ private:
 // over two buffers: the writer fills the buffer readers are not directed to,
 // then flips a sequence number; a reader copies the current buffer and
 // retries only if the writer came back to that buffer meanwhile. Every
-// payload word is a relaxed atomic, so concurrent copy-out is well-defined
-// (and clean under ThreadSanitizer); the sequence number's acquire/release
-// order makes a successful copy consistent.
+// payload word is an atomic (release stores, acquire loads), so concurrent
+// copy-out is well-defined and clean under ThreadSanitizer, and a copy that
+// saw any word of a newer publication fails its sequence check.
 class SnapshotPublisher {
 public:
     explicit SnapshotPublisher(const Config& cfg);

@@ -31,30 +31,37 @@ inline double robustAverage(double avg, double sample) noexcept {
 inline uint64_t bitsOf(double d) noexcept { return std::bit_cast<uint64_t>(d); }
 inline double doubleOf(uint64_t u) noexcept { return std::bit_cast<double>(u); }
 
-// Byte copies into and out of relaxed atomic words (the seqlock payload).
+// The seqlock payload is atomic words written with release stores and read
+// with acquire loads: a reader that sees any word of a new publication then
+// also sees the odd sequence number written before it, so its final check
+// fails. No standalone fences (which ThreadSanitizer does not model); on
+// x86 these are plain moves, on ARM load-acquire/store-release.
+constexpr auto kPut = std::memory_order_release;
+constexpr auto kGet = std::memory_order_acquire;
+
 void storeBytes(std::atomic<uint64_t>* dst, const void* src, std::size_t bytes) noexcept {
     const auto* s = static_cast<const unsigned char*>(src);
     std::size_t i = 0;
     for (; i + 8 <= bytes; i += 8) {
         uint64_t v;
         std::memcpy(&v, s + i, 8);
-        dst[i / 8].store(v, std::memory_order_relaxed);
+        dst[i / 8].store(v, kPut);
     }
     if (i < bytes) {
         uint64_t v = 0;
         std::memcpy(&v, s + i, bytes - i);
-        dst[i / 8].store(v, std::memory_order_relaxed);
+        dst[i / 8].store(v, kPut);
     }
 }
 void loadBytes(void* dst, const std::atomic<uint64_t>* src, std::size_t bytes) noexcept {
     auto* d = static_cast<unsigned char*>(dst);
     std::size_t i = 0;
     for (; i + 8 <= bytes; i += 8) {
-        const uint64_t v = src[i / 8].load(std::memory_order_relaxed);
+        const uint64_t v = src[i / 8].load(kGet);
         std::memcpy(d + i, &v, 8);
     }
     if (i < bytes) {
-        const uint64_t v = src[i / 8].load(std::memory_order_relaxed);
+        const uint64_t v = src[i / 8].load(kGet);
         std::memcpy(d + i, &v, bytes - i);
     }
 }
@@ -114,11 +121,10 @@ void SnapshotPublisher::publish(const Snapshot& s) noexcept {
     const std::size_t b = n % 2;
     std::atomic<uint64_t>* d = buf_[b].get();
     const uint64_t seq = bseq_[b].load(std::memory_order_relaxed);
-    bseq_[b].store(seq + 1, std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_release);
+    bseq_[b].store(seq + 1, std::memory_order_relaxed);  // odd: readers of buffer b will retry
 
     const uint32_t nw = std::min(s.n_words_, capacity_);
-    auto put = [&](std::size_t at, uint64_t v) { d[at].store(v, std::memory_order_relaxed); };
+    auto put = [&](std::size_t at, uint64_t v) { d[at].store(v, kPut); };
     put(kObservation, s.observation);
     put(kSequence, s.sequence);
     put(kTimestamp, static_cast<uint64_t>(s.timestamp));
@@ -168,7 +174,7 @@ bool SnapshotPublisher::read(Snapshot& out, int max_retries) const noexcept {
         const uint64_t s1 = bseq_[b].load(std::memory_order_acquire);
         if (s1 & 1u) continue;
         const std::atomic<uint64_t>* d = buf_[b].get();
-        auto get = [&](std::size_t at) { return d[at].load(std::memory_order_relaxed); };
+        auto get = [&](std::size_t at) { return d[at].load(kGet); };
         out.version = get(kPublished);
         out.observation = get(kObservation);
         out.sequence = get(kSequence);
@@ -198,7 +204,6 @@ bool SnapshotPublisher::read(Snapshot& out, int max_retries) const noexcept {
         loadBytes(out.positions_.data(), d + off_positions_, nw * sizeof(Position));
         loadBytes(out.hist_.data(), d + off_hist_, hk * sizeof(int32_t));
         loadBytes(out.cell_surprise_.data(), d + off_surprise_, static_cast<std::size_t>(cells_) * sizeof(float));
-        std::atomic_thread_fence(std::memory_order_acquire);
         if (bseq_[b].load(std::memory_order_relaxed) == s1) return true;
     }
     return false;
@@ -332,6 +337,8 @@ bool Engine::pushWait(const ObservationView& obs, std::chrono::nanoseconds timeo
     }
     return tryPush(obs);
 }
+
+bool Engine::canPush() noexcept { return queue_->hasSpace(); }
 
 uint32_t Engine::queued() const noexcept { return queue_->size(); }
 
