@@ -38,6 +38,11 @@ footage() {
 
 mkdir -p "$dir"
 dir=$(cd "$dir" && pwd)
+# One fetch at a time (tests running in parallel may all ask for the footage).
+if command -v flock >/dev/null 2>&1; then
+  exec 9>"$dir/.fetch.lock"
+  flock 9
+fi
 status=0
 for p in "${pkgs[@]}"; do
   file=$(footage "$p") || { echo "fetch-footage: unknown package '$p' (known: pd-extendedview visp-images-data opencv-doc)" >&2; exit 2; }

@@ -104,6 +104,14 @@ int main(int argc, char** argv) {
         ->group(w);
     runCmd->add_option("--orb.features", run.words.orb_features, "ORB keypoints per frame at most")->group(w);
     runCmd->add_option("--orb.fast", run.words.orb_fast_threshold, "ORB's FAST corner threshold")->group(w);
+    std::string searchMethod = "tree";
+    runCmd->add_option("--orb.search", searchMethod,
+                       "how a descriptor finds its word: tree (coarse-to-fine, approximate) or linear (exact)")
+        ->check(CLI::IsMember({"tree", "linear"}))
+        ->group(w);
+    runCmd->add_option("--orb.probes", run.words.search.probes,
+                       "coarse buckets the tree search visits (more: closer to exact, slower)")
+        ->group(w);
     runCmd->add_option("--thumb.cell", run.words.thumb_cell,
                        "pixels per thumbnail pixel for intensity and hue words (one word each per block)")
         ->group(w);
@@ -197,6 +205,7 @@ int main(int argc, char** argv) {
     }
 
     if (runCmd->parsed()) {
+        (void)rost::vision::parseSearchMethod(searchMethod, run.words.search.method);  // checked by IsMember
         run.words.orb = !noOrb;
         run.words.intensity = !noIntensity;
         run.words.hue = !noHue;

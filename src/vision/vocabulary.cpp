@@ -13,6 +13,10 @@
 
 #include "rost/random.hpp"
 
+#if defined(__ARM_NEON)
+#include <arm_neon.h>
+#endif
+
 // x86-64's baseline has no popcount instruction; without one a 256-bit
 // distance costs ~4x more. Let the loader pick a POPCNT clone where the CPU
 // has it (every x86-64 since 2008). AArch64 and ARMv7 NEON have a byte
@@ -30,44 +34,51 @@ namespace {
 constexpr char kMagic[8] = {'R', 'O', 'S', 'T', 'V', 'O', 'C', '\0'};
 constexpr std::size_t kHeaderBytes = 32;
 
+#if defined(__ARM_NEON)
+// NEON: a byte popcount over 16 bytes per instruction. The scalar
+// __builtin_popcountll costs four instructions per 64 bits on AArch64
+// (fmov, cnt, addv, fmov) and more on ARMv7, so whole vectors are counted.
+inline int distanceInline(const Descriptor& a, const Descriptor& b) noexcept {
+    const auto* pa = reinterpret_cast<const uint8_t*>(a.w.data());
+    const auto* pb = reinterpret_cast<const uint8_t*>(b.w.data());
+    const uint8x16_t c = vaddq_u8(vcntq_u8(veorq_u8(vld1q_u8(pa), vld1q_u8(pb))),
+                                  vcntq_u8(veorq_u8(vld1q_u8(pa + 16), vld1q_u8(pb + 16))));
+#if defined(__aarch64__)
+    return static_cast<int>(vaddlvq_u8(c));
+#else
+    const uint64x2_t s = vpaddlq_u32(vpaddlq_u16(vpaddlq_u8(c)));
+    return static_cast<int>(vgetq_lane_u64(s, 0) + vgetq_lane_u64(s, 1));
+#endif
+}
+#else
 inline int distanceInline(const Descriptor& a, const Descriptor& b) noexcept {
     return __builtin_popcountll(a.w[0] ^ b.w[0]) + __builtin_popcountll(a.w[1] ^ b.w[1]) +
            __builtin_popcountll(a.w[2] ^ b.w[2]) + __builtin_popcountll(a.w[3] ^ b.w[3]);
 }
+#endif
 
 // Nearest of words[0..n) to d, keeping (best, bestId) when no word is strictly
 // closer or equally close with a lower id. ids == nullptr means id = index.
 ROST_POPCOUNT_CLONES
-void scan(const Descriptor* words, const uint32_t* ids, uint32_t n, const Descriptor& d, int& best,
+void scan(const Descriptor* words, const uint32_t* ids, uint32_t n, const Descriptor& query, int& best,
           uint32_t& bestId) noexcept {
-    for (uint32_t i = 0; i < n; ++i) {
-        const int dist = distanceInline(words[i], d);
-        const uint32_t id = ids ? ids[i] : i;
-        if (dist < best || (dist == best && id < bestId)) {
-            best = dist;
-            bestId = id;
+    // Locals, so the query stays in registers and nothing is stored per word.
+    const Descriptor q = query;
+    int b = best;
+    uint32_t bi = bestId;
+    if (ids) {
+        for (uint32_t i = 0; i < n; ++i) {
+            const int dist = distanceInline(words[i], q);
+            if (dist < b || (dist == b && ids[i] < bi)) b = dist, bi = ids[i];
+        }
+    } else {
+        for (uint32_t i = 0; i < n; ++i) {
+            const int dist = distanceInline(words[i], q);
+            if (dist < b) b = dist, bi = i;  // ids ascend: an equal distance never wins
         }
     }
-}
-
-// Bounded scan of one bucket: words whose distance to the bucket's centre
-// differs from the query's by more than `best` cannot beat it (triangle
-// inequality), so their distance is not computed.
-ROST_POPCOUNT_CLONES
-uint32_t scanBucket(const Descriptor* words, const uint32_t* ids, const uint16_t* centreDist, uint32_t n,
-                    const Descriptor& d, int dq, int& best, uint32_t& bestId) noexcept {
-    uint32_t visited = 0;
-    for (uint32_t i = 0; i < n; ++i) {
-        const int gap = dq > centreDist[i] ? dq - centreDist[i] : centreDist[i] - dq;
-        if (gap > best) continue;
-        ++visited;
-        const int dist = distanceInline(words[i], d);
-        if (dist < best || (dist == best && ids[i] < bestId)) {
-            best = dist;
-            bestId = ids[i];
-        }
-    }
-    return visited;
+    best = b;
+    bestId = bi;
 }
 
 ROST_POPCOUNT_CLONES
@@ -110,9 +121,16 @@ int hammingDistance(const Descriptor& a, const Descriptor& b) noexcept { return 
 const char* toString(SearchMethod m) noexcept {
     switch (m) {
     case SearchMethod::Linear: return "linear";
-    case SearchMethod::Indexed: return "indexed";
+    case SearchMethod::Tree: return "tree";
     }
     return "?";
+}
+
+Status parseSearchMethod(const std::string& text, SearchMethod& out) {
+    if (text == "linear") out = SearchMethod::Linear;
+    else if (text == "tree") out = SearchMethod::Tree;
+    else return Status::error("invalid search method '" + text + "', allowed linear|tree");
+    return {};
 }
 
 uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc) noexcept {
@@ -133,7 +151,6 @@ void Vocabulary::buildIndex() {
     bucket_begin_.clear();
     bucket_words_.clear();
     bucket_ids_.clear();
-    bucket_dist_.clear();
     bucket_radius_.clear();
     const auto W = static_cast<uint32_t>(words_.size());
     if (W < 256) return;  // a linear scan is as fast
@@ -169,14 +186,12 @@ void Vocabulary::buildIndex() {
     for (uint32_t c = 0; c < C; ++c) bucket_begin_[c + 1] = bucket_begin_[c] + count[c];
     bucket_words_.resize(W);
     bucket_ids_.resize(W);
-    bucket_dist_.resize(W);
     bucket_radius_.assign(C, 0);
     std::vector<uint32_t> fill(bucket_begin_.begin(), bucket_begin_.end() - 1);
     for (uint32_t i = 0; i < W; ++i) {
         const uint32_t at = fill[owner[i]]++;
         bucket_words_[at] = words_[i];
         bucket_ids_[at] = i;
-        bucket_dist_[at] = static_cast<uint16_t>(dist[i]);
         bucket_radius_[owner[i]] = std::max<uint16_t>(bucket_radius_[owner[i]], static_cast<uint16_t>(dist[i]));
     }
 }
@@ -188,20 +203,19 @@ uint32_t Vocabulary::linear(const Descriptor& d, int& best) const noexcept {
     return id;
 }
 
-uint32_t Vocabulary::indexed(const Descriptor& d, int& best, uint32_t* visited) const noexcept {
+uint32_t Vocabulary::tree(const Descriptor& d, uint32_t probes, int& best, uint32_t* visited) const noexcept {
     const auto C = static_cast<uint32_t>(coarse_.size());
     if (C == 0) {
         if (visited) *visited = size();
         return linear(d, best);
     }
-    // Coarse level: distance to every centre, buckets visited nearest first
-    // so `best` shrinks early and bounds prune the rest.
+    // Coarse level: distance to every centre; buckets in order of distance
+    // (counting sort on 0..256: stable, so ties go to the lower bucket).
     constexpr uint32_t kMaxCoarse = 1024;
     int dc[kMaxCoarse];
     uint16_t order[kMaxCoarse];
     const uint32_t n = std::min(C, kMaxCoarse);
     distancesTo(coarse_.data(), n, d, dc);
-    // Counting sort by distance (0..256): no allocation, stable.
     uint16_t hist[258] = {};
     for (uint32_t c = 0; c < n; ++c) ++hist[dc[c] + 1];
     for (int i = 1; i < 258; ++i) hist[i] = static_cast<uint16_t>(hist[i] + hist[i - 1]);
@@ -209,37 +223,40 @@ uint32_t Vocabulary::indexed(const Descriptor& d, int& best, uint32_t* visited) 
 
     best = std::numeric_limits<int>::max();
     uint32_t id = 0, seen = n;
-    for (uint32_t i = 0; i < n; ++i) {
+    const uint32_t visit = std::min(std::max(probes, 1u), n);
+    for (uint32_t i = 0; i < visit; ++i) {
         const uint32_t c = order[i];
-        // Every word w of bucket c has d(q, w) >= d(q, c) - radius(c).
+        // Every word w of bucket c has d(q, w) >= d(q, c) - radius(c): a bucket
+        // that cannot hold a closer word is skipped (this keeps probes >= C exact).
         if (dc[c] - static_cast<int>(bucket_radius_[c]) > best) continue;
         const uint32_t b = bucket_begin_[c], e = bucket_begin_[c + 1];
-        seen += scanBucket(bucket_words_.data() + b, bucket_ids_.data() + b, bucket_dist_.data() + b, e - b, d, dc[c],
-                           best, id);
+        scan(bucket_words_.data() + b, bucket_ids_.data() + b, e - b, d, best, id);
+        seen += e - b;
     }
     if (visited) *visited = seen;
     return id;
 }
 
-uint32_t Vocabulary::quantize(const Descriptor& d, SearchMethod m) const noexcept {
+uint32_t Vocabulary::quantize(const Descriptor& d, const Search& s) const noexcept {
     int best = 0;
-    return quantize(d, best, m);
+    return quantize(d, best, s);
 }
 
-uint32_t Vocabulary::quantize(const Descriptor& d, int& distance, SearchMethod m) const noexcept {
-    return m == SearchMethod::Linear ? linear(d, distance) : indexed(d, distance, nullptr);
+uint32_t Vocabulary::quantize(const Descriptor& d, int& distance, const Search& s) const noexcept {
+    return s.method == SearchMethod::Linear ? linear(d, distance) : tree(d, s.probes, distance, nullptr);
 }
 
-uint32_t Vocabulary::candidatesVisited(const Descriptor& d) const noexcept {
+uint32_t Vocabulary::distancesComputed(const Descriptor& d, const Search& s) const noexcept {
+    if (s.method == SearchMethod::Linear) return size();
     int best = 0;
     uint32_t visited = 0;
-    (void)indexed(d, best, &visited);
+    (void)tree(d, s.probes, best, &visited);
     return visited;
 }
 
 void Vocabulary::quantizeRows(const uint8_t* rows, std::size_t stride, std::size_t count, uint32_t* out,
-                              SearchMethod m) const noexcept {
-    for (std::size_t i = 0; i < count; ++i) out[i] = quantize(Descriptor::fromBytes(rows + i * stride), m);
+                              const Search& s) const noexcept {
+    for (std::size_t i = 0; i < count; ++i) out[i] = quantize(Descriptor::fromBytes(rows + i * stride), s);
 }
 
 // ---- file format ------------------------------------------------------------------

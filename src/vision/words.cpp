@@ -20,6 +20,7 @@ Status ExtractorConfig::validate() const {
         if (orb_levels < 1 || orb_levels > 32) return bad("orb_levels", orb_levels, "1..32");
         if (orb_fast_threshold < 1 || orb_fast_threshold > 255)
             return bad("orb_fast_threshold", orb_fast_threshold, "1..255");
+        if (search.probes < 1 || search.probes > 1024) return bad("search.probes", search.probes, "1..1024");
     }
     if (intensity || hue) {
         if (thumb_cell < 1 || thumb_cell > 256) return bad("thumb_cell", thumb_cell, "1..256");

@@ -32,7 +32,7 @@ struct ExtractorConfig {
     float orb_scale_factor = 1.2f; // pyramid scale step
     int orb_levels = 8;            // pyramid levels
     int orb_fast_threshold = 20;   // FAST corner threshold
-    SearchMethod search = SearchMethod::Indexed;
+    Search search;                 // how descriptors find their word (vocabulary.hpp)
 
     // Intensity and hue words: the frame is shrunk (area average) so each
     // thumbnail pixel covers a thumb_cell x thumb_cell block; each thumbnail

@@ -1,0 +1,143 @@
+// Frame sources: image directories and globs, video files, joined inputs,
+// cameras, and the one-line errors for inputs that cannot be read.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "rost/vision/frame_source.hpp"
+#include "test_vision_support.hpp"
+
+using namespace rost;
+using namespace rost::vision;
+using rost::testing::TempDir;
+
+namespace {
+
+cv::Mat patterned(int w, int h, int seed) {
+    cv::Mat m(h, w, CV_8UC3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            m.at<cv::Vec3b>(y, x) = {static_cast<uint8_t>((x + seed * 40) & 255), static_cast<uint8_t>(y & 255),
+                                     static_cast<uint8_t>((x * y + seed) & 255)};
+    return m;
+}
+
+std::vector<Frame> readAll(FrameSource& s) {
+    std::vector<Frame> out;
+    Frame f;
+    while (s.read(f) == ReadStatus::Ok) {
+        out.push_back(f);
+        out.back().image = f.image.clone();
+    }
+    return out;
+}
+
+std::string openError(const std::string& input) {
+    Status st;
+    auto s = openFrameSource(input, {}, st);
+    EXPECT_FALSE(s) << input;
+    EXPECT_FALSE(st.ok());
+    EXPECT_EQ(st.message().find('\n'), std::string::npos) << "one line: " << st.message();
+    return st.message();
+}
+
+} // namespace
+
+TEST(VisionSources, ImageDirectoryIsReadInNameOrderAtTheFirstImagesSize) {
+    TempDir t;
+    ASSERT_TRUE(cv::imwrite(t / "img_002.png", patterned(40, 30, 2)));
+    ASSERT_TRUE(cv::imwrite(t / "img_001.png", patterned(40, 30, 1)));
+    ASSERT_TRUE(cv::imwrite(t / "img_003.png", patterned(80, 60, 3)));  // another size: resized
+    cv::Mat grey;
+    cv::cvtColor(patterned(40, 30, 4), grey, cv::COLOR_BGR2GRAY);
+    ASSERT_TRUE(cv::imwrite(t / "img_004.pgm", grey));                  // grey: becomes 3 channels
+    testing::writeText(t / "notes.txt", "not an image");
+    Status st;
+    auto src = openFrameSource(t.path(), {}, st);
+    ASSERT_TRUE(src) << st.message();
+    EXPECT_EQ(src->info().width, 40);
+    EXPECT_EQ(src->info().height, 30);
+    EXPECT_EQ(src->info().frames, 4);
+    const auto frames = readAll(*src);
+    ASSERT_EQ(frames.size(), 4u);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        EXPECT_EQ(frames[i].index, static_cast<int64_t>(i));
+        EXPECT_EQ(frames[i].image.size(), cv::Size(40, 30));
+        EXPECT_EQ(frames[i].image.type(), CV_8UC3);
+    }
+    EXPECT_EQ(cv::norm(frames[0].image, patterned(40, 30, 1), cv::NORM_INF), 0.0) << "img_001 first";
+    EXPECT_EQ(cv::norm(frames[1].image, patterned(40, 30, 2), cv::NORM_INF), 0.0);
+}
+
+TEST(VisionSources, GlobSelectsMatchingFilesAndOptionsResize) {
+    TempDir t;
+    for (int i = 0; i < 3; ++i) ASSERT_TRUE(cv::imwrite(t / ("a" + std::to_string(i) + ".png"), patterned(40, 30, i)));
+    ASSERT_TRUE(cv::imwrite(t / "b0.png", patterned(40, 30, 9)));
+    SourceOptions o;
+    o.width = 20;  // height follows the aspect ratio
+    Status st;
+    auto src = openFrameSource(t / "a*.png", o, st);
+    ASSERT_TRUE(src) << st.message();
+    const auto frames = readAll(*src);
+    ASSERT_EQ(frames.size(), 3u);
+    EXPECT_EQ(frames[0].image.size(), cv::Size(20, 15));
+}
+
+TEST(VisionSources, VideoFileGivesItsFramesSizeAndRate) {
+    TempDir t;
+    cv::VideoWriter w(t / "clip.avi", cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 12.0, cv::Size(64, 48));
+    ASSERT_TRUE(w.isOpened());
+    for (int i = 0; i < 9; ++i) w.write(patterned(64, 48, i));
+    w.release();
+    Status st;
+    auto src = openFrameSource(t / "clip.avi", {}, st);
+    ASSERT_TRUE(src) << st.message();
+    EXPECT_EQ(src->info().width, 64);
+    EXPECT_EQ(src->info().height, 48);
+    EXPECT_NEAR(src->info().fps, 12.0, 1e-6);
+    const auto frames = readAll(*src);
+    ASSERT_EQ(frames.size(), 9u);
+    EXPECT_EQ(frames[3].timestamp_us, 250000);  // 3 / 12 fps
+    EXPECT_LT(cv::norm(frames[4].image, patterned(64, 48, 4), cv::NORM_L1) / (64 * 48 * 3), 8.0) << "MJPG is lossy";
+}
+
+TEST(VisionSources, JoinedInputsPlayInOrderAtTheFirstSize) {
+    TempDir a, b;
+    for (int i = 0; i < 2; ++i) ASSERT_TRUE(cv::imwrite(a / ("f" + std::to_string(i) + ".png"), patterned(40, 30, i)));
+    for (int i = 0; i < 3; ++i) ASSERT_TRUE(cv::imwrite(b / ("g" + std::to_string(i) + ".png"), patterned(100, 100, i)));
+    Status st;
+    auto src = openFrameSources({a.path(), b.path()}, {}, st);
+    ASSERT_TRUE(src) << st.message();
+    EXPECT_EQ(src->info().frames, 5);
+    const auto frames = readAll(*src);
+    ASSERT_EQ(frames.size(), 5u);
+    for (std::size_t i = 0; i < 5; ++i) {
+        EXPECT_EQ(frames[i].index, static_cast<int64_t>(i));
+        EXPECT_EQ(frames[i].image.size(), cv::Size(40, 30));
+    }
+    EXPECT_GT(frames[2].timestamp_us, frames[1].timestamp_us) << "timestamps keep increasing across inputs";
+}
+
+TEST(VisionSources, UnreadableInputsGiveOneLineNamingTheInput) {
+    TempDir t;
+    EXPECT_NE(openError(t / "missing.mp4").find("missing.mp4: no such file"), std::string::npos);
+    std::filesystem::create_directory(t / "empty");
+    EXPECT_NE(openError(t / "empty").find("holds no images"), std::string::npos);
+    testing::writeText(t / "junk.mp4", std::string(4096, 'x'));
+    EXPECT_NE(openError(t / "junk.mp4").find("junk.mp4: cannot decode video"), std::string::npos);
+    testing::writeText(t / "junk.png", "not a png");
+    EXPECT_NE(openError(t / "junk.png").find("junk.png: cannot decode image"), std::string::npos);
+    EXPECT_NE(openError(t / "*.nothing").find("no files match"), std::string::npos);
+    EXPECT_NE(openError("camera:x").find("camera:N"), std::string::npos);
+}
+
+TEST(VisionSources, CameraIndexBeyondTheCamerasSaysNoCameraFoundAndWhatItSees) {
+    const auto cams = listCameras();
+    const std::string input = "camera:" + std::to_string(cams.size() + 3);
+    const std::string m = openError(input);
+    EXPECT_NE(m.find(input + ": no camera found"), std::string::npos) << m;
+    if (haveLibcamera()) EXPECT_NE(m.find("libcamera sees"), std::string::npos) << m;
+}

@@ -1,0 +1,193 @@
+// Word extraction: deterministic, ids in range and offset per extractor,
+// positions inside the frame, the thumbnail words carry the right values.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "rost/random.hpp"
+#include "rost/vision/words.hpp"
+
+using namespace rost;
+using namespace rost::vision;
+
+namespace {
+
+// A textured colour image: random rectangles and circles on noise, so ORB
+// finds corners and every hue occurs.
+cv::Mat texturedImage(int w, int h, uint64_t seed) {
+    Rng rng(seed);
+    cv::Mat img(h, w, CV_8UC3);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+            img.at<cv::Vec3b>(y, x) = {static_cast<uint8_t>(rng.below(40)), static_cast<uint8_t>(rng.below(40)),
+                                       static_cast<uint8_t>(rng.below(40))};
+    for (int i = 0; i < 60; ++i) {
+        const cv::Scalar c(rng.below(256), rng.below(256), rng.below(256));
+        const cv::Point a(static_cast<int>(rng.below(static_cast<uint32_t>(w))), static_cast<int>(rng.below(static_cast<uint32_t>(h))));
+        if (i % 2) cv::rectangle(img, a, a + cv::Point(10 + static_cast<int>(rng.below(60)), 10 + static_cast<int>(rng.below(60))), c, -1);
+        else cv::circle(img, a, 5 + static_cast<int>(rng.below(30)), c, -1);
+    }
+    return img;
+}
+
+std::shared_ptr<const Vocabulary> vocabulary() {
+    Status st;
+    auto v = defaultVocabulary(st);
+    EXPECT_TRUE(st.ok()) << st.message();
+    return v;
+}
+
+} // namespace
+
+TEST(VisionWords, DefaultVocabularyIsBuiltInWithFiveThousandWordsAndANote) {
+    auto v = vocabulary();
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->size(), 5000u);
+    EXPECT_NE(v->note().find("k-majority"), std::string::npos) << v->note();
+}
+
+TEST(VisionWords, LayoutOffsetsTheExtractorsIntoOneVocabularyOf5436) {
+    ExtractorConfig c;
+    const WordLayout l = makeLayout(c, 5000);
+    EXPECT_EQ(l.orb_offset, 0u);
+    EXPECT_EQ(l.intensity_offset, 5000u);
+    EXPECT_EQ(l.hue_offset, 5256u);
+    EXPECT_EQ(l.size(), 5436u);
+    c.orb = false;
+    const WordLayout m = makeLayout(c, 5000);
+    EXPECT_EQ(m.intensity_offset, 0u);
+    EXPECT_EQ(m.hue_offset, 256u);
+    EXPECT_EQ(m.size(), 436u);
+    c.intensity = false;
+    EXPECT_EQ(makeLayout(c, 5000).size(), 180u);
+}
+
+TEST(VisionWords, ExtractionIsDeterministicAcrossCallsAndInstances) {
+    Status st;
+    auto a = WordExtractor::create({}, vocabulary(), st);
+    auto b = WordExtractor::create({}, vocabulary(), st);
+    ASSERT_TRUE(a && b) << st.message();
+    const cv::Mat img = texturedImage(640, 480, 1);
+    FrameWords w1, w2, w3;
+    ASSERT_TRUE(a->extract(img, w1));
+    ASSERT_TRUE(a->extract(img, w2));
+    ASSERT_TRUE(b->extract(img.clone(), w3));
+    EXPECT_EQ(w1.words, w2.words);
+    EXPECT_EQ(w1.words, w3.words);
+    ASSERT_EQ(w1.positions.size(), w3.positions.size());
+    for (std::size_t i = 0; i < w1.positions.size(); ++i) {
+        EXPECT_EQ(w1.positions[i].x, w3.positions[i].x);
+        EXPECT_EQ(w1.positions[i].y, w3.positions[i].y);
+    }
+}
+
+TEST(VisionWords, IdsAreInTheirExtractorsRangeAndPositionsInsideTheFrame) {
+    Status st;
+    auto e = WordExtractor::create({}, vocabulary(), st);
+    ASSERT_TRUE(e) << st.message();
+    const WordLayout& L = e->layout();
+    for (cv::Size size : {cv::Size(640, 480), cv::Size(383, 287), cv::Size(64, 40)}) {
+        const cv::Mat img = texturedImage(size.width, size.height, 7);
+        FrameWords w;
+        ASSERT_TRUE(e->extract(img, w));
+        ASSERT_EQ(w.words.size(), w.positions.size());
+        EXPECT_EQ(w.size(), w.orb + w.intensity + w.hue);
+        if (size.width >= 300) EXPECT_GT(w.orb, 100u) << "textured frame should give ORB words";
+        for (uint32_t i = 0; i < w.size(); ++i) {
+            const uint32_t id = w.words[i];
+            ASSERT_LT(id, e->vocabularySize());
+            // ORB words first, then intensity, then hue.
+            if (i < w.orb) ASSERT_LT(id, L.orb_offset + L.orb_size);
+            else if (i < w.orb + w.intensity) ASSERT_TRUE(id >= L.intensity_offset && id < L.intensity_offset + 256);
+            else ASSERT_TRUE(id >= L.hue_offset && id < L.hue_offset + 180);
+            ASSERT_GE(w.positions[i].x, 0);
+            ASSERT_GE(w.positions[i].y, 0);
+            ASSERT_LT(w.positions[i].x, size.width);
+            ASSERT_LT(w.positions[i].y, size.height);
+        }
+        // One intensity word per thumbnail pixel.
+        EXPECT_EQ(w.intensity, static_cast<uint32_t>(std::max(1, size.width / 16) * std::max(1, size.height / 16)));
+    }
+}
+
+TEST(VisionWords, IntensityWordsAreTheBlockMeansAndHueWordsTheBlockHues) {
+    ExtractorConfig c;
+    c.orb = false;
+    Status st;
+    auto e = WordExtractor::create(c, nullptr, st);
+    ASSERT_TRUE(e) << st.message();
+    // Left half pure red, right half grey 100: 4 x 2 thumbnail of 16-px blocks.
+    cv::Mat img(32, 64, CV_8UC3, cv::Scalar(100, 100, 100));
+    img(cv::Rect(0, 0, 32, 32)).setTo(cv::Scalar(0, 0, 255));
+    FrameWords w;
+    ASSERT_TRUE(e->extract(img, w));
+    ASSERT_EQ(w.intensity, 8u);
+    const uint32_t redGrey = 76;  // 0.299 * 255, as OpenCV rounds it
+    for (uint32_t i = 0; i < 8; ++i) {
+        const bool left = w.positions[i].x < 32;
+        EXPECT_EQ(w.words[i], e->layout().intensity_offset + (left ? redGrey : 100u)) << i;
+        EXPECT_EQ(w.positions[i].x % 16, 8) << "block centre";
+    }
+    // Hue only where colour is defined: the 4 red blocks, hue 0.
+    ASSERT_EQ(w.hue, 4u);
+    for (uint32_t i = 8; i < 12; ++i) {
+        EXPECT_EQ(w.words[i], e->layout().hue_offset + 0u);
+        EXPECT_LT(w.positions[i].x, 32);
+    }
+    // Green and blue blocks have OpenCV hues 60 and 120.
+    img.setTo(cv::Scalar(0, 255, 0));
+    img(cv::Rect(32, 0, 32, 32)).setTo(cv::Scalar(255, 0, 0));
+    ASSERT_TRUE(e->extract(img, w));
+    ASSERT_EQ(w.hue, 8u);
+    for (uint32_t i = w.intensity; i < w.size(); ++i)
+        EXPECT_EQ(w.words[i] - e->layout().hue_offset, w.positions[i].x < 32 ? 60u : 120u);
+}
+
+TEST(VisionWords, GreyFramesGiveNoHueWordsAndGreyInputEqualsItsColourCopy) {
+    Status st;
+    auto e = WordExtractor::create({}, vocabulary(), st);
+    ASSERT_TRUE(e);
+    cv::Mat grey;
+    cv::cvtColor(texturedImage(320, 240, 9), grey, cv::COLOR_BGR2GRAY);
+    cv::Mat bgr;
+    cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+    FrameWords a, b;
+    ASSERT_TRUE(e->extract(grey, a));
+    ASSERT_TRUE(e->extract(bgr, b));
+    EXPECT_EQ(a.hue, 0u);
+    EXPECT_EQ(a.words, b.words);
+}
+
+TEST(VisionWords, SettingsChangeTheWordsAndBadSettingsAreNamed) {
+    ExtractorConfig c;
+    c.orb_features = 100;
+    c.thumb_cell = 32;
+    Status st;
+    auto e = WordExtractor::create(c, vocabulary(), st);
+    ASSERT_TRUE(e) << st.message();
+    FrameWords w;
+    ASSERT_TRUE(e->extract(texturedImage(640, 480, 2), w));
+    EXPECT_LE(w.orb, 100u);
+    EXPECT_EQ(w.intensity, 20u * 15u);
+
+    c.thumb_cell = 0;
+    EXPECT_FALSE(WordExtractor::create(c, vocabulary(), st));
+    EXPECT_NE(st.message().find("thumb_cell"), std::string::npos) << st.message();
+    c = {};
+    c.orb = c.intensity = c.hue = false;
+    EXPECT_FALSE(WordExtractor::create(c, vocabulary(), st));
+    EXPECT_NE(st.message().find("no extractor"), std::string::npos);
+    c = {};
+    EXPECT_FALSE(WordExtractor::create(c, nullptr, st));
+    EXPECT_NE(st.message().find("vocabulary"), std::string::npos);
+}
+
+TEST(VisionWords, EmptyOrUnsupportedImagesAreRefused) {
+    Status st;
+    auto e = WordExtractor::create({}, vocabulary(), st);
+    FrameWords w;
+    EXPECT_FALSE(e->extract(cv::Mat(), w));
+    EXPECT_FALSE(e->extract(cv::Mat(10, 10, CV_32FC3), w));
+    EXPECT_EQ(w.size(), 0u);
+}
