@@ -396,9 +396,11 @@ void fillInfo(const Parsed& p, std::span<const uint8_t> bytes, CheckpointInfo& i
         info.steps = static_cast<int64_t>(getU64(b + s->payload));
     if (const auto* s = findSection(p, "engine.counters"); s && s->bytes >= 12 * 8)
         info.next_sequence = getU64(b + s->payload + 11 * 8);
-    if (const auto* s = findSection(p, "engine.window.timestamp"); s && s->bytes >= 8 && info.observations > 0) {
-        const std::size_t cap = s->bytes / 8;
-        info.last_timestamp = static_cast<int64_t>(getU64(b + s->payload + ((info.observations - 1) % cap) * 8));
+    if (const auto* s = findSection(p, "engine.window.timestamp"); s && info.observations > 0) {
+        const std::size_t cap = std::max<std::size_t>(
+            1, static_cast<std::size_t>(p.config.model.ring_steps) * static_cast<std::size_t>(p.config.model.cell_time));
+        const std::size_t at = static_cast<std::size_t>((info.observations - 1) % cap) * 8;
+        if (at + 8 <= s->bytes) info.last_timestamp = static_cast<int64_t>(getU64(b + s->payload + at));
     }
 }
 

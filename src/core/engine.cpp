@@ -682,8 +682,8 @@ void Engine::readState(StateReader read, void* context) const noexcept {
     read(context, "engine.counters", c, sizeof c);
     const double p[2] = {R.ns_per_token, R.publish_ns};
     read(context, "engine.predictors", p, sizeof p);
-    read(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.bytes());
-    read(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.bytes());
+    read(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.size() * sizeof(int64_t));
+    read(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.size() * sizeof(uint64_t));
 }
 
 Status Engine::writeState(StateWriter write, void* context) {
@@ -694,8 +694,8 @@ Status Engine::writeState(StateWriter write, void* context) {
     write(context, "engine.counters", c, sizeof c);
     double p[2] = {R.ns_per_token, R.publish_ns};
     write(context, "engine.predictors", p, sizeof p);
-    write(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.bytes());
-    write(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.bytes());
+    write(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.size() * sizeof(int64_t));
+    write(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.size() * sizeof(uint64_t));
     R.ingested.store(c[0], std::memory_order_relaxed);
     R.rejected.store(c[1], std::memory_order_relaxed);
     R.words_dropped_cell.store(c[2], std::memory_order_relaxed);

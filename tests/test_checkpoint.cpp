@@ -1,0 +1,744 @@
+// Checkpoints (rost/checkpoint.hpp) and the topic model CSV
+// (rost/topic_model_csv.hpp): bit-for-bit resume, the documented format,
+// and a clear error, with the engine untouched, for every kind of bad file.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "rost/checkpoint.hpp"
+#include "rost/config_file.hpp"
+#include "rost/topic_model_csv.hpp"
+#include "rost/word_stream.hpp"
+#include "test_engine_support.hpp"
+
+namespace rost {
+namespace {
+
+namespace fs = std::filesystem;
+using rost::testing::Frame;
+using rost::testing::makeStream;
+using rost::testing::smallConfig;
+
+fs::path tempDir(const std::string& name) {
+    const fs::path d = fs::temp_directory_path() / ("rost_checkpoint_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+}
+
+EngineConfig baseConfig() {
+    EngineConfig e;
+    e.model = smallConfig();
+    e.model.ring_steps = 6;  // the ring wraps during the tests' streams
+    e.model.max_words_per_frame = 40;  // some frames are subsampled at push (seeded by the sequence number)
+    e.budget = Budget::steps(3);
+    e.strategy.kind = StrategyKind::UniformNow;
+    e.queue_slots = 4;
+    return e;
+}
+
+// What a run produces per observation, to compare runs bit for bit.
+struct Record {
+    uint64_t sequence = 0;
+    int64_t step = -1;
+    uint64_t tokens = 0;
+    uint64_t surprise_bits = 0;
+    uint64_t perplexity_bits = 0;
+    std::vector<uint16_t> labels;
+    std::vector<uint16_t> samples;
+};
+
+uint64_t bits(double d) {
+    uint64_t u;
+    std::memcpy(&u, &d, sizeof u);
+    return u;
+}
+
+void recordInto(Engine& engine, std::vector<Record>& out) {
+    engine.setObservationHook([&out](const ObservationResult& r, const Model& m) {
+        Record rec;
+        rec.sequence = r.sequence;
+        rec.step = r.step;
+        rec.tokens = r.tokens;
+        rec.surprise_bits = bits(r.surprise);
+        rec.perplexity_bits = bits(r.perplexity);
+        const uint32_t n = m.observationSize(r.observation);
+        rec.labels.resize(n);
+        rec.samples.resize(n);
+        m.observationLabels(r.observation, rec.labels);
+        m.observationSamples(r.observation, rec.samples);
+        out.push_back(std::move(rec));
+    });
+}
+
+std::vector<uint8_t> stateOf(Engine& e) {
+    std::vector<uint8_t> b;
+    const Status st = encodeCheckpoint(e, b);
+    EXPECT_TRUE(st.ok()) << st.message();
+    return b;
+}
+
+void expectSameRecords(const std::vector<Record>& a, const std::vector<Record>& b) {
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        EXPECT_EQ(a[i].sequence, b[i].sequence) << i;
+        EXPECT_EQ(a[i].step, b[i].step) << i;
+        EXPECT_EQ(a[i].tokens, b[i].tokens) << i;
+        EXPECT_EQ(a[i].surprise_bits, b[i].surprise_bits) << i;
+        EXPECT_EQ(a[i].perplexity_bits, b[i].perplexity_bits) << i;
+        EXPECT_EQ(a[i].labels, b[i].labels) << i;
+        EXPECT_EQ(a[i].samples, b[i].samples) << i;
+    }
+}
+
+// A stream whose frames sometimes exceed max_words_per_frame (subsampled at
+// push, seeded by the producer sequence number) and sometimes are empty.
+std::vector<Frame> stream(const EngineConfig& cfg, int frames, uint64_t seed) {
+    std::vector<Frame> out = makeStream(cfg.model, frames, 30, seed);
+    Rng r(seed + 1);
+    for (Frame& f : out) {
+        const uint32_t n = r.below(4) == 0 ? 0u : 10u + r.below(50);
+        f.words.resize(std::min<std::size_t>(n, f.words.size()));
+        f.positions.resize(f.words.size());
+        while (f.words.size() < n) {  // more words than max_words_per_frame
+            f.words.push_back(r.below(static_cast<uint32_t>(cfg.model.V)));
+            f.positions.push_back({static_cast<int32_t>(r.below(static_cast<uint32_t>(cfg.model.frame_width))),
+                                   static_cast<int32_t>(r.below(static_cast<uint32_t>(cfg.model.frame_height)))});
+        }
+    }
+    return out;
+}
+
+// Runs `frames` through a fresh engine, saving a checkpoint after `stopAt`
+// observations; then resumes from the file in another engine and compares
+// every later observation and the final state with the uninterrupted run.
+void expectResumeBitForBit(const EngineConfig& cfg, const std::vector<int32_t>* prior, int stopAt, int total,
+                           const std::string& tag) {
+    SCOPED_TRACE(tag);
+    const fs::path dir = tempDir("resume");
+    const std::string path = (dir / "run.ckpt").string();
+    const auto frames = stream(cfg, total, 17);
+
+    Engine a(cfg);
+    if (prior) {
+        ASSERT_TRUE(a.model().addTopicCounts(*prior).ok());
+    }
+    std::vector<Record> recA;
+    recordInto(a, recA);
+    for (int f = 0; f < total; ++f) {
+        a.processNow(frames[static_cast<std::size_t>(f)].view());
+        if (f + 1 == stopAt) {
+            const Status st = saveCheckpoint(a, path);
+            ASSERT_TRUE(st.ok()) << st.message();
+        }
+    }
+
+    Status st;
+    CheckpointInfo info;
+    auto b = resumeEngine(path, st, &info);
+    ASSERT_TRUE(b) << st.message();
+    EXPECT_EQ(info.observations, static_cast<uint64_t>(stopAt));
+    EXPECT_EQ(info.next_sequence, static_cast<uint64_t>(stopAt));
+    EXPECT_EQ(info.last_timestamp, frames[static_cast<std::size_t>(stopAt - 1)].timestamp);
+    std::vector<Record> recB;
+    recordInto(*b, recB);
+    for (auto f = static_cast<int>(info.next_sequence); f < total; ++f) b->processNow(frames[static_cast<std::size_t>(f)].view());
+
+    const std::vector<Record> tailA(recA.begin() + stopAt, recA.end());
+    expectSameRecords(tailA, recB);
+    EXPECT_EQ(stateOf(a), stateOf(*b)) << "final states differ";
+    const EngineCounters ca = a.counters(), cb = b->counters();
+    EXPECT_EQ(ca.pushed, cb.pushed);
+    EXPECT_EQ(ca.ingested, cb.ingested);
+    EXPECT_EQ(ca.tokens, cb.tokens);
+    EXPECT_EQ(ca.words_truncated, cb.words_truncated);
+    std::string why;
+    EXPECT_TRUE(b->model().checkInvariants(&why)) << why;
+    fs::remove_all(dir);
+}
+
+// ---- CRC-32C -----------------------------------------------------------------
+
+TEST(Crc32c, MatchesTheStandardCheckValueAndChains) {
+    const std::string s = "123456789";
+    const std::span<const uint8_t> b(reinterpret_cast<const uint8_t*>(s.data()), s.size());
+    EXPECT_EQ(crc32c(b), 0xE3069283u);  // the CRC-32C check value (RFC 3720, iSCSI)
+    EXPECT_EQ(crc32c(b.subspan(4), crc32c(b.first(4))), 0xE3069283u);
+    EXPECT_EQ(crc32c({}), 0u);
+    std::vector<uint8_t> zeros(32, 0);
+    EXPECT_EQ(crc32c(zeros), 0x8A9136AAu);  // RFC 3720 B.4: 32 bytes of zeros
+    std::vector<uint8_t> ones(32, 0xFF);
+    EXPECT_EQ(crc32c(ones), 0x62A8AB43u);  // RFC 3720 B.4: 32 bytes of 0xFF
+}
+
+// ---- resume ------------------------------------------------------------------
+
+TEST(CheckpointResume, CountBudgetRunContinuesBitForBitAsIfNeverStopped) {
+    const EngineConfig base = baseConfig();
+    expectResumeBitForBit(base, nullptr, 23, 60, "steps budget, keep, ring wraps");
+
+    EngineConfig sub = base;
+    sub.model.eviction = EvictionPolicy::Subtract;
+    sub.budget = Budget::tokens(150);
+    sub.strategy.kind = StrategyKind::AgeProportionalExponential;
+    expectResumeBitForBit(sub, nullptr, 31, 60, "tokens budget, subtract, agep+exp");
+
+    EngineConfig ct = base;
+    ct.model.cell_time = 3;
+    ct.model.g_time = 1;
+    ct.strategy.kind = StrategyKind::Exponential;
+    expectResumeBitForBit(ct, nullptr, 17, 50, "cell.time 3, stopped mid-step");
+
+    // A topic model imported before the run (counts outside the window).
+    std::vector<int32_t> prior(static_cast<std::size_t>(base.model.K) * static_cast<std::size_t>(base.model.V));
+    Rng r(5);
+    for (auto& c : prior) c = static_cast<int32_t>(r.below(3));
+    expectResumeBitForBit(sub, &prior, 29, 50, "subtract with a prior");
+
+    expectResumeBitForBit(base, nullptr, 1, 20, "stopped after the first observation");
+}
+
+TEST(CheckpointResume, ResumingTwiceFromTheSameFileGivesTheSameRun) {
+    const EngineConfig cfg = baseConfig();
+    const fs::path dir = tempDir("twice");
+    const std::string path = (dir / "c.ckpt").string();
+    const auto frames = stream(cfg, 40, 3);
+    Engine a(cfg);
+    for (int f = 0; f < 20; ++f) a.processNow(frames[static_cast<std::size_t>(f)].view());
+    ASSERT_TRUE(saveCheckpoint(a, path).ok());
+    std::vector<uint8_t> finals[2];
+    for (auto& fin : finals) {
+        Status st;
+        auto e = resumeEngine(path, st);
+        ASSERT_TRUE(e) << st.message();
+        for (int f = 20; f < 40; ++f) e->processNow(frames[static_cast<std::size_t>(f)].view());
+        fin = stateOf(*e);
+    }
+    EXPECT_EQ(finals[0], finals[1]);
+    fs::remove_all(dir);
+}
+
+TEST(CheckpointResume, PeriodicWriterOnARunningEngineResumesBitForBit) {
+    // The refiner thread captures every 7th observation in its hook; the
+    // writer thread writes the files. Whichever checkpoint is on disk at
+    // the end, resuming from it with the rest of the stream gives the
+    // uninterrupted run's final state.
+    const EngineConfig cfg = baseConfig();
+    const fs::path dir = tempDir("periodic");
+    const std::string path = (dir / "run.ckpt").string();
+    const auto frames = stream(cfg, 120, 9);
+
+    Engine reference(cfg);
+    for (const Frame& f : frames) reference.processNow(f.view());
+
+    Engine live(cfg);
+    Status st;
+    auto writer = CheckpointWriter::create(live, path, st);
+    ASSERT_TRUE(writer) << st.message();
+    live.setObservationHook([&](const ObservationResult& r, const Model&) { writer->captureEvery(7, r); });
+    ASSERT_TRUE(live.start().ok());
+    for (const Frame& f : frames) ASSERT_TRUE(live.pushWait(f.view()));
+    live.stop();
+    ASSERT_TRUE(writer->flush().ok());
+    const CheckpointWriter::Stats s = writer->stats();
+    EXPECT_GE(s.captured, 1u);
+    EXPECT_EQ(s.captured, s.written);
+    EXPECT_EQ(s.captured + s.skipped, 120u / 7u);
+    EXPECT_EQ(s.failed, 0u);
+    EXPECT_GT(s.max_capture_ns, 0);
+    EXPECT_EQ(writer->imageBytes(), stateOf(live).size());
+
+    CheckpointInfo info;
+    auto resumed = resumeEngine(path, st, &info);
+    ASSERT_TRUE(resumed) << st.message();
+    EXPECT_EQ(info.next_sequence % 7, 0u);
+    EXPECT_EQ(info.observations, info.next_sequence);
+    for (auto f = info.next_sequence; f < frames.size(); ++f) resumed->processNow(frames[f].view());
+    EXPECT_EQ(stateOf(*resumed), stateOf(reference));
+
+    // The final state, captured after stop(), is the reference's too.
+    ASSERT_TRUE(writer->capture());
+    ASSERT_TRUE(writer->flush().ok());
+    std::string data;
+    ASSERT_TRUE(readFile(path, data).ok());
+    EXPECT_EQ(std::vector<uint8_t>(data.begin(), data.end()), stateOf(reference));
+    writer.reset();
+    fs::remove_all(dir);
+}
+
+// ---- the documented format ----------------------------------------------------
+
+uint32_t le32(const std::vector<uint8_t>& b, std::size_t at) {
+    return uint32_t{b[at]} | uint32_t{b[at + 1]} << 8 | uint32_t{b[at + 2]} << 16 | uint32_t{b[at + 3]} << 24;
+}
+uint64_t le64(const std::vector<uint8_t>& b, std::size_t at) { return le32(b, at) | uint64_t{le32(b, at + 4)} << 32; }
+void put32(std::vector<uint8_t>& b, std::size_t at, uint32_t v) {
+    for (int i = 0; i < 4; ++i) b[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
+}
+
+struct SectionAt {
+    std::string name;
+    std::size_t header, payload, bytes;
+    uint32_t width;
+};
+
+// Walks a checkpoint by the format in checkpoint.hpp, independently of the loader.
+std::vector<SectionAt> sectionsOf(const std::vector<uint8_t>& b) {
+    std::vector<SectionAt> out;
+    std::size_t at = 32;
+    for (uint32_t i = 0; i < le32(b, 12); ++i) {
+        SectionAt s;
+        s.name = std::string(reinterpret_cast<const char*>(&b[at]));
+        s.width = le32(b, at + 32);
+        s.bytes = static_cast<std::size_t>(le64(b, at + 40));
+        s.header = at;
+        s.payload = at + 56;
+        at = s.payload + s.bytes;
+        out.push_back(s);
+    }
+    return out;
+}
+
+// Recomputes every checksum after a deliberate edit, as a forger would.
+void reseal(std::vector<uint8_t>& b) {
+    for (const SectionAt& s : sectionsOf(b)) {
+        put32(b, s.header + 48, crc32c({b.data() + s.payload, s.bytes}));
+        put32(b, s.header + 52, crc32c({b.data() + s.header, 52}));
+    }
+    put32(b, 28, crc32c({b.data(), 28}));
+}
+
+TEST(CheckpointFormat, IsTheDocumentedLittleEndianLayout) {
+    const EngineConfig cfg = baseConfig();
+    Engine e(cfg);
+    for (const Frame& f : stream(cfg, 10, 1)) e.processNow(f.view());
+    const std::vector<uint8_t> b = stateOf(e);
+    ASSERT_GE(b.size(), 32u);
+    EXPECT_EQ(std::string(b.begin(), b.begin() + 8), "ROSTCKPT");
+    EXPECT_EQ(le32(b, 8), kCheckpointVersion);
+    EXPECT_EQ(le64(b, 16), b.size());
+    EXPECT_EQ(le32(b, 24), 0u);
+    EXPECT_EQ(le32(b, 28), crc32c({b.data(), 28}));
+    const auto secs = sectionsOf(b);
+    ASSERT_EQ(secs.size(), le32(b, 12));
+    const std::vector<std::string> expected = {
+        "config", "counters.frames", "counters.steps", "counters.tokens_refined", "counters.words_in_model",
+        "counters.nkv_is_window", "rng", "n_kv", "n_k", "inv", "inv_dec", "inv_inc", "ring.slot_step", "ring.cell_n",
+        "ring.cell_words", "ring.cell_z", "ring.n_ck", "ring.cell_surprise", "ring.in_word", "ring.in_pos",
+        "ring.in_slot", "ring.in_n", "ring.obs_surprise", "engine.counters", "engine.predictors",
+        "engine.window.timestamp", "engine.window.sequence"};
+    ASSERT_EQ(secs.size(), expected.size());
+    for (std::size_t i = 0; i < secs.size(); ++i) {
+        EXPECT_EQ(secs[i].name, expected[i]);
+        EXPECT_EQ(le32(b, secs[i].header + 48), crc32c({b.data() + secs[i].payload, secs[i].bytes})) << secs[i].name;
+        EXPECT_EQ(secs[i].bytes % secs[i].width, 0u);
+    }
+    EXPECT_EQ(secs.back().payload + secs.back().bytes, b.size());
+    // Section 0 is the configuration as config-file text.
+    const std::string text(reinterpret_cast<const char*>(&b[secs[0].payload]), secs[0].bytes);
+    EXPECT_EQ(text, formatConfig(cfg));
+    // counters.frames is a little-endian uint64.
+    EXPECT_EQ(le64(b, secs[1].payload), 10u);
+}
+
+// ---- bad files: the engine is untouched, the message says what and where ------
+
+struct Loaded {
+    Status status;
+    bool untouched = true;
+};
+
+// Loads `bytes` into an engine that already has a state of its own, and
+// checks that a refused file left that state unchanged.
+Loaded tryLoad(const std::vector<uint8_t>& bytes, const EngineConfig& cfg, const CheckpointLoadOptions& o = {}) {
+    Engine e(cfg);
+    for (const Frame& f : stream(cfg, 5, 99)) e.processNow(f.view());
+    const std::vector<uint8_t> before = stateOf(e);
+    Loaded l;
+    l.status = loadCheckpoint(bytes, "run.ckpt", e, o);
+    if (!l.status.ok()) l.untouched = stateOf(e) == before;
+    return l;
+}
+
+std::vector<uint8_t> goodFile(const EngineConfig& cfg) {
+    Engine e(cfg);
+    for (const Frame& f : stream(cfg, 14, 4)) e.processNow(f.view());
+    return stateOf(e);
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+TEST(CheckpointErrors, TruncationAtEverySectionBoundaryIsNamed) {
+    const EngineConfig cfg = baseConfig();
+    const std::vector<uint8_t> good = goodFile(cfg);
+    ASSERT_TRUE(tryLoad(good, cfg).status.ok());
+    const auto secs = sectionsOf(good);
+    std::vector<std::size_t> cuts = {0, 5, 8, 31};
+    for (const SectionAt& s : secs) {
+        cuts.push_back(s.header);
+        cuts.push_back(s.header + 20);
+        cuts.push_back(s.payload);
+        if (s.bytes > 1) cuts.push_back(s.payload + s.bytes / 2);
+        if (s.bytes > 0) cuts.push_back(s.payload + s.bytes - 1);
+    }
+    for (std::size_t cut : cuts) {
+        if (cut >= good.size()) continue;
+        const std::vector<uint8_t> bad(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(cut));
+        const Loaded l = tryLoad(bad, cfg);
+        ASSERT_FALSE(l.status.ok()) << "cut at " << cut;
+        EXPECT_TRUE(l.untouched) << "cut at " << cut;
+        const std::string& m = l.status.message();
+        EXPECT_TRUE(contains(m, "run.ckpt: ")) << m;
+        if (cut == 0) {
+            EXPECT_EQ(m, "run.ckpt: empty file, not a rost checkpoint");
+        } else if (cut < 32) {
+            EXPECT_TRUE(contains(m, "not a rost checkpoint") || contains(m, "truncated")) << m;
+        } else {
+            EXPECT_TRUE(contains(m, "truncated: the file ends at byte " + std::to_string(cut))) << m;
+            // Named: the section whose header or payload the file ends in.
+            bool named = false;
+            for (std::size_t i = 0; i < secs.size(); ++i)
+                if (cut >= secs[i].header && cut < secs[i].payload + secs[i].bytes)
+                    named = cut < secs[i].payload ? contains(m, "header of section " + std::to_string(i))
+                                                  : contains(m, "inside section '" + secs[i].name + "'");
+            EXPECT_TRUE(named) << m;
+        }
+    }
+    // One section boundary spelled out in full.
+    const SectionAt& z = secs[15];
+    ASSERT_EQ(z.name, "ring.cell_z");
+    const std::vector<uint8_t> bad(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(z.payload + 2));
+    EXPECT_EQ(tryLoad(bad, cfg).status.message(),
+              "run.ckpt: truncated: the file ends at byte " + std::to_string(z.payload + 2) +
+                  ", inside section 'ring.cell_z' (payload bytes " + std::to_string(z.payload) + ".." +
+                  std::to_string(z.payload + z.bytes - 1) + "); the header says the file has " +
+                  std::to_string(good.size()) + " bytes");
+}
+
+TEST(CheckpointErrors, AFlippedByteAnywhereIsCaughtAndItsSectionNamed) {
+    const EngineConfig cfg = baseConfig();
+    const std::vector<uint8_t> good = goodFile(cfg);
+    const auto secs = sectionsOf(good);
+    Rng r(11);
+    int tried = 0;
+    for (std::size_t i = 0; i < secs.size(); ++i) {
+        const SectionAt& s = secs[i];
+        std::vector<std::size_t> where = {s.header + r.below(56)};
+        for (int j = 0; j < 3 && s.bytes > 0; ++j) where.push_back(s.payload + r.below(static_cast<uint32_t>(s.bytes)));
+        for (std::size_t at : where) {
+            std::vector<uint8_t> bad = good;
+            bad[at] ^= static_cast<uint8_t>(1u << r.below(8));
+            const Loaded l = tryLoad(bad, cfg);
+            ++tried;
+            ASSERT_FALSE(l.status.ok()) << "byte " << at;
+            EXPECT_TRUE(l.untouched);
+            const std::string& m = l.status.message();
+            if (at >= s.payload) {
+                EXPECT_TRUE(contains(m, "section '" + s.name + "' (payload bytes " + std::to_string(s.payload)) &&
+                            contains(m, "is corrupt: checksum"))
+                    << m;
+            } else {
+                EXPECT_TRUE(contains(m, "header of section " + std::to_string(i))) << m;
+            }
+        }
+    }
+    EXPECT_GT(tried, 80);
+    for (std::size_t at : {0u, 9u, 13u, 20u, 29u}) {
+        std::vector<uint8_t> bad = good;
+        bad[at] ^= 0x10;
+        const std::string m = tryLoad(bad, cfg).status.message();
+        EXPECT_TRUE(at < 8 ? contains(m, "not a rost checkpoint") : contains(m, "file header (bytes 0..31) is corrupt"))
+            << m;
+    }
+}
+
+TEST(CheckpointErrors, WrongVersionMagicAndTrailingBytesAreNamed) {
+    const EngineConfig cfg = baseConfig();
+    std::vector<uint8_t> v2 = goodFile(cfg);
+    put32(v2, 8, 2);
+    reseal(v2);
+    EXPECT_EQ(tryLoad(v2, cfg).status.message(),
+              "run.ckpt: checkpoint format version 2 is not supported (this build reads version 1)");
+
+    std::vector<uint8_t> other = goodFile(cfg);
+    other[0] = 'X';
+    EXPECT_EQ(tryLoad(other, cfg).status.message(), "run.ckpt: not a rost checkpoint (no \"ROSTCKPT\" magic at byte 0)");
+    const std::string voc = std::string("ROSTVOC") + std::string(40, '\0');
+    EXPECT_EQ(tryLoad(std::vector<uint8_t>(voc.begin(), voc.end()), cfg).status.message(),
+              "run.ckpt: this is a rost vocabulary file, not a checkpoint");
+    const std::string text = "K = 16\n";
+    EXPECT_EQ(tryLoad(std::vector<uint8_t>(text.begin(), text.end()), cfg).status.message(),
+              "run.ckpt: not a rost checkpoint (only 7 bytes)");
+
+    std::vector<uint8_t> longer = goodFile(cfg);
+    const std::size_t n = longer.size();
+    longer.push_back(0);
+    EXPECT_EQ(tryLoad(longer, cfg).status.message(),
+              "run.ckpt: 1 unexpected bytes after the last section (from byte " + std::to_string(n) + ")");
+}
+
+TEST(CheckpointErrors, WrongConfigurationIsNamedKeyByKey) {
+    const EngineConfig cfg = baseConfig();
+    const std::vector<uint8_t> good = goodFile(cfg);
+    EngineConfig k = cfg;
+    k.model.K = 6;
+    k.model.alpha = 0.25;
+    Loaded l = tryLoad(good, k);
+    EXPECT_EQ(l.status.message(),
+              "run.ckpt: checkpoint was made with a different configuration: K = 8 in the checkpoint, 6 in this run; "
+              "alpha = 0.1 in the checkpoint, 0.25 in this run");
+    EXPECT_TRUE(l.untouched);
+
+    EngineConfig budget = cfg;
+    budget.budget = Budget::time(40);
+    l = tryLoad(good, budget);
+    EXPECT_EQ(l.status.message(),
+              "run.ckpt: checkpoint was made with a different configuration: budget.refines = 3 in the checkpoint, "
+              "(unset) in this run; budget.ms = (unset) in the checkpoint, 40 in this run");
+    CheckpointLoadOptions allow;
+    allow.allow_refinement_change = true;
+    EXPECT_TRUE(tryLoad(good, budget, allow).status.ok());
+
+    EngineConfig runtime = cfg;  // how this process runs does not matter
+    runtime.queue_slots = 16;
+    runtime.thread.cpu = 1;
+    runtime.flags.snapshot_labels = false;
+    EXPECT_TRUE(tryLoad(good, runtime).status.ok());
+
+    EngineConfig seed = cfg;
+    seed.model.seed = 8;
+    EXPECT_TRUE(contains(tryLoad(good, seed).status.message(), "seed = 7 in the checkpoint, 8 in this run"));
+}
+
+TEST(CheckpointErrors, HostileContentsWithValidChecksumsAreRefusedNamingSectionAndElement) {
+    const EngineConfig cfg = baseConfig();
+    const std::vector<uint8_t> good = goodFile(cfg);
+    const auto secs = sectionsOf(good);
+    auto section = [&](const std::string& name) {
+        for (const auto& s : secs)
+            if (s.name == name) return s;
+        ADD_FAILURE() << name;
+        return secs[0];
+    };
+    struct Case {
+        std::string section;
+        std::size_t element;
+        uint64_t value;
+        std::string expect;
+    };
+    // The first cell of the ring that holds words, and its first word.
+    const std::size_t cells = static_cast<std::size_t>(cfg.model.cellsPerStep());
+    const SectionAt cellN = section("ring.cell_n");
+    std::size_t ci = 0;
+    while (le32(good, cellN.payload + 4 * ci) == 0) ++ci;
+    const std::size_t firstWord = ci * static_cast<std::size_t>(cfg.model.cell_capacity);
+    const std::vector<Case> cases = {
+        {"ring.cell_z", firstWord, 8, "topic label 8 out of range [0, 8)"},
+        {"ring.cell_words", firstWord, 400, "word id 400 out of range [0, 400)"},
+        {"ring.cell_n", ci, 65,
+         "65 words in cell " + std::to_string(ci % cells) + " of slot " + std::to_string(ci / cells) + ", capacity 64"},
+        {"counters.nkv_is_window", 0, 2, "flag value 2 (expected 0 or 1)"},
+        {"counters.steps", 0, 99, "step count 99 does not follow from 14 observations"},
+        {"ring.slot_step", 0, 5, "slot 0 holds step 5, expected 12"},
+        {"ring.in_n", 0, 41, "41 words in an observation, at most 40"},
+        {"engine.predictors", 0, 0x7FF8000000000000ull, "cost estimate nan ns is out of range"},
+        {"n_k", 0, 12345, "the model state is inconsistent: n_k[0] = 12345 but sum_v n_k^v"},
+        {"ring.n_ck", 16, 1000, "the model state is inconsistent: n_c^k mismatch"},
+    };
+    for (const Case& c : cases) {
+        std::vector<uint8_t> bad = good;
+        const SectionAt s = section(c.section);
+        const std::size_t at = s.payload + c.element * s.width;
+        ASSERT_LE(at + s.width, s.payload + s.bytes) << c.section;
+        for (uint32_t i = 0; i < s.width; ++i) bad[at + i] = static_cast<uint8_t>(c.value >> (8 * i));
+        reseal(bad);
+        const Loaded l = tryLoad(bad, cfg);
+        ASSERT_FALSE(l.status.ok()) << c.section;
+        EXPECT_TRUE(l.untouched) << c.section;
+        EXPECT_TRUE(contains(l.status.message(), c.expect)) << l.status.message();
+        if (!contains(c.expect, "inconsistent")) {
+            EXPECT_TRUE(contains(l.status.message(), "section '" + c.section + "', element " + std::to_string(c.element) +
+                                                         " (byte " + std::to_string(at) + "): "))
+                << l.status.message();
+        }
+    }
+    // A generator stuck at zero.
+    std::vector<uint8_t> bad = good;
+    const SectionAt rng = section("rng");
+    std::fill(bad.begin() + static_cast<std::ptrdiff_t>(rng.payload),
+              bad.begin() + static_cast<std::ptrdiff_t>(rng.payload + rng.bytes), 0);
+    reseal(bad);
+    EXPECT_TRUE(contains(tryLoad(bad, cfg).status.message(), "generator state is all zero")) << tryLoad(bad, cfg).status.message();
+    // A config section that is not a configuration.
+    std::vector<uint8_t> conf = good;
+    conf[section("config").payload] = '!';
+    reseal(conf);
+    EXPECT_TRUE(contains(tryLoad(conf, cfg).status.message(), "run.ckpt [config section at byte 88]:1: "))
+        << tryLoad(conf, cfg).status.message();
+}
+
+TEST(CheckpointErrors, LoadIsRefusedWhileRunningOrWithQueuedObservations) {
+    const EngineConfig cfg = baseConfig();
+    const std::vector<uint8_t> good = goodFile(cfg);
+    Engine e(cfg);
+    const auto frames = stream(cfg, 2, 1);
+    ASSERT_TRUE(e.tryPush(frames[0].view()));
+    EXPECT_EQ(loadCheckpoint(good, "run.ckpt", e).message(),
+              "run.ckpt: cannot load a checkpoint while 1 observations are queued");
+    e.processPending();
+    ASSERT_TRUE(e.start().ok());
+    EXPECT_EQ(loadCheckpoint(good, "run.ckpt", e).message(),
+              "run.ckpt: cannot load a checkpoint into a running engine (stop it first)");
+    e.stop();
+    EXPECT_TRUE(loadCheckpoint(good, "run.ckpt", e).ok());
+}
+
+TEST(CheckpointFiles, MissingFileAndMissingDirectoryAreNamed) {
+    const EngineConfig cfg = baseConfig();
+    Engine e(cfg);
+    Status st = loadCheckpoint(std::string("/nonexistent/run.ckpt"), e);
+    EXPECT_EQ(st.message(), "/nonexistent/run.ckpt: cannot open: No such file or directory");
+    std::unique_ptr<Engine> r = resumeEngine("/nonexistent/run.ckpt", st);
+    EXPECT_FALSE(r);
+    EXPECT_EQ(st.message(), "/nonexistent/run.ckpt: cannot open: No such file or directory");
+    st = saveCheckpoint(e, "/nonexistent/run.ckpt");
+    EXPECT_TRUE(contains(st.message(), "/nonexistent/run.ckpt: cannot create a temporary file in /nonexistent"))
+        << st.message();
+    auto w = CheckpointWriter::create(e, "/nonexistent/run.ckpt", st);
+    EXPECT_FALSE(w);
+    EXPECT_EQ(st.message(), "/nonexistent/run.ckpt: directory /nonexistent does not exist");
+}
+
+TEST(CheckpointFiles, AFailedWriteIsReportedAndThePreviousFileStays) {
+    const EngineConfig cfg = baseConfig();
+    const fs::path dir = tempDir("failed");
+    const std::string path = (dir / "run.ckpt").string();
+    Engine e(cfg);
+    for (const Frame& f : stream(cfg, 6, 2)) e.processNow(f.view());
+    Status st;
+    auto w = CheckpointWriter::create(e, path, st);
+    ASSERT_TRUE(w) << st.message();
+    ASSERT_TRUE(w->capture());
+    ASSERT_TRUE(w->flush().ok());
+    const std::vector<uint8_t> first = stateOf(e);
+    // The target becomes a non-empty directory: rename fails.
+    const fs::path blocker = dir / "blocked.ckpt";
+    fs::create_directories(blocker / "x");
+    auto w2 = CheckpointWriter::create(e, blocker.string(), st);
+    ASSERT_TRUE(w2) << st.message();
+    ASSERT_TRUE(w2->capture());
+    st = w2->flush();
+    EXPECT_TRUE(contains(st.message(), blocker.string() + ": rename failed")) << st.message();
+    EXPECT_EQ(w2->stats().failed, 1u);
+    std::string data;
+    ASSERT_TRUE(readFile(path, data).ok());
+    EXPECT_EQ(std::vector<uint8_t>(data.begin(), data.end()), first);
+    w.reset();
+    w2.reset();
+    fs::remove_all(dir);
+}
+
+TEST(CheckpointFiles, WriterRemovesTemporaryFilesOfInterruptedSaves) {
+    const fs::path dir = tempDir("stale");
+    const std::string path = (dir / "run.ckpt").string();
+    std::ofstream(dir / ".run.ckpt.tmpAbC123") << "half a checkpoint";
+    std::ofstream(dir / ".other.ckpt.tmpAbC123") << "someone else's";
+    Engine e(baseConfig());
+    Status st;
+    auto w = CheckpointWriter::create(e, path, st);
+    ASSERT_TRUE(w) << st.message();
+    EXPECT_FALSE(fs::exists(dir / ".run.ckpt.tmpAbC123"));
+    EXPECT_TRUE(fs::exists(dir / ".other.ckpt.tmpAbC123"));
+    w.reset();
+    fs::remove_all(dir);
+}
+
+// ---- topic model CSV ----------------------------------------------------------
+
+TEST(TopicModelCsv, ExportImportRoundTripsTheCounts) {
+    const EngineConfig cfg = baseConfig();
+    Engine e(cfg);
+    for (const Frame& f : stream(cfg, 20, 6)) e.processNow(f.view());
+    const fs::path dir = tempDir("topics");
+    const std::string path = (dir / "topicmodel.csv").string();
+    ASSERT_TRUE(writeTopicModelCsv(e.model(), path).ok());
+    Model fresh(cfg.model);
+    const Status st = loadTopicModelCsv(path, fresh);
+    ASSERT_TRUE(st.ok()) << st.message();
+    for (int k = 0; k < cfg.model.K; ++k) {
+        EXPECT_EQ(fresh.topicCount(k), e.model().topicCount(k));
+        for (int v = 0; v < cfg.model.V; ++v) ASSERT_EQ(fresh.topicWordCount(k, v), e.model().topicWordCount(k, v));
+    }
+    EXPECT_EQ(fresh.wordsInModel(), e.model().wordsInModel());
+    std::string why;
+    EXPECT_TRUE(fresh.checkInvariants(&why)) << why;
+    fs::remove_all(dir);
+}
+
+TEST(TopicModelCsv, ImportedTopicsMakeTheSameSceneLessSurprisingInANewMission) {
+    // Mission 1 learns the scene; mission 2 starts with its topic model and
+    // finds the first observations of the same scene less surprising than a
+    // mission starting from nothing.
+    EngineConfig cfg = baseConfig();
+    cfg.budget = Budget::steps(10);
+    const auto frames = makeStream(cfg.model, 60, 30, 21);
+    Engine first(cfg);
+    for (int f = 0; f < 30; ++f) first.processNow(frames[static_cast<std::size_t>(f)].view());
+    const std::string csv = formatTopicModelCsv(first.model());
+    std::vector<int32_t> counts;
+    ASSERT_TRUE(parseTopicModelCsv(csv, cfg.model.K, cfg.model.V, counts).ok());
+    double withPrior = 0.0, without = 0.0;
+    for (int run = 0; run < 2; ++run) {
+        Engine e(cfg);
+        if (run == 0) {
+            ASSERT_TRUE(e.model().addTopicCounts(counts).ok());
+        }
+        double s = 0.0;
+        for (int f = 0; f < 5; ++f) s += e.processNow(frames[static_cast<std::size_t>(f)].view()).surprise;
+        (run == 0 ? withPrior : without) = s / 5;
+    }
+    EXPECT_LT(withPrior, 0.8 * without) << withPrior << " vs " << without;
+}
+
+TEST(TopicModelCsv, ErrorsNameFileLineAndColumn) {
+    std::vector<int32_t> c;
+    auto err = [&](const std::string& text, int K = 2, int V = 3) {
+        const Status st = parseTopicModelCsv(text, K, V, c);
+        return st.ok() ? std::string("ok") : st.message();
+    };
+    EXPECT_EQ(err("1,2,3\n4,5,6\n"), "ok");
+    EXPECT_EQ(c, (std::vector<int32_t>{1, 2, 3, 4, 5, 6}));
+    EXPECT_EQ(err("# header\n1, 2 ,3,\r\n\n4,5,6"), "ok");
+    EXPECT_EQ(err("1,2,3\n"), "topicmodel.csv: 1 topic lines, expected K = 2");
+    EXPECT_EQ(err("1,2,3\n4,5,6\n7,8,9\n"), "topicmodel.csv:3:1: more than K = 2 topic lines");
+    EXPECT_EQ(err("1,2,3\n4,5\n"), "topicmodel.csv:2:1: 2 counts, expected V = 3");
+    EXPECT_EQ(err("1,2,3,4\n4,5,6\n"), "topicmodel.csv:1:7: more than V = 3 counts");
+    EXPECT_EQ(err("1,2,3\n4,x5,6\n"), "topicmodel.csv:2:3: expected a count, found 'x5'");
+    EXPECT_EQ(err("1,2,3\n4,-5,6\n"), "topicmodel.csv:2:3: count '-5' out of range [0, 2^31)");
+    EXPECT_EQ(err("1,,3\n4,5,6\n"), "topicmodel.csv:1:3: empty field");
+    EXPECT_EQ(err("1,2,99999999999999999999\n4,5,6\n"),
+              "topicmodel.csv:1:5: count '99999999999999999999' out of range [0, 2^31)");
+    EXPECT_EQ(err("2000000000,2000000000,0\n4,5,6\n"), "topicmodel.csv:1:12: topic 0's total count exceeds 2^31 - 1");
+    EXPECT_EQ(err("1.5,2,3\n4,5,6\n"), "topicmodel.csv:1:1: expected a count, found '1.5'");
+
+    const fs::path dir = tempDir("topics_err");
+    const std::string path = (dir / "tm.csv").string();
+    ASSERT_TRUE(writeFileAtomic(path, "1,2\n").ok());
+    Config small = smallConfig();
+    Model m(small);
+    EXPECT_EQ(loadTopicModelCsv(path, m).message(), path + ":1:1: 2 counts, expected V = 400");
+    EXPECT_EQ(loadTopicModelCsv("/nonexistent/tm.csv", m).message(),
+              "/nonexistent/tm.csv: cannot open: No such file or directory");
+    fs::remove_all(dir);
+}
+
+} // namespace
+} // namespace rost
