@@ -36,12 +36,26 @@ int main(int argc, char** argv) {
     std::string input, out, name, vocabularyPath;
     int64_t maxFrames = 0;
     CLI::App app{"rost_experiment_extract: cache the visual words of footage for rost_experiment"};
-    app.add_option("--input", input, "video file, image directory or glob")->required();
-    app.add_option("--out", out, "output directory (created)")->required();
+    app.add_option("--input", input, "video file, image directory or glob");
+    app.add_option("--out", out, "output directory (created)");
     app.add_option("--name", name, "dataset name (default: the output directory's name)");
     app.add_option("--frames", maxFrames, "extract at most N frames (0: all)")->capture_default_str();
     app.add_option("--vocabulary", vocabularyPath, "ORB vocabulary file (default: the built-in one)");
+    bool checkVocabulary = false;
+    app.add_flag("--check-vocabulary", checkVocabulary,
+                 "only check that the built-in vocabulary exists (exit 0) or not (exit 1), then exit");
     CLI11_PARSE(app, argc, argv);
+    if (checkVocabulary) {
+        Status s;
+        const auto v = vision::defaultVocabulary(s);
+        if (!v) {
+            std::printf("no built-in vocabulary: %s\n", s.message().c_str());
+            return 1;
+        }
+        std::printf("built-in vocabulary: %u words; %s\n", v->size(), v->note().c_str());
+        return 0;
+    }
+    if (input.empty() || out.empty()) fail("--input and --out are required");
     if (name.empty()) name = out.substr(out.find_last_of('/') + 1);
 
     Status st;

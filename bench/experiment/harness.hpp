@@ -72,16 +72,20 @@ double meanFinite(const std::vector<double>& a) noexcept;
 
 // ---- calibration: T_R (ms) -> tokens per observation ------------------------
 
+// Costs are measured in CPU time of the refining thread, so the rate is what
+// one core of this machine does even while other work shares the machine
+// (wall-clock rates are reported alongside).
 struct Calibration {
-    double tokens_per_second = 0.0;  // marginal refinement rate on the engine's path
+    double tokens_per_second = 0.0;  // marginal refinement rate on the engine's path (CPU time)
     double overhead_ms = 0.0;        // per observation besides refinement (ingest, perplexity, publish)
-    double batch_tokens_per_second = 0.0;  // Model::refineAll on the same stream, for reference
+    double wall_tokens_per_second = 0.0;   // the same slope in wall-clock time
+    double batch_tokens_per_second = 0.0;  // Model::refineAll on the same stream (CPU time), for reference
     // tokens per observation that fill `tr_ms` of the engine's time per observation
     [[nodiscard]] uint64_t tokensFor(double tr_ms) const noexcept;
 };
 
-// Measures the engine's cost per observation (take-up to publish,
-// ObservationResult::elapsed_ns) at two count budgets on the first `frames`
+// Measures the engine's cost per observation (Engine::processNow: ingest,
+// refinement, perplexity, publication) at two count budgets on the first `frames`
 // frames, `repeats` times, for each strategy; the rate is the slope, the
 // overhead the intercept (medians over observations, then over repeats and
 // strategies). `log` receives one line per measurement.

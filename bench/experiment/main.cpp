@@ -120,6 +120,14 @@ std::string joinArgs(int argc, char** argv) {
     return s;
 }
 
+std::string loadAverage() {
+    std::string s;
+    if (!readFile("/proc/loadavg", s).ok()) return "?";
+    std::size_t n = 0, at = 0;
+    while (n < 3 && (at = s.find(' ', at + 1)) != std::string::npos) ++n;
+    return s.substr(0, at);
+}
+
 Dataset load(const std::string& dir, int64_t frames) {
     Dataset d;
     if (Status s = loadDataset(dir, frames, d); !s.ok()) fail(s.message());
@@ -153,7 +161,9 @@ int doCalibrate(const CalibrateArgs& a, const std::string& command) {
     text += "words_per_frame=" + fmt(d.wordsPerFrame(), "%.1f") + "\n";
     text += "tokens_per_second=" + fmt(c.tokens_per_second, "%.0f") + "\n";
     text += "overhead_ms=" + fmt(c.overhead_ms, "%.4f") + "\n";
+    text += "wall_tokens_per_second=" + fmt(c.wall_tokens_per_second, "%.0f") + "\n";
     text += "batch_tokens_per_second=" + fmt(c.batch_tokens_per_second, "%.0f") + "\n";
+    text += "load_average=" + loadAverage() + "\n";
     for (double tr : trs) text += "tokens_" + fmt(tr, "%g") + "ms=" + std::to_string(c.tokensFor(tr)) + "\n";
     text += "seconds=" + fmt(std::chrono::duration<double>(Clock::now() - t0).count(), "%.1f") + "\n";
     std::fputs(text.c_str(), stdout);

@@ -1,0 +1,207 @@
+#!/usr/bin/env bash
+# The paper's section VII experiment on real footage (bench/experiment/README.md).
+#
+#   scripts/experiment.sh --small      diver, first 200 frames, 3 seeds, 8 strategies, T_R = 40 ms,
+#                                      one time-budget cross-check; a few minutes
+#   scripts/experiment.sh --reduced    diver, mire-2, vtest (first 200 frames each), 3 seeds,
+#                                      8 strategies, T_R = 40 and 160 ms, time-budget cross-checks,
+#                                      eta/q sweep; about 40-60 minutes on 2 free cores
+#   scripts/experiment.sh --full       diver, mire-2, vtest (all frames), 10 seeds, 8 strategies,
+#                                      T_R = 40 and 160 ms, cross-checks, sweep; about 4-5 hours
+#
+# Options: --build DIR (default build-experiment), --jobs N (parallel runs, default 2),
+#   --out DIR (raw outputs, default data/experiment/out-MODE), --no-results (leave
+#   bench/RESULTS.md and the committed figures alone), --no-sweep, --no-timed,
+#   --frames N, --seeds N, --datasets "diver mire-2 vtest", --tokens-per-second R
+#   (skip calibration: use this rate, overhead 0), --calibration FILE (reuse one).
+#
+# Steps: build the harness; fetch the footage (scripts/fetch-footage.sh); extract the
+# words of each dataset once into data/experiment/NAME (cached; an ORB vocabulary is
+# trained into data/experiment/vocabulary.rostvoc with `rost vocab` when the build has
+# no built-in one); calibrate T_R -> tokens per observation on this machine; run; write
+# tables and plots; rewrite this mode's section of bench/RESULTS.md.
+set -euo pipefail
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+mode=small
+build="$here/build-experiment"
+jobs=2
+out=""
+results=1
+sweep=""
+timed=1
+frames=""
+seeds=""
+datasets=""
+rate=""
+calibration=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --small|--reduced|--full) mode=${1#--}; shift ;;
+    --build) build=$2; shift 2 ;;
+    --jobs) jobs=$2; shift 2 ;;
+    --out) out=$2; shift 2 ;;
+    --no-results) results=0; shift ;;
+    --no-sweep) sweep=0; shift ;;
+    --sweep) sweep=1; shift ;;
+    --no-timed) timed=0; shift ;;
+    --frames) frames=$2; shift 2 ;;
+    --seeds) seeds=$2; shift 2 ;;
+    --datasets) datasets=$2; shift 2 ;;
+    --tokens-per-second) rate=$2; shift 2 ;;
+    --calibration) calibration=$2; shift 2 ;;
+    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "experiment: unknown option '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+case $mode in
+  small)   : "${frames:=200}"; : "${seeds:=3}"; : "${datasets:=diver}"; trs="40"; : "${sweep:=0}"
+           timed_strategies="uni+now"; timed_seeds=1 ;;
+  reduced) : "${frames:=200}"; : "${seeds:=3}"; : "${datasets:=diver mire-2 vtest}"; trs="40 160"; : "${sweep:=1}"
+           timed_strategies="now,uniform,uni+now"; timed_seeds=1 ;;
+  full)    : "${frames:=0}"; : "${seeds:=10}"; : "${datasets:=diver mire-2 vtest}"; trs="40 160"; : "${sweep:=1}"
+           timed_strategies="now,uniform,uni+now"; timed_seeds=2 ;;
+esac
+[ -n "$out" ] || out="$here/data/experiment/out-$mode"
+start_s=$(date +%s)
+started=$(date -u +%Y-%m-%dT%H:%M:%SZ)
+log() { echo "experiment [$(( $(date +%s) - start_s ))s]: $*" >&2; }
+
+# ---- build ------------------------------------------------------------------------------------
+if [ ! -f "$build/build.ninja" ]; then
+  cmake -S "$here" -B "$build" -G Ninja -DROST_WERROR=ON >/dev/null
+fi
+ninja -C "$build" -j2 rost_experiment rost_experiment_extract rost >/dev/null
+exp="$build/bench/rost_experiment"
+extract="$build/bench/rost_experiment_extract"
+rosttool="$build/rost"
+
+# Plots need matplotlib (Debian: python3-matplotlib).
+if ! python3 -c 'import matplotlib' 2>/dev/null; then
+  if [ "$(id -u)" = 0 ]; then
+    log "installing python3-matplotlib"
+    apt-get install -y python3-matplotlib >/dev/null 2>&1 || { apt-get update >/dev/null 2>&1 && apt-get install -y python3-matplotlib >/dev/null; }
+  else
+    echo "experiment: python3-matplotlib is needed for the plots (apt-get install python3-matplotlib)" >&2; exit 1
+  fi
+fi
+
+# ---- footage and words ---------------------------------------------------------------------------
+declare -A pkg=([diver]=pd-extendedview [mire-2]=visp-images-data [vtest]=opencv-doc)
+declare -A src=(
+  [diver]=pd-extendedview/usr/share/doc/pd-extendedview/media/diver.mov
+  [mire-2]=visp-images-data/usr/share/visp-images-data/ViSP-images/mire-2
+  [vtest]=opencv-doc/usr/share/doc/opencv-doc/examples/data/vtest.avi)
+need=()
+for d in $datasets; do
+  [ -n "${pkg[$d]:-}" ] || { echo "experiment: unknown dataset '$d' (diver, mire-2, vtest)" >&2; exit 2; }
+  need+=("${pkg[$d]}")
+done
+"$here/scripts/fetch-footage.sh" "${need[@]}" >/dev/null
+
+vocab_args=()
+vocab_id=built-in
+if ! "$extract" --check-vocabulary >/dev/null; then
+  voc="$here/data/experiment/vocabulary.rostvoc"
+  if [ ! -f "$voc" ]; then
+    log "no built-in ORB vocabulary: training one (5000 words) on the three datasets with rost vocab"
+    "$here/scripts/fetch-footage.sh" >/dev/null
+    mkdir -p "$here/data/experiment"
+    "$rosttool" vocab --quiet --every 4 --max-descriptors 200000 --threads 2 -o "$voc" \
+      "$here/data/${src[diver]}" "$here/data/${src[mire-2]}" "$here/data/${src[vtest]}"
+  fi
+  vocab_args=(--vocabulary "$voc")
+  vocab_id=$(sha256sum "$voc" | cut -c1-16)
+fi
+for d in $datasets; do
+  dir="$here/data/experiment/$d"
+  if [ ! -f "$dir/dataset.txt" ] || [ "$(cat "$dir/.vocabulary" 2>/dev/null)" != "$vocab_id" ]; then
+    log "extracting the words of $d"
+    mkdir -p "$dir"
+    "$extract" --input "$here/data/${src[$d]}" --name "$d" --out "$dir" "${vocab_args[@]}" >&2
+    echo "$vocab_id" > "$dir/.vocabulary"
+  fi
+done
+
+# ---- calibration: T_R -> tokens per observation ------------------------------------------------------
+mkdir -p "$out"
+rm -f "$out"/*.runs.csv "$out"/*.steps.csv "$out"/*.info.txt
+first=${datasets%% *}
+if [ -n "$calibration" ]; then
+  cp "$calibration" "$out/calibration.txt"
+elif [ -n "$rate" ]; then
+  { echo "# given on the command line"; echo "tokens_per_second=$rate"; echo "overhead_ms=0"
+    for t in $trs; do echo "tokens_${t}ms=$(python3 -c "print(round($rate*$t/1000))")"; done; } > "$out/calibration.txt"
+else
+  log "calibrating on $first (load average: $(cut -d' ' -f1-3 /proc/loadavg))"
+  "$exp" calibrate --dataset "$here/data/experiment/$first" --frames 60 --repeats 3 \
+    --tr-ms "$(echo $trs | tr ' ' ,)" --out "$out/calibration.txt" 2>"$out/calibration.log" >/dev/null
+fi
+budgets=()
+for t in $trs; do
+  n=$(sed -n "s/^tokens_${t}ms=//p" "$out/calibration.txt")
+  [ -n "$n" ] || { echo "experiment: $out/calibration.txt has no tokens_${t}ms" >&2; exit 1; }
+  budgets+=(--budget "$t=tokens:$n")
+  log "T_R = $t ms -> $n tokens per observation"
+done
+
+# ---- runs ------------------------------------------------------------------------------------------
+for d in $datasets; do
+  log "$d: 8 strategies x ${#budgets[@]} budgets / 2 x $seeds seeds"
+  "$exp" run --dataset "$here/data/experiment/$d" --frames "$frames" --strategies all "${budgets[@]}" \
+    --seeds "$seeds" --jobs "$jobs" --out "$out" 2>>"$out/run.log"
+done
+if [ "$timed" = 1 ]; then
+  tb=()
+  for t in $trs; do tb+=(--budget "$t=time"); done
+  log "$first: time budgets through the threaded engine ($timed_strategies)"
+  "$exp" run --dataset "$here/data/experiment/$first" --frames "$frames" --strategies "$timed_strategies" \
+    "${tb[@]}" --seeds "$timed_seeds" --jobs "$jobs" --tag "$first-timed" --out "$out" 2>>"$out/run.log"
+fi
+if [ "$sweep" = 1 ]; then
+  t1=${trs%% *}
+  n1=$(sed -n "s/^tokens_${t1}ms=//p" "$out/calibration.txt")
+  mkdir -p "$out/sweep"
+  cp "$out/calibration.txt" "$out/sweep/"
+  log "$first: eta/q sweep of the mixed strategies at T_R = $t1 ms"
+  "$exp" run --dataset "$here/data/experiment/$first" --frames "$frames" --strategies mixed \
+    --eta 0.1,0.25,0.5,0.75,0.9 --q 0.02,0.1,0.5 --budget "$t1=tokens:$n1" --seeds "$seeds" --jobs "$jobs" \
+    --tag "sweep-$first" --out "$out/sweep" 2>>"$out/run.log"
+fi
+
+# ---- report ------------------------------------------------------------------------------------------
+duration=$(( $(date +%s) - start_s ))
+commit=$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)
+git -C "$here" diff --quiet HEAD -- src include bench 2>/dev/null || commit="$commit (work tree with local changes)"
+cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n1)
+machine="$(nproc) x $cpu, $(uname -m), load average at the end $(cut -d' ' -f1-3 /proc/loadavg)"
+cmdline="scripts/experiment.sh --$mode (frames ${frames/#0/all}, seeds $seeds, datasets $datasets, jobs $jobs)"
+{ echo "command=$cmdline"; echo "commit=$commit"; echo "machine=$machine"; echo "started=$started"
+  echo "duration=$((duration / 60)) min $((duration % 60)) s"
+  echo "note=vocabulary: $vocab_id (built-in, or trained by rost vocab on the three datasets when the build has none)"
+} > "$out/run.txt"
+[ "$sweep" = 1 ] && cp "$out/run.txt" "$out/sweep/"
+figs="$here/bench/experiment/figures"
+sums="$here/bench/experiment/results"
+if [ "$results" = 1 ]; then
+  python3 "$here/bench/experiment/report.py" paper --results "$out" --figures "$figs" --fig-stem "$mode-" \
+    --fig-link "experiment/figures/" --summary "$sums/$mode-summary.csv" \
+    --summary-link "bench/experiment/results/$mode-summary.csv" --markdown "$out/section.md"
+  { echo "### Run: --$mode"; echo; cat "$out/section.md"; } > "$out/section-titled.md"
+  python3 "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-$mode" \
+    "$out/section-titled.md" --heading "## Paper experiment (issue 6)"
+  if [ "$sweep" = 1 ]; then
+    python3 "$here/bench/experiment/report.py" sweep --results "$out/sweep" --figures "$figs" --fig-stem "$mode-" \
+      --fig-link "experiment/figures/" --summary "$sums/$mode-sweep-summary.csv" --markdown "$out/sweep.md"
+    { echo "### Tuning sweep (eta, q): --$mode"; echo; cat "$out/sweep.md"; } > "$out/sweep-titled.md"
+    python3 "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-sweep-$mode" \
+      "$out/sweep-titled.md" --heading "## Paper experiment (issue 6)"
+  fi
+  log "wrote bench/RESULTS.md sections experiment-$mode$([ "$sweep" = 1 ] && echo " and experiment-sweep-$mode"), figures in $figs"
+else
+  python3 "$here/bench/experiment/report.py" paper --results "$out" --figures "$out/figures" \
+    --fig-link "figures/" --summary "$out/summary.csv" --markdown "$out/section.md"
+  log "report in $out/section.md"
+fi
+log "done in $((duration / 60)) min $((duration % 60)) s; raw CSV in $out"
