@@ -71,8 +71,14 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE ONLY)
 # (sysroot or multiarch root), use the host's package by pointing Eigen3_DIR at
 # it. An explicit <Package>_DIR is used as given, not re-rooted, so this does
 # not open the host's root to any other search.
-if(NOT ROST_SYSROOT AND NOT ROST_MULTIARCH AND NOT DEFINED Eigen3_DIR
-   AND EXISTS /usr/share/eigen3/cmake/Eigen3Config.cmake)
+# A sysroot or multiarch root with its own libeigen3-dev is used as it is.
+set(_rost_eigen_in_root FALSE)
+foreach(_root IN LISTS CMAKE_FIND_ROOT_PATH)
+  if(EXISTS "${_root}/usr/share/eigen3/cmake/Eigen3Config.cmake")
+    set(_rost_eigen_in_root TRUE)
+  endif()
+endforeach()
+if(NOT _rost_eigen_in_root AND NOT DEFINED Eigen3_DIR AND EXISTS /usr/share/eigen3/cmake/Eigen3Config.cmake)
   set(Eigen3_DIR /usr/share/eigen3/cmake CACHE PATH "Eigen3 (header-only) package directory")
 endif()
 
