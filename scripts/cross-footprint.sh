@@ -7,7 +7,7 @@
 #
 # Uses the build directories of scripts/cross-test.sh (build-aarch64,
 # build-armhf; run it first) and a native one (build-cross-host, configured
-# here if missing), plus build-aarch64-tool from scripts/cross-build-tool.sh
+# here), plus build-aarch64-tool from scripts/cross-build-tool.sh
 # when it exists. Instruction counts: the difference between
 # `footprint refine 3` and `footprint refine 0` (same set-up, three more batch
 # sweeps) divided by the tokens those sweeps refined, counted
@@ -33,10 +33,8 @@ jobs=${ROST_JOBS:-2}
 sweeps=3
 
 host=$build_root/build-cross-host
-if [ ! -f "$host/CMakeCache.txt" ]; then
-  cmake -G Ninja -S "$here" -B "$host" -DCMAKE_BUILD_TYPE=Release -DROST_WERROR=ON -DROST_BUILD_EXAMPLES=OFF \
-    -DROST_VISION=OFF >/dev/null
-fi
+cmake -G Ninja -S "$here" -B "$host" -DCMAKE_BUILD_TYPE=Release -DROST_WERROR=ON -DROST_BUILD_BENCH=ON \
+  -DROST_BUILD_EXAMPLES=OFF -DROST_VISION=OFF >/dev/null
 cmake --build "$host" -j "$jobs" --target footprint rost_core >/dev/null
 
 plugin=$host/qemu_insn_count.so
