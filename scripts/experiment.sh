@@ -77,8 +77,11 @@ exp="$build/bench/rost_experiment"
 extract="$build/bench/rost_experiment_extract"
 rosttool="$build/rost"
 
-# Plots need matplotlib (Debian: python3-matplotlib).
-if ! python3 -c 'import matplotlib' 2>/dev/null; then
+# Plots need matplotlib: Debian's python3-matplotlib, for Debian's own python3 (a
+# python3 earlier on PATH, e.g. from pyenv, may not see it).
+py=python3
+[ -x /usr/bin/python3 ] && py=/usr/bin/python3
+if ! "$py" -c 'import matplotlib' 2>/dev/null; then
   if [ "$(id -u)" = 0 ]; then
     log "installing python3-matplotlib"
     apt-get install -y python3-matplotlib >/dev/null 2>&1 || { apt-get update >/dev/null 2>&1 && apt-get install -y python3-matplotlib >/dev/null; }
@@ -132,7 +135,7 @@ if [ -n "$calibration" ]; then
   cp "$calibration" "$out/calibration.txt"
 elif [ -n "$rate" ]; then
   { echo "# given on the command line"; echo "tokens_per_second=$rate"; echo "overhead_ms=0"
-    for t in $trs; do echo "tokens_${t}ms=$(python3 -c "print(round($rate*$t/1000))")"; done; } > "$out/calibration.txt"
+    for t in $trs; do echo "tokens_${t}ms=$("$py" -c "print(round($rate*$t/1000))")"; done; } > "$out/calibration.txt"
 else
   log "calibrating on $first (load average: $(cut -d' ' -f1-3 /proc/loadavg))"
   "$exp" calibrate --dataset "$here/data/experiment/$first" --frames 60 --repeats 3 \
@@ -148,16 +151,18 @@ done
 
 # ---- runs ------------------------------------------------------------------------------------------
 for d in $datasets; do
-  log "$d: 8 strategies x ${#budgets[@]} budgets / 2 x $seeds seeds"
+  log "$d: 8 strategies x $(( ${#budgets[@]} / 2 )) budgets x $seeds seeds"
   "$exp" run --dataset "$here/data/experiment/$d" --frames "$frames" --strategies all "${budgets[@]}" \
     --seeds "$seeds" --jobs "$jobs" --out "$out" 2>>"$out/run.log"
 done
 if [ "$timed" = 1 ]; then
   tb=()
   for t in $trs; do tb+=(--budget "$t=time"); done
+  # The refiner thread runs as onboard (SCHED_FIFO, pinned; fallback logged where not
+  # permitted), so other work on a shared machine does not eat its T_R.
   log "$first: time budgets through the threaded engine ($timed_strategies)"
   "$exp" run --dataset "$here/data/experiment/$first" --frames "$frames" --strategies "$timed_strategies" \
-    "${tb[@]}" --seeds "$timed_seeds" --jobs "$jobs" --tag "$first-timed" --out "$out" 2>>"$out/run.log"
+    "${tb[@]}" --seeds "$timed_seeds" --jobs "$jobs" --tag "$first-timed" --realtime --out "$out" 2>>"$out/run.log"
 fi
 if [ "$sweep" = 1 ]; then
   t1=${trs%% *}
@@ -185,22 +190,22 @@ cmdline="scripts/experiment.sh --$mode (frames ${frames/#0/all}, seeds $seeds, d
 figs="$here/bench/experiment/figures"
 sums="$here/bench/experiment/results"
 if [ "$results" = 1 ]; then
-  python3 "$here/bench/experiment/report.py" paper --results "$out" --figures "$figs" --fig-stem "$mode-" \
+  "$py" "$here/bench/experiment/report.py" paper --results "$out" --figures "$figs" --fig-stem "$mode-" \
     --fig-link "experiment/figures/" --summary "$sums/$mode-summary.csv" \
     --summary-link "bench/experiment/results/$mode-summary.csv" --markdown "$out/section.md"
   { echo "### Run: --$mode"; echo; cat "$out/section.md"; } > "$out/section-titled.md"
-  python3 "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-$mode" \
+  "$py" "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-$mode" \
     "$out/section-titled.md" --heading "## Paper experiment (issue 6)"
   if [ "$sweep" = 1 ]; then
-    python3 "$here/bench/experiment/report.py" sweep --results "$out/sweep" --figures "$figs" --fig-stem "$mode-" \
+    "$py" "$here/bench/experiment/report.py" sweep --results "$out/sweep" --figures "$figs" --fig-stem "$mode-" \
       --fig-link "experiment/figures/" --summary "$sums/$mode-sweep-summary.csv" --markdown "$out/sweep.md"
     { echo "### Tuning sweep (eta, q): --$mode"; echo; cat "$out/sweep.md"; } > "$out/sweep-titled.md"
-    python3 "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-sweep-$mode" \
+    "$py" "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-sweep-$mode" \
       "$out/sweep-titled.md" --heading "## Paper experiment (issue 6)"
   fi
   log "wrote bench/RESULTS.md sections experiment-$mode$([ "$sweep" = 1 ] && echo " and experiment-sweep-$mode"), figures in $figs"
 else
-  python3 "$here/bench/experiment/report.py" paper --results "$out" --figures "$out/figures" \
+  "$py" "$here/bench/experiment/report.py" paper --results "$out" --figures "$out/figures" \
     --fig-link "figures/" --summary "$out/summary.csv" --markdown "$out/section.md"
   log "report in $out/section.md"
 fi

@@ -60,7 +60,7 @@ const std::vector<StrategyKind>& paperOrder() {
 }
 
 OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConfig& strategy, const Budget& budget,
-                       Status& status) {
+                       Status& status, const ThreadSettings& thread) {
     status = {};
     OnlineResult res;
     const auto T = static_cast<std::size_t>(d.steps());
@@ -78,6 +78,7 @@ OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConf
     ec.flags.snapshot_perplexity = false;  // not needed here; keeps the budget for refinement
     ec.flags.snapshot_labels = false;
     ec.flags.stop_on_arrival = false;
+    ec.thread = thread;
     Engine engine(ec);
 
     // The hook runs on the refining thread; each observation writes its own slots.
@@ -135,6 +136,22 @@ OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConf
     if (T > 0) res.instantaneous[T - 1] = m.stepPerplexity(static_cast<int64_t>(T) - 1);
     for (std::size_t t = 0; t < T; ++t) res.final_ppx[t] = m.stepPerplexity(static_cast<int64_t>(t));
     return res;
+}
+
+std::string describeThreadSettings(const ThreadSettings& s) {
+    ThreadSettingsReport report;
+    std::thread([&] { report = applyToCurrentThread(s); }).join();
+    std::string out;
+    if (report.fifo) out = "SCHED_FIFO " + std::to_string(s.priority);
+    else out = "default scheduler";
+    if (report.pinned) out += ", pinned to CPU " + std::to_string(s.cpu);
+    if (!report.message.empty()) {
+        std::string m = report.message;
+        for (char& c : m)
+            if (c == '\n' || c == ',') c = ';';
+        out += " (" + m + ")";
+    }
+    return out;
 }
 
 int sweepsFor(uint64_t tokens, uint64_t words) noexcept {

@@ -57,8 +57,13 @@ struct BatchResult {
 // observation so none is dropped, stop(Drain)); the other kinds run in
 // synchronous mode. Errors (rejected observation, words subsampled away,
 // dropped observations) go to `status`.
+// `thread` schedules the refiner thread of a time-budget run.
 OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConfig& strategy, const Budget& budget,
-                       Status& status);
+                       Status& status, const ThreadSettings& thread = {});
+
+// What `s` achieves on this system for a thread (tried on a short-lived
+// thread): e.g. "SCHED_FIFO 80, CPU 1" or "default scheduler (...why...)".
+std::string describeThreadSettings(const ThreadSettings& s);
 
 // Batch Gibbs over the whole stream with `sweeps` sweeps.
 BatchResult runBatch(const Dataset& d, const Config& model, int sweeps);

@@ -188,6 +188,7 @@ struct RunArgs {
     std::string out;
     bool steps_csv = true;
     bool dry_run = false;
+    bool realtime = false;
 };
 
 struct OnlineTask {
@@ -303,12 +304,22 @@ int doRun(const RunArgs& a, const std::string& command) {
     });
     // Phase 2: time-budget runs through the threaded engine, one at a time
     // (each needs a core of its own for its deadlines to mean anything).
+    ThreadSettings thread;
+    std::string sched = "default scheduler";
+    if (a.realtime) {
+        thread = ThreadSettings::onboard();
+        thread.lock_memory = false;
+    }
+    if (!timed.empty()) {
+        sched = describeThreadSettings(thread);
+        std::fprintf(stderr, "time budgets: refiner thread %s\n", sched.c_str());
+    }
     for (std::size_t i : timed) {
         OnlineTask& t = online[i];
         Config c = base;
         c.seed = t.seed;
         Status st;
-        t.result = runOnline(d, c, t.strategy, budgets[t.budget].budget, st);
+        t.result = runOnline(d, c, t.strategy, budgets[t.budget].budget, st, thread);
         if (!st.ok()) fatal(d.name + " " + toString(t.strategy.kind) + ": " + st.message());
         progress(std::string(toString(t.strategy.kind)) + " " + budgets[t.budget].text + " seed=" +
                      std::to_string(t.seed) + " tokens/obs=" +
@@ -332,7 +343,7 @@ int doRun(const RunArgs& a, const std::string& command) {
     std::string runs =
         "dataset,frames,words,strategy,eta,q,tr_ms,budget_kind,budget_tokens,seed,inst_ratio,final_ratio,inst_ppx,"
         "final_ppx,batch_ppx,online_tokens,tokens_per_obs_mean,tokens_per_obs_min,tokens_per_obs_max,batch_sweeps,"
-        "batch_tokens,online_s,batch_s,overruns,max_overrun_ms\n";
+        "batch_tokens,online_s,batch_s,overruns,max_overrun_ms,refiner\n";
     std::string steps = "dataset,strategy,eta,q,tr_ms,budget_kind,seed,step,words,inst_ppx,final_ppx,batch_ppx\n";
     for (const auto& t : online) {
         const BudgetSpec& b = budgets[t.budget];
@@ -355,7 +366,8 @@ int doRun(const RunArgs& a, const std::string& command) {
                 "," + fmt(static_cast<double>(r.total_tokens) / static_cast<double>(d.steps()), "%.0f") + "," +
                 std::to_string(tmin) + "," + std::to_string(tmax) + "," + std::to_string(br.sweeps) + "," +
                 std::to_string(br.tokens) + "," + fmt(r.seconds, "%.3f") + "," + fmt(br.seconds, "%.3f") + "," +
-                std::to_string(r.overruns) + "," + fmt(static_cast<double>(r.max_overrun_ns) * 1e-6, "%.3f") + "\n";
+                std::to_string(r.overruns) + "," + fmt(static_cast<double>(r.max_overrun_ns) * 1e-6, "%.3f") + "," +
+                (b.budget.kind == BudgetKind::Time ? sched : std::string("synchronous")) + "\n";
         if (!a.steps_csv) continue;
         for (std::size_t s = 0; s < r.final_ppx.size(); ++s)
             steps += d.name + "," + toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," +
@@ -374,6 +386,7 @@ int doRun(const RunArgs& a, const std::string& command) {
     info += "cell_capacity=" + std::to_string(base.cell_capacity) + "\nmax_words_per_frame=" +
             std::to_string(base.max_words_per_frame) + "\n";
     info += "online_runs=" + std::to_string(online.size()) + "\nbatch_runs=" + std::to_string(batches.size()) + "\n";
+    if (!timed.empty()) info += "refiner_thread=" + sched + "\n";
     info += "jobs=" + std::to_string(a.jobs) + "\nseconds=" + fmt(seconds, "%.1f") + "\n";
     if (Status s = writeFileAtomic(prefix + ".info.txt", info); !s.ok()) fail(s.message());
     std::fprintf(stderr, "run %s: done in %.1f s; wrote %s.runs.csv%s\n", tag.c_str(), seconds, prefix.c_str(),
@@ -415,6 +428,9 @@ int main(int argc, char** argv) {
     run->add_option("--out", ra.out, "output directory")->required();
     run->add_flag("!--no-steps", ra.steps_csv, "do not write the per-step CSV");
     run->add_flag("--dry-run", ra.dry_run, "print the plan and its estimated cost only");
+    run->add_flag("--realtime", ra.realtime,
+                  "time budgets: run the refiner thread SCHED_FIFO 80 pinned to the last CPU, as onboard "
+                  "(ThreadSettings::onboard without mlockall); falls back, and says so, where not permitted");
 
     CLI11_PARSE(app, argc, argv);
     const std::string command = joinArgs(argc, argv);
