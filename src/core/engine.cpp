@@ -21,11 +21,12 @@ inline void bump(std::atomic<uint64_t>& a, uint64_t d = 1) noexcept {
 }
 
 // Exponential average that a single outlier (the thread preempted in the
-// middle of a cell) moves by at most 10%: each sample is clamped to
-// [0.5, 3] times the current average first.
-inline double robustAverage(double avg, double sample) noexcept {
+// middle of a cell) moves by a bounded amount: each sample is clamped to
+// [0.5, 3] times the current average first. The first sample is taken as is.
+inline double robustAverage(double avg, double sample, double weight, uint64_t& samples) noexcept {
+    if (samples++ == 0) return sample;
     const double s = std::clamp(sample, 0.5 * avg, 3.0 * avg);
-    return avg + 0.05 * (s - avg);
+    return avg + weight * (s - avg);
 }
 
 inline uint64_t bitsOf(double d) noexcept { return std::bit_cast<uint64_t>(d); }
@@ -266,7 +267,9 @@ struct Engine::Refiner {
     // a publication, so the last cell started still ends before the deadline
     // (a cell is started only if 1.5x its predicted cost fits).
     double ns_per_token = 40.0;
-    double publish_ns = 20000.0;
+    double publish_ns = 0.0;  // set from the budget in Engine(); measured after the first publication
+    uint64_t token_samples = 0;
+    uint64_t publish_samples = 0;
     uint64_t next_sequence = 0;  // producer sequence after the last observation taken up (checkpoints)
 
     alignas(kCacheLine) std::atomic<uint64_t> ingested{0};
@@ -289,6 +292,9 @@ Engine::Engine(const EngineConfig& cfg) : cfg_(cfg) {
                                                 cfg.model.seed ^ 0x5DEECE66Dull);
     publisher_ = std::make_unique<SnapshotPublisher>(cfg.model);
     refiner_ = std::make_unique<Refiner>(cfg.model);
+    // Conservative until the first publication is measured: 0.5 ms, or an
+    // eighth of a smaller time budget.
+    refiner_->publish_ns = std::min(5e5, cfg.budget.ms * 1e6 / 8);
 }
 
 std::unique_ptr<Engine> Engine::create(const EngineConfig& cfg, Status& status) {
@@ -412,7 +418,8 @@ uint64_t Engine::spend(const Budget& budget, Clock::time_point deadline, bool ne
                 tokens += m.refineCell(s, c);
                 started = true;
                 const auto after = Clock::now();
-                R.ns_per_token = robustAverage(R.ns_per_token, static_cast<double>((after - now).count()) / (n + 4));
+                R.ns_per_token = robustAverage(R.ns_per_token, static_cast<double>((after - now).count()) / (n + 4),
+                                               0.05, R.token_samples);
                 now = after;
             }
             if (started) ++draws;
@@ -553,7 +560,10 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     publish(r);
     const auto t1 = Clock::now();
     if (timed) {
-        R.publish_ns = robustAverage(R.publish_ns, static_cast<double>((t1 - tp).count()));
+        // Publishing costs about the same for observations of similar size: a faster average.
+        R.publish_ns = std::min(robustAverage(R.publish_ns, static_cast<double>((t1 - tp).count()), 0.25,
+                                              R.publish_samples),
+                                cfg_.budget.ms * 1e6 / 2);
         const int64_t over = (t1 - deadline).count();
         if (over > 0) {
             r.overrun_ns = over;
@@ -708,6 +718,7 @@ Status Engine::writeState(StateWriter write, void* context) {
     queue_->restoreProducer(c[11], c[8], c[9], c[10]);
     R.ns_per_token = p[0];
     R.publish_ns = p[1];
+    R.token_samples = R.publish_samples = 1;  // restored averages, not first samples
     return {};
 }
 
