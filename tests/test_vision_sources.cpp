@@ -54,7 +54,7 @@ TEST(VisionSources, ImageDirectoryIsReadInNameOrderAtTheFirstImagesSize) {
     cv::Mat grey;
     cv::cvtColor(patterned(40, 30, 4), grey, cv::COLOR_BGR2GRAY);
     ASSERT_TRUE(cv::imwrite(t / "img_004.pgm", grey));                  // grey: becomes 3 channels
-    testing::writeText(t / "notes.txt", "not an image");
+    rost::testing::writeText(t / "notes.txt", "not an image");
     Status st;
     auto src = openFrameSource(t.path(), {}, st);
     ASSERT_TRUE(src) << st.message();
@@ -101,7 +101,10 @@ TEST(VisionSources, VideoFileGivesItsFramesSizeAndRate) {
     const auto frames = readAll(*src);
     ASSERT_EQ(frames.size(), 9u);
     EXPECT_EQ(frames[3].timestamp_us, 250000);  // 3 / 12 fps
-    EXPECT_LT(cv::norm(frames[4].image, patterned(64, 48, 4), cv::NORM_L1) / (64 * 48 * 3), 8.0) << "MJPG is lossy";
+    // MJPG is lossy: frame 4 must be nearer its own image than its neighbours'.
+    const double own = cv::norm(frames[4].image, patterned(64, 48, 4), cv::NORM_L1);
+    EXPECT_LT(own, cv::norm(frames[4].image, patterned(64, 48, 3), cv::NORM_L1));
+    EXPECT_LT(own, cv::norm(frames[4].image, patterned(64, 48, 5), cv::NORM_L1));
 }
 
 TEST(VisionSources, JoinedInputsPlayInOrderAtTheFirstSize) {
@@ -126,9 +129,9 @@ TEST(VisionSources, UnreadableInputsGiveOneLineNamingTheInput) {
     EXPECT_NE(openError(t / "missing.mp4").find("missing.mp4: no such file"), std::string::npos);
     std::filesystem::create_directory(t / "empty");
     EXPECT_NE(openError(t / "empty").find("holds no images"), std::string::npos);
-    testing::writeText(t / "junk.mp4", std::string(4096, 'x'));
+    rost::testing::writeText(t / "junk.mp4", std::string(4096, 'x'));
     EXPECT_NE(openError(t / "junk.mp4").find("junk.mp4: cannot decode video"), std::string::npos);
-    testing::writeText(t / "junk.png", "not a png");
+    rost::testing::writeText(t / "junk.png", "not a png");
     EXPECT_NE(openError(t / "junk.png").find("junk.png: cannot decode image"), std::string::npos);
     EXPECT_NE(openError(t / "*.nothing").find("no files match"), std::string::npos);
     EXPECT_NE(openError("camera:x").find("camera:N"), std::string::npos);
@@ -139,5 +142,7 @@ TEST(VisionSources, CameraIndexBeyondTheCamerasSaysNoCameraFoundAndWhatItSees) {
     const std::string input = "camera:" + std::to_string(cams.size() + 3);
     const std::string m = openError(input);
     EXPECT_NE(m.find(input + ": no camera found"), std::string::npos) << m;
-    if (haveLibcamera()) EXPECT_NE(m.find("libcamera sees"), std::string::npos) << m;
+    if (haveLibcamera()) {
+        EXPECT_NE(m.find("libcamera sees"), std::string::npos) << m;
+    }
 }

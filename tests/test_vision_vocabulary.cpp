@@ -122,7 +122,7 @@ TEST(VisionVocabulary, QuantizeRowsReadsStridedDescriptorRows) {
 }
 
 TEST(VisionVocabulary, SaveAndLoadRoundTripKeepsWordsNoteAndIds) {
-    testing::TempDir t;
+    rost::testing::TempDir t;
     const auto words = randomWords(1234, 51);
     const Vocabulary v(words, "trained on nothing\nsecond line");
     ASSERT_TRUE(v.save(t / "v.rostvoc").ok());
@@ -146,7 +146,7 @@ class VocabularyFileErrors : public ::testing::Test {
 protected:
     void SetUp() override { bytes_ = Vocabulary(randomWords(100, 61), "note").serialize(); }
     std::string loadError(const std::vector<uint8_t>& b) {
-        testing::writeText(t_ / "bad.rostvoc", std::string(b.begin(), b.end()));
+        rost::testing::writeText(t_ / "bad.rostvoc", std::string(b.begin(), b.end()));
         Vocabulary v;
         const Status st = Vocabulary::load(t_ / "bad.rostvoc", v);
         EXPECT_FALSE(st.ok());
@@ -157,7 +157,7 @@ protected:
     void put32(std::vector<uint8_t>& b, std::size_t at, uint32_t v) {
         for (int i = 0; i < 4; ++i) b[at + i] = static_cast<uint8_t>(v >> (8 * i));
     }
-    testing::TempDir t_;
+    rost::testing::TempDir t_;
     std::vector<uint8_t> bytes_;
 };
 

@@ -93,14 +93,17 @@ TEST(VisionWords, IdsAreInTheirExtractorsRangeAndPositionsInsideTheFrame) {
         ASSERT_TRUE(e->extract(img, w));
         ASSERT_EQ(w.words.size(), w.positions.size());
         EXPECT_EQ(w.size(), w.orb + w.intensity + w.hue);
-        if (size.width >= 300) EXPECT_GT(w.orb, 100u) << "textured frame should give ORB words";
+        if (size.width >= 300) {
+            EXPECT_GT(w.orb, 100u) << "textured frame should give ORB words";
+        }
         for (uint32_t i = 0; i < w.size(); ++i) {
             const uint32_t id = w.words[i];
             ASSERT_LT(id, e->vocabularySize());
             // ORB words first, then intensity, then hue.
-            if (i < w.orb) ASSERT_LT(id, L.orb_offset + L.orb_size);
-            else if (i < w.orb + w.intensity) ASSERT_TRUE(id >= L.intensity_offset && id < L.intensity_offset + 256);
-            else ASSERT_TRUE(id >= L.hue_offset && id < L.hue_offset + 180);
+            const bool inRange = i < w.orb                 ? id < L.orb_offset + L.orb_size
+                                 : i < w.orb + w.intensity ? id >= L.intensity_offset && id < L.intensity_offset + 256
+                                                           : id >= L.hue_offset && id < L.hue_offset + 180;
+            ASSERT_TRUE(inRange) << "word " << i << " id " << id;
             ASSERT_GE(w.positions[i].x, 0);
             ASSERT_GE(w.positions[i].y, 0);
             ASSERT_LT(w.positions[i].x, size.width);

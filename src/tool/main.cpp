@@ -2,9 +2,11 @@
 // `rost run --help`.
 
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <opencv2/core/utils/logger.hpp>
 
 #include "tool.hpp"
 
@@ -74,6 +76,11 @@ void addModelOptions(CLI::App& app, ModelOptions& m) {
 } // namespace
 
 int main(int argc, char** argv) {
+    // The tool reports problems itself, one line each: keep OpenCV's and
+    // FFmpeg's own diagnostics off stderr (FFmpeg reads this when first used).
+    ::setenv("OPENCV_FFMPEG_LOGLEVEL", "-8", 0);  // AV_LOG_QUIET
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+
     CLI::App app{"rost: realtime online spatiotemporal topic models of video (Girdhar & Dudek).\n"
                  "Words of each frame (ORB, intensity and hue words, each with its pixel position) are added to a\n"
                  "spatiotemporal topic model as they arrive and refined by Gibbs sampling within a budget; the\n"

@@ -37,12 +37,14 @@ namespace {
 constexpr std::size_t kCacheLine = 64;
 constexpr unsigned kMaxBuffers = 16;
 
-// libcamera logs INFO lines to stderr by default; the tool wants one line per
-// problem. ROST_LIBCAMERA_LOG=1 keeps libcamera's own logging.
+// libcamera logs INFO and WARN lines to stderr by default; the tool wants one
+// line per problem. Its logger reads LIBCAMERA_LOG_LEVELS once, when it is
+// created (on first use), and applies it to categories created later too,
+// which logSetLevel() does not; so the variable is set, unless the user set
+// it. ROST_LIBCAMERA_LOG=1 keeps libcamera's own logging.
 void quietLogging() {
     if (const char* v = std::getenv("ROST_LIBCAMERA_LOG"); v && *v == '1') return;
-    if (std::getenv("LIBCAMERA_LOG_LEVELS")) return;
-    libcamera::logSetLevel("*", "ERROR");
+    ::setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", 0);
 }
 
 std::string cameraName(const libcamera::Camera& cam) {

@@ -124,7 +124,10 @@ public:
     explicit VideoSource(std::string path) : path_(std::move(path)) {}
 
     Status open(const SourceOptions& o) {
-        if (!cap_.open(path_, cv::CAP_ANY) || !cap_.isOpened())
+        // FFmpeg only: it reads every common container, and OpenCV's other
+        // backends (GStreamer, image-sequence patterns) would each try a file
+        // FFmpeg refused and fill stderr with their complaints.
+        if (!cap_.open(path_, cv::CAP_FFMPEG) || !cap_.isOpened())
             return Status::error(path_ + ": cannot decode video (OpenCV cannot open it)");
         if (!cap_.read(pending_) || pending_.empty())
             return Status::error(path_ + ": cannot decode video (no frame could be decoded)");

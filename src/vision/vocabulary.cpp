@@ -366,24 +366,38 @@ Status trainKMajority(std::span<const Descriptor> data, const KMajorityOptions& 
                              " words; use more footage or fewer words");
     if (o.max_iterations < 1) return Status::error("k-majority: max_iterations must be at least 1");
 
-    // Initial centres: distinct descriptors in a seeded random order.
+    // Initial centres by k-means++ seeding (Arthur & Vassilvitskii 2007): the
+    // first uniformly, each next one with probability proportional to its
+    // squared distance to the nearest centre so far. Centres spread over the
+    // clusters, so k-majority rarely starts with two in one cluster and none
+    // in another. A duplicate of a centre has weight 0, so centres are distinct.
     Rng rng(o.seed);
-    std::vector<uint32_t> perm(N);
-    for (std::size_t i = 0; i < N; ++i) perm[i] = static_cast<uint32_t>(i);
     centres.clear();
     centres.reserve(K);
-    {
-        std::vector<Descriptor> taken;
-        taken.reserve(K);
-        for (std::size_t i = 0; i < N && centres.size() < K; ++i) {
-            const std::size_t j = i + rng.below(static_cast<uint32_t>(N - i));
-            std::swap(perm[i], perm[j]);
-            const Descriptor& d = data[perm[i]];
-            auto it = std::lower_bound(taken.begin(), taken.end(), d,
-                                       [](const Descriptor& a, const Descriptor& b) { return a.w < b.w; });
-            if (it != taken.end() && *it == d) continue;
-            taken.insert(it, d);
-            centres.push_back(d);
+    std::vector<uint32_t> weight(N);
+    centres.push_back(data[rng.below(static_cast<uint32_t>(std::min<std::size_t>(N, UINT32_MAX)))]);
+    uint64_t total = 0;
+    for (std::size_t i = 0; i < N; ++i) {
+        const auto d = static_cast<uint32_t>(hammingDistance(data[i], centres[0]));
+        weight[i] = d * d;
+        total += weight[i];
+    }
+    while (centres.size() < K && total > 0) {
+        const auto r = static_cast<uint64_t>(rng.uniformDouble() * static_cast<double>(total));
+        std::size_t pick = 0;
+        for (uint64_t acc = 0; pick < N; ++pick) {
+            acc += weight[pick];
+            if (acc > r && weight[pick] > 0) break;
+        }
+        if (pick == N) pick = N - 1;
+        while (weight[pick] == 0) --pick;  // rounding at the top end: the last positive weight
+        const Descriptor c = data[pick];
+        centres.push_back(c);
+        total = 0;
+        for (std::size_t i = 0; i < N; ++i) {
+            const auto d = static_cast<uint32_t>(hammingDistance(data[i], c));
+            weight[i] = std::min(weight[i], d * d);
+            total += weight[i];
         }
     }
     if (centres.size() < K)

@@ -152,8 +152,9 @@ struct KMajorityReport {
 // k-majority clustering (k-means in Hamming space): assign each descriptor to
 // its nearest centre, then set each centre bit to the majority of its
 // members' bits (ties keep the old bit), until nothing changes. Initial
-// centres are distinct descriptors drawn with the seed; a cluster that
-// empties takes the descriptor farthest from its centre. Deterministic for a
+// centres by k-means++ seeding with the seed (distinct descriptors, spread
+// by squared Hamming distance); a cluster that empties takes the descriptor
+// farthest from its centre. Deterministic for a
 // given seed and input, whatever the thread count. Needs at least `words`
 // distinct descriptors.
 [[nodiscard]] Status trainKMajority(std::span<const Descriptor> data, const KMajorityOptions& options,

@@ -1,0 +1,147 @@
+// The rost command line: help, and every kind of bad input gives one line
+// on stderr naming what and where, exit code 2, and no output files.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "test_vision_support.hpp"
+
+using rost::testing::RunResult;
+using rost::testing::TempDir;
+
+namespace {
+
+std::string tool() { return std::string("'") + ROST_TOOL + "'"; }
+
+RunResult runRost(const std::string& args) { return rost::testing::runShell(tool() + " " + args); }
+
+// An error run: exit 2, exactly one line on stderr containing `needle`, and
+// nothing (not even a staging directory) left in `out` when given.
+void expectError(const RunResult& r, const std::string& needle, const std::string& out = {}) {
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << "stderr: " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
+    EXPECT_EQ(r.err.rfind("rost: error: ", 0), 0u) << r.err;
+    if (!out.empty() && std::filesystem::exists(out)) {
+        for (const auto& e : std::filesystem::directory_iterator(out))
+            ADD_FAILURE() << "left behind: " << e.path();
+    }
+}
+
+} // namespace
+
+TEST(ToolCli, HelpExplainsEveryCommandAndOption) {
+    RunResult r = runRost("--help");
+    EXPECT_EQ(r.exit_code, 0);
+    for (const char* s : {"run", "refine", "vocab", "cameras", "Exit status"})
+        EXPECT_NE(r.out.find(s), std::string::npos) << s;
+    r = runRost("run --help");
+    EXPECT_EQ(r.exit_code, 0);
+    for (const char* s : {"-K", "-V", "--alpha", "--beta", "--cell.space", "--cell.time", "--g.space", "--g.time",
+                          "--sampler", "now,uniform,agep,exp,uni+now,agep+now,uni+exp,agep+exp", "--eta", "--q",
+                          "--budget.refines", "--budget.ms", "--seed", "--max-frames", "--realtime", "--quiet",
+                          "--in.topicmodel", "--vocabulary", "--out", "words.csv", "positions.csv", "topics.csv",
+                          "perplexity.csv", "surprise.csv", "topicmodel.csv", "overlay.mp4", "summary.png", "camera:N"})
+        EXPECT_NE(r.out.find(s), std::string::npos) << "run --help lacks " << s;
+    r = runRost("refine --help");
+    EXPECT_EQ(r.exit_code, 0);
+    EXPECT_NE(r.out.find("--positions"), std::string::npos);
+    r = runRost("vocab --help");
+    EXPECT_EQ(r.exit_code, 0);
+    EXPECT_NE(r.out.find("--words"), std::string::npos);
+}
+
+TEST(ToolCli, NoCommandOrUnknownOptionIsAnErrorWithExitCode2) {
+    expectError(runRost(""), "subcommand");
+    TempDir t;
+    expectError(runRost("run x.mp4 --out " + (t / "o") + " --bogus"), "--bogus", t / "o");
+}
+
+TEST(ToolCli, InvalidOptionValuesAreNamed) {
+    TempDir t;
+    cv::imwrite(t / "a.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 20, 30)));
+    const std::string in = t.path() + "/a.png --out " + (t / "o");
+    expectError(runRost("run " + in + " -K 0"), "K = 0", t / "o");
+    expectError(runRost("run " + in + " --sampler fastest"), "--sampler", t / "o");
+    expectError(runRost("run " + in + " --alpha -1"), "alpha", t / "o");
+    expectError(runRost("run " + in + " --cell.space 0"), "cell.space", t / "o");
+    expectError(runRost("run " + in + " --eta 2"), "eta", t / "o");
+    expectError(runRost("run " + in + " --budget.refines 3 --budget.ms 10"), "excludes", t / "o");
+    expectError(runRost("run " + in + " -V 100"), "-V 100 is smaller than the 5436 words", t / "o");
+    expectError(runRost("run " + in + " --vocabulary " + (t / "none.rostvoc")), "none.rostvoc: no such file", t / "o");
+}
+
+TEST(ToolCli, UnreadableInputsAreNamed) {
+    TempDir t;
+    expectError(runRost("run " + (t / "missing.mov") + " --out " + (t / "o")), "missing.mov: no such file", t / "o");
+    std::filesystem::create_directory(t / "empty");
+    expectError(runRost("run " + (t / "empty") + " --out " + (t / "o")), "empty: directory holds no images", t / "o");
+    rost::testing::writeText(t / "broken.mov", std::string(10000, '\x42'));
+    expectError(runRost("run " + (t / "broken.mov") + " --out " + (t / "o")), "broken.mov: cannot decode video", t / "o");
+    expectError(runRost("run '" + t.path() + "/*.jpg' --out " + (t / "o")), "no files match", t / "o");
+}
+
+TEST(ToolCli, NoCameraSaysSoAndWhatItSees) {
+    TempDir t;
+    const RunResult r = runRost("run camera:7 --out " + (t / "o"));
+    expectError(r, "camera:7: no camera found", t / "o");
+}
+
+TEST(ToolCli, RefineNamesTheLineAndColumnOfABadWord) {
+    TempDir t;
+    rost::testing::writeText(t / "words.csv", "0,1,2,3\n1,4,5\n2,6,99,7\n");
+    rost::testing::writeText(t / "positions.csv", "0,0,0,1,1,2,2\n1,3,3,4,4\n2,5,5,6,6,7,7\n");
+    expectError(runRost("refine " + (t / "words.csv") + " --positions " + (t / "positions.csv") + " -V 10 --out " +
+                     (t / "o")),
+                "words.csv:3:5", t / "o");
+    rost::testing::writeText(t / "w2.csv", "0,1,2\n1,x\n");
+    expectError(runRost("refine " + (t / "w2.csv") + " --out " + (t / "o")), "w2.csv:2:3", t / "o");
+    rost::testing::writeText(t / "p2.csv", "0,0,0,1,1\n1,0\n");
+    rost::testing::writeText(t / "w3.csv", "0,1,2\n1,3\n");
+    expectError(runRost("refine " + (t / "w3.csv") + " --positions " + (t / "p2.csv") + " --out " + (t / "o")), "p2.csv:2",
+                t / "o");
+    expectError(runRost("refine " + (t / "nothere.csv") + " --out " + (t / "o")), "nothere.csv", t / "o");
+}
+
+TEST(ToolCli, RefineRunsAWordStreamWithoutPositionsAndWritesItsOutputs) {
+    TempDir t;
+    std::string words;
+    for (int i = 0; i < 30; ++i) {
+        words += std::to_string(i);
+        for (int j = 0; j < 40; ++j) {
+            words += ',';
+            words += std::to_string((i < 15 ? 0 : 50) + (i * 7 + j * 3) % 50);
+        }
+        words += "\n";
+    }
+    rost::testing::writeText(t / "words.csv", words);
+    const RunResult r = runRost("refine " + (t / "words.csv") + " --out " + (t / "o") + " -K 4 -q");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(r.err.empty()) << "--quiet: " << r.err;
+    const auto topics = rost::testing::lines(rost::testing::readText(t / "o/topics.csv"));
+    ASSERT_EQ(topics.size(), 30u);
+    for (const auto& l : topics) {
+        const auto f = rost::testing::fields(l);
+        ASSERT_EQ(f.size(), 41u);
+        for (std::size_t i = 1; i < f.size(); ++i) ASSERT_LT(std::stoi(f[i]), 4);
+    }
+    EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/topicmodel.csv")).size(), 4u);
+    EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/perplexity.csv")).size(), 31u);
+    EXPECT_TRUE(std::filesystem::exists(t / "o/summary.png"));
+}
+
+TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {
+    TempDir t;
+    rost::testing::writeText(t / "words.csv", "0,1,2\n1,2,3\n");
+    rost::testing::writeText(t / "tm.csv", "1,2,3,4\n5,6,-7,8\n");
+    expectError(runRost("refine " + (t / "words.csv") + " -K 2 -V 4 --in.topicmodel " + (t / "tm.csv") + " --out " +
+                     (t / "o")),
+                "tm.csv:2:5", t / "o");
+    rost::testing::writeText(t / "tm.csv", "1,2,3,4\n");
+    expectError(runRost("refine " + (t / "words.csv") + " -K 2 -V 4 --in.topicmodel " + (t / "tm.csv") + " --out " +
+                     (t / "o")),
+                "1 rows, expected K = 2", t / "o");
+}
