@@ -170,12 +170,28 @@ cv::Scalar topicColour(int k) {
 }
 
 std::vector<std::size_t> surprisePeaks(std::span<const FrameRow> rows, std::size_t count, std::size_t separation) {
-    std::vector<std::size_t> idx;
-    for (std::size_t i = 0; i < rows.size(); ++i)
-        if (std::isfinite(rows[i].surprise)) idx.push_back(i);
-    std::stable_sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) { return rows[a].surprise > rows[b].surprise; });
+    // A peak is a frame whose surprise jumps above the recent past: score =
+    // surprise / median of the 10 frames before it. The first frames, where an
+    // empty model finds everything surprising, are not candidates.
+    constexpr std::size_t kPast = 10;
+    constexpr double kMinJump = 2.0;
+    const std::size_t warm = std::min<std::size_t>(kPast, rows.size() / 10 + 3);
+    std::vector<std::pair<double, std::size_t>> scored;
+    std::vector<double> past;
+    for (std::size_t i = warm; i < rows.size(); ++i) {
+        if (!std::isfinite(rows[i].surprise)) continue;
+        past.clear();
+        for (std::size_t j = i >= kPast ? i - kPast : 0; j < i; ++j)
+            if (std::isfinite(rows[j].surprise)) past.push_back(rows[j].surprise);
+        if (past.empty()) continue;
+        std::nth_element(past.begin(), past.begin() + past.size() / 2, past.end());
+        const double med = past[past.size() / 2];
+        const double score = med > 0 ? rows[i].surprise / med : 0.0;
+        if (score >= kMinJump) scored.emplace_back(score, i);
+    }
+    std::stable_sort(scored.begin(), scored.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
     std::vector<std::size_t> peaks;
-    for (std::size_t i : idx) {
+    for (const auto& [score, i] : scored) {
         if (peaks.size() == count) break;
         bool near = false;
         for (std::size_t p : peaks)
@@ -321,7 +337,9 @@ cv::Mat drawSummary(const SummaryInput& in) {
     const int H = stripTop + (thumbs ? 36 + th + 34 : 20);
     cv::Mat img(H, W, CV_8UC3, kWhite);
 
-    text(img, in.title, {left, 34}, 0.8, kInk, 2);
+    std::string title = in.title;
+    while (title.size() > 8 && textWidth(title, 0.8, 2) > plotW) title = title.substr(0, title.size() - 4) + "...";
+    text(img, title, {left, 34}, 0.8, kInk, 2);
     text(img, in.subtitle, {left, 60}, 0.5, cv::Scalar(90, 90, 90));
 
     double f0 = 0, f1 = 1;

@@ -90,7 +90,9 @@ struct SummaryInput {
 };
 cv::Mat drawSummary(const SummaryInput& in);
 
-// Frames of the largest surprise peaks (local maxima at least `separation` frames apart), strongest first.
+// Rows where the surprise jumps to at least twice the median of the 10 rows
+// before it (after the first frames), strongest jump first, at least
+// `separation` rows apart: where the scene changed.
 std::vector<std::size_t> surprisePeaks(std::span<const FrameRow> rows, std::size_t count, std::size_t separation);
 
 } // namespace rost::tool

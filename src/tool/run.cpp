@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 #include <cstdio>
 #include <thread>
 
@@ -112,6 +113,17 @@ void pickThumbs(const std::vector<cv::Mat>& thumbs, const std::vector<int64_t>& 
         outThumbs.push_back(thumbs[p]);
         outFrames.push_back(frames[p]);
     }
+}
+
+// A short name for an input in titles: the file or directory name, with
+// its directory for a glob ("mire-2/image.*.pgm").
+std::string shortName(const std::string& input) {
+    if (vision::isCameraInput(input)) return input;
+    std::filesystem::path p(input);
+    while (!p.empty() && p.filename().empty()) p = p.parent_path();  // "dir/" -> "dir"
+    if (input.find_first_of("*?[") != std::string::npos && p.has_parent_path())
+        return (p.parent_path().filename() / p.filename()).string();
+    return p.filename().string();
 }
 
 } // namespace
@@ -445,9 +457,11 @@ int runCommand(const RunOptions& o) {
         std::vector<int64_t> stripFrames;
         pickThumbs(thumbs, thumbFrames, rows, 10, strip, stripFrames);
         SummaryInput si;
-        si.title = "rost: " + info.description;
+        si.title = "rost run: ";
+        for (std::size_t i = 0; i < o.inputs.size(); ++i) si.title += (i ? " + " : "") + shortName(o.inputs[i]);
         char sub[256];
-        std::snprintf(sub, sizeof sub, "K = %d, V = %d, %s, %s, %zu frames, %.0f words/frame", ec.model.K, V,
+        std::snprintf(sub, sizeof sub, "%dx%d, K = %d, V = %d, sampler %s, %s, %zu frames, %.0f words/frame", info.width,
+                      info.height, ec.model.K, V,
                       toString(ec.strategy.kind),
                       ec.budget.kind == BudgetKind::Time ? fmt("%g ms per frame", ec.budget.ms).c_str()
                                                          : (std::to_string(ec.budget.count) + " refines per frame").c_str(),
