@@ -10,10 +10,14 @@
 #                                      T_R = 40 and 160 ms, cross-checks, sweep; about 4-5 hours
 #
 # Options: --build DIR (default build-experiment), --jobs N (parallel runs, default 2),
+#   --no-budget-sweep / --budget-sweep (all strategies at 1..256 step refinements per
+#   observation on the first dataset; on in --reduced and --full),
 #   --out DIR (raw outputs, default data/experiment/out-MODE), --no-results (leave
 #   bench/RESULTS.md and the committed figures alone), --no-sweep, --no-timed,
 #   --frames N, --seeds N, --datasets "diver mire-2 vtest", --tokens-per-second R
-#   (skip calibration: use this rate, overhead 0), --calibration FILE (reuse one).
+#   (skip calibration: use this rate, overhead 0), --calibration FILE (reuse one),
+#   --report-only (redo the tables, plots and RESULTS.md sections from the raw CSV of
+#   an earlier run in --out).
 #
 # Steps: build the harness; fetch the footage (scripts/fetch-footage.sh); extract the
 # words of each dataset once into data/experiment/NAME (cached; an ORB vocabulary is
@@ -29,12 +33,14 @@ jobs=2
 out=""
 results=1
 sweep=""
+budget_sweep=""
 timed=1
 frames=""
 seeds=""
 datasets=""
 rate=""
 calibration=""
+report_only=0
 while [ $# -gt 0 ]; do
   case "$1" in
     --small|--reduced|--full) mode=${1#--}; shift ;;
@@ -45,37 +51,31 @@ while [ $# -gt 0 ]; do
     --no-sweep) sweep=0; shift ;;
     --sweep) sweep=1; shift ;;
     --no-timed) timed=0; shift ;;
+    --no-budget-sweep) budget_sweep=0; shift ;;
+    --budget-sweep) budget_sweep=1; shift ;;
     --frames) frames=$2; shift 2 ;;
     --seeds) seeds=$2; shift 2 ;;
     --datasets) datasets=$2; shift 2 ;;
     --tokens-per-second) rate=$2; shift 2 ;;
     --calibration) calibration=$2; shift 2 ;;
-    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --report-only) report_only=1; shift ;;
+    -h|--help) sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "experiment: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
 
 case $mode in
-  small)   : "${frames:=200}"; : "${seeds:=3}"; : "${datasets:=diver}"; trs="40"; : "${sweep:=0}"
+  small)   : "${frames:=200}"; : "${seeds:=3}"; : "${datasets:=diver}"; trs="40"; : "${sweep:=0}"; : "${budget_sweep:=0}"
            timed_strategies="uni+now"; timed_seeds=1 ;;
-  reduced) : "${frames:=200}"; : "${seeds:=3}"; : "${datasets:=diver mire-2 vtest}"; trs="40 160"; : "${sweep:=1}"
+  reduced) : "${frames:=200}"; : "${seeds:=3}"; : "${datasets:=diver mire-2 vtest}"; trs="40 160"; : "${sweep:=1}"; : "${budget_sweep:=1}"
            timed_strategies="now,uniform,uni+now"; timed_seeds=1 ;;
-  full)    : "${frames:=0}"; : "${seeds:=10}"; : "${datasets:=diver mire-2 vtest}"; trs="40 160"; : "${sweep:=1}"
+  full)    : "${frames:=0}"; : "${seeds:=10}"; : "${datasets:=diver mire-2 vtest}"; trs="40 160"; : "${sweep:=1}"; : "${budget_sweep:=1}"
            timed_strategies="now,uniform,uni+now"; timed_seeds=2 ;;
 esac
 [ -n "$out" ] || out="$here/data/experiment/out-$mode"
 start_s=$(date +%s)
 started=$(date -u +%Y-%m-%dT%H:%M:%SZ)
 log() { echo "experiment [$(( $(date +%s) - start_s ))s]: $*" >&2; }
-
-# ---- build ------------------------------------------------------------------------------------
-if [ ! -f "$build/build.ninja" ]; then
-  cmake -S "$here" -B "$build" -G Ninja -DROST_WERROR=ON >/dev/null
-fi
-ninja -C "$build" -j2 rost_experiment rost_experiment_extract rost >/dev/null
-exp="$build/bench/rost_experiment"
-extract="$build/bench/rost_experiment_extract"
-rosttool="$build/rost"
 
 # Plots need matplotlib: Debian's python3-matplotlib, for Debian's own python3 (a
 # python3 earlier on PATH, e.g. from pyenv, may not see it).
@@ -89,6 +89,16 @@ if ! "$py" -c 'import matplotlib' 2>/dev/null; then
     echo "experiment: python3-matplotlib is needed for the plots (apt-get install python3-matplotlib)" >&2; exit 1
   fi
 fi
+
+if [ "$report_only" = 0 ]; then
+# ---- build ------------------------------------------------------------------------------------
+if [ ! -f "$build/build.ninja" ]; then
+  cmake -S "$here" -B "$build" -G Ninja -DROST_WERROR=ON >/dev/null
+fi
+ninja -C "$build" -j2 rost_experiment rost_experiment_extract rost >/dev/null
+exp="$build/bench/rost_experiment"
+extract="$build/bench/rost_experiment_extract"
+rosttool="$build/rost"
 
 # ---- footage and words ---------------------------------------------------------------------------
 declare -A pkg=([diver]=pd-extendedview [mire-2]=visp-images-data [vtest]=opencv-doc)
@@ -112,7 +122,8 @@ if ! "$extract" --check-vocabulary >/dev/null; then
     "$here/scripts/fetch-footage.sh" >/dev/null
     mkdir -p "$here/data/experiment"
     "$rosttool" vocab --quiet --every 4 --max-descriptors 200000 --threads 2 -o "$voc" \
-      "$here/data/${src[diver]}" "$here/data/${src[mire-2]}" "$here/data/${src[vtest]}"
+      "$here/data/${src[diver]}" "$here/data/${src[mire-2]}" "$here/data/${src[vtest]}" ||
+      { st=$?; [ -s "$voc" ] || exit "$st"; log "rost vocab exited with status $st after writing $voc; using it"; }
   fi
   vocab_args=(--vocabulary "$voc")
   vocab_id=$(sha256sum "$voc" | cut -c1-16)
@@ -175,8 +186,28 @@ if [ "$sweep" = 1 ]; then
     --tag "sweep-$first" --out "$out/sweep" 2>>"$out/run.log"
 fi
 
+if [ "$budget_sweep" = 1 ]; then
+  # Every strategy at budgets of 1 to 256 whole-step refinements per observation, to
+  # show where each one's advantage lies (the T_R budgets above are at the top end).
+  wpf=$(sed -n 's/^words_per_frame=//p' "$here/data/experiment/$first/dataset.txt")
+  r=$(sed -n 's/^tokens_per_second=//p' "$out/calibration.txt")
+  bs=()
+  for k in 1 4 16 64 256; do
+    n=$("$py" -c "print(max(1, round($k * $wpf)))")
+    bs+=(--budget "$("$py" -c "print('%.4g' % ($n / $r * 1e3))")=tokens:$n")
+  done
+  mkdir -p "$out/budgets"
+  cp "$out/calibration.txt" "$out/budgets/"
+  log "$first: all strategies against the budget (1 to 256 step refinements per observation)"
+  "$exp" run --dataset "$here/data/experiment/$first" --frames "$frames" --strategies all "${bs[@]}" \
+    --seeds "$seeds" --jobs "$jobs" --tag "budgets-$first" --no-steps --out "$out/budgets" 2>>"$out/run.log"
+fi
+
+fi  # report_only
+
 # ---- report ------------------------------------------------------------------------------------------
 duration=$(( $(date +%s) - start_s ))
+if [ "$report_only" = 0 ]; then {
 commit=$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)
 git -C "$here" diff --quiet HEAD -- src include bench 2>/dev/null || commit="$commit (work tree with local changes)"
 cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n1)
@@ -184,9 +215,12 @@ machine="$(nproc) x $cpu, $(uname -m), load average at the end $(cut -d' ' -f1-3
 cmdline="scripts/experiment.sh --$mode (frames ${frames/#0/all}, seeds $seeds, datasets $datasets, jobs $jobs)"
 { echo "command=$cmdline"; echo "commit=$commit"; echo "machine=$machine"; echo "started=$started"
   echo "duration=$((duration / 60)) min $((duration % 60)) s"
-  echo "note=vocabulary: $vocab_id (built-in, or trained by rost vocab on the three datasets when the build has none)"
+  if [ "$vocab_id" = built-in ]; then echo "note=ORB vocabulary: the library's built-in one"
+  else echo "note=ORB vocabulary: data/experiment/vocabulary.rostvoc (sha256 $vocab_id...), trained by rost vocab on every 4th frame of the three datasets (the build has no built-in one)"; fi
 } > "$out/run.txt"
-[ "$sweep" = 1 ] && cp "$out/run.txt" "$out/sweep/"
+if [ "$sweep" = 1 ]; then cp "$out/run.txt" "$out/sweep/"; fi
+if [ "$budget_sweep" = 1 ]; then cp "$out/run.txt" "$out/budgets/"; fi
+}; fi
 figs="$here/bench/experiment/figures"
 sums="$here/bench/experiment/results"
 if [ "$results" = 1 ]; then
@@ -196,12 +230,19 @@ if [ "$results" = 1 ]; then
   { echo "### Run: --$mode"; echo; cat "$out/section.md"; } > "$out/section-titled.md"
   "$py" "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-$mode" \
     "$out/section-titled.md" --heading "## Paper experiment (issue 6)"
-  if [ "$sweep" = 1 ]; then
+  if [ "$sweep" = 1 ] && [ -d "$out/sweep" ]; then
     "$py" "$here/bench/experiment/report.py" sweep --results "$out/sweep" --figures "$figs" --fig-stem "$mode-" \
       --fig-link "experiment/figures/" --summary "$sums/$mode-sweep-summary.csv" --markdown "$out/sweep.md"
     { echo "### Tuning sweep (eta, q): --$mode"; echo; cat "$out/sweep.md"; } > "$out/sweep-titled.md"
     "$py" "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-sweep-$mode" \
       "$out/sweep-titled.md" --heading "## Paper experiment (issue 6)"
+  fi
+  if [ "$budget_sweep" = 1 ] && [ -d "$out/budgets" ]; then
+    "$py" "$here/bench/experiment/report.py" budget --results "$out/budgets" --figures "$figs" --fig-stem "$mode-" \
+      --fig-link "experiment/figures/" --summary "$sums/$mode-budget-summary.csv" --markdown "$out/budgets.md"
+    { echo "### Ratios against the budget: --$mode"; echo; cat "$out/budgets.md"; } > "$out/budgets-titled.md"
+    "$py" "$here/scripts/results-section.py" replace "$here/bench/RESULTS.md" "experiment-budget-$mode" \
+      "$out/budgets-titled.md" --heading "## Paper experiment (issue 6)"
   fi
   log "wrote bench/RESULTS.md sections experiment-$mode$([ "$sweep" = 1 ] && echo " and experiment-sweep-$mode"), figures in $figs"
 else

@@ -144,7 +144,7 @@ std::string describeThreadSettings(const ThreadSettings& s) {
     std::string out;
     if (report.fifo) out = "SCHED_FIFO " + std::to_string(s.priority);
     else out = "default scheduler";
-    if (report.pinned) out += ", pinned to CPU " + std::to_string(s.cpu);
+    if (report.pinned) out += " pinned to CPU " + std::to_string(s.cpu);
     if (!report.message.empty()) {
         std::string m = report.message;
         for (char& c : m)

@@ -10,6 +10,8 @@
       cross-check.
   report.py sweep --results DIR --figures DIR --fig-link PREFIX --summary CSV --markdown OUT
       The eta / q tuning sweep: plot, table and the recommended defaults.
+  report.py budget --results DIR ...
+      Ratios of every strategy against the budget per observation (one dataset).
 """
 import argparse
 import csv
@@ -398,9 +400,60 @@ def cmd_sweep(a):
         f.write("\n".join(lines) + "\n")
 
 
+def cmd_budget(a):
+    """Ratios against the budget per observation (whole-step refinements), one dataset."""
+    rows = [r for r in read_runs(a.results) if r["budget_kind"] == "tokens"]
+    agg = aggregate(rows)
+    write_summary(agg, a.summary)
+    dataset = rows[0]["dataset"]
+    wpf = float(rows[0]["words"]) / float(rows[0]["frames"])
+    cal = read_kv(os.path.join(a.results, "calibration.txt"))
+    rate = float(cal.get("tokens_per_second", "nan"))
+    series = defaultdict(list)
+    for k, v in agg.items():
+        series[k[1]].append((float(v["budget_tokens"]) / wpf, v["inst_ratio"], v["final_ratio"],
+                             float(v["budget_tokens"])))
+    os.makedirs(a.figures, exist_ok=True)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=80)
+    for s in ORDER:
+        pts = sorted(series.get(s, []))
+        if not pts:
+            continue
+        for ax, i in ((axes[0], 1), (axes[1], 2)):
+            ax.plot([p[0] for p in pts], [p[i] for p in pts], marker="o", ms=3, lw=1, color=COLOR[s], label=LABEL[s])
+    for ax, t in ((axes[0], "instantaneous / batch"), (axes[1], "final / batch")):
+        ax.set_xscale("log")
+        ax.set_xlabel("budget per observation (refinements of a whole step)")
+        ax.set_ylabel(t)
+        ax.axhline(1.0, color="k", lw=0.6, ls=":")
+        ax.grid(alpha=0.3, which="both")
+    axes[1].legend(fontsize=7, ncol=2)
+    fig.suptitle(f"{dataset} ({rows[0]['frames']} frames): ratio to batch against the budget (mean over seeds)",
+                 fontsize=10)
+    fig.tight_layout()
+    name = f"{a.fig_stem}budget-{dataset}.png"
+    fig.savefig(os.path.join(a.figures, name))
+    plt.close(fig)
+    budgets = sorted({p[3] for pts in series.values() for p in pts})
+    lines = [f"Dataset {dataset} ({rows[0]['frames']} frames, {wpf:.0f} words a frame), "
+             f"{len({r['seed'] for r in rows})} seeds. Cells: instantaneous / final ratio (mean over seeds). "
+             "Budget in whole-step refinements per observation (tokens / words per frame) and its T_R on this "
+             f"machine (tokens / {rate / 1e6:.1f} M tokens/s).", ""]
+    lines.append("| strategy | " + " | ".join(f"{b / wpf:.0f} ({b / rate * 1e3:.2g} ms)" for b in budgets) + " |")
+    lines.append("|---|" + "---|" * len(budgets))
+    for s in ORDER:
+        by = {p[3]: p for p in series.get(s, [])}
+        lines.append(f"| {LABEL[s]} | " + " | ".join(
+            f"{by[b][1]:.3f} / {by[b][2]:.3f}" if b in by else "–" for b in budgets) + " |")
+    lines.append("")
+    lines.append(f"![ratio against budget]({a.fig_link}{name})")
+    with open(a.markdown, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("mode", choices=["paper", "sweep"])
+    p.add_argument("mode", choices=["paper", "sweep", "budget"])
     p.add_argument("--results", required=True)
     p.add_argument("--figures", required=True)
     p.add_argument("--fig-link", default="", help="prefix of figure links in the markdown")
@@ -411,7 +464,7 @@ def main():
     a = p.parse_args()
     if not a.summary_link:
         a.summary_link = a.summary
-    (cmd_paper if a.mode == "paper" else cmd_sweep)(a)
+    {"paper": cmd_paper, "sweep": cmd_sweep, "budget": cmd_budget}[a.mode](a)
 
 
 if __name__ == "__main__":
