@@ -1,1 +1,3 @@
 rost_add_test(test_core SOURCES test_config.cpp test_model.cpp test_kernel.cpp test_word_stream.cpp)
+# Statistical tests of the sampler (eq. 5, LDA at radius 0) and recovery of planted structure.
+target_sources(test_core PRIVATE test_sampler.cpp test_recovery.cpp)

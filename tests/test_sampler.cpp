@@ -1,0 +1,590 @@
+// The sampler draws from the exact conditional of paper eq. 5.
+//
+// Method. All cells but one are frozen (never refined again), and only the
+// target cell is refined, many times. Refining a cell resamples its words in
+// order, each from eq. 5 given every other label, so the sequence of target
+// labels is a Markov chain whose one-sweep transition law is known in closed
+// form: with n words, word j is drawn given the new labels of words < j and
+// the old labels of words > j. For a cell with ONE word the law does not
+// depend on the old label at all (the word leaves its own topic only), so the
+// draws are iid from one distribution. For two words the transition depends
+// only on the second word's old label (the "row").
+//
+// The expected law is computed here in double, from an independent recount:
+// the labels, words and positions the model reports (observationSamples /
+// observationWords / observationPositions), the cell of each word recomputed
+// from its position, and the neighbourhood G(c) written out from its
+// definition (the cell, its spatial neighbours within Manhattan distance
+// g.space at the same step, and the same cell at steps t +- 1..g.time inside
+// the window). Pearson's chi-square over the transition counts, row by row
+// (Anderson & Goodman 1957: given the row visits, the counts are multinomial
+// by the Markov property), gives a p-value.
+//
+// False-failure rate: every "matches" check passes when p > 1e-4, so it fails
+// a correct sampler with probability 1e-4 (asymptotically; bins expected below
+// 5 are pooled). There are 15 such checks in this file: < 2e-3 for the file.
+// Every "rejected" check requires p < 1e-6 and first asserts that the wrong
+// law is far enough from the right one (noncentrality n sum (p - q)^2 / q of
+// at least 200 at 4 df, 1000 at ~100 df) that a correct sampler fails to
+// reject it with probability < 1e-9. Seeds are fixed, so a run is reproducible.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <functional>
+#include <limits>
+#include <map>
+#include <ostream>
+#include <sstream>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "rost/model.hpp"
+
+namespace {
+
+using rost::kernel::Path;
+
+constexpr int kCellSpace = 16;
+constexpr int kDraws = 200000;
+constexpr double kPass = 1e-4;    // a correct sampler fails a "matches" check with this probability
+constexpr double kReject = 1e-6;  // a wrong law must be rejected at least this strongly
+
+// ---- chi-square ------------------------------------------------------------
+
+// Regularised upper incomplete gamma Q(a, x): series for x < a + 1, Lentz's
+// continued fraction otherwise.
+double gammaQ(double a, double x) {
+    if (x <= 0.0) return 1.0;
+    const double logPrefix = -x + a * std::log(x) - std::lgamma(a);
+    if (x < a + 1.0) {
+        double term = 1.0 / a, sum = term, ap = a;
+        for (int n = 0; n < 100000 && std::fabs(term) > std::fabs(sum) * 1e-16; ++n) {
+            ap += 1.0;
+            term *= x / ap;
+            sum += term;
+        }
+        return std::max(0.0, 1.0 - sum * std::exp(logPrefix));
+    }
+    constexpr double tiny = 1e-300;
+    double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
+    for (int i = 1; i < 100000; ++i) {
+        const double an = -i * (i - a);
+        b += 2.0;
+        d = an * d + b;
+        if (std::fabs(d) < tiny) d = tiny;
+        c = b + an / c;
+        if (std::fabs(c) < tiny) c = tiny;
+        d = 1.0 / d;
+        const double delta = d * c;
+        h *= delta;
+        if (std::fabs(delta - 1.0) < 1e-16) break;
+    }
+    return std::exp(logPrefix) * h;
+}
+
+// P(chi-square with df degrees of freedom > x).
+double chi2Survival(double x, int df) { return gammaQ(0.5 * df, 0.5 * x); }
+
+struct GoodnessOfFit {
+    double stat = 0.0;
+    int df = 0;
+    [[nodiscard]] double p() const { return df > 0 ? chi2Survival(stat, df) : 1.0; }
+};
+
+std::ostream& operator<<(std::ostream& os, const GoodnessOfFit& g) {
+    return os << "chi2 = " << g.stat << " on " << g.df << " df, p = " << g.p();
+}
+
+// One line per check in the test log, so a reader sees how far from the bar each run is.
+void report(const std::string& what, const GoodnessOfFit& g) {
+    std::printf("[ stats    ] %s: %s\n", what.c_str(), (std::ostringstream() << g).str().c_str());
+}
+
+// Adds one multinomial row: observed counts against probabilities (summing to
+// 1). Bins expected below 5 are pooled (into the smallest regular bin if the
+// pool itself is still below 5), the usual condition for the chi-square limit.
+void addRow(GoodnessOfFit& g, const std::vector<double>& observed, const std::vector<double>& prob) {
+    double n = 0.0;
+    for (double o : observed) n += o;
+    if (n == 0.0) return;
+    struct Bin {
+        double o, e;
+    };
+    std::vector<Bin> bins;
+    Bin pool{0.0, 0.0};
+    for (std::size_t i = 0; i < observed.size(); ++i) {
+        const double e = n * prob[i];
+        if (e >= 5.0) bins.push_back({observed[i], e});
+        else {
+            pool.o += observed[i];
+            pool.e += e;
+        }
+    }
+    if (pool.e >= 5.0 || bins.empty()) bins.push_back(pool);
+    else if (pool.e > 0.0 || pool.o > 0.0) {
+        auto smallest = std::min_element(bins.begin(), bins.end(), [](const Bin& a, const Bin& b) { return a.e < b.e; });
+        smallest->o += pool.o;
+        smallest->e += pool.e;
+    }
+    for (const Bin& b : bins) g.stat += b.e > 0.0 ? (b.o - b.e) * (b.o - b.e) / b.e : (b.o > 0 ? std::numeric_limits<double>::infinity() : 0.0);
+    g.df += static_cast<int>(bins.size()) - 1;
+}
+
+// ---- a tiny scene and its independent recount -------------------------------------
+
+struct SceneSpec {
+    const char* name;
+    int K, V;
+    int gridW, gridH;      // cells
+    int steps, ring;       // observations added, ring size (steps > ring evicts the oldest)
+    int gSpace, gTime;
+    int targetStepFromEnd; // target step = steps - 1 - this
+    int targetCell;
+    int targetWords;       // words in the target cell (1 or 2), all of type targetWord
+    uint32_t targetWord;
+    int minWords, maxWords;  // words in every other cell
+    int warmupSweeps;      // batch sweeps before freezing (0: uniformly random labels)
+    uint64_t seed;
+};
+
+// gtest names failing parameters with this.
+void PrintTo(const SceneSpec& s, std::ostream* os) { *os << s.name; }
+
+// One stored word as the model reports it.
+struct Token {
+    int64_t step;
+    int cx, cy;
+    uint32_t word;
+    int z;
+};
+
+struct Scene {
+    SceneSpec spec;
+    rost::Config config;
+    int64_t targetStep = 0;
+    std::vector<std::size_t> target;  // indices into tokens of the target cell's words, in input order
+    std::vector<uint32_t> targetInput;  // their indices in the target observation's input
+    std::vector<Token> tokens;
+};
+
+rost::Config configOf(const SceneSpec& s) {
+    rost::Config c;
+    c.K = s.K;
+    c.V = s.V;
+    c.cell_space = kCellSpace;
+    c.frame_width = s.gridW * kCellSpace;
+    c.frame_height = s.gridH * kCellSpace;
+    c.g_space = s.gSpace;
+    c.g_time = s.gTime;
+    c.ring_steps = s.ring;
+    // Evicted steps leave n_k^v too, so the recount over the window is the whole model.
+    c.eviction = rost::EvictionPolicy::Subtract;
+    c.cell_capacity = std::max(s.maxWords, s.targetWords);
+    c.max_words_per_frame = c.cell_capacity * s.gridW * s.gridH;
+    c.seed = s.seed;
+    return c;
+}
+
+// Adds the scene's observations to the model. Every cell gets a few words
+// whose types depend on the cell and step (so topics form during warm-up);
+// the target cell gets exactly `targetWords` copies of `targetWord`.
+void fill(rost::Model& m, const SceneSpec& s) {
+    rost::Rng r(s.seed ^ 0xC0FFEEull);
+    const int64_t targetStep = s.steps - 1 - s.targetStepFromEnd;
+    for (int t = 0; t < s.steps; ++t) {
+        std::vector<uint32_t> w;
+        std::vector<rost::Position> p;
+        for (int c = 0; c < s.gridW * s.gridH; ++c) {
+            const bool isTarget = t == targetStep && c == s.targetCell;
+            const int n = isTarget ? s.targetWords
+                                   : s.minWords + static_cast<int>(r.below(static_cast<uint32_t>(s.maxWords - s.minWords + 1)));
+            for (int i = 0; i < n; ++i) {
+                w.push_back(isTarget ? s.targetWord
+                                     : (static_cast<uint32_t>(c + 2 * t) + r.below(3)) % static_cast<uint32_t>(s.V));
+                p.push_back({(c % s.gridW) * kCellSpace + static_cast<int>(r.below(kCellSpace)),
+                             (c / s.gridW) * kCellSpace + static_cast<int>(r.below(kCellSpace))});
+            }
+        }
+        const rost::AddResult res = m.addObservation(w, p);
+        ASSERT_TRUE(res.ok());
+        ASSERT_EQ(res.dropped_cell + res.dropped_frame, 0u) << "the scene must fit without subsampling";
+    }
+}
+
+// Every stored word of the window, from the model's public outputs only.
+std::vector<Token> recount(const rost::Model& m, const rost::Config& c) {
+    std::vector<Token> out;
+    for (uint64_t f = 0; f < m.observations(); ++f) {
+        if (!m.observationInWindow(f)) continue;
+        const uint32_t n = m.observationSize(f);
+        std::vector<uint32_t> w(n);
+        std::vector<rost::Position> p(n);
+        std::vector<uint16_t> z(n);
+        m.observationWords(f, w);
+        m.observationPositions(f, p);
+        m.observationSamples(f, z);
+        for (uint32_t i = 0; i < n; ++i)
+            out.push_back({static_cast<int64_t>(f) / c.cell_time, p[i].x / c.cell_space, p[i].y / c.cell_space, w[i], z[i]});
+    }
+    return out;
+}
+
+Scene makeScene(rost::Model& m, const SceneSpec& s) {
+    Scene sc;
+    sc.spec = s;
+    sc.config = m.config();
+    fill(m, s);
+    m.refineAll(s.warmupSweeps);
+    sc.targetStep = s.steps - 1 - s.targetStepFromEnd;
+    sc.tokens = recount(m, sc.config);
+    const int tcx = s.targetCell % s.gridW, tcy = s.targetCell / s.gridW;
+    uint32_t inputIndex = 0;
+    for (std::size_t i = 0; i < sc.tokens.size(); ++i) {
+        const Token& t = sc.tokens[i];
+        if (t.step != sc.targetStep) continue;
+        if (t.cx == tcx && t.cy == tcy) {
+            sc.target.push_back(i);
+            sc.targetInput.push_back(inputIndex);
+        }
+        ++inputIndex;
+    }
+    return sc;
+}
+
+// ---- closed forms ------------------------------------------------------------------
+
+// Paper eq. 5 for token i given every other token's label, normalised over k:
+//   P(z_i = k) ∝ (n_{k,-i}^v + beta) / (n_{k,-i} + V beta) * (n_{G_i,-i}^k + alpha).
+std::vector<double> eq5(const std::vector<Token>& tokens, std::size_t i, const rost::Config& c) {
+    const Token& me = tokens[i];
+    std::vector<double> nkv(c.K, 0.0), nk(c.K, 0.0), nG(c.K, 0.0);
+    for (std::size_t j = 0; j < tokens.size(); ++j) {
+        if (j == i) continue;
+        const Token& o = tokens[j];
+        nk[o.z] += 1;
+        if (o.word == me.word) nkv[o.z] += 1;
+        const bool spatial = o.step == me.step && std::abs(o.cx - me.cx) + std::abs(o.cy - me.cy) <= c.g_space;
+        const int64_t dt = std::abs(o.step - me.step);
+        const bool temporal = o.cx == me.cx && o.cy == me.cy && dt >= 1 && dt <= c.g_time;
+        if (spatial || temporal) nG[o.z] += 1;
+    }
+    std::vector<double> p(c.K);
+    double sum = 0.0;
+    for (int k = 0; k < c.K; ++k) {
+        p[k] = (nkv[k] + c.beta) / (nk[k] + c.V * c.beta) * (nG[k] + c.alpha);
+        sum += p[k];
+    }
+    for (double& x : p) x /= sum;
+    return p;
+}
+
+// Collapsed Gibbs for LDA, Griffiths & Steyvers (2004, eq. 5 there), written
+// from that paper over a corpus of documents, one per (step, cell):
+//   P(z_i = j | z_-i, w) ∝ (n_{-i,j}^(w_i) + beta) / (n_{-i,j}^(.) + W beta)
+//                        * (n_{-i,j}^(d_i) + alpha) / (n_{-i,.}^(d_i) + T alpha).
+std::vector<double> griffithsSteyvers(const std::vector<Token>& tokens, std::size_t i, const rost::Config& c) {
+    using Doc = std::tuple<int64_t, int, int>;
+    std::map<Doc, std::vector<std::size_t>> docs;
+    for (std::size_t j = 0; j < tokens.size(); ++j) docs[{tokens[j].step, tokens[j].cx, tokens[j].cy}].push_back(j);
+    const int T = c.K, W = c.V;
+    const Doc di{tokens[i].step, tokens[i].cx, tokens[i].cy};
+    std::vector<double> p(T);
+    for (int j = 0; j < T; ++j) {
+        double wordInTopic = 0, inTopic = 0, docInTopic = 0, docLen = 0;
+        for (const auto& [d, members] : docs)
+            for (std::size_t m : members) {
+                if (m == i) continue;
+                const bool isJ = tokens[m].z == j;
+                inTopic += isJ;
+                wordInTopic += isJ && tokens[m].word == tokens[i].word;
+                if (d == di) {
+                    docLen += 1;
+                    docInTopic += isJ;
+                }
+            }
+        p[j] = (wordInTopic + c.beta) / (inTopic + W * c.beta) * (docInTopic + c.alpha) / (docLen + T * c.alpha);
+    }
+    double sum = 0.0;
+    for (double x : p) sum += x;
+    for (double& x : p) x /= sum;
+    return p;
+}
+
+using Conditional = std::function<std::vector<double>(const std::vector<Token>&, std::size_t, const rost::Config&)>;
+
+// ---- the chain -----------------------------------------------------------------------
+
+// Transition counts of the target cell under repeated refinement:
+// counts[row][outcome], row = old labels of target words 2..n (base K),
+// outcome = new labels of words 1..n (base K, word 1 most significant).
+struct Chain {
+    int K = 0, n = 0;
+    std::vector<std::vector<double>> counts;
+};
+
+Chain runChain(rost::Model& m, const Scene& sc, Path path, int draws) {
+    m.setKernelPath(path);
+    Chain ch;
+    ch.K = sc.config.K;
+    ch.n = static_cast<int>(sc.target.size());
+    int rows = 1, outcomes = 1;
+    for (int j = 1; j < ch.n; ++j) rows *= ch.K;
+    for (int j = 0; j < ch.n; ++j) outcomes *= ch.K;
+    ch.counts.assign(static_cast<std::size_t>(rows), std::vector<double>(static_cast<std::size_t>(outcomes), 0.0));
+    const auto frame = static_cast<uint64_t>(sc.targetStep * sc.config.cell_time);
+    std::vector<uint16_t> z(m.observationSize(frame));
+    m.observationSamples(frame, z);
+    for (int d = 0; d < draws; ++d) {
+        int row = 0;
+        for (int j = 1; j < ch.n; ++j) row = row * ch.K + z[sc.targetInput[j]];
+        m.refineCell(sc.targetStep, sc.spec.targetCell);
+        m.observationSamples(frame, z);
+        int out = 0;
+        for (int j = 0; j < ch.n; ++j) out = out * ch.K + z[sc.targetInput[j]];
+        ch.counts[row][out] += 1;
+    }
+    return ch;
+}
+
+// Closed-form transition law of one sweep over the target cell under `cond`:
+// word j drawn given the new labels of words < j and the old ones of words > j.
+std::vector<std::vector<double>> transitionLaw(const Scene& sc, const Conditional& cond) {
+    const int K = sc.config.K, n = static_cast<int>(sc.target.size());
+    int rows = 1, outcomes = 1;
+    for (int j = 1; j < n; ++j) rows *= K;
+    for (int j = 0; j < n; ++j) outcomes *= K;
+    std::vector<std::vector<double>> law(static_cast<std::size_t>(rows), std::vector<double>(static_cast<std::size_t>(outcomes)));
+    std::vector<Token> tokens = sc.tokens;
+    for (int row = 0; row < rows; ++row)
+        for (int out = 0; out < outcomes; ++out) {
+            std::vector<int> oldZ(n, 0), newZ(n);
+            for (int j = n - 1, r = row; j >= 1; --j, r /= K) oldZ[j] = r % K;
+            for (int j = n - 1, o = out; j >= 0; --j, o /= K) newZ[j] = o % K;
+            double p = 1.0;
+            for (int j = 0; j < n; ++j) {
+                for (int m = 0; m < n; ++m) tokens[sc.target[m]].z = m < j ? newZ[m] : oldZ[m];
+                p *= cond(tokens, sc.target[j], sc.config)[newZ[j]];
+            }
+            law[row][out] = p;
+        }
+    return law;
+}
+
+GoodnessOfFit fit(const Chain& ch, const std::vector<std::vector<double>>& law) {
+    GoodnessOfFit g;
+    for (std::size_t r = 0; r < law.size(); ++r) addRow(g, ch.counts[r], law[r]);
+    return g;
+}
+
+// The law the draws must NOT follow has to be far from the right one, or the
+// rejection would prove nothing: noncentrality n * sum (p - q)^2 / q.
+double noncentrality(const std::vector<std::vector<double>>& right, const std::vector<std::vector<double>>& wrong,
+                     const Chain& ch) {
+    double lambda = 0.0;
+    for (std::size_t r = 0; r < right.size(); ++r) {
+        double n = 0.0;
+        for (double o : ch.counts[r]) n += o;
+        for (std::size_t k = 0; k < right[r].size(); ++k) {
+            const double d = right[r][k] - wrong[r][k];
+            lambda += n * d * d / wrong[r][k];
+        }
+    }
+    return lambda;
+}
+
+// ---- sanity of the statistics themselves ----------------------------------------------
+
+TEST(SamplerStatistics, ChiSquareTailMatchesTables) {
+    EXPECT_NEAR(chi2Survival(3.841459, 1), 0.05, 1e-6);
+    EXPECT_NEAR(chi2Survival(18.46683, 4), 1e-3, 1e-7);
+    EXPECT_NEAR(chi2Survival(124.3421, 100), 0.05, 1e-6);
+    EXPECT_NEAR(chi2Survival(2.0, 2), std::exp(-1.0), 1e-12);
+    EXPECT_NEAR(chi2Survival(0.5, 4), 0.9735009788, 1e-9);
+}
+
+// ---- paper eq. 5: the exact conditional -----------------------------------------------
+
+class ExactConditional : public ::testing::TestWithParam<SceneSpec> {};
+
+// One-word cell: iid draws from eq. 5; both kernel paths, one model (the
+// frozen state is the same for both: a one-word cell changes only itself).
+TEST_P(ExactConditional, OneWordCellDrawsFollowEq5OnBothKernelPaths) {
+    const SceneSpec s = GetParam();
+    rost::Model m(configOf(s));
+    const Scene sc = makeScene(m, s);
+    ASSERT_EQ(sc.target.size(), static_cast<std::size_t>(s.targetWords));
+    ASSERT_EQ(m.cellWordCount(sc.targetStep, s.targetCell), static_cast<uint32_t>(s.targetWords));
+    const auto law = transitionLaw(sc, eq5);
+    for (Path path : {Path::Simd, Path::Scalar}) {
+        const Chain ch = runChain(m, sc, path, kDraws);
+        const GoodnessOfFit g = fit(ch, law);
+        report(std::string(s.name) + (path == Path::Simd ? " simd vs eq.5" : " scalar vs eq.5"), g);
+        EXPECT_GT(g.p(), kPass) << s.name << (path == Path::Simd ? " simd: " : " scalar: ") << g;
+        // Only the target cell moved: the frozen labels and every count table still agree.
+        std::string why;
+        EXPECT_TRUE(m.checkInvariants(&why)) << why;
+    }
+    // The rest of the model really stayed frozen (the recount is still valid).
+    std::vector<Token> after = recount(m, sc.config);
+    ASSERT_EQ(after.size(), sc.tokens.size());
+    for (std::size_t i = 0; i < after.size(); ++i)
+        if (std::find(sc.target.begin(), sc.target.end(), i) == sc.target.end()) {
+            ASSERT_EQ(after[i].z, sc.tokens[i].z) << "word " << i << " outside the target cell moved";
+        }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Scenes, ExactConditional,
+    ::testing::Values(
+        // K = 5 (padded to 8, generic kernel), radius 1, target in the middle of space and time.
+        SceneSpec{"K5_radius1", 5, 8, 3, 3, 5, 8, 1, 1, 2, 4, 1, 3, 1, 3, 5, 11},
+        // Radius 2 with a ring of 4 after 7 steps: the target step is the oldest
+        // in the window (steps t-1, t-2 were evicted and must not count), and the
+        // target is a corner cell (spatial neighbours clipped by the grid).
+        SceneSpec{"K5_radius2_windowEdge_corner", 5, 8, 4, 3, 7, 4, 2, 2, 3, 0, 1, 5, 1, 3, 5, 12},
+        // K = 16: the compile-time specialised kernel (one cache line of counts).
+        SceneSpec{"K16_radius1", 16, 12, 3, 3, 5, 8, 1, 1, 2, 4, 1, 7, 1, 4, 5, 13},
+        // Temporal radius only (g.space = 0, g.time = 2).
+        SceneSpec{"K5_timeOnly", 5, 8, 3, 3, 5, 8, 0, 2, 2, 4, 1, 2, 1, 3, 5, 14}),
+    [](const ::testing::TestParamInfo<SceneSpec>& param) { return std::string(param.param.name); });
+
+// Two words of the same type in one cell: the second word's conditional must
+// see the first word's NEW label in n_k^v, n_k and n_G^k (the kernel carries
+// the neighbourhood sums across the words of a cell). The transition law of
+// a sweep is the product of the two sequential eq. 5 conditionals.
+TEST(ExactConditionalInCell, TwoWordSweepFollowsSequentialEq5OnBothKernelPaths) {
+    const SceneSpec s{"K5_twoWords", 5, 8, 3, 3, 5, 8, 1, 1, 2, 4, 2, 3, 2, 6, 5, 21};
+    rost::Model m(configOf(s));
+    const Scene sc = makeScene(m, s);
+    ASSERT_EQ(sc.target.size(), 2u);
+    const auto law = transitionLaw(sc, eq5);
+    for (Path path : {Path::Simd, Path::Scalar}) {
+        const Chain ch = runChain(m, sc, path, kDraws);
+        const GoodnessOfFit g = fit(ch, law);
+        report(std::string(s.name) + (path == Path::Simd ? " simd" : " scalar"), g);
+        EXPECT_GT(g.p(), kPass) << (path == Path::Simd ? "simd: " : "scalar: ") << g;
+    }
+}
+
+// The test can fail: the public 2013 code removed the word by subtracting one
+// from EVERY topic's counts (DESIGN.md). With the word currently at z, its
+// weights are (n^v_k + [k=z] - 1 + beta) / (n_k + [k=z] - 1 + V beta) *
+// (n_G^k + [k=z] - 1 + alpha) in the -i counts, so the draws would follow the
+// stationary law of that chain. The draws of the correct kernel must reject it.
+TEST(ExactConditionalInCell, SubtractOneFromEveryTopicConditionalIsRejected) {
+    // Labels left uniformly random (no warm-up) and many words, so every count
+    // the 2013 rule decrements is >= 1 and its weights stay positive.
+    const SceneSpec s{"K5_2013", 5, 8, 3, 3, 5, 8, 1, 1, 2, 4, 1, 3, 8, 12, 0, 31};
+    rost::Model m(configOf(s));
+    const Scene sc = makeScene(m, s);
+    ASSERT_EQ(sc.target.size(), 1u);
+    const rost::Config& c = sc.config;
+    const std::size_t i = sc.target[0];
+    const Token& me = sc.tokens[i];
+
+    // -i counts from the recount.
+    std::vector<double> nkv(c.K, 0), nk(c.K, 0), nG(c.K, 0);
+    for (std::size_t j = 0; j < sc.tokens.size(); ++j) {
+        if (j == i) continue;
+        const Token& o = sc.tokens[j];
+        nk[o.z] += 1;
+        nkv[o.z] += o.word == me.word;
+        const bool spatial = o.step == me.step && std::abs(o.cx - me.cx) + std::abs(o.cy - me.cy) <= c.g_space;
+        const bool temporal = o.cx == me.cx && o.cy == me.cy && std::abs(o.step - me.step) >= 1 && std::abs(o.step - me.step) <= c.g_time;
+        nG[o.z] += spatial || temporal;
+    }
+    // Transition matrix of the 2013 rule and its stationary law.
+    std::vector<std::vector<double>> P(c.K, std::vector<double>(c.K));
+    for (int z = 0; z < c.K; ++z) {
+        double sum = 0.0;
+        for (int k = 0; k < c.K; ++k) {
+            const double own = k == z ? 1.0 : 0.0;
+            const double a = nkv[k] + own - 1.0 + c.beta, b = nk[k] + own - 1.0 + c.V * c.beta, g = nG[k] + own - 1.0 + c.alpha;
+            ASSERT_GT(a, 0.0) << "set-up: the 2013 weights must be positive (topic " << k << ")";
+            ASSERT_GT(g, 0.0) << "set-up: the 2013 weights must be positive (topic " << k << ")";
+            P[z][k] = a / b * g;
+            sum += P[z][k];
+        }
+        for (double& x : P[z]) x /= sum;
+    }
+    std::vector<double> pi(c.K, 1.0 / c.K);
+    for (int it = 0; it < 10000; ++it) {
+        std::vector<double> next(c.K, 0.0);
+        for (int z = 0; z < c.K; ++z)
+            for (int k = 0; k < c.K; ++k) next[k] += pi[z] * P[z][k];
+        pi = next;
+    }
+
+    const auto right = transitionLaw(sc, eq5);
+    const std::vector<std::vector<double>> wrong{pi};
+    for (Path path : {Path::Simd, Path::Scalar}) {
+        const Chain ch = runChain(m, sc, path, kDraws);
+        const double lambda = noncentrality(right, wrong, ch);
+        ASSERT_GE(lambda, 200.0) << "set-up: the 2013 law is too close to eq. 5 to be told apart";
+        const GoodnessOfFit good = fit(ch, right);
+        const GoodnessOfFit bad = fit(ch, wrong);
+        report(std::string(path == Path::Simd ? "simd" : "scalar") + " vs eq.5", good);
+        report(std::string(path == Path::Simd ? "simd" : "scalar") + " vs 2013 rule (noncentrality " +
+                   std::to_string(lambda) + ")",
+               bad);
+        EXPECT_GT(good.p(), kPass) << good;
+        EXPECT_LT(bad.p(), kReject) << bad << " (noncentrality " << lambda << ")";
+    }
+}
+
+// ---- radius 0 is LDA (Griffiths & Steyvers) ----------------------------------------------
+
+// With g.space = g.time = 0 the neighbourhood is the cell alone, so eq. 5 is
+// collapsed Gibbs for LDA with one document per cell. A two-word cell makes
+// the document term matter (each word sees the other's label).
+TEST(RadiusZeroIsLda, ClosedFormsAgreeForEveryWord) {
+    const SceneSpec s{"K5_lda", 5, 8, 3, 3, 5, 8, 0, 0, 2, 4, 2, 3, 2, 6, 5, 41};
+    rost::Model m(configOf(s));
+    const Scene sc = makeScene(m, s);
+    for (std::size_t i = 0; i < sc.tokens.size(); ++i) {
+        const auto a = eq5(sc.tokens, i, sc.config), b = griffithsSteyvers(sc.tokens, i, sc.config);
+        for (int k = 0; k < sc.config.K; ++k) ASSERT_NEAR(a[k], b[k], 1e-12) << "token " << i << " topic " << k;
+    }
+}
+
+TEST(RadiusZeroIsLda, SamplerFollowsGriffithsSteyversOnBothKernelPaths) {
+    const SceneSpec s{"K5_lda", 5, 8, 3, 3, 5, 8, 0, 0, 2, 4, 2, 3, 2, 6, 5, 41};
+    rost::Model m(configOf(s));
+    const Scene sc = makeScene(m, s);
+    ASSERT_EQ(sc.target.size(), 2u);
+    const auto law = transitionLaw(sc, griffithsSteyvers);
+    for (Path path : {Path::Simd, Path::Scalar}) {
+        const Chain ch = runChain(m, sc, path, kDraws);
+        const GoodnessOfFit g = fit(ch, law);
+        report(std::string(s.name) + (path == Path::Simd ? " simd" : " scalar"), g);
+        EXPECT_GT(g.p(), kPass) << (path == Path::Simd ? "simd: " : "scalar: ") << g;
+    }
+}
+
+// The same scene with radius 1: the draws still follow eq. 5 but no longer
+// LDA, which the test must see (the neighbours' labels enter the conditional).
+TEST(RadiusZeroIsLda, RadiusOneDrawsRejectGriffithsSteyvers) {
+    const SceneSpec s{"K5_lda_r1", 5, 8, 3, 3, 5, 8, 1, 1, 2, 4, 2, 3, 2, 6, 5, 41};
+    rost::Model m(configOf(s));
+    const Scene sc = makeScene(m, s);
+    ASSERT_EQ(sc.target.size(), 2u);
+    const auto right = transitionLaw(sc, eq5);
+    const auto lda = transitionLaw(sc, griffithsSteyvers);
+    const Chain ch = runChain(m, sc, Path::Simd, kDraws);
+    const double lambda = noncentrality(right, lda, ch);
+    ASSERT_GE(lambda, 1000.0) << "set-up: LDA and eq. 5 too close on this scene";
+    const GoodnessOfFit good = fit(ch, right);
+    const GoodnessOfFit bad = fit(ch, lda);
+    report("radius 1 vs eq.5", good);
+    report("radius 1 vs LDA (noncentrality " + std::to_string(lambda) + ")", bad);
+    EXPECT_GT(good.p(), kPass) << good;
+    EXPECT_LT(bad.p(), kReject) << bad << " (noncentrality " << lambda << ")";
+}
+
+} // namespace
