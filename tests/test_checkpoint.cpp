@@ -117,6 +117,66 @@ std::vector<Frame> stream(const EngineConfig& cfg, int frames, uint64_t seed) {
     return out;
 }
 
+// ---- the documented format, read independently of the loader ----------------
+
+uint32_t le32(const std::vector<uint8_t>& b, std::size_t at) {
+    return uint32_t{b[at]} | uint32_t{b[at + 1]} << 8 | uint32_t{b[at + 2]} << 16 | uint32_t{b[at + 3]} << 24;
+}
+uint64_t le64(const std::vector<uint8_t>& b, std::size_t at) { return le32(b, at) | uint64_t{le32(b, at + 4)} << 32; }
+void put32(std::vector<uint8_t>& b, std::size_t at, uint32_t v) {
+    for (int i = 0; i < 4; ++i) b[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
+}
+
+struct SectionAt {
+    std::string name;
+    std::size_t header, payload, bytes;
+    uint32_t width;
+};
+
+// Walks a checkpoint by the format in checkpoint.hpp, independently of the loader.
+std::vector<SectionAt> sectionsOf(const std::vector<uint8_t>& b) {
+    std::vector<SectionAt> out;
+    std::size_t at = 32;
+    for (uint32_t i = 0; i < le32(b, 12); ++i) {
+        SectionAt s;
+        s.name = std::string(reinterpret_cast<const char*>(&b[at]));
+        s.width = le32(b, at + 32);
+        s.bytes = static_cast<std::size_t>(le64(b, at + 40));
+        s.header = at;
+        s.payload = at + 56;
+        at = s.payload + s.bytes;
+        out.push_back(s);
+    }
+    return out;
+}
+
+// The sections in which two checkpoints differ (for failure messages).
+std::string differingSections(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+    if (a.size() < 32 || b.size() < 32) return "(not checkpoints)";
+    const auto sa = sectionsOf(a), sb = sectionsOf(b);
+    if (sa.size() != sb.size()) return "(different section counts)";
+    std::string out;
+    for (std::size_t i = 0; i < sa.size(); ++i)
+        if (sa[i].bytes != sb[i].bytes ||
+            std::memcmp(&a[sa[i].payload], &b[sb[i].payload], sa[i].bytes) != 0)
+        {
+            out += sa[i].name;
+            if (sa[i].name == "engine.counters" && sa[i].bytes == sb[i].bytes)
+                for (std::size_t k = 0; k < sa[i].bytes / 8; ++k)
+                    if (le64(a, sa[i].payload + 8 * k) != le64(b, sb[i].payload + 8 * k))
+                    {
+                        out += '[';
+                        out += std::to_string(k);
+                        out += "]=";
+                        out += std::to_string(le64(a, sa[i].payload + 8 * k));
+                        out += '/';
+                        out += std::to_string(le64(b, sb[i].payload + 8 * k));
+                    }
+            out += " ";
+        }
+    return out.empty() ? "(none)" : out;
+}
+
 // Runs `frames` through a fresh engine, saving a checkpoint after `stopAt`
 // observations; then resumes from the file in another engine and compares
 // every later observation and the final state with the uninterrupted run.
@@ -154,7 +214,8 @@ void expectResumeBitForBit(const EngineConfig& cfg, const std::vector<int32_t>* 
 
     const std::vector<Record> tailA(recA.begin() + stopAt, recA.end());
     expectSameRecords(tailA, recB);
-    EXPECT_EQ(stateOf(a), stateOf(*b)) << "final states differ";
+    const auto sa = stateOf(a), sb = stateOf(*b);
+    EXPECT_TRUE(sa == sb) << "final states differ in sections " << differingSections(sa, sb);
     const EngineCounters ca = a.counters(), cb = b->counters();
     EXPECT_EQ(ca.pushed, cb.pushed);
     EXPECT_EQ(ca.ingested, cb.ingested);
@@ -262,50 +323,55 @@ TEST(CheckpointResume, PeriodicWriterOnARunningEngineResumesBitForBit) {
     EXPECT_EQ(info.next_sequence % 7, 0u);
     EXPECT_EQ(info.observations, info.next_sequence);
     for (auto f = info.next_sequence; f < frames.size(); ++f) resumed->processNow(frames[f].view());
-    EXPECT_EQ(stateOf(*resumed), stateOf(reference));
+    const auto sr = stateOf(*resumed), sref = stateOf(reference);
+    EXPECT_TRUE(sr == sref) << "sections differ: " << differingSections(sr, sref);
 
     // The final state, captured after stop(), is the reference's too.
     ASSERT_TRUE(writer->capture());
     ASSERT_TRUE(writer->flush().ok());
     std::string data;
     ASSERT_TRUE(readFile(path, data).ok());
-    EXPECT_EQ(std::vector<uint8_t>(data.begin(), data.end()), stateOf(reference));
+    const std::vector<uint8_t> file(data.begin(), data.end());
+    EXPECT_TRUE(file == sref) << "sections differ: " << differingSections(file, sref);
     writer.reset();
     fs::remove_all(dir);
 }
 
-// ---- the documented format ----------------------------------------------------
-
-uint32_t le32(const std::vector<uint8_t>& b, std::size_t at) {
-    return uint32_t{b[at]} | uint32_t{b[at + 1]} << 8 | uint32_t{b[at + 2]} << 16 | uint32_t{b[at + 3]} << 24;
-}
-uint64_t le64(const std::vector<uint8_t>& b, std::size_t at) { return le32(b, at) | uint64_t{le32(b, at + 4)} << 32; }
-void put32(std::vector<uint8_t>& b, std::size_t at, uint32_t v) {
-    for (int i = 0; i < 4; ++i) b[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
-}
-
-struct SectionAt {
-    std::string name;
-    std::size_t header, payload, bytes;
-    uint32_t width;
-};
-
-// Walks a checkpoint by the format in checkpoint.hpp, independently of the loader.
-std::vector<SectionAt> sectionsOf(const std::vector<uint8_t>& b) {
-    std::vector<SectionAt> out;
-    std::size_t at = 32;
-    for (uint32_t i = 0; i < le32(b, 12); ++i) {
-        SectionAt s;
-        s.name = std::string(reinterpret_cast<const char*>(&b[at]));
-        s.width = le32(b, at + 32);
-        s.bytes = static_cast<std::size_t>(le64(b, at + 40));
-        s.header = at;
-        s.payload = at + 56;
-        at = s.payload + s.bytes;
-        out.push_back(s);
+TEST(CheckpointWriterImage, IncrementalCapturesEqualAFreshEncodingEveryTime) {
+    // The writer refreshes its image incrementally (steps already captured
+    // keep their words); after every capture the file must be exactly what
+    // a fresh encoding of the engine gives, across ring wraps, partially
+    // filled steps (cell.time 3) and frames that fill cells past capacity.
+    EngineConfig cfg = baseConfig();
+    cfg.model.cell_time = 3;
+    cfg.model.cell_capacity = 8;
+    const fs::path dir = tempDir("incremental");
+    const std::string path = (dir / "run.ckpt").string();
+    Engine e(cfg);
+    Status st;
+    auto w = CheckpointWriter::create(e, path, st);
+    ASSERT_TRUE(w) << st.message();
+    const auto frames = stream(cfg, 80, 12);
+    Rng r(4);
+    int captures = 0;
+    for (const Frame& f : frames) {
+        e.processNow(f.view());
+        if (r.below(3) != 0) continue;
+        ASSERT_TRUE(w->capture());
+        ASSERT_TRUE(w->flush().ok());
+        ++captures;
+        std::string data;
+        ASSERT_TRUE(readFile(path, data).ok());
+        const std::vector<uint8_t> file(data.begin(), data.end()), fresh = stateOf(e);
+        ASSERT_TRUE(file == fresh) << "after observation " << e.model().observations() << ": "
+                                   << differingSections(file, fresh);
     }
-    return out;
+    EXPECT_GT(captures, 15);
+    w.reset();
+    fs::remove_all(dir);
 }
+
+// ---- the documented format ----------------------------------------------------
 
 // Recomputes every checksum after a deliberate edit, as a forger would.
 void reseal(std::vector<uint8_t>& b) {

@@ -129,12 +129,15 @@ struct CheckpointSlot {
 // ---- periodic checkpoints from the refiner's side ------------------------------
 
 // Saves checkpoints of a running engine without stalling its refiner for
-// more than a copy of the state: capture() (on the refining thread, in the
-// observation hook) copies every section into a preallocated file image and
+// more than a copy of what changed: capture() (on the refining thread, in
+// the observation hook) copies the state into a preallocated file image and
 // wakes a writer thread, which computes the checksums and writes the file
-// atomically. If the previous image is still being written, capture()
-// skips (and counts it) instead of waiting. The refiner's stall is the
-// memcpy of the state, measured by stats() and in bench/RESULTS.md.
+// atomically. The copy is proportional to the words the ring holds, not to
+// its capacity, and skips the words, positions and surprises of ring steps
+// already captured (they never change; only their labels and counts are
+// copied again). If the previous image is still being written, capture()
+// skips (and counts it) instead of waiting. The refiner's stall is measured
+// by stats() and stated in bench/RESULTS.md.
 //
 // Wiring (the tool's --checkpoint FILE --checkpoint.every N):
 //   auto writer = CheckpointWriter::create(engine, path, status);
@@ -161,6 +164,11 @@ public:
     // capture() after every `every`-th observation taken up (r.observation + 1
     // a multiple of `every`); false when no capture was due or it was skipped.
     bool captureEvery(uint64_t every, const ObservationResult& r) noexcept;
+    // The image is refreshed incrementally (ring slots whose step was complete
+    // at the last capture keep their words); after replacing the engine's
+    // state behind the writer's back (loadCheckpoint into the same engine),
+    // call this so the next capture copies everything.
+    void invalidate() noexcept;
 
     // Waits until no image is pending; the status of the last write.
     Status flush();
@@ -193,6 +201,7 @@ private:
     std::size_t cursor_ = 0;  // section being filled (refining thread only)
 
     alignas(kCacheLine) std::atomic<uint32_t> state_{kIdle};
+    std::atomic<bool> full_{true};  // the next capture copies everything
     alignas(kCacheLine) std::atomic<uint64_t> captured_{0};
     std::atomic<uint64_t> skipped_{0};
     std::atomic<int64_t> last_capture_ns_{0};

@@ -242,8 +242,8 @@ public:
     // ---- checkpoint support (rost/checkpoint.hpp) ---------------------------
     // The engine's state outside the Model, as named sections of fixed size
     // (set by the Config) in a fixed order: "engine.counters" (12 x uint64:
-    // the refiner's and the producer's counters and the next producer
-    // sequence number), "engine.predictors" (2 x double: the time-budget
+    // the refiner's counters, the producer's losses as of the last
+    // observation taken up, and the next producer sequence number), "engine.predictors" (2 x double: the time-budget
     // cost predictors), "engine.window.timestamp" and
     // "engine.window.sequence" (ring_steps x cell_time x int64/uint64).
     // Model::visitState plus these sections is the engine's whole state.

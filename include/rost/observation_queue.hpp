@@ -50,6 +50,7 @@ public:
         uint32_t size = 0;       // words (and positions) in the slot
         bool size_mismatch = false;  // words and positions had different lengths
         uint32_t mismatch_index = 0; // the shorter length, when size_mismatch
+        uint32_t truncated = 0;      // words subsampled away at push (counted in wordsTruncated())
         const uint32_t* words = nullptr;
         const Position* positions = nullptr;
     };
@@ -123,6 +124,7 @@ public:
         out.size = m.size;
         out.size_mismatch = m.mismatch != 0;
         out.mismatch_index = m.mismatch_index;
+        out.truncated = m.truncated;
         out.words = words_.data() + s * maxw_;
         out.positions = positions_.data() + s * maxw_;
         return true;
@@ -166,7 +168,7 @@ private:
         uint32_t size;
         uint32_t mismatch;
         uint32_t mismatch_index;
-        uint32_t pad;
+        uint32_t truncated;
     };
 
     // Full queue, DropOldest: discard observation released_ if the consumer
@@ -196,6 +198,7 @@ private:
         m.mismatch = words.size() != positions.size() ? 1u : 0u;
         const std::size_t n = std::min(words.size(), positions.size());
         m.mismatch_index = static_cast<uint32_t>(std::min<std::size_t>(n, UINT32_MAX));
+        m.truncated = 0;
         uint32_t* w = words_.data() + s * maxw_;
         Position* p = positions_.data() + s * maxw_;
         if (m.mismatch) {
@@ -223,6 +226,7 @@ private:
             --need;
         }
         m.size = j;
+        m.truncated = static_cast<uint32_t>(std::min<std::size_t>(n - j, UINT32_MAX));
         p_.words_truncated.store(p_.words_truncated.load(std::memory_order_relaxed) + (n - j),
                                  std::memory_order_relaxed);
     }

@@ -173,6 +173,10 @@ Status engineLayout(Engine& engine, std::vector<LayoutEntry>& out) {
     if (!unknown.empty())
         return Status::error("checkpoint: state section '" + unknown +
                              "' is not known to the checkpoint format (add its element width to checkpoint.cpp)");
+    // The fill below addresses sections by their place in this order.
+    bool inOrder = out.size() + 1 == std::size(kKnown);
+    for (std::size_t i = 0; inOrder && i < out.size(); ++i) inOrder = out[i].name == kKnown[i + 1].name;
+    if (!inOrder) return Status::error("checkpoint: the engine's state sections changed order (update checkpoint.cpp)");
     return {};
 }
 
@@ -209,33 +213,143 @@ Status buildImage(Engine& engine, std::vector<uint8_t>& image, std::vector<detai
     return {};
 }
 
-// Copies the engine's state into the payloads of slots[1..]. Runs on the
-// refining thread: no allocation, no lock.
-struct FillContext {
+// Places of the sections in kKnown order (section 0 is "config").
+enum SectionIndex : std::size_t {
+    kFrames = 1, kSteps, kTokensRefined, kWordsInModel, kNkvIsWindow, kRng, kNkv, kNk, kInv, kInvDec, kInvInc,
+    kSlotStep, kCellN, kCellWords, kCellZ, kNck, kCellSurprise, kInWord, kInPos, kInSlot, kInN, kObsSurprise,
+    kEngineFirst, kSectionCount = kEngineFirst + 4
+};
+static_assert(kSectionCount == std::size(kKnown));
+
+// Copies the engine's state into the payloads of an image laid out by
+// buildImage. Runs on the refining thread: no allocation, no lock.
+//
+// The copy is proportional to what the ring holds, not to its capacity:
+// only the words a cell holds (cell_n of them) and the inputs an
+// observation kept (in_n) are copied, and what lies beyond them in the
+// image is zero. This is also the canonical encoding: the bytes of a
+// checkpoint depend on the engine's state alone, not on stale memory.
+// Incremental: a ring slot whose time step was complete when the image was
+// last filled and is still in the same slot has the same words, positions,
+// input slots and surprises now; only its labels and topic counts, which
+// refinement changes, are copied again. A fresh (zero) image copies all.
+struct Filler {
     uint8_t* image;
     const detail::CheckpointSlot* slots;
-    std::size_t count;
-    std::size_t cursor;
-    bool mismatch;
-};
-void fillOne(FillContext& f, const void* data, std::size_t bytes) noexcept {
-    if (f.cursor >= f.count || f.slots[f.cursor].bytes != bytes) {
-        f.mismatch = true;
-        ++f.cursor;
-        return;
+    const Config& cfg;
+    const uint8_t* src[kEngineFirst] = {};  // the model's buffers (stable while we copy)
+    std::size_t bytes[kEngineFirst] = {};
+    bool fresh = false;
+    std::size_t cursor = 1;
+    bool mismatch = false;
+
+    uint8_t* dst(std::size_t section) const noexcept { return image + slots[section].payload; }
+    void copyAll(std::size_t section) noexcept {
+        copyLittleEndian(dst(section), src[section], bytes[section], slots[section].width);
     }
-    const detail::CheckpointSlot& s = f.slots[f.cursor++];
-    copyLittleEndian(f.image + s.payload, static_cast<const uint8_t*>(data), bytes, s.width);
-}
-bool fillImage(Engine& engine, uint8_t* image, const std::vector<detail::CheckpointSlot>& slots) noexcept {
-    FillContext f{image, slots.data(), slots.size(), 1, false};
-    engine.model().visitState([&](const char*, void* data, std::size_t bytes) { fillOne(f, data, bytes); });
+    // Elements [from, to) of a section: copied from the model, or zeroed.
+    void copyRange(std::size_t section, std::size_t from, std::size_t to) noexcept {
+        if (to <= from) return;
+        const uint32_t w = slots[section].width;
+        copyLittleEndian(dst(section) + from * w, src[section] + from * w, (to - from) * w, w);
+    }
+    void zeroRange(std::size_t section, std::size_t from, std::size_t to) noexcept {
+        if (to <= from) return;
+        const uint32_t w = slots[section].width;
+        std::memset(dst(section) + from * w, 0, (to - from) * w);
+    }
+    template <typename T>
+    T model(std::size_t section, std::size_t i) const noexcept {
+        T v;
+        std::memcpy(&v, src[section] + i * sizeof(T), sizeof(T));
+        return v;
+    }
+
+    void fillModel() noexcept {
+        const auto ring = static_cast<std::size_t>(cfg.ring_steps);
+        const auto cells = static_cast<std::size_t>(cfg.cellsPerStep());
+        const auto cap = static_cast<std::size_t>(cfg.cell_capacity);
+        const auto ct = static_cast<std::size_t>(cfg.cell_time);
+        const auto maxw = static_cast<std::size_t>(cfg.max_words_per_frame);
+        const auto Kp = static_cast<std::size_t>(kernel::paddedK(cfg.K));
+
+        // What the image held when it was last filled (a fresh image: nothing).
+        uint64_t prevFrames = fresh ? 0 : element<uint64_t>(dst(kFrames), 0);
+        if (model<uint64_t>(kFrames, 0) < prevFrames) prevFrames = 0;  // not the same history
+
+        for (std::size_t s : {kFrames, kSteps, kTokensRefined, kWordsInModel, kNkvIsWindow, kRng, kNkv, kNk, kInv,
+                              kInvDec, kInvInc})
+            copyAll(s);
+        for (std::size_t slot = 0; slot < ring; ++slot) {
+            const auto step = model<int64_t>(kSlotStep, slot);
+            const bool same = step >= 0 && element<int64_t>(dst(kSlotStep), slot) == step &&
+                              static_cast<uint64_t>(step + 1) * ct <= prevFrames;
+            copyRange(kSlotStep, slot, slot + 1);
+            for (std::size_t c = 0; c < cells; ++c) {
+                const std::size_t ci = slot * cells + c;
+                const auto n = model<uint32_t>(kCellN, ci);
+                if (same) {
+                    // Words unchanged; labels and counts refined since.
+                    if (n > 0) {
+                        copyRange(kCellZ, ci * cap, ci * cap + n);
+                        copyRange(kNck, ci * Kp, (ci + 1) * Kp);
+                    }
+                    continue;
+                }
+                const auto before = element<uint32_t>(dst(kCellN), ci);
+                copyRange(kCellN, ci, ci + 1);
+                copyRange(kCellWords, ci * cap, ci * cap + n);
+                copyRange(kCellZ, ci * cap, ci * cap + n);
+                zeroRange(kCellWords, ci * cap + n, ci * cap + before);
+                zeroRange(kCellZ, ci * cap + n, ci * cap + before);
+                copyRange(kNck, ci * Kp, (ci + 1) * Kp);
+                copyRange(kCellSurprise, ci, ci + 1);
+            }
+            if (same) continue;
+            for (std::size_t o = slot * ct; o < (slot + 1) * ct; ++o) {
+                const auto n = model<uint32_t>(kInN, o);
+                const auto before = element<uint32_t>(dst(kInN), o);
+                copyRange(kInN, o, o + 1);
+                copyRange(kObsSurprise, o, o + 1);
+                for (std::size_t s : {kInWord, kInPos, kInSlot}) {
+                    copyRange(s, o * maxw, o * maxw + n);
+                    zeroRange(s, o * maxw + n, o * maxw + before);
+                }
+            }
+        }
+    }
+};
+
+bool fillImage(Engine& engine, uint8_t* image, const std::vector<detail::CheckpointSlot>& slots, bool fresh) noexcept {
+    if (slots.size() != kSectionCount) return false;
+    Filler f{image, slots.data(), engine.config().model};
+    f.fresh = fresh;
+    engine.model().visitState([&](const char*, void* data, std::size_t n) {
+        if (f.cursor < kEngineFirst && slots[f.cursor].bytes == n) {
+            f.src[f.cursor] = static_cast<const uint8_t*>(data);
+            f.bytes[f.cursor] = n;
+        } else {
+            f.mismatch = true;
+        }
+        ++f.cursor;
+    });
+    if (f.mismatch || f.cursor != kEngineFirst) return false;
+    f.fillModel();
+    // The engine's own sections are small (counters, the window's stamps):
+    // copied whole, inside the callback (they may be temporaries).
     engine.readState(
-        [](void* ctx, const char*, const void* data, std::size_t bytes) {
-            fillOne(*static_cast<FillContext*>(ctx), data, bytes);
+        [](void* ctx, const char*, const void* data, std::size_t n) {
+            Filler& g = *static_cast<Filler*>(ctx);
+            if (g.cursor >= kSectionCount || g.slots[g.cursor].bytes != n) {
+                g.mismatch = true;
+                ++g.cursor;
+                return;
+            }
+            const detail::CheckpointSlot& s = g.slots[g.cursor++];
+            copyLittleEndian(g.image + s.payload, static_cast<const uint8_t*>(data), n, s.width);
         },
         &f);
-    return !f.mismatch && f.cursor == slots.size();
+    return !f.mismatch && f.cursor == kSectionCount;
 }
 
 // Computes every checksum of a filled image.
@@ -539,7 +653,7 @@ public:
         const ParsedSection& pred = sec("engine.predictors");
         for (std::size_t i = 0; i < pred.bytes / 8; ++i) {
             const double v = element<double>(pay(pred), i);
-            if (!(v > 0.0 && v < 1e12)) return bad(pred, i, "cost estimate " + std::to_string(v) + " ns is out of range (0, 1e12)");
+            if (!(v >= 0.0 && v < 1e12)) return bad(pred, i, "cost estimate " + std::to_string(v) + " ns is out of range [0, 1e12)");
         }
         return {};
     }
@@ -578,7 +692,7 @@ void restoreOne(RestoreContext& r, void* data, std::size_t bytes) noexcept {
 Status encodeCheckpoint(Engine& engine, std::vector<uint8_t>& out) {
     std::vector<detail::CheckpointSlot> slots;
     if (Status st = buildImage(engine, out, slots); !st.ok()) return st;
-    if (!fillImage(engine, out.data(), slots)) return Status::error("checkpoint: the engine's state changed size");
+    if (!fillImage(engine, out.data(), slots, true)) return Status::error("checkpoint: the engine's state changed size");
     sealImage(out, slots);
     return {};
 }
@@ -745,7 +859,7 @@ bool CheckpointWriter::capture() noexcept {
         return false;
     }
     const auto t0 = std::chrono::steady_clock::now();
-    const bool ok = fillImage(engine_, image_.data(), sections_);
+    const bool ok = fillImage(engine_, image_.data(), sections_, full_.exchange(false, std::memory_order_relaxed));
     const int64_t ns = (std::chrono::steady_clock::now() - t0).count();
     last_capture_ns_.store(ns, std::memory_order_relaxed);
     if (ns > max_capture_ns_.load(std::memory_order_relaxed)) max_capture_ns_.store(ns, std::memory_order_relaxed);
@@ -799,6 +913,8 @@ Status CheckpointWriter::flush() {
     std::lock_guard<std::mutex> lock(error_mutex_);
     return last_error_.empty() ? Status{} : Status::error(last_error_);
 }
+
+void CheckpointWriter::invalidate() noexcept { full_.store(true, std::memory_order_relaxed); }
 
 CheckpointWriter::Stats CheckpointWriter::stats() const noexcept {
     Stats s;

@@ -270,7 +270,8 @@ struct Engine::Refiner {
     double publish_ns = 0.0;  // set from the budget in Engine(); measured after the first publication
     uint64_t token_samples = 0;
     uint64_t publish_samples = 0;
-    uint64_t next_sequence = 0;  // producer sequence after the last observation taken up (checkpoints)
+    uint64_t next_sequence = 0;    // producer sequence after the last observation taken up (checkpoints)
+    uint64_t truncated_taken = 0;  // words subsampled away at push from the observations taken up (checkpoints)
 
     alignas(kCacheLine) std::atomic<uint64_t> ingested{0};
     std::atomic<uint64_t> rejected{0};
@@ -471,6 +472,7 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     ObservationQueue::Item it;
     if (!queue_->claim(it)) return false;
     refiner_->next_sequence = it.sequence + 1;
+    refiner_->truncated_taken += it.truncated;
     const auto t0 = Clock::now();
     const bool timed = cfg_.budget.kind == BudgetKind::Time;
     const auto deadline =
@@ -675,6 +677,12 @@ constexpr std::size_t kStateCounters = 12;
 
 void Engine::readState(StateReader read, void* context) const noexcept {
     const Refiner& R = *refiner_;
+    // Producer-side losses as of the last observation taken up (the
+    // producer may be ahead, and what it queued since is not in the state):
+    // sequence numbers skipped before next_sequence were dropped.
+    const uint64_t takenUp = R.ingested.load(std::memory_order_relaxed) + R.rejected.load(std::memory_order_relaxed);
+    const uint64_t drops = R.next_sequence > takenUp ? R.next_sequence - takenUp : 0;
+    const uint64_t dropsOldest = std::min(drops, queue_->droppedOldest());
     const uint64_t c[kStateCounters] = {
         R.ingested.load(std::memory_order_relaxed),
         R.rejected.load(std::memory_order_relaxed),
@@ -684,9 +692,9 @@ void Engine::readState(StateReader read, void* context) const noexcept {
         R.overruns.load(std::memory_order_relaxed),
         static_cast<uint64_t>(R.max_overrun_ns.load(std::memory_order_relaxed)),
         R.published.load(std::memory_order_relaxed),
-        queue_->droppedNewest(),
-        queue_->droppedOldest(),
-        queue_->wordsTruncated(),
+        drops - dropsOldest,
+        dropsOldest,
+        R.truncated_taken,
         R.next_sequence,
     };
     read(context, "engine.counters", c, sizeof c);
@@ -715,6 +723,7 @@ Status Engine::writeState(StateWriter write, void* context) {
     R.max_overrun_ns.store(static_cast<int64_t>(c[6]), std::memory_order_relaxed);
     R.published.store(c[7], std::memory_order_relaxed);
     R.next_sequence = c[11];
+    R.truncated_taken = c[10];
     queue_->restoreProducer(c[11], c[8], c[9], c[10]);
     R.ns_per_token = p[0];
     R.publish_ns = p[1];

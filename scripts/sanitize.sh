@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Builds the whole test suite under a sanitizer and runs it with ctest:
+#   scripts/sanitize.sh address   AddressSanitizer + UndefinedBehaviorSanitizer
+#                                 (every report fatal) in build-asan/
+#   scripts/sanitize.sh thread    ThreadSanitizer in build-tsan/
+# Extra arguments go to ctest (e.g. -R test_engine). Suppressions for
+# third-party code that is not built with the sanitizer live in
+# tests/sanitizers/ (each entry says why).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+mode=${1:-}
+shift || true
+case "$mode" in
+  address)
+    dir=build-asan
+    flags="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
+    export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1:check_initialization_order=1"
+    export LSAN_OPTIONS="suppressions=$root/tests/sanitizers/lsan.supp:print_suppressions=0"
+    export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$root/tests/sanitizers/ubsan.supp"
+    ;;
+  thread)
+    dir=build-tsan
+    flags="-fsanitize=thread -fno-omit-frame-pointer"
+    export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$root/tests/sanitizers/tsan.supp:print_suppressions=0"
+    ;;
+  *)
+    echo "usage: scripts/sanitize.sh address|thread [ctest args]" >&2
+    exit 2
+    ;;
+esac
+jobs=${ROST_JOBS:-2}
+cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DROST_WERROR=ON \
+  -DROST_BUILD_BENCH=OFF -DROST_BUILD_EXAMPLES=OFF \
+  -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" -DCMAKE_SHARED_LINKER_FLAGS="$flags" >/dev/null
+cmake --build "$dir" -j "$jobs"
+# Sanitized runs are several times slower: one test at a time keeps the
+# timing-sensitive engine tests meaningful on a 2-core machine.
+ctest --test-dir "$dir" --output-on-failure -j "${ROST_CTEST_JOBS:-1}" "$@"
