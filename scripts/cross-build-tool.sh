@@ -77,7 +77,8 @@ if [ "$refresh" = 1 ] || [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "${packages
   apt_opts=(-q -o "Dir::State=$state" -o "Dir::State::Lists=$state/lists" -o "Dir::State::status=$state/status"
             -o "Dir::Cache=$state" -o "Dir::Cache::archives=$state/archives"
             -o APT::Architecture=arm64 -o APT::Architectures=arm64 -o Debug::NoLocking=1
-            -o Dir::Etc::preferences=/dev/null -o Dir::Etc::preferencesparts=/dev/null)
+            -o Dir::Etc::preferences=/dev/null -o Dir::Etc::preferencesparts=/dev/null
+            -o APT::Sandbox::User=root)
   apt-get "${apt_opts[@]}" update
   apt-get "${apt_opts[@]}" install -y --download-only --no-install-recommends "${packages[@]}"
   t1=$(date +%s)
