@@ -90,8 +90,9 @@ public:
     }
 
     // ---- refinement -------------------------------------------------------
-    // Refines every word of one cell / one time step once. Returns the number
-    // of tokens refined (0 for a step outside the window).
+    // Refines every word of one cell / one time step once, cells in index
+    // order and a cell's words in the order they were added. Returns the
+    // number of tokens refined (0 for a step outside the window).
     uint32_t refineCell(int64_t step, int cell) noexcept;
     uint32_t refineStep(int64_t step) noexcept;
     // Batch Gibbs (paper Algorithm 1): `sweeps` passes over every cell of the window.
@@ -136,7 +137,8 @@ public:
     // Maximum-likelihood topic of each kept word (argmax of the left-out
     // conditional, ties to the lowest topic), in input order.
     void observationLabels(uint64_t frame, std::span<uint16_t> out) const noexcept;
-    // The current Gibbs sample z_i of each kept word, in input order.
+    // The current Gibbs sample z_i of each kept word, in input order; a word
+    // its cell had no room for (never in the counts) gets its ML label.
     void observationSamples(uint64_t frame, std::span<uint16_t> out) const noexcept;
     // n_c^k of a cell (K values).
     std::span<const int32_t> cellHistogram(int64_t step, int cell) const noexcept;
