@@ -6,6 +6,10 @@
 // scripts/fetch-footage.sh) when available, else on synthetic frames.
 //
 //   build/bench/bench_vision --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+//   build/bench/bench_vision --dump-descriptors FILE   (raw 32-byte descriptors, for quantize_count)
+//
+// CPU time is the figure to read on a shared machine (wall time includes
+// waiting for the core). per_descriptor / per_frame are CPU seconds.
 //
 // Pinned to the last CPU; aggregates include the worst repetition ("max").
 
@@ -16,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -101,7 +106,7 @@ void BM_QuantizeLinear(benchmark::State& state) {
         if (++i == d.size()) i = 0;
     }
     state.SetItemsProcessed(state.iterations());
-    state.counters["ns_per_descriptor"] =
+    state.counters["per_descriptor"] =
         benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
     state.counters["distances"] = v->size();
     state.SetLabel(footage().source);
@@ -117,7 +122,7 @@ void BM_QuantizeTree(benchmark::State& state) {
         if (++i == d.size()) i = 0;
     }
     state.SetItemsProcessed(state.iterations());
-    state.counters["ns_per_descriptor"] =
+    state.counters["per_descriptor"] =
         benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
     // Quality and work, over all descriptors (outside the timed loop).
     uint64_t agree = 0, extra = 0, dist = 0;
@@ -148,8 +153,8 @@ void BM_OrbDetectAndDescribe(benchmark::State& state) {
         if (++i == frames.size()) i = 0;
     }
     state.SetItemsProcessed(state.iterations());
-    state.counters["ms_per_frame"] = benchmark::Counter(static_cast<double>(state.iterations()) * 1e3,
-                                                        benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+    state.counters["per_frame"] = benchmark::Counter(static_cast<double>(state.iterations()),
+                                                     benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 void BM_ExtractFrame(benchmark::State& state) {
@@ -167,8 +172,8 @@ void BM_ExtractFrame(benchmark::State& state) {
         if (++i == frames.size()) i = 0;
     }
     state.SetItemsProcessed(state.iterations());
-    state.counters["ms_per_frame"] = benchmark::Counter(static_cast<double>(state.iterations()) * 1e3,
-                                                        benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+    state.counters["per_frame"] = benchmark::Counter(static_cast<double>(state.iterations()),
+                                                     benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
     state.counters["words_per_frame"] = static_cast<double>(words) / static_cast<double>(state.iterations());
     state.SetLabel(c.search.method == SearchMethod::Tree ? "tree, 16 probes" : "linear");
 }
@@ -204,6 +209,18 @@ int main(int argc, char** argv) {
     CPU_SET(static_cast<int>(n > 0 ? n - 1 : 0), &set);
     sched_setaffinity(0, sizeof set, &set);
     cv::setNumThreads(1);  // OpenCV's own threads would leave the pinned core
+    if (argc == 3 && std::string(argv[1]) == "--dump-descriptors") {
+        std::FILE* f = std::fopen(argv[2], "wb");
+        if (!f) return 2;
+        for (const auto& d : footage().descriptors) {
+            uint8_t b[Descriptor::kBytes];
+            d.toBytes(b);
+            std::fwrite(b, 1, sizeof b, f);
+        }
+        std::fclose(f);
+        std::printf("%zu descriptors from %s written to %s\n", footage().descriptors.size(), footage().source.c_str(), argv[2]);
+        return 0;
+    }
     benchmark::Initialize(&argc, argv);
     if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
     std::printf("descriptors: %zu from %s\n", footage().descriptors.size(), footage().source.c_str());

@@ -38,8 +38,10 @@ namespace rost::vision {
 // One 256-bit binary descriptor (an ORB descriptor's 32 bytes). Hamming
 // distance is independent of how the bytes are grouped into words, so the
 // bytes are copied as they are; the file and memory layouts agree on every
-// architecture.
-struct alignas(32) Descriptor {
+// architecture. Deliberately not over-aligned: GCC for 32-bit ARM does not
+// realign the stack for alignas(32) locals, yet would emit aligned NEON
+// loads for them (a bus error on armhf).
+struct Descriptor {
     static constexpr std::size_t kBytes = 32;
     std::array<uint64_t, 4> w{};
 
