@@ -61,7 +61,7 @@ if [ ! -f "$build/build.ninja" ]; then
   log "configuring $build"
   cmake -S "$here" -B "$build" -G Ninja -DROST_WERROR=ON >/dev/null
 fi
-targets=$(ninja -C "$build" -t targets all | sed -n 's#^\(bench/[^/:]*\): CXX_EXECUTABLE_LINKER.*#\1#p')
+targets=$(ninja -C "$build" -t targets all | sed -n 's#^\(bench/[A-Za-z0-9_-]*\): CXX_EXECUTABLE_LINKER.*#\1#p')
 log "building: $(echo $targets | tr '\n' ' ')"
 # shellcheck disable=SC2086
 ninja -C "$build" -j2 $targets >/dev/null
@@ -69,7 +69,11 @@ ninja -C "$build" -j2 $targets >/dev/null
 benches=()
 for t in $targets; do
   exe="$build/$t"
-  [ -x "$exe" ] && grep -aq -- "benchmark_repetitions" "$exe" && benches+=("$(basename "$t")")
+  [ -x "$exe" ] || continue
+  # A Google Benchmark program: linked against libbenchmark, or carrying its flags (static).
+  if ldd "$exe" 2>/dev/null | grep -q libbenchmark || grep -aq -- "benchmark_repetitions" "$exe"; then
+    benches+=("$(basename "$t")")
+  fi
 done
 if [ "$list" = 1 ]; then
   printf '%s\n' "${benches[@]}"
