@@ -290,11 +290,13 @@ void polyline(cv::Mat& img, const Axes& a, std::span<const FrameRow> rows, doubl
     flush();
 }
 
-void range(std::span<const FrameRow> rows, std::initializer_list<double FrameRow::*> fields, double& lo, double& hi) {
+void range(std::span<const FrameRow> rows, std::initializer_list<double FrameRow::*> fields, double& lo, double& hi,
+           std::size_t skip = 0) {
     lo = std::numeric_limits<double>::infinity();
     hi = -lo;
-    for (const auto& r : rows)
+    for (std::size_t i = rows.size() > skip ? skip : 0; i < rows.size(); ++i)
         for (auto f : fields) {
+            const FrameRow& r = rows[i];
             const double v = r.*f;
             if (std::isfinite(v)) {
                 lo = std::min(lo, v);
@@ -358,15 +360,18 @@ cv::Mat drawSummary(const SummaryInput& in) {
     polyline(img, ppl, rows, &FrameRow::final, kFinal, 2);
     legend(img, {left + 12, titleH + 22}, {{"instantaneous", kInstant}, {"final", kFinal}});
 
-    // Surprise, filled, with its peaks marked.
-    range(rows, {&FrameRow::surprise}, lo, hi);
+    // Surprise, filled, with its peaks marked. The first frames meet an
+    // empty model (surprise near V); they are left out of the scale, clipped
+    // and labelled, so the rest of the curve keeps its detail.
+    const std::size_t warm = std::min<std::size_t>(10, rows.size() / 10 + 3);
+    range(rows, {&FrameRow::surprise}, lo, hi, warm);
     Axes sur{cv::Rect(left, titleH + pplH + gap, plotW, surH), f0, f1, lo, hi};
     drawFrame(img, sur, "surprise", true);
     {
         std::vector<cv::Point> poly;
         for (const auto& r : rows)
             if (std::isfinite(r.surprise))
-                poly.emplace_back(sur.px(static_cast<double>(r.frame)), sur.py(r.surprise));
+                poly.emplace_back(sur.px(static_cast<double>(r.frame)), sur.py(std::clamp(r.surprise, lo, hi)));
         if (poly.size() > 1) {
             std::vector<cv::Point> fill = poly;
             fill.emplace_back(poly.back().x, sur.py(lo));
@@ -376,6 +381,12 @@ cv::Mat drawSummary(const SummaryInput& in) {
             cv::addWeighted(layer, 0.55, img, 0.45, 0, img);
             drawFrame(img, sur, "surprise", true);
             cv::polylines(img, poly, false, kSurprise, 2, cv::LINE_AA);
+        }
+        if (!rows.empty() && rows.size() > warm && rows.front().surprise > hi) {
+            char buf[64];
+            std::snprintf(buf, sizeof buf, "frame %lld: %.0f (empty model)", static_cast<long long>(rows.front().frame),
+                          rows.front().surprise);
+            text(img, buf, {sur.box.x + 14, sur.box.y + 16}, 0.42, cv::Scalar(110, 110, 110));
         }
     }
     for (std::size_t p : peaks) {
