@@ -11,13 +11,16 @@
 # are. Move a bench's markers anywhere in the file and later runs update it there.
 #
 # What runs:
-#   * every Google Benchmark program the build puts in bench/ (found by its
-#     --benchmark_* flags), each `--benchmark_repetitions=N` (default 5), medians;
+#   * every Google Benchmark program the build puts in bench/ (linked against
+#     libbenchmark), each `--benchmark_repetitions=N` (default 5), medians;
 #     rendered by the bench's own renderer when it has one:
 #       - scripts/bench-NAME.sh BUILD_DIR JSON  (prints the section's markdown), or
 #       - a renderer known here (bench_scaling: bench/scaling_report.py),
 #     else as a generic table; section NAME, under "## Benchmark programs" unless
 #     its markers are already elsewhere;
+#   * the plain measurement programs in bench/ (bench_soak, bench_checkpoint,
+#     footprint memory; or scripts/bench-NAME.sh BUILD_DIR when it exists), their
+#     output verbatim in section NAME;
 #   * the paper experiment, scripts/experiment.sh --small by default (sections
 #     experiment-MODE under "## Paper experiment (issue 6)"); --experiment none skips it;
 #   * with --with-cross, scripts/cross-footprint.sh (needs the cross builds of
@@ -41,7 +44,7 @@ while [ $# -gt 0 ]; do
     --with-cross) cross=1; shift ;;
     --only) only=",$2,"; shift 2 ;;
     --list) list=1; shift ;;
-    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,30p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench-all: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -66,17 +69,39 @@ log "building: $(echo $targets | tr '\n' ' ')"
 # shellcheck disable=SC2086
 ninja -C "$build" -j2 $targets >/dev/null
 
+tmp=$(mktemp -d)
+tmpdir="$tmp/scratch"
+mkdir -p "$tmpdir"
+trap 'rm -rf "$tmp"' EXIT
 benches=()
+plain=()
 for t in $targets; do
   exe="$build/$t"
   [ -x "$exe" ] || continue
   # A Google Benchmark program: linked against libbenchmark, or carrying its flags (static).
   if ldd "$exe" 2>/dev/null | grep -q libbenchmark || grep -aq -- "benchmark_repetitions" "$exe"; then
     benches+=("$(basename "$t")")
+  else
+    plain+=("$(basename "$t")")
   fi
 done
+# Plain measurement programs (their own main): how to run each. A program with a
+# scripts/bench-NAME.sh runner uses that instead (it prints the section's markdown).
+plain_args() {
+  case "$1" in
+    bench_soak) echo "" ;;                    # 1,000,000 observations through the threads
+    bench_checkpoint) echo "$tmpdir" ;;       # checkpoint files go to a scratch directory
+    footprint) echo "memory" ;;               # instruction counts: scripts/cross-footprint.sh
+    *) return 1 ;;                            # tools and tests (rost_experiment, quantize_count, ...)
+  esac
+}
+runnable_plain=()
+for b in "${plain[@]}"; do
+  if [ -x "$here/scripts/bench-$b.sh" ] || plain_args "$b" >/dev/null; then runnable_plain+=("$b"); fi
+done
+
 if [ "$list" = 1 ]; then
-  printf '%s\n' "${benches[@]}"
+  printf '%s\n' "${benches[@]}" "${runnable_plain[@]}"
   echo "experiment-$experiment"
   [ "$cross" = 1 ] && echo footprint
   exit 0
@@ -86,8 +111,6 @@ commit=$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)
 git -C "$here" diff --quiet HEAD -- src include bench 2>/dev/null || commit="$commit (work tree with local changes)"
 cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n1)
 machine="$(nproc) x $cpu, $(uname -m)"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
 
 # ---- Google Benchmark programs ------------------------------------------------------------------------
 ran=()
@@ -115,6 +138,33 @@ for b in "${benches[@]}"; do
     section "$b" "$tmp/$b.md" --heading "## Benchmark programs"
   fi
   ran+=("$b")
+done
+
+# ---- plain measurement programs ---------------------------------------------------------------------
+for b in "${runnable_plain[@]}"; do
+  wanted "$b" || continue
+  if [ -x "$here/scripts/bench-$b.sh" ]; then
+    log "running scripts/bench-$b.sh"
+    if "$here/scripts/bench-$b.sh" "$build" > "$tmp/$b.md" 2> "$tmp/$b.err"; then
+      section "$b" "$tmp/$b.md" --heading "## Benchmark programs"
+      ran+=("$b")
+    else
+      log "scripts/bench-$b.sh failed; its section is left as it was"; tail -n 5 "$tmp/$b.err" >&2
+    fi
+    continue
+  fi
+  args=$(plain_args "$b")
+  log "running $b $args (load average $(cut -d' ' -f1-3 /proc/loadavg))"
+  t0=$(date +%s)
+  # shellcheck disable=SC2086
+  if "$build/bench/$b" $args > "$tmp/$b.txt" 2>&1; then
+    { echo "\`build/bench/$b $args\` — commit \`$commit\`, $machine, $(( $(date +%s) - t0 )) s"; echo
+      echo '```text'; cat "$tmp/$b.txt"; echo '```'; } > "$tmp/$b.md"
+    section "$b" "$tmp/$b.md" --heading "## Benchmark programs"
+    ran+=("$b")
+  else
+    log "$b failed; its section is left as it was"; tail -n 5 "$tmp/$b.txt" >&2
+  fi
 done
 
 # ---- the paper experiment ---------------------------------------------------------------------------------
