@@ -180,9 +180,18 @@ if [ "$sweep" = 1 ]; then
   n1=$(sed -n "s/^tokens_${t1}ms=//p" "$out/calibration.txt")
   mkdir -p "$out/sweep"
   cp "$out/calibration.txt" "$out/sweep/"
-  log "$first: eta/q sweep of the mixed strategies at T_R = $t1 ms"
+  # At T_R and at two small budgets (4 and 32 whole-step refinements per observation,
+  # the regime of slower kernels and boards), so the defaults hold across budgets.
+  wpf=$(sed -n 's/^words_per_frame=//p' "$here/data/experiment/$first/dataset.txt")
+  r=$(sed -n 's/^tokens_per_second=//p' "$out/calibration.txt")
+  sb=(--budget "$t1=tokens:$n1")
+  for k in 4 32; do
+    n=$("$py" -c "print(max(1, round($k * $wpf)))")
+    sb+=(--budget "$("$py" -c "print('%.4g' % ($n / $r * 1e3))")=tokens:$n")
+  done
+  log "$first: eta/q sweep of the mixed strategies at T_R = $t1 ms and at 4 and 32 step refinements"
   "$exp" run --dataset "$here/data/experiment/$first" --frames "$frames" --strategies mixed \
-    --eta 0.1,0.25,0.5,0.75,0.9 --q 0.02,0.1,0.5 --budget "$t1=tokens:$n1" --seeds "$seeds" --jobs "$jobs" \
+    --eta 0.1,0.25,0.5,0.75,0.9 --q 0.02,0.1,0.5 "${sb[@]}" --seeds "$seeds" --jobs "$jobs" \
     --tag "sweep-$first" --out "$out/sweep" 2>>"$out/run.log"
 fi
 

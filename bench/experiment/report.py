@@ -330,70 +330,84 @@ def cmd_paper(a):
 
 
 def cmd_sweep(a):
+    """Mixed strategies against eta and q, at one or more budgets; defaults chosen across budgets."""
     rows = [r for r in read_runs(a.results) if r["budget_kind"] == "tokens"]
     agg = aggregate(rows)
     write_summary(agg, a.summary)
     dataset = rows[0]["dataset"]
-    tr = sorted({num(r["tr_ms"]) for r in rows})[0]
-    series = defaultdict(list)  # (strategy, q) -> [(eta, inst, final, inst_sd, final_sd)]
+    wpf = float(rows[0]["words"]) / float(rows[0]["frames"])
+    trs = sorted({num(r["tr_ms"]) for r in rows}, reverse=True)
+    tokens = {num(r["tr_ms"]): float(r["budget_tokens"]) for r in rows}
+    # (tr, strategy, q) -> [(eta, inst, final, inst_sd, final_sd)]
+    series = defaultdict(list)
     for k, v in agg.items():
-        if k[4] != tr:
-            continue
-        series[(k[1], k[3])].append((num(k[2]), v["inst_ratio"], v["final_ratio"], v["inst_ratio_sd"],
-                                     v["final_ratio_sd"]))
-    os.makedirs(a.figures, exist_ok=True)
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=80)
-    styles = ["-", "--", ":", "-."]
-    qs = sorted({k[1] for k in series if k[1]}, key=float)
-    for (s, q), pts in sorted(series.items(), key=lambda kv: (ORDER.index(kv[0][0]), kv[0][1])):
+        series[(k[4], k[1], k[3])].append((num(k[2]), v["inst_ratio"], v["final_ratio"], v["inst_ratio_sd"],
+                                           v["final_ratio_sd"]))
+    for pts in series.values():
         pts.sort()
-        ls = styles[qs.index(q) % len(styles)] if q else "-"
-        lab = LABEL[s] + (f" q={q}" if q else "")
-        for ax, i in ((axes[0], 1), (axes[1], 2)):
-            ax.errorbar([p[0] for p in pts], [p[i] for p in pts], yerr=[p[i + 2] for p in pts], ls=ls, marker="o",
-                        ms=3, lw=1, capsize=2, color=COLOR[s], label=lab)
-    for ax, t in ((axes[0], "instantaneous / batch"), (axes[1], "final / batch")):
-        ax.set_xlabel("η (weight of the local part)")
-        ax.set_ylabel(t)
-        ax.axhline(1.0, color="k", lw=0.6, ls=":")
-        ax.grid(alpha=0.3)
-    axes[1].legend(fontsize=7, ncol=2)
-    fig.suptitle(f"{dataset}, T_R = {tr:g} ms: mixed strategies against η and q (mean ± sd over seeds)", fontsize=10)
+
+    def budget_name(tr):
+        return f"{tokens[tr]:,.0f} tokens/obs (≈ {tokens[tr] / wpf:.0f} step refinements; T_R = {tr:g} ms)"
+
+    os.makedirs(a.figures, exist_ok=True)
+    fig, axes = plt.subplots(len(trs), 2, figsize=(10, 3.6 * len(trs)), dpi=80, squeeze=False)
+    styles = ["-", "--", ":", "-."]
+    qs = sorted({k[2] for k in series if k[2]}, key=float)
+    for row, tr in enumerate(trs):
+        for (t, st, q), pts in sorted(series.items(), key=lambda kv: (ORDER.index(kv[0][1]), kv[0][2])):
+            if t != tr:
+                continue
+            ls = styles[qs.index(q) % len(styles)] if q else "-"
+            lab = LABEL[st] + (f" q={q}" if q else "")
+            for ax, i in ((axes[row][0], 1), (axes[row][1], 2)):
+                ax.errorbar([p[0] for p in pts], [p[i] for p in pts], yerr=[p[i + 2] for p in pts], ls=ls,
+                            marker="o", ms=3, lw=1, capsize=2, color=COLOR[st], label=lab)
+        for ax, t in ((axes[row][0], "instantaneous / batch"), (axes[row][1], "final / batch")):
+            ax.set_xlabel("η (weight of the local part)")
+            ax.set_ylabel(t)
+            ax.set_title(budget_name(tr), fontsize=9)
+            ax.axhline(1.0, color="k", lw=0.6, ls=":")
+            ax.grid(alpha=0.3)
+    axes[0][1].legend(fontsize=7, ncol=2)
+    fig.suptitle(f"{dataset}: mixed strategies against η and q (mean ± sd over seeds)", fontsize=10)
     fig.tight_layout()
     name = f"{a.fig_stem}sweep-{dataset}.png"
     fig.savefig(os.path.join(a.figures, name))
     plt.close(fig)
 
-    # Table and recommendation: the score is the mean of the two ratios.
     lines = [header(a.results),
-             f"Dataset {dataset} ({rows[0]['frames']} frames), T_R = {tr:g} ms as a count budget, "
-             f"{len({r['seed'] for r in rows})} seeds. Cells: instantaneous / final ratio (mean over seeds).", ""]
+             f"Dataset {dataset} ({rows[0]['frames']} frames), {len({r['seed'] for r in rows})} seeds, count "
+             f"budgets. Cells: instantaneous / final ratio to batch (mean over seeds). Score of a setting: the mean "
+             f"of its two ratios, averaged over the budgets.", ""]
     etas = sorted({num(k[2]) for k in agg})
-    lines.append("| strategy | q | " + " | ".join(f"η = {e:g}" for e in etas) + " |")
-    lines.append("|---|---|" + "---|" * len(etas))
-    best = None
-    for (s, q), pts in sorted(series.items(), key=lambda kv: (ORDER.index(kv[0][0]), kv[0][1])):
-        byeta = {p[0]: p for p in pts}
-        cells = []
-        for e in etas:
-            p = byeta.get(e)
-            cells.append(f"{p[1]:.3f} / {p[2]:.3f}" if p else "–")
-            if p:
-                score = 0.5 * (p[1] + p[2])
-                if best is None or score < best[0]:
-                    best = (score, s, q, e, p[1], p[2])
-        lines.append(f"| {LABEL[s]} | {q or '–'} | " + " | ".join(cells) + " |")
+    for tr in trs:
+        lines.append(f"Budget {budget_name(tr)}:")
+        lines.append("")
+        lines.append("| strategy | q | " + " | ".join(f"η = {e:g}" for e in etas) + " |")
+        lines.append("|---|---|" + "---|" * len(etas))
+        for (t, st, q), pts in sorted(series.items(), key=lambda kv: (ORDER.index(kv[0][1]), kv[0][2])):
+            if t != tr:
+                continue
+            byeta = {p[0]: p for p in pts}
+            cells = [f"{byeta[e][1]:.3f} / {byeta[e][2]:.3f}" if e in byeta else "–" for e in etas]
+            lines.append(f"| {LABEL[st]} | {q or '–'} | " + " | ".join(cells) + " |")
+        lines.append("")
+    # Score per (strategy, q, eta), averaged over the budgets that have it.
+    score = defaultdict(list)
+    for (t, st, q), pts in series.items():
+        for p in pts:
+            score[(st, q, p[0])].append(0.5 * (p[1] + p[2]))
+    mean_score = {k: statistics.fmean(v) for k, v in score.items() if len(v) == len(trs)}
+    lines.append("Best setting of each mixed strategy (score averaged over the budgets):")
     lines.append("")
-    # Per strategy: the eta that minimises the score; for the default strategy (uni+now) too.
-    for s in ("uni+now", "agep+now", "uni+exp", "agep+exp"):
-        cand = [(0.5 * (p[1] + p[2]), p[0], q, p[1], p[2]) for (ss, q), pts in series.items() if ss == s for p in pts]
+    for st in ("uni+now", "agep+now", "uni+exp", "agep+exp"):
+        cand = sorted((v, k) for k, v in mean_score.items() if k[0] == st)
         if cand:
-            c = min(cand)
-            lines.append(f"- {LABEL[s]}: best mean of the two ratios {c[0]:.3f} at η = {c[1]:g}"
-                         + (f", q = {c[2]}" if c[2] else "") + f" (inst. {c[3]:.3f}, final {c[4]:.3f})")
-    if best:
-        lines.append(f"- overall: {LABEL[best[1]]} η = {best[3]:g}" + (f", q = {best[2]}" if best[2] else "") +
-                     f" (inst. {best[4]:.3f}, final {best[5]:.3f})")
+            v, k = cand[0]
+            at05 = [vv for kk, vv in mean_score.items() if kk[0] == st and kk[2] == 0.5 and (not kk[1] or kk[1] == k[1])]
+            lines.append(f"- {LABEL[st]}: η = {k[2]:g}" + (f", q = {k[1]}" if k[1] else "") +
+                         f": score {v:.3f}" + (f" (η = 0.5 with the same q: {at05[0]:.3f})" if at05 else ""))
+    # The q that is best on average for the exponential mixtures, and eta per q.
     lines.append("")
     lines.append(f"![η / q sweep]({a.fig_link}{name})")
     with open(a.markdown, "w", encoding="utf-8") as f:
