@@ -145,6 +145,10 @@ TEST(ConfigFile, ErrorsNameTheFileLineAndKey) {
               "rost.conf:1: key 'queue.slots': queue_slots = 0 is out of range (expected 1..65536)");
     EXPECT_EQ(parseError("budget.ms = 0\n"),
               "rost.conf:1: key 'budget.ms': budget.ms = 0.000000 is out of range (expected 0 < ms <= 3600000)");
+    // A grid whose cell count overflows an int is refused, not computed.
+    EXPECT_EQ(parseError("frame.width = 65536\nframe.height = 65536\ncell.space = 1\n"),
+              "rost.conf: invalid configuration: frame.width x frame.height / cell.space^2 = 4294967296 cells per "
+              "step, allowed at most 1048576; raise cell.space");
     EXPECT_EQ(parseError("K = 16\nx\0y = 1\n"), "rost.conf:2: expected 'key = value', found 'x'");
     EXPECT_EQ(parseError(std::string("K = 16\nx\0y = 1\n", 15)), "rost.conf:2: NUL byte in the text");
 }

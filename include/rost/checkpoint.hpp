@@ -148,7 +148,8 @@ struct CheckpointSlot {
 //   writer->capture(); Status st = writer->flush();   // the final state
 class CheckpointWriter {
 public:
-    // Sizes the image for `engine` (allocates: set-up), removes temporary
+    // Sizes the image for `engine` and copies its whole state into it
+    // (set-up: before start(), after any loadCheckpoint), removes temporary
     // files a killed writer left beside `path`, starts the writer thread.
     static std::unique_ptr<CheckpointWriter> create(Engine& engine, std::string path, Status& status);
     ~CheckpointWriter();  // finishes a write in progress, then stops the thread
@@ -167,7 +168,7 @@ public:
     // The image is refreshed incrementally (ring slots whose step was complete
     // at the last capture keep their words); after replacing the engine's
     // state behind the writer's back (loadCheckpoint into the same engine),
-    // call this so the next capture copies everything.
+    // call this so the next capture copies everything (a longer stall).
     void invalidate() noexcept;
 
     // Waits until no image is pending; the status of the last write.

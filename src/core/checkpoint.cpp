@@ -832,6 +832,13 @@ std::unique_ptr<CheckpointWriter> CheckpointWriter::create(Engine& engine, std::
             const std::string f = e.path().filename().string();
             if (f.size() == stale.size() + 6 && f.compare(0, stale.size(), stale) == 0) fs::remove(e.path(), ec);
         }
+        // The first, full copy happens here, at set-up: captures on the
+        // refining thread then copy only what changed.
+        if (!fillImage(engine, w->image_.data(), w->sections_, true)) {
+            status = Status::error(w->path_ + ": the engine's state does not match its layout");
+            return nullptr;
+        }
+        w->full_.store(false, std::memory_order_relaxed);
         w->thread_ = std::thread([p = w.get()] { p->writerMain(); });
     } catch (const std::exception& e) {
         status = Status::error(w->path_ + ": cannot set up checkpoints: " + e.what());

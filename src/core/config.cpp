@@ -53,7 +53,13 @@ Status Config::validate() const {
         if (!s.ok()) return s;
     if (g_time >= ring_steps && ring_steps > 1)
         return rangeError("g.time", g_time, "smaller than ring.steps");
-    const double words = static_cast<double>(ring_steps) * cellsPerStep() * cell_capacity;
+    // The grid in 64 bits first: cellsPerStep() multiplies ints, which a
+    // 65536 x 65536 frame of 1-pixel cells would overflow.
+    const int64_t cells = static_cast<int64_t>(gridWidth()) * gridHeight();
+    if (cells > (int64_t{1} << 20))
+        return Status::error("invalid configuration: frame.width x frame.height / cell.space^2 = " +
+                             std::to_string(cells) + " cells per step, allowed at most 1048576; raise cell.space");
+    const double words = static_cast<double>(ring_steps) * static_cast<double>(cells) * cell_capacity;
     const double bytes = words * 8.0;
     if (bytes > 64.0 * 1024 * 1024 * 1024)
         return Status::error("invalid configuration: ring of " + std::to_string(static_cast<long long>(words)) +
