@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -649,6 +650,54 @@ TEST(CheckpointErrors, HostileContentsWithValidChecksumsAreRefusedNamingSectionA
     reseal(conf);
     EXPECT_TRUE(contains(tryLoad(conf, cfg).status.message(), "run.ckpt [config section at byte 88]:1: "))
         << tryLoad(conf, cfg).status.message();
+}
+
+// Rebuilds a checkpoint with one section's payload replaced (sizes, file
+// size and every checksum updated): a well-formed file with other contents.
+std::vector<uint8_t> withSection(const std::vector<uint8_t>& b, const std::string& name, const std::string& payload) {
+    std::vector<uint8_t> out(b.begin(), b.begin() + 32);
+    for (const SectionAt& s : sectionsOf(b)) {
+        const std::size_t h = out.size();
+        out.insert(out.end(), b.begin() + static_cast<std::ptrdiff_t>(s.header),
+                   b.begin() + static_cast<std::ptrdiff_t>(s.payload));
+        if (s.name == name) {
+            for (int i = 0; i < 8; ++i) out[h + 40 + static_cast<std::size_t>(i)] = static_cast<uint8_t>(payload.size() >> (8 * i));
+            out.insert(out.end(), payload.begin(), payload.end());
+        } else {
+            out.insert(out.end(), b.begin() + static_cast<std::ptrdiff_t>(s.payload),
+                       b.begin() + static_cast<std::ptrdiff_t>(s.payload + s.bytes));
+        }
+    }
+    for (int i = 0; i < 8; ++i) out[16 + static_cast<std::size_t>(i)] = static_cast<uint8_t>(out.size() >> (8 * i));
+    reseal(out);
+    return out;
+}
+
+TEST(CheckpointErrors, ASmallFileClaimingAHugeConfigurationIsRefusedBeforeAllocating) {
+    // Valid checksums, a configuration asking for gigabytes of ring, and the
+    // small sections of the original: refused by size, before an engine of
+    // the claimed size is built.
+    EngineConfig cfg = baseConfig();
+    const std::vector<uint8_t> good = goodFile(cfg);
+    EngineConfig huge = cfg;
+    huge.model.ring_steps = 1 << 20;
+    const std::string text = formatConfig(huge);
+    const std::vector<uint8_t> bad = withSection(good, "config", text);
+    const fs::path dir = tempDir("huge");
+    const std::string path = (dir / "huge.ckpt").string();
+    ASSERT_TRUE(writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bad.data()), bad.size())).ok());
+    CheckpointInfo info;
+    ASSERT_TRUE(readCheckpointInfo(path, info).ok());
+    EXPECT_EQ(info.config.model.ring_steps, 1 << 20);
+    Status st;
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_FALSE(resumeEngine(path, st));
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
+    EXPECT_TRUE(contains(st.message(), path + ": section 'ring.cell_words' has ")) << st.message();
+    EXPECT_TRUE(contains(st.message(), "the configuration in the file implies")) << st.message();
+    // The same file against an engine of the original size: the configuration differs.
+    EXPECT_TRUE(contains(tryLoad(bad, cfg).status.message(), "ring.steps = 1048576 in the checkpoint, 6 in this run"));
+    fs::remove_all(dir);
 }
 
 TEST(CheckpointErrors, LoadIsRefusedWhileRunningOrWithQueuedObservations) {

@@ -791,10 +791,31 @@ std::unique_ptr<Engine> resumeEngine(const std::string& path, Status& status, Ch
     status = readFile(path, data);
     if (!status.ok()) return nullptr;
     const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(data.data()), data.size());
-    CheckpointInfo i;
-    status = inspectCheckpoint(bytes, path, i);
+    Parsed p;
+    status = parseImage(bytes, path, p);
     if (!status.ok()) return nullptr;
-    auto engine = Engine::create(i.config, status);
+    // Before building an engine of the size the file claims: its largest
+    // sections must have that size, so a small file cannot make us allocate
+    // gigabytes only to be refused.
+    const Config& c = p.config.model;
+    const uint64_t expect[] = {
+        static_cast<uint64_t>(c.V) * static_cast<uint64_t>(kernel::paddedK(c.K)) * 4,
+        static_cast<uint64_t>(c.ring_steps) * static_cast<uint64_t>(c.cellsPerStep()) *
+            static_cast<uint64_t>(c.cell_capacity) * 4,
+        static_cast<uint64_t>(c.ring_steps) * static_cast<uint64_t>(c.cell_time) *
+            static_cast<uint64_t>(c.max_words_per_frame) * 4,
+    };
+    const char* names[] = {"n_kv", "ring.cell_words", "ring.in_word"};
+    for (int k = 0; k < 3; ++k) {
+        const ParsedSection* s = findSection(p, names[k]);
+        if (!s || s->bytes != expect[k]) {
+            status = Status::error(path + ": section '" + names[k] + "' " +
+                                   (s ? "has " + std::to_string(s->bytes) + " bytes" : std::string("is missing")) +
+                                   ", the configuration in the file implies " + std::to_string(expect[k]));
+            return nullptr;
+        }
+    }
+    auto engine = Engine::create(p.config, status);
     if (!engine) {
         status = Status::error(path + ": " + status.message());
         return nullptr;

@@ -64,6 +64,11 @@ Status Config::validate() const {
     if (bytes > 64.0 * 1024 * 1024 * 1024)
         return Status::error("invalid configuration: ring of " + std::to_string(static_cast<long long>(words)) +
                              " words needs more than 64 GiB; lower ring.steps or cell.capacity");
+    // Each observation's kept inputs (word, position, cell slot: 12 bytes).
+    const double inputs = static_cast<double>(ring_steps) * cell_time * max_words_per_frame;
+    if (inputs * 12.0 > 64.0 * 1024 * 1024 * 1024)
+        return Status::error("invalid configuration: ring of " + std::to_string(static_cast<long long>(inputs)) +
+                             " observation inputs needs more than 64 GiB; lower ring.steps, cell.time or max.words");
     return {};
 }
 
