@@ -97,7 +97,7 @@ struct VocabOptions {
     int every = 1;        // use every N-th frame
     int64_t max_frames = 0;
     int64_t max_descriptors = 400000;
-    int iterations = 25;
+    int iterations = 40;
     uint64_t seed = 1;
     int threads = 2;
     int width = 0;
