@@ -206,8 +206,10 @@ private:
             return;
         }
         if (n <= maxw_) {
-            std::memcpy(w, words.data(), n * sizeof(uint32_t));
-            std::memcpy(static_cast<void*>(p), positions.data(), n * sizeof(Position));
+            if (n > 0) {  // an empty span's data() may be null, which memcpy must not get
+                std::memcpy(w, words.data(), n * sizeof(uint32_t));
+                std::memcpy(static_cast<void*>(p), positions.data(), n * sizeof(Position));
+            }
             m.size = static_cast<uint32_t>(n);
             return;
         }
