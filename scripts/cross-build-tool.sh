@@ -23,7 +23,12 @@
 #   --build-dir DIR  the build directory (default: build-aarch64-tool)
 #   --refresh        download and unpack again even if DIR is complete
 #   --no-test        build only
-# Environment: ROST_JOBS (default 2).
+# Environment: ROST_JOBS (default 2), ROST_CROSS_EXCLUDE (ctest -E regex; set it
+# empty to run every test). Excluded by default: the time-budget test that
+# scripts/cross-test.sh also excludes under emulation, and the tool tests that
+# start the `rost` binary through /bin/sh (std::system): the shell is this
+# machine's, which cannot execute an aarch64 program without binfmt_misc
+# (not available in containers); the tool itself runs under qemu below.
 #
 # Needs: apt-get and dpkg (Debian), g++-aarch64-linux-gnu, cmake, ninja-build,
 # qemu-user (tests), googletest (sources). Exit 2 when one is missing.
@@ -42,11 +47,12 @@ while [ $# -gt 0 ]; do
     --build-dir=*) build=${1#--build-dir=}; shift ;;
     --refresh) refresh=1; shift ;;
     --no-test) test=0; shift ;;
-    -h|--help) sed -n '2,30p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "cross-build-tool: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
 jobs=${ROST_JOBS:-2}
+exclude=${ROST_CROSS_EXCLUDE-'^EngineThreads\.EachObservationRefinesUntilNearItsTimeBudgetDeadline$|^ToolCli\.|^ToolEndToEnd\.'}
 
 missing=()
 for tool in apt-get:apt dpkg:dpkg cmake:cmake ninja:ninja-build aarch64-linux-gnu-g++:g++-aarch64-linux-gnu \
@@ -127,7 +133,9 @@ done
 status=0
 if [ "$test" = 1 ]; then
   echo "=== cross-build-tool: tests under qemu-aarch64 (sysroot libraries)"
-  (cd "$build" && ctest -j "$jobs" --output-on-failure) || status=1
+  ctest_args=(-j "$jobs" --output-on-failure)
+  [ -z "$exclude" ] || ctest_args+=(-E "$exclude")
+  (cd "$build" && ctest "${ctest_args[@]}") || status=1
   if [ -n "$tool" ]; then
     qemu-aarch64 -L "$sysroot" "$tool" --help >/dev/null && echo "rost --help under qemu: ok" || status=1
   fi

@@ -13,7 +13,14 @@
 # memory table under qemu; scripts/cross-footprint.sh measures the rest.
 # --build-root DIR puts the build directories in DIR (default: the repository).
 # Environment: ROST_JOBS (default 2), ROST_SYSROOT / ROST_MULTIARCH (see the
-# toolchain files), ROST_CTEST_ARGS (extra ctest arguments, e.g. "-E Deadline").
+# toolchain files), ROST_CTEST_ARGS (extra ctest arguments), ROST_CROSS_EXCLUDE
+# (a ctest -E regex; default below; set it empty to run every test).
+#
+# Excluded by default under emulation: tests whose assertions depend on how
+# fast this machine runs the target's code (a time budget filled to within
+# 1 ms: under qemu one refinement step costs 10-50 times more and the engine
+# rightly starts no cell whose predicted cost no longer fits). They run in the
+# native build; everything else, determinism included, runs here.
 #
 # Installs nothing: when a tool is missing it prints the Debian packages to
 # install and exits 2. Exit status 1 when a build or a test fails.
@@ -29,13 +36,14 @@ while [ $# -gt 0 ]; do
     --build-root) [ $# -ge 2 ] || { echo "cross-test: --build-root needs a directory" >&2; exit 2; }
                   build_root=$2; shift 2 ;;
     --build-root=*) build_root=${1#--build-root=}; shift ;;
-    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "cross-test: unknown argument '$1' (expected aarch64, armhf, armhf-vfp, all, --build-root DIR)" >&2
        exit 2 ;;
   esac
 done
 [ ${#targets[@]} -gt 0 ] || targets=(aarch64 armhf)
 jobs=${ROST_JOBS:-2}
+exclude=${ROST_CROSS_EXCLUDE-'^EngineThreads\.EachObservationRefinesUntilNearItsTimeBudgetDeadline$'}
 
 # ---- prerequisites: report every missing package at once -----------------------
 missing=()
@@ -98,8 +106,11 @@ run_target() {
   fi
   t1=$(date +%s)
   echo "=== cross-test $t: ctest under $(grep -m1 '^ROST_QEMU_EXECUTABLE' "$dir/CMakeCache.txt" | cut -d= -f2)"
-  # shellcheck disable=SC2086  # ROST_CTEST_ARGS is a list of arguments
-  if ! (cd "$dir" && ctest -j "$jobs" --output-on-failure --timeout 1800 ${ROST_CTEST_ARGS:-}); then
+  local ctest_args=(-j "$jobs" --output-on-failure)
+  [ -z "$exclude" ] || ctest_args+=(-E "$exclude")
+  # shellcheck disable=SC2206  # ROST_CTEST_ARGS is a list of arguments
+  ctest_args+=(${ROST_CTEST_ARGS:-})
+  if ! (cd "$dir" && ctest "${ctest_args[@]}"); then
     status=1
     t2=$(date +%s)
     summary+=("$t: tests FAILED (build $((t1 - t0)) s, tests $((t2 - t1)) s)")
