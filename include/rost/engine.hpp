@@ -122,6 +122,7 @@ struct ObservationResult {
     uint64_t refinements = 0;  // time-step draws
     uint64_t tokens = 0;       // tokens refined
     int64_t elapsed_ns = 0;    // take-up to publish
+    int64_t refine_ns = 0;     // spending the budget (refinement only)
     int64_t overrun_ns = 0;    // past the time-budget deadline (0 when met or not a time budget)
 };
 

@@ -555,9 +555,11 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     bump(R.ingested);
     bump(R.words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
 
+    const auto ts = Clock::now();
     r.refinements = spend(cfg_.budget, deadline, true, &r.tokens);
-
     const auto tp = Clock::now();
+    r.refine_ns = (tp - ts).count();
+
     if (cfg_.flags.snapshot_perplexity) r.perplexity = m.stepPerplexity(r.step);
     publish(r);
     const auto t1 = Clock::now();
