@@ -255,6 +255,22 @@ TEST(EnginePerplexity, InstantaneousPerplexityIsThePreviousStepsJustBeforeTheNex
     EXPECT_EQ(opened, 14);
 }
 
+TEST(EngineEviction, SubtractPolicyKeepsOnlyTheWindowsWordsInTheTopicModelAndCountsStayConsistent) {
+    for (EvictionPolicy policy : {EvictionPolicy::Keep, EvictionPolicy::Subtract}) {
+        EngineConfig c = engineConfig(Budget::steps(2));
+        c.model.eviction = policy;
+        Engine e(c);
+        uint64_t total = 0;
+        for (const Frame& f : makeStream(c.model, 60, 80, 12)) total += e.processNow(f.view()).add.kept;
+        const Model& m = e.model();
+        uint64_t inWindow = 0;
+        for (int64_t t = m.oldestStep(); t < m.steps(); ++t) inWindow += m.wordsInStep(t);
+        EXPECT_EQ(m.wordsInModel(), policy == EvictionPolicy::Subtract ? inWindow : total) << toString(policy);
+        std::string why;
+        EXPECT_TRUE(m.checkInvariants(&why)) << toString(policy) << ": " << why;
+    }
+}
+
 // ---- snapshots ------------------------------------------------------------------
 
 TEST(EngineSnapshot, HoldsTheNewestObservationsLabelsHistogramsSurpriseAndCounters) {
