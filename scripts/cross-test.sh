@@ -17,10 +17,12 @@
 # (a ctest -E regex; default below; set it empty to run every test).
 #
 # Excluded by default under emulation: tests whose assertions depend on how
-# fast this machine runs the target's code (a time budget filled to within
-# 1 ms: under qemu one refinement step costs 10-50 times more and the engine
-# rightly starts no cell whose predicted cost no longer fits). They run in the
-# native build; everything else, determinism included, runs here.
+# fast this machine runs the target's code, which under qemu is 10-50 times
+# slower and varies with the load: a time budget filled to within 1 ms (the
+# engine rightly starts no cell whose predicted cost no longer fits), overrun
+# medians after a starvation, and kills timed (2-62 ms) to land inside a
+# checkpoint save. They run in the native build; everything else, determinism
+# included, runs here.
 #
 # Installs nothing: when a tool is missing it prints the Debian packages to
 # install and exits 2. Exit status 1 when a build or a test fails.
@@ -36,14 +38,14 @@ while [ $# -gt 0 ]; do
     --build-root) [ $# -ge 2 ] || { echo "cross-test: --build-root needs a directory" >&2; exit 2; }
                   build_root=$2; shift 2 ;;
     --build-root=*) build_root=${1#--build-root=}; shift ;;
-    -h|--help) sed -n '2,26p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "cross-test: unknown argument '$1' (expected aarch64, armhf, armhf-vfp, all, --build-root DIR)" >&2
        exit 2 ;;
   esac
 done
 [ ${#targets[@]} -gt 0 ] || targets=(aarch64 armhf)
 jobs=${ROST_JOBS:-2}
-exclude=${ROST_CROSS_EXCLUDE-'^EngineThreads\.EachObservationRefinesUntilNearItsTimeBudgetDeadline$'}
+exclude=${ROST_CROSS_EXCLUDE-'^EngineThreads\.EachObservationRefinesUntilNearItsTimeBudgetDeadline$|^FaultsOverload\.StarvedRefiner|^FaultsCrash\.KillDuringCheckpoint'}
 
 # ---- prerequisites: report every missing package at once -----------------------
 missing=()
