@@ -1,6 +1,8 @@
 #include "collector.hpp"
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 
 #include "rost/word_stream.hpp"
 
@@ -90,11 +92,49 @@ void Collector::onEvictionHook(const WindowObservation& w, const Model& m) noexc
     final_.commitPush();
 }
 
+Collector::~Collector() { (void)closeStreams(); }
+
+Status Collector::streamTo(OutputDir& out, bool words) {
+    auto open = [&](Stream& s, const char* name) -> Status {
+        s.path = out.staged(name);
+        s.file = std::fopen(s.path.c_str(), "wb");
+        if (!s.file) return Status::error(s.path + ": cannot write: " + std::strerror(errno));
+        out.track(name);
+        return {};
+    };
+    Status st;
+    if (words) {
+        if (st = open(words_, "words.csv"); !st.ok()) return st;
+        if (st = open(positions_, "positions.csv"); !st.ok()) return st;
+    }
+    return open(topics_, "topics.csv");
+}
+
+Status Collector::closeStreams() {
+    std::string failed;
+    for (Stream* s : {&words_, &positions_, &topics_}) {
+        if (!s->file) continue;
+        if (std::fclose(s->file) != 0 && failed.empty()) failed = s->path;
+        s->file = nullptr;
+    }
+    if (writeFailed_ && failed.empty()) failed = topics_.path;
+    if (!failed.empty()) return Status::error(failed + ": write failed: " + std::strerror(errno));
+    return {};
+}
+
 void Collector::takeFinal(const FinalRecord& f) {
     if (f.observation < rows_.size()) rows_[f.observation].final = f.perplexity;
-    appendCsvLine(words_, f.frame, f.words.data(), f.n);
-    appendPositionsLine(positions_, f.frame, f.positions.data(), f.n);
-    appendCsvLine(topics_, f.frame, f.labels.data(), f.n);
+    auto put = [&](Stream& s) {
+        if (s.file && std::fwrite(line_.data(), 1, line_.size(), s.file) != line_.size()) writeFailed_ = true;
+        line_.clear();
+    };
+    line_.clear();
+    appendCsvLine(line_, f.frame, f.words.data(), f.n);
+    put(words_);
+    appendPositionsLine(line_, f.frame, f.positions.data(), f.n);
+    put(positions_);
+    appendCsvLine(line_, f.frame, f.labels.data(), f.n);
+    put(topics_);
     ++finals_;
 }
 

@@ -8,6 +8,7 @@
 // nor lock.
 
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <memory>
 #include <string>
@@ -55,6 +56,7 @@ class Collector {
 public:
     // Installs the engine's hooks. `slots` records per ring.
     Collector(Engine& engine, std::size_t slots);
+    ~Collector();
     Collector(const Collector&) = delete;
     Collector& operator=(const Collector&) = delete;
 
@@ -73,10 +75,12 @@ public:
 
     const std::vector<FrameRow>& rows() const noexcept { return rows_; }
     std::vector<FrameRow>& rows() noexcept { return rows_; }
-    // CSV bodies (earlier ROST formats: timestamp,values...).
-    const std::string& wordsCsv() const noexcept { return words_; }
-    const std::string& positionsCsv() const noexcept { return positions_; }
-    const std::string& topicsCsv() const noexcept { return topics_; }
+    // Streams words.csv and positions.csv (when `words`) and topics.csv into
+    // `out`'s staging directory as observations leave the window, so their
+    // text never accumulates in memory (earlier ROST formats: timestamp,values...).
+    Status streamTo(OutputDir& out, bool words);
+    // Flushes and closes those files; reports a failed write (disk full, ...).
+    Status closeStreams();
     std::string perplexityCsv() const;
     std::string surpriseCsv() const;
     std::string cellSurpriseCsv() const;
@@ -94,7 +98,13 @@ private:
     SpscRing<FinalRecord> final_;
     std::atomic<uint64_t> lost_{0};
     std::vector<FrameRow> rows_;
-    std::string words_, positions_, topics_;
+    struct Stream {
+        std::FILE* file = nullptr;
+        std::string path;
+    };
+    Stream words_, positions_, topics_;
+    std::string line_;  // reused for each line
+    bool writeFailed_ = false;
     std::string rejection_;
     uint64_t finals_ = 0;
 };

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <cstdio>
 
 #include <opencv2/imgcodecs.hpp>
@@ -60,6 +61,8 @@ int refineCommand(const RefineOptions& o) {
     if (!st.ok()) return fail(st.message());
 
     Collector collector(*engine, 4);
+    st = collector.streamTo(out, false);
+    if (!st.ok()) return fail(st.message());
     Progress progress("rost refine", static_cast<int64_t>(ws.observations.size()), o.quiet);
     int64_t done = 0;
     for (const auto& ob : ws.observations) {
@@ -75,20 +78,21 @@ int refineCommand(const RefineOptions& o) {
     progress.finish();
     if (!collector.rejection().empty()) return fail(o.words + ": " + collector.rejection());
     collector.finish(o.model.final_sweeps);
+    st = collector.closeStreams();
+    if (!st.ok()) return fail(st.message());
 
     struct File {
         const char* name;
-        std::string body;
+        std::function<std::string()> body;  // made when written, one at a time
     };
     const File files[] = {
-        {"topics.csv", collector.topicsCsv()},
-        {"perplexity.csv", collector.perplexityCsv()},
-        {"surprise.csv", collector.surpriseCsv()},
-        {"surprise_cells.csv", collector.cellSurpriseCsv()},
-        {"topicmodel.csv", topicModelCsv(engine->model())},
+        {"perplexity.csv", [&] { return collector.perplexityCsv(); }},
+        {"surprise.csv", [&] { return collector.surpriseCsv(); }},
+        {"surprise_cells.csv", [&] { return collector.cellSurpriseCsv(); }},
+        {"topicmodel.csv", [&] { return topicModelCsv(engine->model()); }},
     };
     for (const auto& f : files) {
-        st = out.write(f.name, f.body);
+        st = out.write(f.name, f.body());
         if (!st.ok()) return fail(st.message());
     }
     if (o.summary) {
