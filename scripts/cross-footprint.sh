@@ -41,6 +41,10 @@ host=$build_root/build-cross-host
 cmake -G Ninja -S "$here" -B "$host" -DCMAKE_BUILD_TYPE=Release -DROST_WERROR=ON -DROST_BUILD_BENCH=ON \
   -DROST_BUILD_EXAMPLES=OFF -DROST_VISION=OFF >/dev/null
 cmake --build "$host" -j "$jobs" --target footprint rost_core >/dev/null
+for t in aarch64 armhf; do  # bring the cross builds up to date with the sources
+  [ ! -f "$build_root/build-$t/build.ninja" ] || cmake --build "$build_root/build-$t" -j "$jobs" --target footprint rost_core >/dev/null
+done
+[ ! -f "$build_root/build-aarch64-tool/build.ninja" ] || cmake --build "$build_root/build-aarch64-tool" -j "$jobs" --target rost >/dev/null
 
 report=$(mktemp)
 trap 'rm -f "$report"' EXIT
