@@ -217,8 +217,17 @@ private:
     template <int KP, kernel::Path P>
     uint32_t refineCells(const StepSlots& slots, int c0, int c1) noexcept;
     void evict(std::size_t slot) noexcept;
-    double logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum) const noexcept;
-    int mlTopic(uint32_t v, int z, const int32_t* nG) const noexcept;
+    // 1 / (n_k + V beta) and 1 / (n_k - 1 + V beta) in double, computed once
+    // per call of an output function instead of K divisions per word.
+    struct Reciprocals {
+        double inv[1024];
+        double invLeftOut[1024];
+    };
+    void reciprocals(Reciprocals& r) const noexcept;
+    double logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum, const Reciprocals& r) const noexcept;
+    int mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& r) const noexcept;
+    // G(c) of a cell of `step`, cached for the current output call (epoch).
+    const int32_t* cachedNeighbourhood(int64_t step, int cell) const noexcept;
     template <typename F>
     void forEachInput(uint64_t frame, F&& f) const noexcept;
 
@@ -259,6 +268,11 @@ private:
     AlignedBuffer<int32_t> scratch_g_;       // Kp
     AlignedBuffer<double> scratch_ll_;       // per cell (surprise)
     AlignedBuffer<uint32_t> scratch_wn_;     // per cell (surprise word counts)
+    // Output-side cache of neighbourhood sums (cells x Kp) for const output
+    // functions; like everything else, a Model is used by one thread at a time.
+    mutable AlignedBuffer<int32_t> out_g_;
+    mutable AlignedBuffer<uint64_t> out_g_epoch_;
+    mutable uint64_t out_epoch_ = 0;
 
     Rng rng_;
     kernel::Path path_ = kernel::Path::Simd;

@@ -106,6 +106,8 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     scratch_g_.reset(Kp);
     scratch_ll_.reset(cells);
     scratch_wn_.reset(cells);
+    out_g_.reset(cells * Kp);
+    out_g_epoch_.reset(cells);
 
     // Compile-time K for the common sizes (unrolled blocks, registers).
     switch (Kp_) {
@@ -143,6 +145,7 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
                     in_word_.bytes() + in_pos_.bytes() + in_slot_.bytes() + in_n_.bytes() + obs_surprise_.bytes() +
                     nbr_begin_.bytes() + nbr_cell_.bytes() + scratch_cell_.bytes() + scratch_count_.bytes() +
                     scratch_need_.bytes() + scratch_g_.bytes() + scratch_ll_.bytes() + scratch_wn_.bytes() +
+                    out_g_.bytes() + out_g_epoch_.bytes() +
                     sizeof(Model);
 }
 
@@ -397,32 +400,49 @@ uint32_t Model::wordsInStep(int64_t step) const noexcept {
     return total;
 }
 
-double Model::logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum) const noexcept {
-    const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+void Model::reciprocals(Reciprocals& r) const noexcept {
     const double vb = V_ * cfg_.beta;
-    double p = 0.0;
     for (int k = 0; k < K_; ++k) {
-        const int own = k == z ? 1 : 0;
-        p += (row[k] - own + cfg_.beta) / (nk_[k] - own + vb) * (nG[k] - own + cfg_.alpha);
+        r.inv[k] = 1.0 / (nk_[k] + vb);
+        r.invLeftOut[k] = 1.0 / (nk_[k] - 1 + vb);
+    }
+}
+
+double Model::logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum, const Reciprocals& r) const noexcept {
+    const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+    double p = 0.0;
+    for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
+    if (z >= 0) {
+        // Word i leaves its own topic: replace topic z's term.
+        p -= (row[z] + cfg_.beta) * r.inv[z] * (nG[z] + cfg_.alpha);
+        p += (row[z] - 1 + cfg_.beta) * r.invLeftOut[z] * (nG[z] - 1 + cfg_.alpha);
     }
     const double norm = (nGsum - (z >= 0 ? 1 : 0)) + K_ * cfg_.alpha;
     return std::log(p / norm);
 }
 
-int Model::mlTopic(uint32_t v, int z, const int32_t* nG) const noexcept {
+int Model::mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& r) const noexcept {
     const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
-    const double vb = V_ * cfg_.beta;
     int best = 0;
     double bestP = -1.0;
     for (int k = 0; k < K_; ++k) {
-        const int own = k == z ? 1 : 0;
-        const double p = (row[k] - own + cfg_.beta) / (nk_[k] - own + vb) * (nG[k] - own + cfg_.alpha);
+        const double p = k == z ? (row[k] - 1 + cfg_.beta) * r.invLeftOut[k] * (nG[k] - 1 + cfg_.alpha)
+                                : (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
         if (p > bestP) {
             bestP = p;
             best = k;
         }
     }
     return best;
+}
+
+const int32_t* Model::cachedNeighbourhood(int64_t step, int cell) const noexcept {
+    int32_t* g = out_g_.data() + static_cast<std::size_t>(cell) * Kp_;
+    if (out_g_epoch_[cell] != out_epoch_) {
+        neighbourhood(step, cell, g, false);
+        out_g_epoch_[cell] = out_epoch_;
+    }
+    return g;
 }
 
 LogLoss Model::cellLogLoss(int64_t step, int cell) const noexcept {
@@ -436,14 +456,30 @@ LogLoss Model::cellLogLoss(int64_t step, int cell) const noexcept {
     int32_t gsum = 0;
     for (int k = 0; k < K_; ++k) gsum += g[k];
     const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
-    for (uint32_t i = 0; i < n; ++i) out.nll -= logProbLeftOut(cell_words_[base + i], cell_z_[base + i], g, gsum);
+    Reciprocals r;
+    reciprocals(r);
+    for (uint32_t i = 0; i < n; ++i) out.nll -= logProbLeftOut(cell_words_[base + i], cell_z_[base + i], g, gsum, r);
     out.words = n;
     return out;
 }
 
 LogLoss Model::stepLogLoss(int64_t step) const noexcept {
     LogLoss out;
-    for (int c = 0; c < cells_; ++c) out += cellLogLoss(step, c);
+    if (!inWindow(step)) return out;
+    const std::size_t slot = slotOf(step);
+    Reciprocals r;
+    reciprocals(r);
+    alignas(64) int32_t g[kMaxKp];
+    for (int c = 0; c < cells_; ++c) {
+        const uint32_t n = cell_n_[slot * cells_ + c];
+        if (n == 0) continue;
+        neighbourhood(step, c, g, false);
+        int32_t gsum = 0;
+        for (int k = 0; k < K_; ++k) gsum += g[k];
+        const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
+        for (uint32_t i = 0; i < n; ++i) out.nll -= logProbLeftOut(cell_words_[base + i], cell_z_[base + i], g, gsum, r);
+        out.words += n;
+    }
     return out;
 }
 
@@ -456,7 +492,9 @@ double Model::wordLogProb(int64_t step, int cell, uint32_t slot) const noexcept 
     int32_t gsum = 0;
     for (int k = 0; k < K_; ++k) gsum += g[k];
     const std::size_t base = (s * cells_ + static_cast<std::size_t>(cell)) * cap_;
-    return logProbLeftOut(cell_words_[base + slot], cell_z_[base + slot], g, gsum);
+    Reciprocals r;
+    reciprocals(r);
+    return logProbLeftOut(cell_words_[base + slot], cell_z_[base + slot], g, gsum, r);
 }
 
 double Model::observationSurprise(uint64_t frame) const noexcept {
@@ -498,32 +536,31 @@ void Model::observationPositions(uint64_t frame, std::span<Position> out) const 
 void Model::observationLabels(uint64_t frame, std::span<uint16_t> out) const noexcept {
     const int64_t step = stepOfObservation(frame);
     const std::size_t slot = slotOf(step);
-    alignas(64) int32_t g[kMaxKp];
-    uint32_t lastCell = UINT32_MAX;
+    Reciprocals r;
+    reciprocals(r);
+    ++out_epoch_;
     forEachInput(frame, [&](uint32_t i, std::size_t at) {
         if (i >= out.size()) return;
         const uint32_t s = in_slot_[at];
         const bool dropped = (s & kDropped) != 0;
         const uint32_t cell = dropped ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
-        if (cell != lastCell) {
-            neighbourhood(step, static_cast<int>(cell), g, false);
-            lastCell = cell;
-        }
         const int z = dropped ? -1 : cell_z_[slot * cells_ * cap_ + s];
-        out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], z, g));
+        out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], z, cachedNeighbourhood(step, static_cast<int>(cell)), r));
     });
 }
 
 void Model::observationSamples(uint64_t frame, std::span<uint16_t> out) const noexcept {
     const int64_t step = stepOfObservation(frame);
     const std::size_t slot = slotOf(step);
-    alignas(64) int32_t g[kMaxKp];
+    Reciprocals r;
+    reciprocals(r);
+    ++out_epoch_;
     forEachInput(frame, [&](uint32_t i, std::size_t at) {
         if (i >= out.size()) return;
         const uint32_t s = in_slot_[at];
         if (s & kDropped) {
-            neighbourhood(step, static_cast<int>(s & ~kDropped), g, false);
-            out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], -1, g));
+            const int cell = static_cast<int>(s & ~kDropped);
+            out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], -1, cachedNeighbourhood(step, cell), r));
         } else {
             out[i] = cell_z_[slot * cells_ * cap_ + s];
         }
