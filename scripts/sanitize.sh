@@ -18,7 +18,7 @@ case "$mode" in
     # No detect_stack_use_after_return: its fake stacks are touched slot by slot
     # over a long run, so resident memory creeps up and the tests that check
     # memory stays flat would measure the sanitizer, not the engine.
-    export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1"
+    export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1:fast_unwind_on_malloc=0"
     export LSAN_OPTIONS="suppressions=$root/tests/sanitizers/lsan.supp:print_suppressions=0"
     export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:suppressions=$root/tests/sanitizers/ubsan.supp"
     ;;
