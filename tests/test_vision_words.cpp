@@ -194,3 +194,26 @@ TEST(VisionWords, EmptyOrUnsupportedImagesAreRefused) {
     EXPECT_FALSE(e->extract(cv::Mat(10, 10, CV_32FC3), w));
     EXPECT_EQ(w.size(), 0u);
 }
+
+TEST(VisionWords, ExtractionNeverWritesIntoTheCallersImages) {
+    // The extractor keeps scratch images between frames; none may alias a
+    // caller's frame, or the next frame's conversion would overwrite it.
+    ExtractorConfig c;
+    c.thumb_cell = 1;
+    Status st;
+    auto e = WordExtractor::create(c, vocabulary(), st);
+    ASSERT_TRUE(e) << st.message();
+    cv::Mat grey;
+    cv::cvtColor(texturedImage(96, 64, 4), grey, cv::COLOR_BGR2GRAY);
+    const cv::Mat greyCopy = grey.clone();
+    const cv::Mat colour = texturedImage(96, 64, 5);
+    const cv::Mat colourCopy = colour.clone();
+    FrameWords w;
+    ASSERT_TRUE(e->extract(grey, w));
+    ASSERT_TRUE(e->extract(colour, w));
+    cv::Mat colour2 = texturedImage(96, 64, 6);
+    ASSERT_TRUE(e->extract(colour2, w));
+    ASSERT_TRUE(e->extract(grey, w));
+    EXPECT_EQ(cv::norm(grey, greyCopy, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(colour, colourCopy, cv::NORM_INF), 0.0);
+}

@@ -75,6 +75,9 @@ void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info) {
     } else if (o.width > 0) {  // keep the aspect ratio
         info.width = o.width;
         info.height = std::max(1, static_cast<int>(std::lround(static_cast<double>(h) * o.width / w)));
+    } else if (o.height > 0) {
+        info.height = o.height;
+        info.width = std::max(1, static_cast<int>(std::lround(static_cast<double>(w) * o.height / h)));
     } else {
         info.width = w;
         info.height = h;

@@ -78,8 +78,10 @@ void WordExtractor::thumbnailWords(const cv::Mat& bgr, FrameWords& out) {
     const int tw = std::max(1, bgr.cols / s), th = std::max(1, bgr.rows / s);
     // Area averaging: each thumbnail pixel is the mean of its block, so the
     // words describe the block rather than one aliased pixel.
-    if (s == 1) thumb_ = bgr;
-    else cv::resize(bgr, thumb_, cv::Size(tw, th), 0, 0, cv::INTER_AREA);
+    // Scratch members only hold our own results; a caller's image is only
+    // ever referred to through local references, never written.
+    if (s != 1) cv::resize(bgr, thumb_, cv::Size(tw, th), 0, 0, cv::INTER_AREA);
+    const cv::Mat& thumb = s == 1 ? bgr : thumb_;
     // Block centres in the full frame (the grid covers cols x rows scaled by
     // cols / tw, so it spans the whole frame even when s does not divide it).
     const double sx = static_cast<double>(bgr.cols) / tw, sy = static_cast<double>(bgr.rows) / th;
@@ -90,9 +92,9 @@ void WordExtractor::thumbnailWords(const cv::Mat& bgr, FrameWords& out) {
         return p;
     };
     if (cfg_.intensity) {
-        cv::cvtColor(thumb_, grey_, cv::COLOR_BGR2GRAY);
+        cv::cvtColor(thumb, thumbGrey_, cv::COLOR_BGR2GRAY);
         for (int y = 0; y < th; ++y) {
-            const uint8_t* row = grey_.ptr<uint8_t>(y);
+            const uint8_t* row = thumbGrey_.ptr<uint8_t>(y);
             for (int x = 0; x < tw; ++x) {
                 out.words.push_back(layout_.intensity_offset + row[x]);
                 out.positions.push_back(centre(x, y));
@@ -101,7 +103,7 @@ void WordExtractor::thumbnailWords(const cv::Mat& bgr, FrameWords& out) {
         }
     }
     if (cfg_.hue) {
-        cv::cvtColor(thumb_, hsv_, cv::COLOR_BGR2HSV);
+        cv::cvtColor(thumb, hsv_, cv::COLOR_BGR2HSV);
         for (int y = 0; y < th; ++y) {
             const cv::Vec3b* row = hsv_.ptr<cv::Vec3b>(y);
             for (int x = 0; x < tw; ++x) {
@@ -117,17 +119,17 @@ void WordExtractor::thumbnailWords(const cv::Mat& bgr, FrameWords& out) {
 bool WordExtractor::extract(const cv::Mat& image, FrameWords& out) {
     out.clear();
     if (image.empty() || image.depth() != CV_8U) return false;
-    cv::Mat bgr;
-    if (image.channels() == 3) bgr = image;
-    else if (image.channels() == 1) cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
-    else if (image.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
-    else return false;
+    // bgr_ only ever holds our own conversions (never shares the caller's image).
+    if (image.channels() == 1) cv::cvtColor(image, bgr_, cv::COLOR_GRAY2BGR);
+    else if (image.channels() == 4) cv::cvtColor(image, bgr_, cv::COLOR_BGRA2BGR);
+    else if (image.channels() != 3) return false;
+    const cv::Mat& bgr = image.channels() == 3 ? image : bgr_;
 
     if (cfg_.orb) {
-        if (image.channels() == 1) grey_ = image;
-        else cv::cvtColor(bgr, grey_, cv::COLOR_BGR2GRAY);
+        if (image.channels() != 1) cv::cvtColor(bgr, grey_, cv::COLOR_BGR2GRAY);
+        const cv::Mat& grey = image.channels() == 1 ? image : grey_;
         keypoints_.clear();
-        orb_->detectAndCompute(grey_, cv::noArray(), keypoints_, descriptors_);
+        orb_->detectAndCompute(grey, cv::noArray(), keypoints_, descriptors_);
         if (!keypoints_.empty() && (descriptors_.cols != static_cast<int>(Descriptor::kBytes) ||
                                     descriptors_.type() != CV_8U))
             return false;

@@ -59,8 +59,9 @@ protected:
 };
 
 struct SourceOptions {
-    // Output frame size; 0 keeps the (first) input's size. Frames of another
-    // size are resized (area average when shrinking).
+    // Output frame size; 0 keeps the (first) input's size, one of the two
+    // alone keeps its aspect ratio. Frames of another size are resized (area
+    // average when shrinking).
     int width = 0;
     int height = 0;
     // Camera settings (camera:N only).

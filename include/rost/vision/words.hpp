@@ -112,7 +112,7 @@ private:
     std::shared_ptr<const Vocabulary> vocabulary_;
     cv::Ptr<cv::ORB> orb_;
     // Scratch reused across frames.
-    cv::Mat grey_, thumb_, hsv_, descriptors_;
+    cv::Mat bgr_, grey_, thumb_, thumbGrey_, hsv_, descriptors_;
     std::vector<cv::KeyPoint> keypoints_;
 };
 
