@@ -21,7 +21,11 @@
 // distance costs ~4x more. Let the loader pick a POPCNT clone where the CPU
 // has it (every x86-64 since 2008). AArch64 and ARMv7 NEON have a byte
 // popcount (cnt / vcnt) that the compiler uses for __builtin_popcountll.
-#if defined(__x86_64__) && !defined(__POPCNT__) && defined(__GNUC__) && defined(__linux__)
+// Not under ThreadSanitizer: the clones' ifunc resolver runs while the
+// dynamic loader relocates, before the sanitizer's runtime is up, and its
+// instrumentation crashes the process.
+#if defined(__x86_64__) && !defined(__POPCNT__) && defined(__GNUC__) && defined(__linux__) && \
+    !defined(__SANITIZE_THREAD__)
 #define ROST_POPCOUNT_CLONES __attribute__((target_clones("popcnt", "default")))
 #else
 #define ROST_POPCOUNT_CLONES
