@@ -165,6 +165,13 @@ for d in $datasets; do
   log "$d: 8 strategies x $(( ${#budgets[@]} / 2 )) budgets x $seeds seeds"
   "$exp" run --dataset "$here/data/experiment/$d" --frames "$frames" --strategies all "${budgets[@]}" \
     --seeds "$seeds" --jobs "$jobs" --out "$out" 2>>"$out/run.log"
+  if [ "$mode" != small ]; then
+    # The instantaneous floor, with as many sweeps as the batch reference at the first T_R.
+    sweeps=$(awk -F, -v tr="${trs%% *}" 'NR > 1 && $7 == tr && $8 == "tokens" { print $20; exit }' "$out/$d.runs.csv")
+    log "$d: instantaneous floor (batch on prefixes, $sweeps sweeps)"
+    "$exp" floor --dataset "$here/data/experiment/$d" --frames "$frames" --sweeps "$sweeps" --seeds "$seeds" \
+      --points 10 --jobs "$jobs" --out "$out" 2>>"$out/run.log"
+  fi
 done
 if [ "$timed" = 1 ]; then
   tb=()

@@ -8,6 +8,9 @@
 //       online runs (every strategy x budget x seed) and their batch
 //       references; writes TAG.runs.csv (one row per run), TAG.steps.csv
 //       (one row per run and time step) and TAG.info.txt.
+//   rost_experiment floor --dataset DIR --sweeps 400 --out DIR
+//       the lowest instantaneous/batch ratio an online strategy can reach
+//       (batch on each prefix against the full batch); writes NAME-floor.floor.csv.
 
 #include <CLI/CLI.hpp>
 
@@ -394,6 +397,81 @@ int doRun(const RunArgs& a, const std::string& command) {
     return 0;
 }
 
+// ---- floor --------------------------------------------------------------------
+// The best instantaneous perplexity any online strategy could reach: a model
+// converged on the prefix 0..t of the stream (batch Gibbs on it, as many
+// sweeps as the full batch reference), its perplexity of step t, against the
+// full batch's perplexity of step t. What remains above 1 is the value of the
+// data after t (the step t+1 in t's neighbourhood, a topic model trained on
+// the whole stream), which no online strategy has one step after t.
+
+struct FloorArgs {
+    std::string dataset;
+    std::string tag;
+    int64_t frames = 0;
+    int points = 10;
+    int sweeps = 400;
+    int seeds = 3;
+    uint64_t seed_base = 1;
+    int jobs = 2;
+    std::string out;
+};
+
+int doFloor(const FloorArgs& a, const std::string& command) {
+    const Dataset d = load(a.dataset, a.frames);
+    const std::string tag = a.tag.empty() ? d.name + "-floor" : a.tag;
+    const Config base = modelConfig(d, ModelParams{}, 1);
+    std::vector<int64_t> points;
+    for (int i = 1; i <= a.points; ++i) points.push_back(d.steps() * i / (a.points + 1));
+    struct Task {
+        uint64_t seed;
+        int64_t t;  // -1: the full batch
+        double ppx = 0.0;
+        std::vector<double> full;
+    };
+    std::vector<Task> tasks;
+    for (int s = 0; s < a.seeds; ++s) {
+        tasks.push_back({a.seed_base + static_cast<uint64_t>(s), -1, 0.0, {}});
+        for (int64_t t : points) tasks.push_back({a.seed_base + static_cast<uint64_t>(s), t, 0.0, {}});
+    }
+    const auto t0 = Clock::now();
+    std::mutex logMutex;
+    parallelFor(tasks.size(), a.jobs, [&](std::size_t i) {
+        Task& k = tasks[i];
+        Config c = base;
+        c.seed = k.seed;
+        Dataset prefix;
+        const Dataset* use = &d;
+        if (k.t >= 0) {
+            prefix.width = d.width;
+            prefix.height = d.height;
+            prefix.V = d.V;
+            prefix.frames.assign(d.frames.begin(), d.frames.begin() + k.t + 1);
+            use = &prefix;
+        }
+        const BatchResult b = runBatch(*use, c, a.sweeps);
+        if (k.t >= 0) k.ppx = b.ppx.back();
+        else k.full = b.ppx;
+        std::lock_guard<std::mutex> lock(logMutex);
+        std::fprintf(stderr, "floor %s seed=%llu t=%lld (%.1fs)\n", d.name.c_str(),
+                     static_cast<unsigned long long>(k.seed), static_cast<long long>(k.t), b.seconds);
+    });
+    std::string csv = "dataset,frames,seed,step,sweeps,prefix_ppx,full_ppx,ratio\n";
+    std::map<uint64_t, const std::vector<double>*> full;
+    for (const auto& k : tasks)
+        if (k.t < 0) full[k.seed] = &k.full;
+    for (const auto& k : tasks) {
+        if (k.t < 0) continue;
+        const double f = (*full[k.seed])[static_cast<std::size_t>(k.t)];
+        csv += d.name + "," + std::to_string(d.steps()) + "," + std::to_string(k.seed) + "," + std::to_string(k.t) +
+               "," + std::to_string(a.sweeps) + "," + fmt(k.ppx) + "," + fmt(f) + "," + fmt(k.ppx / f) + "\n";
+    }
+    if (Status s = writeFileAtomic(a.out + "/" + tag + ".floor.csv", csv); !s.ok()) fail(s.message());
+    std::fprintf(stderr, "floor %s: done in %.1f s (%s)\n", d.name.c_str(),
+                 std::chrono::duration<double>(Clock::now() - t0).count(), command.c_str());
+    return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -432,8 +510,22 @@ int main(int argc, char** argv) {
                   "time budgets: run the refiner thread SCHED_FIFO 80 pinned to the last CPU, as onboard "
                   "(ThreadSettings::onboard without mlockall); falls back, and says so, where not permitted");
 
+    FloorArgs fa;
+    auto* floor = app.add_subcommand("floor", "instantaneous-perplexity floor: batch on each prefix 0..t against the "
+                                              "full batch, at sampled steps t");
+    floor->add_option("--dataset", fa.dataset, "dataset directory")->required();
+    floor->add_option("--tag", fa.tag, "output file prefix (default: NAME-floor)");
+    floor->add_option("--frames", fa.frames, "use the first N frames (0: all)")->capture_default_str();
+    floor->add_option("--points", fa.points, "steps t sampled evenly")->capture_default_str()->check(CLI::Range(1, 1000));
+    floor->add_option("--sweeps", fa.sweeps, "batch sweeps (prefix and full)")->capture_default_str()->check(CLI::Range(1, 1000000));
+    floor->add_option("--seeds", fa.seeds, "seeds")->capture_default_str()->check(CLI::Range(1, 1000));
+    floor->add_option("--seed-base", fa.seed_base, "first seed")->capture_default_str();
+    floor->add_option("--jobs", fa.jobs, "runs in parallel")->capture_default_str()->check(CLI::Range(1, 64));
+    floor->add_option("--out", fa.out, "output directory")->required();
+
     CLI11_PARSE(app, argc, argv);
     const std::string command = joinArgs(argc, argv);
     if (cal->parsed()) return doCalibrate(ca, command);
+    if (floor->parsed()) return doFloor(fa, command);
     return doRun(ra, command);
 }

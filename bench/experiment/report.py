@@ -237,6 +237,33 @@ def bar_check(agg, datasets):
     return "\n".join(lines) + "\n"
 
 
+def floor_table(results, agg):
+    """The instantaneous floor (rost_experiment floor) beside the best instantaneous ratios."""
+    rows = []
+    for p in sorted(glob.glob(os.path.join(results, "*.floor.csv"))):
+        rows += list(csv.DictReader(open(p, encoding="utf-8")))
+    if not rows:
+        return ""
+    by = defaultdict(list)
+    for r in rows:
+        by[(r["dataset"], r["sweeps"])].append(num(r["ratio"]))
+    lines = ["**Instantaneous floor**: the lowest instantaneous / batch ratio any online strategy can reach. For "
+             "sampled steps t, batch Gibbs on the prefix 0..t (as many sweeps as the full batch reference at the "
+             "smallest T_R) gives the perplexity of step t with everything up to t known and converged; divided by "
+             "the full batch's perplexity of step t. What remains above 1 is what the data after t is worth (step "
+             "t+1 in t's temporal neighbourhood, a topic model trained on the whole stream), which no online "
+             "strategy can have one step after t.", "",
+             "| dataset | batch sweeps | floor: mean (min–max over steps and seeds) | best instantaneous ratio "
+             "(strategy, T_R) |", "|---|---:|---|---|"]
+    for (d, sw), xs in sorted(by.items()):
+        xs = [x for x in xs if math.isfinite(x)]
+        cands = [(v["inst_ratio"], k[1], k[4]) for k, v in agg.items() if k[0] == d and k[5] == "tokens"]
+        best = min(cands) if cands else None
+        bt = f"{best[0]:.3f} ({LABEL.get(best[1], best[1])}, {best[2]:g} ms)" if best else "–"
+        lines.append(f"| {d} | {sw} | {statistics.fmean(xs):.3f} ({min(xs):.3f}–{max(xs):.3f}) | {bt} |")
+    return "\n".join(lines) + "\n"
+
+
 def timed_table(rows):
     timed = [r for r in rows if r["budget_kind"] == "time"]
     if not timed:
@@ -319,6 +346,7 @@ def cmd_paper(a):
     if sds:
         md.append(f"Largest standard deviation over seeds of any cell above: {max(sds):.3f}.\n")
     md.append(bar_check(agg, datasets))
+    md.append(floor_table(a.results, agg))
     md.append(timed_table(rows))
     if figs:
         md.append("Per-time-step ratios (like the paper's Figures 3–5; mean over seeds):\n")
