@@ -170,6 +170,9 @@ constexpr int kKillFrames = 2000;
 // The child: resumes from `path` if it exists (a vehicle rebooting), then
 // processes the stream from where the checkpoint left it, saving after every
 // observation, synchronously or through the background writer, until killed.
+// It writes one byte to `ready_fd` when it starts and one per observation
+// saved, so the parent can time its kill within a save cycle whatever the
+// machine's (or a sanitizer's) speed.
 [[noreturn]] void childMission(const std::string& path, bool background, int ready_fd) {
     const EngineConfig cfg = killConfig();
     const auto frames = makeStream(cfg.model, kKillFrames, 300, 31);
@@ -196,6 +199,7 @@ constexpr int kKillFrames = 2000;
         } else if (!saveCheckpoint(*e, path).ok()) {
             _exit(6);
         }
+        if (::write(ready_fd, &one, 1) != 1) _exit(5);
     }
     if (w && !w->flush().ok()) _exit(7);
     _exit(0);
@@ -218,11 +222,18 @@ TEST(FaultsCrash, KillDuringCheckpointSavesAlwaysLeavesALoadableCheckpointAndThe
             childMission(path, background, fds[1]);
         }
         ::close(fds[1]);
+        // Ready, then two observations saved: their interval is one save
+        // cycle. Kill at a uniformly random moment of the next two cycles.
         char c = 0;
-        const bool ready = ::read(fds[0], &c, 1) == 1;
-        ::close(fds[0]);
-        if (ready) std::this_thread::sleep_for(std::chrono::microseconds(2000 + r.below(60000)));
+        bool alive = ::read(fds[0], &c, 1) == 1 && ::read(fds[0], &c, 1) == 1;
+        const auto t0 = std::chrono::steady_clock::now();
+        alive = alive && ::read(fds[0], &c, 1) == 1;
+        const auto cycle = std::chrono::steady_clock::now() - t0;
+        if (alive)
+            std::this_thread::sleep_for(std::chrono::duration_cast<std::chrono::microseconds>(cycle) *
+                                        static_cast<int64_t>(r.below(2000)) / 1000);
         ::kill(pid, SIGKILL);
+        ::close(fds[0]);
         int status = 0;
         ASSERT_EQ(::waitpid(pid, &status, 0), pid);
         if (WIFEXITED(status)) {
