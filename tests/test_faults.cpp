@@ -229,9 +229,22 @@ TEST(FaultsCrash, KillDuringCheckpointSavesAlwaysLeavesALoadableCheckpointAndThe
         const auto t0 = std::chrono::steady_clock::now();
         alive = alive && ::read(fds[0], &c, 1) == 1;
         const auto cycle = std::chrono::steady_clock::now() - t0;
-        if (alive)
+        if (alive && round % 3 == 2) {
+            // Every third round waits for a save in progress (its temporary
+            // file), then kills within 0.3 ms: on a slow machine (or under a
+            // sanitizer) encoding dominates the cycle and random moments
+            // rarely land inside the write itself.
+            const auto until = std::chrono::steady_clock::now() + 10s;
+            bool seen = false;
+            while (!seen && std::chrono::steady_clock::now() < until) {
+                for (const auto& entry : fs::directory_iterator(dir))
+                    seen = seen || entry.path().filename().string().rfind(".mission.ckpt.tmp", 0) == 0;
+            }
+            std::this_thread::sleep_for(std::chrono::microseconds(r.below(300)));
+        } else if (alive) {
             std::this_thread::sleep_for(std::chrono::duration_cast<std::chrono::microseconds>(cycle) *
                                         static_cast<int64_t>(r.below(2000)) / 1000);
+        }
         ::kill(pid, SIGKILL);
         ::close(fds[0]);
         int status = 0;
