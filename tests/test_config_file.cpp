@@ -153,6 +153,19 @@ TEST(ConfigFile, ErrorsNameTheFileLineAndKey) {
     EXPECT_EQ(parseError(std::string("K = 16\nx\0y = 1\n", 15)), "rost.conf:2: NUL byte in the text");
 }
 
+TEST(ConfigFile, ReportsTheKeysItSetWithTheirLinesForLayeringUnderACommandLine) {
+    EngineConfig c;
+    std::vector<ConfigKeyLine> set;
+    ASSERT_TRUE(parseConfigText("# x\nseed = 3\n\nK = 4\nsampler = now\n", "a.conf", c, &set).ok());
+    ASSERT_EQ(set.size(), 3u);
+    EXPECT_EQ(set[0].key, "seed");
+    EXPECT_EQ(set[0].line, 2);
+    EXPECT_EQ(set[1].key, "K");
+    EXPECT_EQ(set[1].line, 4);
+    EXPECT_EQ(set[2].key, "sampler");
+    EXPECT_EQ(set[2].line, 5);
+}
+
 TEST(ConfigFile, AFailedParseLeavesTheConfigurationUnchanged) {
     EngineConfig c;
     c.model.K = 5;

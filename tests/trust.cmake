@@ -4,3 +4,9 @@ rost_add_test(test_checkpoint SOURCES test_checkpoint.cpp)
 rost_add_test(test_config_file SOURCES test_config_file.cpp)
 rost_add_test(test_faults SOURCES test_faults.cpp)
 rost_add_test(test_soak SOURCES test_soak.cpp)
+
+# The rost tool's mission options (--checkpoint, --config); built with the tool.
+if(TARGET rost AND COMMAND rost_add_vision_test)
+  rost_add_vision_test(test_tool_trust SOURCES test_tool_trust.cpp LIBS rost::vision)
+  add_dependencies(test_tool_trust rost)
+endif()

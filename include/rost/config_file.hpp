@@ -58,10 +58,17 @@ const std::vector<ConfigKey>& configKeys();
 // result. Errors: "rost.conf:7: key 'alpha': expected a number, found 'x'",
 // "rost.conf:3: unknown key 'alfa' (did you mean 'alpha'?)". On error `cfg`
 // is unchanged.
-Status parseConfigText(std::string_view text, std::string_view name, EngineConfig& cfg);
+// `set`, when given, receives the keys the text set with their line numbers
+// (a command line layers its explicit options over exactly these).
+struct ConfigKeyLine {
+    std::string key;
+    int line = 0;
+};
+Status parseConfigText(std::string_view text, std::string_view name, EngineConfig& cfg,
+                       std::vector<ConfigKeyLine>* set = nullptr);
 
 // Reads and parses a file; the error names the path.
-Status readConfigFile(const std::string& path, EngineConfig& cfg);
+Status readConfigFile(const std::string& path, EngineConfig& cfg, std::vector<ConfigKeyLine>* set = nullptr);
 
 // Sets one key from its text form (a command-line override). Errors name the key.
 Status setConfigValue(std::string_view key, std::string_view value, EngineConfig& cfg);

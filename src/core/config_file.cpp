@@ -294,7 +294,8 @@ std::string configValue(const EngineConfig& cfg, std::string_view key) {
     return e ? e->get(cfg) : std::string();
 }
 
-Status parseConfigText(std::string_view text, std::string_view name, EngineConfig& cfg) {
+Status parseConfigText(std::string_view text, std::string_view name, EngineConfig& cfg,
+                       std::vector<ConfigKeyLine>* set) {
     EngineConfig tmp = cfg;
     std::map<std::string, int, std::less<>> seen;  // key -> line
     std::string budgetKey;
@@ -348,13 +349,18 @@ Status parseConfigText(std::string_view text, std::string_view name, EngineConfi
         return Status::error(std::string(name) + ": " + st.message());
     }
     cfg = tmp;
+    if (set) {
+        set->clear();
+        for (const auto& [key, line] : seen) set->push_back({key, line});
+        std::sort(set->begin(), set->end(), [](const ConfigKeyLine& a, const ConfigKeyLine& b) { return a.line < b.line; });
+    }
     return {};
 }
 
-Status readConfigFile(const std::string& path, EngineConfig& cfg) {
+Status readConfigFile(const std::string& path, EngineConfig& cfg, std::vector<ConfigKeyLine>* set) {
     std::string text;
     if (Status st = readFile(path, text); !st.ok()) return st;
-    return parseConfigText(text, path, cfg);
+    return parseConfigText(text, path, cfg, set);
 }
 
 std::string formatConfig(const EngineConfig& cfg) {

@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -71,6 +72,27 @@ void addModelOptions(CLI::App& app, ModelOptions& m) {
     app.add_option("--final.sweeps", m.final_sweeps, "batch Gibbs sweeps over the window at the end of the stream")
         ->group(r);
     app.add_option("--seed", m.seed, "random seed; same seed, input and count budget give the same outputs")->group(r);
+
+    const char* t = "Missions (docs/trust.md)";
+    app.add_option("--config", m.config,
+                   "settings file: `key = value` lines named like these options (K, alpha, cell.space, sampler, "
+                   "budget.refines, queue.slots, ...); options given on the command line win")
+        ->group(t);
+    app.add_option("--checkpoint", m.checkpoint,
+                   "save the engine's whole state to FILE every --checkpoint.every observations and at the end "
+                   "(atomically: a crash leaves the previous checkpoint)")
+        ->group(t);
+    app.add_option("--checkpoint.every", m.checkpoint_every, "observations between checkpoints")
+        ->check(CLI::PositiveNumber)
+        ->group(t);
+}
+
+// Whether an option was given on `cmd`'s command line.
+std::function<bool(const std::string&)> givenOn(const CLI::App* cmd) {
+    return [cmd](const std::string& name) {
+        const CLI::Option* o = cmd->get_option_no_throw(name);
+        return o != nullptr && o->count() > 0;
+    };
 }
 
 } // namespace
@@ -211,6 +233,14 @@ int main(int argc, char** argv) {
         return fail(std::string(e.what()) + " (see rost --help)");
     }
 
+    if (runCmd->parsed() && !run.model.config.empty()) {
+        const rost::Status st = applyConfigFile(run.model.config, givenOn(runCmd), run.model, &run, nullptr);
+        if (!st.ok()) return fail("--config: " + st.message());
+    }
+    if (refCmd->parsed() && !ref.model.config.empty()) {
+        const rost::Status st = applyConfigFile(ref.model.config, givenOn(refCmd), ref.model, nullptr, &ref);
+        if (!st.ok()) return fail("--config: " + st.message());
+    }
     if (runCmd->parsed()) {
         (void)rost::vision::parseSearchMethod(searchMethod, run.words.search.method);  // checked by IsMember
         run.words.orb = !noOrb;

@@ -13,6 +13,7 @@
 #include "outputs.hpp"
 #include "progress.hpp"
 #include "rost/word_stream.hpp"
+#include "rost/checkpoint.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -63,6 +64,20 @@ int refineCommand(const RefineOptions& o) {
     Collector collector(*engine, 4);
     st = collector.streamTo(out, false);
     if (!st.ok()) return fail(st.message());
+    // --checkpoint: the engine's state every N observations, from its hook
+    // (a copy on the refining thread; a writer thread writes the file).
+    std::unique_ptr<CheckpointWriter> checkpoints;
+    if (!o.model.checkpoint.empty()) {
+        checkpoints = CheckpointWriter::create(*engine, o.model.checkpoint, st);
+        if (!checkpoints) return fail("--checkpoint: " + st.message());
+        const ObservationHook inner = engine->observationHook();
+        CheckpointWriter* w = checkpoints.get();
+        const uint64_t every = o.model.checkpoint_every;
+        engine->setObservationHook([inner, w, every](const ObservationResult& r, const Model& m) {
+            if (inner) inner(r, m);
+            w->captureEvery(every, r);
+        });
+    }
     Progress progress("rost refine", static_cast<int64_t>(ws.observations.size()), o.quiet);
     int64_t done = 0;
     for (const auto& ob : ws.observations) {
@@ -76,6 +91,12 @@ int refineCommand(const RefineOptions& o) {
         progress.update(++done);
     }
     progress.finish();
+    if (checkpoints) {  // the state after the last observation
+        (void)checkpoints->flush();
+        checkpoints->capture();
+        st = checkpoints->flush();
+        if (!st.ok()) return fail("--checkpoint: " + st.message());
+    }
     if (!collector.rejection().empty()) return fail(o.words + ": " + collector.rejection());
     collector.finish(o.model.final_sweeps);
     st = collector.closeStreams();

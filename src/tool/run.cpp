@@ -33,6 +33,7 @@
 #include "outputs.hpp"
 #include "progress.hpp"
 #include "spsc_ring.hpp"
+#include "rost/checkpoint.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -233,6 +234,20 @@ int runCommand(const RunOptions& o) {
     Collector collector(*engine, realtime ? 256 : 4);
     st = collector.streamTo(out, true);
     if (!st.ok()) return fail(st.message());
+    // --checkpoint: the engine's state every N observations, from its hook
+    // (a copy on the refining thread; a writer thread writes the file).
+    std::unique_ptr<CheckpointWriter> checkpoints;
+    if (!o.model.checkpoint.empty()) {
+        checkpoints = CheckpointWriter::create(*engine, o.model.checkpoint, st);
+        if (!checkpoints) return fail("--checkpoint: " + st.message());
+        const ObservationHook inner = engine->observationHook();
+        CheckpointWriter* w = checkpoints.get();
+        const uint64_t every = o.model.checkpoint_every;
+        engine->setObservationHook([inner, w, every](const ObservationResult& r, const Model& m) {
+            if (inner) inner(r, m);
+            w->captureEvery(every, r);
+        });
+    }
     const std::size_t frameSlots = realtime ? static_cast<std::size_t>(o.queue) + 24 : 4;
     SpscRing<FrameSlot> frameRing(frameSlots, [&](FrameSlot& s) { s.image.create(info.height, info.width, CV_8UC3); });
 
@@ -394,6 +409,12 @@ int runCommand(const RunOptions& o) {
     progress.finish();
     std::signal(SIGINT, SIG_DFL);
     std::signal(SIGTERM, SIG_DFL);
+    if (checkpoints) {  // the state after the last observation
+        (void)checkpoints->flush();
+        checkpoints->capture();
+        st = checkpoints->flush();
+        if (!st.ok()) return fail("--checkpoint: " + st.message());
+    }
 
     if (!readError.empty()) return fail(readError);
     if (g_interrupted.load() && !live)

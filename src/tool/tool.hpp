@@ -5,6 +5,7 @@
 // structs; each command returns an exit code.
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,9 @@ struct ModelOptions {
     std::string eviction = "keep";
     int final_sweeps = 0;         // batch Gibbs sweeps over the window at the end of the stream
     std::string in_topicmodel;    // K x V counts to start from
+    std::string config;           // --config: key = value settings (rost/config_file.hpp) under explicit options
+    std::string checkpoint;       // --checkpoint: engine state saved every checkpoint_every observations and at the end
+    uint64_t checkpoint_every = 100;
 };
 
 // Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
@@ -104,6 +108,13 @@ struct VocabOptions {
     bool quiet = false;
     std::string command_line;
 };
+
+// --config FILE: the file's keys set the options the command line did not
+// give (`given("--alpha")`, `given("-K")`: was that option on the command
+// line). `run` or `ref` receives the command's own keys (queue, drop,
+// threads; frame size). Errors name the file, line and key.
+Status applyConfigFile(const std::string& path, const std::function<bool(const std::string&)>& given, ModelOptions& m,
+                       RunOptions* run, RefineOptions* ref);
 
 int runCommand(const RunOptions& o);
 int refineCommand(const RefineOptions& o);
