@@ -8,6 +8,9 @@
 #include <filesystem>
 #include <string>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "rost/checkpoint.hpp"
 #include "rost/config_file.hpp"
 #include "rost/random.hpp"
@@ -136,6 +139,37 @@ TEST(ToolTrust, ConfigFileErrorsNameFileLineAndKeyWithExitCode2) {
                 (t / "x.conf") + ":2: key 'stop-on-arrival' is not a setting of this command", t / "o");
     expectError(runRost(refine(t, "o", "--config " + (t / "missing.conf"))),
                 "--config: " + (t / "missing.conf") + ": cannot open: No such file or directory", t / "o");
+}
+
+TEST(ToolTrust, FrameSourceFailingMidStreamStopsCleanlySaysWhyAndKeepsWhatWasLearnedAndWritten) {
+    // Eight frames of textured noise; the fifth file is not an image.
+    TempDir t;
+    std::filesystem::create_directory(t / "frames");
+    cv::RNG rng(7);
+    for (int i = 1; i <= 8; ++i) {
+        cv::Mat img(96, 128, CV_8UC3);
+        rng.fill(img, cv::RNG::UNIFORM, 0, 255);
+        ASSERT_TRUE(cv::imwrite(t / ("frames/f" + std::to_string(i) + ".png"), img));
+    }
+    rost::testing::writeText(t / "frames/f5.png", std::string(300, '\x5a'));
+    // An earlier run's outputs in the same directory: the failed run must not touch them.
+    RunResult r = runRost("run " + (t / "frames") + " --max-frames 3 --out " + (t / "o") + " --no-overlay --no-summary -q");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string before = rost::testing::readText(t / "o/topics.csv");
+    ASSERT_FALSE(before.empty());
+    r = runRost("run " + (t / "frames") + " --out " + (t / "o") + " --checkpoint " + (t / "m.ckpt") +
+                " --no-overlay --no-summary -q");
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("f5.png: cannot decode image"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(rost::testing::readText(t / "o/topics.csv"), before);
+    // What was learned before the failure is in the checkpoint, and loads.
+    rost::CheckpointInfo info;
+    rost::Status st;
+    auto engine = rost::resumeEngine(t / "m.ckpt", st, &info);
+    ASSERT_TRUE(engine) << st.message();
+    EXPECT_EQ(info.observations, 4u);
+    EXPECT_EQ(info.last_timestamp, 3);
 }
 
 } // namespace
