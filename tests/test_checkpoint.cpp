@@ -716,7 +716,7 @@ TEST(CheckpointErrors, LoadIsRefusedWhileRunningOrWithQueuedObservations) {
     EXPECT_TRUE(loadCheckpoint(good, "run.ckpt", e).ok());
 }
 
-TEST(CheckpointFiles, MissingFileAndMissingDirectoryAreNamed) {
+TEST(CheckpointFiles, MissingFileMissingDirectoryAndARunningEngineAreNamed) {
     const EngineConfig cfg = baseConfig();
     Engine e(cfg);
     Status st = loadCheckpoint(std::string("/nonexistent/run.ckpt"), e);
@@ -730,6 +730,11 @@ TEST(CheckpointFiles, MissingFileAndMissingDirectoryAreNamed) {
     auto w = CheckpointWriter::create(e, "/nonexistent/run.ckpt", st);
     EXPECT_FALSE(w);
     EXPECT_EQ(st.message(), "/nonexistent/run.ckpt: directory /nonexistent does not exist");
+    ASSERT_TRUE(e.start().ok());
+    w = CheckpointWriter::create(e, "run.ckpt", st);
+    EXPECT_FALSE(w);
+    EXPECT_EQ(st.message(), "run.ckpt: create the checkpoint writer before the engine starts");
+    e.stop();
 }
 
 TEST(CheckpointFiles, AFailedWriteIsReportedAndThePreviousFileStays) {

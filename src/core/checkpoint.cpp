@@ -834,6 +834,10 @@ std::unique_ptr<CheckpointWriter> CheckpointWriter::create(Engine& engine, std::
         status = Status::error("checkpoint: empty file name");
         return nullptr;
     }
+    if (engine.running()) {
+        status = Status::error(path + ": create the checkpoint writer before the engine starts");
+        return nullptr;
+    }
     std::unique_ptr<CheckpointWriter> w(new CheckpointWriter(engine, std::move(path)));
     try {
         status = buildImage(engine, w->image_, w->sections_);
