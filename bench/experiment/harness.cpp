@@ -195,6 +195,17 @@ double meanFinite(const std::vector<double>& a) noexcept {
     return n ? sum / static_cast<double>(n) : std::numeric_limits<double>::quiet_NaN();
 }
 
+double effectiveTopics(const Model& m) noexcept {
+    double n = 0.0, h = 0.0;
+    for (int k = 0; k < m.K(); ++k) n += m.topicCount(k);
+    if (n <= 0.0) return 0.0;
+    for (int k = 0; k < m.K(); ++k) {
+        const double p = m.topicCount(k) / n;
+        if (p > 0.0) h -= p * std::log(p);
+    }
+    return std::exp(h);
+}
+
 uint64_t Calibration::tokensFor(double tr_ms) const noexcept {
     const double t = std::max(0.0, tr_ms - overhead_ms) * 1e-3;
     return static_cast<uint64_t>(std::llround(tokens_per_second * t));

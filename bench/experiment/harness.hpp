@@ -75,6 +75,10 @@ int sweepsFor(uint64_t tokens, uint64_t words) noexcept;
 double meanRatio(const std::vector<double>& a, const std::vector<double>& b) noexcept;
 double meanFinite(const std::vector<double>& a) noexcept;
 
+// exp of the entropy of the topic totals n_k: the number of topics the model
+// effectively uses (K when all are used equally, 1 when one holds every word).
+double effectiveTopics(const Model& m) noexcept;
+
 // ---- calibration: T_R (ms) -> tokens per observation ------------------------
 
 // Costs are measured in CPU time of the refining thread, so the rate is what

@@ -11,6 +11,9 @@
 //   rost_experiment floor --dataset DIR --sweeps 400 --out DIR
 //       the lowest instantaneous/batch ratio an online strategy can reach
 //       (batch on each prefix against the full batch); writes NAME-floor.floor.csv.
+//   rost_experiment modes --dataset DIR --budget 40=tokens:N --out DIR
+//       the online run's final state against batch (perplexity, effective
+//       number of topics, before and after more global sweeps).
 
 #include <CLI/CLI.hpp>
 
@@ -472,6 +475,91 @@ int doFloor(const FloorArgs& a, const std::string& command) {
     return 0;
 }
 
+// ---- modes --------------------------------------------------------------------
+// Where an online run ends up against batch Gibbs: perplexity and effective
+// number of topics of the online run's final state, then after more global
+// sweeps of it (Engine::finalPass), against batch Gibbs with the same total
+// refinement and with more. If extra sweeps do not close the gap, the online
+// run sits in another mode of the posterior than the batch, not short of
+// refinement.
+
+struct ModesArgs {
+    std::string dataset;
+    std::string tag;
+    int64_t frames = 0;
+    std::string strategies = "uniform,uni+now";
+    std::string budget;
+    int seeds = 2;
+    int extra = 2;  // extra global sweeps, in multiples of the batch reference's sweeps
+    int jobs = 2;
+    std::string out;
+};
+
+int doModes(const ModesArgs& a, const std::string& command) {
+    const Dataset d = load(a.dataset, a.frames);
+    const std::string tag = a.tag.empty() ? d.name + "-modes" : a.tag;
+    const BudgetSpec b = parseBudget(a.budget);
+    if (b.budget.kind != BudgetKind::Tokens) fail("modes: --budget must be TR_MS=tokens:N");
+    const Config base = modelConfig(d, ModelParams{}, 1);
+    const int sweeps = sweepsFor(b.budget.count * static_cast<uint64_t>(d.steps()), d.words);
+    struct Task {
+        StrategyKind kind;
+        uint64_t seed;
+        std::string line;
+    };
+    std::vector<Task> tasks;
+    for (StrategyKind k : parseStrategies(a.strategies))
+        for (int s = 1; s <= a.seeds; ++s) tasks.push_back({k, static_cast<uint64_t>(s), {}});
+    std::mutex logMutex;
+    const auto t0 = Clock::now();
+    parallelFor(tasks.size(), a.jobs, [&](std::size_t i) {
+        Task& k = tasks[i];
+        Config c = base;
+        c.seed = k.seed;
+        EngineConfig ec;
+        ec.model = c;
+        ec.strategy.kind = k.kind;
+        ec.budget = b.budget;
+        ec.flags.snapshot_labels = false;
+        ec.flags.snapshot_perplexity = false;
+        Engine e(ec);
+        for (const auto& f : d.frames) e.processNow(ObservationView{f.timestamp, f.words, f.positions});
+        auto meanPpx = [](const Model& m) {
+            std::vector<double> p(static_cast<std::size_t>(m.steps()));
+            for (int64_t t = 0; t < m.steps(); ++t) p[static_cast<std::size_t>(t)] = m.stepPerplexity(t);
+            return meanFinite(p);
+        };
+        const double online = meanPpx(e.model()), onlineTopics = effectiveTopics(e.model());
+        e.finalPass(a.extra * sweeps);
+        const double after = meanPpx(e.model()), afterTopics = effectiveTopics(e.model());
+        Model bm(c);
+        for (const auto& f : d.frames) bm.addObservation(f.words, f.positions);
+        bm.refineAll(sweeps);
+        const double batch = meanPpx(bm), batchTopics = effectiveTopics(bm);
+        bm.refineAll(a.extra * sweeps);
+        const double batchMore = meanPpx(bm), batchMoreTopics = effectiveTopics(bm);
+        k.line = d.name + "," + std::to_string(d.steps()) + "," + toString(k.kind) + "," + fmt(b.tr_ms, "%g") + "," +
+                 std::to_string(b.budget.count) + "," + std::to_string(k.seed) + "," + std::to_string(sweeps) + "," +
+                 std::to_string(a.extra * sweeps) + "," + fmt(online) + "," + fmt(onlineTopics, "%.3f") + "," +
+                 fmt(after) + "," + fmt(afterTopics, "%.3f") + "," + fmt(batch) + "," + fmt(batchTopics, "%.3f") +
+                 "," + fmt(batchMore) + "," + fmt(batchMoreTopics, "%.3f") + "\n";
+        std::lock_guard<std::mutex> lock(logMutex);
+        std::fprintf(stderr, "modes %s %s seed=%llu: online %.1f (%.2f topics), +%d sweeps %.1f (%.2f), batch %.1f "
+                             "(%.2f), batch +%d %.1f (%.2f)\n",
+                     d.name.c_str(), toString(k.kind), static_cast<unsigned long long>(k.seed), online, onlineTopics,
+                     a.extra * sweeps, after, afterTopics, batch, batchTopics, a.extra * sweeps, batchMore,
+                     batchMoreTopics);
+    });
+    std::string csv = "dataset,frames,strategy,tr_ms,budget_tokens,seed,batch_sweeps,extra_sweeps,online_ppx,"
+                      "online_topics,online_extra_ppx,online_extra_topics,batch_ppx,batch_topics,batch_extra_ppx,"
+                      "batch_extra_topics\n";
+    for (const auto& k : tasks) csv += k.line;
+    if (Status s = writeFileAtomic(a.out + "/" + tag + ".modes.csv", csv); !s.ok()) fail(s.message());
+    std::fprintf(stderr, "modes %s: done in %.1f s (%s)\n", d.name.c_str(),
+                 std::chrono::duration<double>(Clock::now() - t0).count(), command.c_str());
+    return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -523,9 +611,25 @@ int main(int argc, char** argv) {
     floor->add_option("--jobs", fa.jobs, "runs in parallel")->capture_default_str()->check(CLI::Range(1, 64));
     floor->add_option("--out", fa.out, "output directory")->required();
 
+    ModesArgs ma;
+    auto* modes = app.add_subcommand("modes", "online final state against batch: perplexity and effective topics, "
+                                              "before and after more global sweeps");
+    modes->add_option("--dataset", ma.dataset, "dataset directory")->required();
+    modes->add_option("--tag", ma.tag, "output file prefix (default: NAME-modes)");
+    modes->add_option("--frames", ma.frames, "use the first N frames (0: all)")->capture_default_str();
+    modes->add_option("--strategies", ma.strategies, "strategies")->capture_default_str();
+    modes->add_option("--budget", ma.budget, "TR_MS=tokens:N")->required();
+    modes->add_option("--seeds", ma.seeds, "seeds 1..N")->capture_default_str()->check(CLI::Range(1, 1000));
+    modes->add_option("--extra", ma.extra, "extra global sweeps, in multiples of the batch reference's")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 100));
+    modes->add_option("--jobs", ma.jobs, "runs in parallel")->capture_default_str()->check(CLI::Range(1, 64));
+    modes->add_option("--out", ma.out, "output directory")->required();
+
     CLI11_PARSE(app, argc, argv);
     const std::string command = joinArgs(argc, argv);
     if (cal->parsed()) return doCalibrate(ca, command);
     if (floor->parsed()) return doFloor(fa, command);
+    if (modes->parsed()) return doModes(ma, command);
     return doRun(ra, command);
 }
