@@ -171,6 +171,9 @@ for d in $datasets; do
     log "$d: instantaneous floor (batch on prefixes, $sweeps sweeps)"
     "$exp" floor --dataset "$here/data/experiment/$d" --frames "$frames" --sweeps "$sweeps" --seeds "$seeds" \
       --points 10 --jobs "$jobs" --out "$out" 2>>"$out/run.log"
+    log "$d: online final states against batch (Uniform, Uni+Now; 2 seeds)"
+    "$exp" modes --dataset "$here/data/experiment/$d" --frames "$frames" --strategies uniform,uni+now \
+      "${budgets[0]}" "${budgets[1]}" --seeds 2 --extra 2 --jobs "$jobs" --out "$out" 2>>"$out/run.log"
   fi
 done
 if [ "$timed" = 1 ]; then

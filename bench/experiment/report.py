@@ -264,6 +264,33 @@ def floor_table(results, agg):
     return "\n".join(lines) + "\n"
 
 
+def modes_table(results):
+    """rost_experiment modes: the online final state against batch (perplexity, effective topics)."""
+    rows = []
+    for p in sorted(glob.glob(os.path.join(results, "*.modes.csv"))):
+        rows += list(csv.DictReader(open(p, encoding="utf-8")))
+    if not rows:
+        return ""
+    by = defaultdict(list)
+    for r in rows:
+        by[(r["dataset"], r["strategy"], r["tr_ms"], r["batch_sweeps"], r["extra_sweeps"])].append(r)
+    lines = ["**Where the online runs end up** (`rost_experiment modes`): mean perplexity over the steps and the "
+             "effective number of topics (exp of the entropy of n_k; K = 16) of the online run's final state, "
+             "then after more global sweeps of that state (`Engine::finalPass`), against batch Gibbs with the same "
+             "total refinement and with the same extra sweeps. Mean over seeds.", "",
+             "| dataset | strategy | T_R ms | online: ppx (topics) | online + extra sweeps | batch | batch + extra "
+             "sweeps |", "|---|---|---:|---|---|---|---|"]
+
+    def cell(rs, p, t):
+        return f"{statistics.fmean(num(r[p]) for r in rs):.1f} ({statistics.fmean(num(r[t]) for r in rs):.1f})"
+
+    for (d, st, tr, sw, ex), rs in sorted(by.items()):
+        lines.append(f"| {d} | {LABEL.get(st, st)} | {tr} | {cell(rs, 'online_ppx', 'online_topics')} | "
+                     f"+{ex}: {cell(rs, 'online_extra_ppx', 'online_extra_topics')} | {sw} sweeps: "
+                     f"{cell(rs, 'batch_ppx', 'batch_topics')} | +{ex}: {cell(rs, 'batch_extra_ppx', 'batch_extra_topics')} |")
+    return "\n".join(lines) + "\n"
+
+
 def timed_table(rows):
     timed = [r for r in rows if r["budget_kind"] == "time"]
     if not timed:
@@ -347,6 +374,7 @@ def cmd_paper(a):
         md.append(f"Largest standard deviation over seeds of any cell above: {max(sds):.3f}.\n")
     md.append(bar_check(agg, datasets))
     md.append(floor_table(a.results, agg))
+    md.append(modes_table(a.results))
     md.append(timed_table(rows))
     if figs:
         md.append("Per-time-step ratios (like the paper's Figures 3–5; mean over seeds):\n")
