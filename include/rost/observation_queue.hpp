@@ -181,9 +181,11 @@ private:
             return false;  // the consumer claimed it first
         // Advance released_ past the discarded observation (monotone maximum:
         // the consumer may already have released a later one).
-        uint64_t cur = released_.load(std::memory_order_relaxed);
+        // Acquire: a release by the consumer seen here must order its reads
+        // of that slot before the producer's next write into it.
+        uint64_t cur = released_.load(std::memory_order_acquire);
         while (cur < r + 1 &&
-               !released_.compare_exchange_weak(cur, r + 1, std::memory_order_release, std::memory_order_relaxed)) {
+               !released_.compare_exchange_weak(cur, r + 1, std::memory_order_acq_rel, std::memory_order_acquire)) {
         }
         p_.released_cache = std::max(cur, r + 1);
         p_.dropped_oldest.store(p_.dropped_oldest.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
