@@ -143,5 +143,5 @@ TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {
     rost::testing::writeText(t / "tm.csv", "1,2,3,4\n");
     expectError(runRost("refine " + (t / "words.csv") + " -K 2 -V 4 --in.topicmodel " + (t / "tm.csv") + " --out " +
                      (t / "o")),
-                "1 rows, expected K = 2", t / "o");
+                "1 topic lines, expected K = 2", t / "o");
 }

@@ -1,12 +1,14 @@
 // The rost tool's mission options (docs/trust.md): --checkpoint FILE
-// --checkpoint.every N and --config FILE, their outputs and their errors
-// (one line naming what and where, exit code 2, no outputs left).
+// --checkpoint.every N, --resume FILE and --config FILE, their outputs and
+// their errors (one line naming what and where, exit code 2, no outputs left).
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <filesystem>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -60,6 +62,23 @@ void writeStream(const TempDir& t) {
 std::string refine(const TempDir& t, const std::string& out, const std::string& extra) {
     return "refine " + (t / "words.csv") + " --positions " + (t / "positions.csv") + " --width 64 --height 64 -V 40 --out " +
            (t / out) + " --no-summary -q " + extra;
+}
+
+// The first n lines of a file, into another.
+void head(const std::string& from, const std::string& to, int n) {
+    std::istringstream in(rost::testing::readText(from));
+    std::string line, text;
+    for (int i = 0; i < n && std::getline(in, line); ++i) text += line + "\n";
+    rost::testing::writeText(to, text);
+}
+
+// The lines of a file after the first n.
+std::string tail(const std::string& path, int n) {
+    std::istringstream in(rost::testing::readText(path));
+    std::string line, text;
+    for (int i = 0; std::getline(in, line); ++i)
+        if (i >= n) text += line + "\n";
+    return text;
 }
 
 int lines(const std::string& path) {
@@ -170,6 +189,150 @@ TEST(ToolTrust, FrameSourceFailingMidStreamStopsCleanlySaysWhyAndKeepsWhatWasLea
     ASSERT_TRUE(engine) << st.message();
     EXPECT_EQ(info.observations, 4u);
     EXPECT_EQ(info.last_timestamp, 3);
+}
+
+TEST(ToolTrust, ResumedRefineContinuesBitForBitAsIfNeverStopped) {
+    TempDir t;
+    writeStream(t);
+    // Uninterrupted: all 40 observations.
+    const std::string ring = " --ring.steps 48 --seed 5 --budget.refines 6";
+    RunResult r = runRost(refine(t, "full", ring));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    // Stopped after 25 (the stream so far), then resumed with the whole stream:
+    // the 25 observations the checkpoint holds are skipped.
+    head(t / "words.csv", t / "w25.csv", 25);
+    head(t / "positions.csv", t / "p25.csv", 25);
+    r = runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") + " --width 64 --height 64 -V 40 --out " +
+                (t / "first") + " --no-summary -q --checkpoint " + (t / "m.ckpt") + ring);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    r = runRost("refine " + (t / "words.csv") + " --positions " + (t / "positions.csv") + " --out " + (t / "rest") +
+                " --no-summary --resume " + (t / "m.ckpt") + " --checkpoint " + (t / "m.ckpt"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("resuming " + (t / "m.ckpt") + " at observation 25 (time stamp 24); 25 observations skipped"),
+              std::string::npos)
+        << r.err;
+    // Same topic model, same final labels for every observation (all still in
+    // the window), and the rows of the 15 new observations are the last 15 of
+    // the uninterrupted run's.
+    EXPECT_EQ(rost::testing::readText(t / "rest/topicmodel.csv"), rost::testing::readText(t / "full/topicmodel.csv"));
+    EXPECT_EQ(rost::testing::readText(t / "rest/topics.csv"), rost::testing::readText(t / "full/topics.csv"));
+    EXPECT_EQ(lines(t / "rest/perplexity.csv"), 16);
+    EXPECT_EQ(tail(t / "rest/perplexity.csv", 1), tail(t / "full/perplexity.csv", 26));
+    EXPECT_EQ(tail(t / "rest/surprise.csv", 1), tail(t / "full/surprise.csv", 26));
+    // The checkpoint now holds the whole stream.
+    rost::CheckpointInfo info;
+    ASSERT_TRUE(rost::readCheckpointInfo(t / "m.ckpt", info).ok());
+    EXPECT_EQ(info.observations, 40u);
+    EXPECT_EQ(info.last_timestamp, 39);
+
+}
+
+TEST(ToolTrust, ResumeMayChangeRefinementAndSaysSo) {
+    TempDir t;
+    writeStream(t);
+    head(t / "words.csv", t / "w25.csv", 25);
+    head(t / "positions.csv", t / "p25.csv", 25);
+    RunResult r = runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") +
+                          " --width 64 --height 64 -V 40 --out " + (t / "first") + " --no-summary -q --checkpoint " +
+                          (t / "m.ckpt") + " --ring.steps 48");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    r = runRost(refine(t, "next", "--resume " + (t / "m.ckpt") + " --sampler now --budget.refines 2 --checkpoint " +
+                                      (t / "n.ckpt")));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    rost::CheckpointInfo info;
+    ASSERT_TRUE(rost::readCheckpointInfo(t / "n.ckpt", info).ok());
+    EXPECT_EQ(info.observations, 40u);
+    EXPECT_EQ(info.config.budget.count, 2u);
+    EXPECT_STREQ(rost::toString(info.config.strategy.kind), "now");
+    EXPECT_EQ(info.config.model.ring_steps, 48);  // the model is the checkpoint's
+    // -q keeps the note off stderr; without it the note says the run is not bit for bit.
+    r = runRost("refine " + (t / "words.csv") + " --positions " + (t / "positions.csv") + " --out " + (t / "again") +
+                " --no-summary --resume " + (t / "m.ckpt") + " --eta 0.25 --sampler uni+now");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("refinement settings changed (not bit for bit)"), std::string::npos) << r.err;
+}
+
+TEST(ToolTrust, ResumeErrorsNameWhatAndWhereWithExitCode2AndWriteNothing) {
+    TempDir t;
+    writeStream(t);
+    head(t / "words.csv", t / "w25.csv", 25);
+    head(t / "positions.csv", t / "p25.csv", 25);
+    RunResult r = runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") +
+                          " --width 64 --height 64 -V 40 --out " + (t / "first") + " --no-summary -q --checkpoint " +
+                          (t / "m.ckpt") + " --seed 5");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string ckpt = t / "m.ckpt";
+    const std::string bytes = rost::testing::readText(ckpt);
+    const auto resume = [&](const std::string& file, const std::string& extra) {
+        return runRost(refine(t, "o", "--resume " + file + " " + extra));
+    };
+    // The model cannot change; repeating it is fine (refine() passes -V 40 and the frame size).
+    expectError(resume(ckpt, "-K 8"), "-K 8 differs from " + ckpt + "'s K = 16 (a resumed mission keeps its model; leave -K out)",
+                t / "o");
+    expectError(resume(ckpt, "--alpha 0.2"), "--alpha 0.20000000000000001 differs from " + ckpt + "'s alpha = 0.10000000000000001",
+                t / "o");
+    expectError(resume(ckpt, "--seed 6"), "--seed 6 differs from " + ckpt + "'s seed = 5", t / "o");
+    expectError(resume(ckpt, "--in.topicmodel " + (t / "first/topicmodel.csv")),
+                "--in.topicmodel cannot be used with --resume", t / "o");
+    expectError(runRost("refine " + (t / "words.csv") + " --positions " + (t / "positions.csv") + " --width 80 --out " +
+                        (t / "o") + " -q --no-summary --resume " + ckpt),
+                "--resume " + ckpt + ": the frames are 80 pixels wide but " + ckpt + " models 64x64 frames", t / "o");
+    // A word the checkpoint's vocabulary does not have.
+    rost::testing::writeText(t / "big.csv", "30,1,2\n31,45,3\n");
+    expectError(runRost("refine " + (t / "big.csv") + " --out " + (t / "o") + " -q --resume " + ckpt),
+                (t / "big.csv") + ":2:4: word id 45 out of range [0, 40)", t / "o");
+    // Nothing after the checkpoint.
+    expectError(runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") + " --out " + (t / "o") +
+                        " -q --resume " + ckpt),
+                (t / "w25.csv") + ": nothing to resume with: every observation has a time stamp at most 24, the last one " +
+                    ckpt + " holds",
+                t / "o");
+    // Missing, truncated, corrupt files.
+    expectError(resume(t / "none.ckpt", ""), "--resume: " + (t / "none.ckpt") + ": cannot open: No such file or directory",
+                t / "o");
+    rost::testing::writeText(t / "short.ckpt", bytes.substr(0, 300));
+    expectError(resume(t / "short.ckpt", ""), "--resume: " + (t / "short.ckpt") + ": truncated: the file ends at byte 300",
+                t / "o");
+    std::string bad = bytes;
+    bad[bytes.size() / 2] = static_cast<char>(bad[bytes.size() / 2] ^ 0x10);
+    rost::testing::writeText(t / "bad.ckpt", bad);
+    expectError(resume(t / "bad.ckpt", ""), "is corrupt: checksum", t / "o");
+    // None of this touched the checkpoint.
+    EXPECT_EQ(rost::testing::readText(ckpt), bytes);
+}
+
+TEST(ToolTrust, RunResumedAfterItsSourceFailedEndsAsIfItHadNeverFailed) {
+    TempDir t;
+    std::filesystem::create_directory(t / "frames");
+    cv::RNG rng(11);
+    std::vector<cv::Mat> images;
+    for (int i = 1; i <= 8; ++i) {
+        cv::Mat img(96, 128, CV_8UC3);
+        rng.fill(img, cv::RNG::UNIFORM, 0, 255);
+        images.push_back(img);
+        ASSERT_TRUE(cv::imwrite(t / ("frames/f" + std::to_string(i) + ".png"), img));
+    }
+    const std::string opts = " --no-overlay --no-summary -q --budget.refines 4";
+    RunResult r = runRost("run " + (t / "frames") + " --out " + (t / "full") + opts);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    // The sixth frame goes bad: the run stops there and keeps its checkpoint.
+    rost::testing::writeText(t / "frames/f6.png", std::string(300, '\x5a'));
+    r = runRost("run " + (t / "frames") + " --out " + (t / "o") + " --checkpoint " + (t / "m.ckpt") + opts);
+    ASSERT_EQ(r.exit_code, 2) << r.err;
+    // The frame is back; the mission carries on from the checkpoint.
+    ASSERT_TRUE(cv::imwrite(t / "frames/f6.png", images[5]));
+    r = runRost("run " + (t / "frames") + " --out " + (t / "o") + " --resume " + (t / "m.ckpt") + opts);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(rost::testing::readText(t / "o/topicmodel.csv"), rost::testing::readText(t / "full/topicmodel.csv"));
+    EXPECT_EQ(rost::testing::readText(t / "o/topics.csv"), rost::testing::readText(t / "full/topics.csv"));
+    EXPECT_EQ(tail(t / "o/perplexity.csv", 1), tail(t / "full/perplexity.csv", 6));
+    EXPECT_EQ(lines(t / "o/frames.csv"), 1 + 3);
+    EXPECT_NE(rost::testing::readText(t / "o/run.txt").find("resumed: " + (t / "m.ckpt") + " at observation 5 (frame 4)"),
+              std::string::npos);
+    // Frames of another size do not fit the checkpoint's model.
+    expectError(runRost("run " + (t / "frames") + " --width 64 --out " + (t / "p") + " --resume " + (t / "m.ckpt") + opts),
+                "--resume " + (t / "m.ckpt") + ": the frames are 64 pixels wide but " + (t / "m.ckpt") + " models 128x96 frames",
+                t / "p");
 }
 
 } // namespace

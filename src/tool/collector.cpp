@@ -123,7 +123,7 @@ Status Collector::closeStreams() {
 }
 
 void Collector::takeFinal(const FinalRecord& f) {
-    if (f.observation < rows_.size()) rows_[f.observation].final = f.perplexity;
+    if (f.observation >= first_ && f.observation - first_ < rows_.size()) rows_[f.observation - first_].final = f.perplexity;
     auto put = [&](Stream& s) {
         if (s.file && std::fwrite(line_.data(), 1, line_.size(), s.file) != line_.size()) writeFailed_ = true;
         line_.clear();
@@ -158,7 +158,7 @@ void Collector::drain(const std::function<void(const ObservationRecord&)>& onObs
             row.refine_ms = static_cast<double>(o->elapsed_ns) * 1e-6;
             row.cell_surprise = o->cell_surprise;
             row.topic_share = o->topic_share;
-            if (rows_.size() == o->observation) rows_.push_back(std::move(row));
+            if (first_ + rows_.size() == o->observation) rows_.push_back(std::move(row));
             // Instantaneous perplexity of the step before, for each of its observations.
             if (o->previous_step >= 0)
                 for (auto it = rows_.rbegin(); it != rows_.rend(); ++it) {

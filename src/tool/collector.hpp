@@ -68,6 +68,11 @@ public:
     // still in the window.
     void finish(int sweeps);
 
+    // A resumed run: its first observation is number `n` (the checkpoint's
+    // count); rows are made from there on, and observations before it that
+    // leave the window still get their final labels in topics.csv.
+    void setFirstObservation(uint64_t n) noexcept { first_ = n; }
+
     // Records a hook could not store because the writer fell behind (realtime only).
     uint64_t lost() const noexcept { return lost_.load(std::memory_order_relaxed); }
     // First observation the model rejected, if any ("" when none).
@@ -107,6 +112,7 @@ private:
     bool writeFailed_ = false;
     std::string rejection_;
     uint64_t finals_ = 0;
+    uint64_t first_ = 0;
 };
 
 } // namespace rost::tool

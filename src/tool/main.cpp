@@ -85,6 +85,21 @@ void addModelOptions(CLI::App& app, ModelOptions& m) {
     app.add_option("--checkpoint.every", m.checkpoint_every, "observations between checkpoints")
         ->check(CLI::PositiveNumber)
         ->group(t);
+    app.add_option("--resume", m.resume,
+                   "carry on the mission FILE (a --checkpoint) holds: its model, window and random state; input "
+                   "frames or observations it already has (time stamp up to its last) are skipped, a camera's "
+                   "frames are numbered after them. Model options may be repeated but not changed")
+        ->group(t);
+}
+
+// The model options (addModelOptions) given on `cmd`'s command line, by the
+// name ModelOptions::given uses.
+void recordGiven(const CLI::App* cmd, ModelOptions& m) {
+    for (const CLI::Option* o : cmd->get_options()) {
+        if (o->count() == 0) continue;
+        for (const std::string& n : o->get_lnames()) m.given.push_back("--" + n);
+        for (const std::string& n : o->get_snames()) m.given.push_back("-" + n);
+    }
 }
 
 // Whether an option was given on `cmd`'s command line.
@@ -233,6 +248,8 @@ int main(int argc, char** argv) {
         return fail(std::string(e.what()) + " (see rost --help)");
     }
 
+    if (runCmd->parsed()) recordGiven(runCmd, run.model);
+    if (refCmd->parsed()) recordGiven(refCmd, ref.model);
     if (runCmd->parsed() && !run.model.config.empty()) {
         const rost::Status st = applyConfigFile(run.model.config, givenOn(runCmd), run.model, &run, nullptr);
         if (!st.ok()) return fail("--config: " + st.message());

@@ -1,9 +1,26 @@
+#include <algorithm>
 #include <cstdio>
+#include <sstream>
 
 #include "rost/config_file.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
+
+namespace {
+
+// What the tool asks the engine to compute: it reads perplexities from the
+// model at eviction and at the end; labels are published only for a live run.
+EngineFlags toolFlags(bool realtime) {
+    EngineFlags f;
+    f.instantaneous_perplexity = true;
+    f.snapshot_perplexity = false;
+    f.snapshot_labels = realtime;
+    f.stop_on_arrival = false;
+    return f;
+}
+
+} // namespace
 
 int fail(const std::string& message) {
     std::fprintf(stderr, "rost: error: %s\n", message.c_str());
@@ -44,12 +61,90 @@ Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int
     e.strategy.q = m.q;
     if (m.budget_ms > 0.0) e.budget = Budget::time(m.budget_ms);
     else e.budget = Budget::steps(m.budget_refines);
-    e.flags.instantaneous_perplexity = true;
-    e.flags.snapshot_perplexity = false;  // the tool reads perplexities from the model at eviction and at the end
-    e.flags.snapshot_labels = realtime;
-    e.flags.stop_on_arrival = false;
+    e.flags = toolFlags(realtime);
     st = e.validate();
     if (!st.ok()) return st;  // messages use the option names (cell.space, g.time, ...)
+    out = e;
+    return {};
+}
+
+namespace {
+
+// A value as the messages print it (17 significant digits for doubles, so
+// two different values never print the same).
+template <class T>
+std::string show(const T& v) {
+    std::ostringstream s;
+    if constexpr (std::is_floating_point_v<T>) s.precision(17);
+    s << v;
+    return s.str();
+}
+
+} // namespace
+
+Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool realtime, EngineConfig& out,
+                    CheckpointInfo& info, bool& refinementChanged) {
+    const std::string where = "--resume " + m.resume;
+    if (Status st = readCheckpointInfo(m.resume, info); !st.ok()) return Status::error("--resume: " + st.message());
+    if (!m.in_topicmodel.empty())
+        return Status::error("--in.topicmodel cannot be used with --resume: the checkpoint holds the mission's topic model");
+    const auto given = [&](const char* option) { return std::find(m.given.begin(), m.given.end(), option) != m.given.end(); };
+    EngineConfig e = info.config;
+    const Config& c = e.model;
+
+    // The model: what was learned depends on it, so it cannot change.
+    EvictionPolicy eviction = c.eviction;
+    if (given("--eviction")) (void)parseEvictionPolicy(m.eviction, eviction);  // checked by the parser
+    struct Fixed {
+        const char* option;
+        const char* key;
+        bool same;
+        std::string mine, theirs;
+    };
+    const Fixed fixed[] = {
+        {"-K", "K", m.K == c.K, show(m.K), show(c.K)},
+        {"-V", "V", m.V == 0 || m.V == c.V, show(m.V), show(c.V)},
+        {"--alpha", "alpha", m.alpha == c.alpha, show(m.alpha), show(c.alpha)},
+        {"--beta", "beta", m.beta == c.beta, show(m.beta), show(c.beta)},
+        {"--cell.space", "cell.space", m.cell_space == c.cell_space, show(m.cell_space), show(c.cell_space)},
+        {"--cell.time", "cell.time", m.cell_time == c.cell_time, show(m.cell_time), show(c.cell_time)},
+        {"--g.space", "g.space", m.g_space == c.g_space, show(m.g_space), show(c.g_space)},
+        {"--g.time", "g.time", m.g_time == c.g_time, show(m.g_time), show(c.g_time)},
+        {"--ring.steps", "ring.steps", m.ring == 0 || m.ring == c.ring_steps, show(m.ring), show(c.ring_steps)},
+        {"--cell.capacity", "cell.capacity", m.cell_capacity == c.cell_capacity, show(m.cell_capacity),
+         show(c.cell_capacity)},
+        {"--max.words", "max.words", m.max_words == c.max_words_per_frame, show(m.max_words),
+         show(c.max_words_per_frame)},
+        {"--eviction", "eviction", eviction == c.eviction, m.eviction, toString(c.eviction)},
+        {"--seed", "seed", m.seed == c.seed, show(m.seed), show(c.seed)},
+    };
+    for (const Fixed& f : fixed)
+        if (given(f.option) && !f.same)
+            return Status::error(std::string(f.option) + " " + f.mine + " differs from " + m.resume + "'s " + f.key +
+                                 " = " + f.theirs + " (a resumed mission keeps its model; leave " + f.option + " out)");
+    if (frameWidth > 0 && frameWidth != c.frame_width)
+        return Status::error(where + ": the frames are " + show(frameWidth) + " pixels wide but " + m.resume + " models " +
+                             show(c.frame_width) + "x" + show(c.frame_height) + " frames");
+    if (frameHeight > 0 && frameHeight != c.frame_height)
+        return Status::error(where + ": the frames are " + show(frameHeight) + " pixels high but " + m.resume +
+                             " models " + show(c.frame_width) + "x" + show(c.frame_height) + " frames");
+
+    // Refinement: may change; the run then continues under the new settings.
+    const EngineConfig before = e;
+    if (given("--sampler")) {
+        if (Status st = parseStrategy(m.sampler, e.strategy.kind); !st.ok()) return Status::error("--sampler: " + st.message());
+    }
+    if (given("--eta")) e.strategy.eta = m.eta;
+    if (given("--q")) e.strategy.q = m.q;
+    if (given("--budget.ms")) e.budget = Budget::time(m.budget_ms);
+    else if (given("--budget.refines")) e.budget = Budget::steps(m.budget_refines);
+    refinementChanged = e.strategy.kind != before.strategy.kind || e.strategy.eta != before.strategy.eta ||
+                        e.strategy.q != before.strategy.q || e.budget.kind != before.budget.kind ||
+                        e.budget.count != before.budget.count || e.budget.ms != before.budget.ms;
+
+    // Runtime: this command's (the caller sets queue, drop and thread).
+    e.flags = toolFlags(realtime);
+    if (Status st = e.validate(); !st.ok()) return st;
     out = e;
     return {};
 }
@@ -70,6 +165,7 @@ Status applyConfigFile(const std::string& path, const std::function<bool(const s
                                    : key == "thread.cpu"  ? "--cpu"
                                                           : "--" + key;
         if (key.rfind("budget.", 0) == 0 ? budgetGiven : given(option)) continue;  // the command line wins
+        m.given.push_back(option);
         if (key == "K") m.K = c.model.K;
         else if (key == "V") m.V = c.model.V;
         else if (key == "alpha") m.alpha = c.model.alpha;

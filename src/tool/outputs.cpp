@@ -92,66 +92,6 @@ void appendNumber(std::string& out, float v) {
 
 // ---- topic model -------------------------------------------------------------------
 
-std::string topicModelCsv(const Model& m) {
-    std::string s;
-    s.reserve(static_cast<std::size_t>(m.K()) * m.V() * 2);
-    char buf[16];
-    for (int k = 0; k < m.K(); ++k) {
-        for (int v = 0; v < m.V(); ++v) {
-            if (v) s += ',';
-            const auto [p, ec] = std::to_chars(buf, buf + sizeof buf, m.topicWordCount(k, v));
-            s.append(buf, p);
-        }
-        s += '\n';
-    }
-    return s;
-}
-
-Status readTopicModelCsv(const std::string& path, int K, int V, std::vector<int32_t>& counts) {
-    std::string text;
-    Status st = readFile(path, text);
-    if (!st.ok()) return st;
-    counts.assign(static_cast<std::size_t>(K) * V, 0);
-    int row = 0, line = 0;
-    std::size_t pos = 0;
-    while (pos < text.size()) {
-        std::size_t end = text.find('\n', pos);
-        if (end == std::string::npos) end = text.size();
-        std::string_view l(text.data() + pos, end - pos);
-        pos = end + 1;
-        ++line;
-        if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
-        if (l.empty() || l.front() == '#') continue;
-        if (row == K)
-            return Status::error(path + ":" + std::to_string(line) + ":1: more than K = " + std::to_string(K) +
-                                 " rows (the topic model has one row per topic)");
-        std::size_t col = 0, at = 0;
-        while (true) {
-            std::size_t e = l.find(',', at);
-            if (e == std::string_view::npos) e = l.size();
-            const std::string_view f = l.substr(at, e - at);
-            if (static_cast<int>(col) == V)
-                return Status::error(path + ":" + std::to_string(line) + ":" + std::to_string(at + 1) +
-                                     ": more than V = " + std::to_string(V) + " columns");
-            int32_t v = 0;
-            const auto [p, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
-            if (f.empty() || ec != std::errc() || p != f.data() + f.size() || v < 0)
-                return Status::error(path + ":" + std::to_string(line) + ":" + std::to_string(at + 1) +
-                                     ": expected a count (integer >= 0), found '" + std::string(f.substr(0, 24)) + "'");
-            counts[static_cast<std::size_t>(row) * V + col] = v;
-            ++col;
-            if (e == l.size()) break;
-            at = e + 1;
-        }
-        if (static_cast<int>(col) != V)
-            return Status::error(path + ":" + std::to_string(line) + ":" + std::to_string(l.size() + 1) + ": " +
-                                 std::to_string(col) + " columns, expected V = " + std::to_string(V));
-        ++row;
-    }
-    if (row != K)
-        return Status::error(path + ": " + std::to_string(row) + " rows, expected K = " + std::to_string(K));
-    return {};
-}
 
 // ---- drawing -----------------------------------------------------------------------
 

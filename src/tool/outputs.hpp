@@ -69,11 +69,6 @@ struct FrameRow {
     std::vector<float> topic_share;       // K: share of its step's labels per topic (for the summary)
 };
 
-// Topic model CSV: K rows of V comma-separated counts.
-std::string topicModelCsv(const Model& m);
-// Parses one; errors name the file, line and column.
-Status readTopicModelCsv(const std::string& path, int K, int V, std::vector<int32_t>& counts);
-
 // Colour of topic k (BGR), a fixed palette of well-separated hues.
 cv::Scalar topicColour(int k);
 

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <functional>
 #include <cstdio>
+#include <span>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -14,47 +15,75 @@
 #include "progress.hpp"
 #include "rost/word_stream.hpp"
 #include "rost/checkpoint.hpp"
+#include "rost/topic_model_csv.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
 
 int refineCommand(const RefineOptions& o) {
     const auto started = std::chrono::steady_clock::now();
+    // --resume: the checkpoint fixes V and the frame size before the words are read.
+    const bool resuming = !o.model.resume.empty();
+    EngineConfig ec;
+    CheckpointInfo resumed;
+    bool refinementChanged = false;
+    Status st;
+    if (resuming) {
+        st = resumeConfig(o.model, o.width, o.height, false, ec, resumed, refinementChanged);
+        if (!st.ok()) return fail(st.message());
+    }
     WordStreamLimits limits;
-    limits.vocabulary = o.model.V > 0 ? static_cast<uint32_t>(o.model.V) : 0;
-    limits.width = o.width;
-    limits.height = o.height;
-    limits.max_words = static_cast<uint32_t>(std::max(1, o.model.max_words));
+    limits.vocabulary = resuming ? static_cast<uint32_t>(ec.model.V) : o.model.V > 0 ? static_cast<uint32_t>(o.model.V) : 0;
+    limits.width = resuming ? ec.model.frame_width : o.width;
+    limits.height = resuming ? ec.model.frame_height : o.height;
+    limits.max_words = static_cast<uint32_t>(std::max(1, resuming ? ec.model.max_words_per_frame : o.model.max_words));
     WordStream ws;
-    Status st = readWordStream(o.words, o.positions, limits, ws);
+    st = readWordStream(o.words, o.positions, limits, ws);
     if (!st.ok()) return fail(st.message());
     if (ws.observations.empty()) return fail(o.words + ": no observations (the file has no data lines)");
-
-    // V and the frame geometry from the data unless given.
-    uint32_t maxWord = 0;
-    int32_t maxX = 0, maxY = 0;
-    for (const auto& ob : ws.observations) {
-        for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
-        for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
-    }
-    const int V = o.model.V > 0 ? o.model.V : static_cast<int>(maxWord) + 1;
-    int width = o.width > 0 ? o.width : maxX + 1;
-    int height = o.height > 0 ? o.height : maxY + 1;
-    if (!ws.has_positions) {
-        // No positions: every word at (0, 0), one cell per time step (a temporal topic model).
-        width = height = 1;
+    if (!ws.has_positions)  // no positions: every word at (0, 0)
         for (auto& ob : ws.observations) ob.positions.assign(ob.words.size(), Position{});
-    }
 
-    EngineConfig ec;
-    st = makeEngineConfig(o.model, width, height, V, static_cast<int64_t>(ws.observations.size()), false, ec);
-    if (!st.ok()) return fail(st.message());
+    std::size_t skipped = 0;
+    if (resuming) {
+        // What the checkpoint already has: observations up to its last time stamp.
+        if (resumed.observations > 0)
+            while (skipped < ws.observations.size() && ws.observations[skipped].timestamp <= resumed.last_timestamp)
+                ++skipped;
+    } else {
+        // V and the frame geometry from the data unless given.
+        uint32_t maxWord = 0;
+        int32_t maxX = 0, maxY = 0;
+        for (const auto& ob : ws.observations) {
+            for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
+            for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
+        }
+        const int V = o.model.V > 0 ? o.model.V : static_cast<int>(maxWord) + 1;
+        int width = o.width > 0 ? o.width : maxX + 1;
+        int height = o.height > 0 ? o.height : maxY + 1;
+        if (!ws.has_positions) width = height = 1;  // one cell per time step (a temporal topic model)
+        st = makeEngineConfig(o.model, width, height, V, static_cast<int64_t>(ws.observations.size()), false, ec);
+        if (!st.ok()) return fail(st.message());
+    }
+    const int V = ec.model.V;
     std::unique_ptr<Engine> engine = Engine::create(ec, st);
     if (!engine) return fail(st.message());
+    if (resuming) {
+        CheckpointLoadOptions lo;
+        lo.allow_refinement_change = refinementChanged;
+        st = loadCheckpoint(o.model.resume, *engine, lo);
+        if (!st.ok()) return fail("--resume: " + st.message());
+        if (skipped == ws.observations.size())
+            return fail(o.words + ": nothing to resume with: every observation has a time stamp at most " +
+                        std::to_string(resumed.last_timestamp) + ", the last one " + o.model.resume + " holds");
+        if (!o.quiet)
+            std::fprintf(stderr, "rost: resuming %s at observation %llu (time stamp %lld); %zu observations skipped%s\n",
+                         o.model.resume.c_str(), static_cast<unsigned long long>(resumed.observations),
+                         static_cast<long long>(resumed.last_timestamp), skipped,
+                         refinementChanged ? "; refinement settings changed (not bit for bit)" : "");
+    }
     if (!o.model.in_topicmodel.empty()) {
-        std::vector<int32_t> counts;
-        st = readTopicModelCsv(o.model.in_topicmodel, ec.model.K, V, counts);
-        if (st.ok()) st = engine->model().addTopicCounts(counts);
+        st = loadTopicModelCsv(o.model.in_topicmodel, engine->model());
         if (!st.ok()) return fail("--in.topicmodel: " + st.message());
     }
     OutputDir out;
@@ -62,6 +91,7 @@ int refineCommand(const RefineOptions& o) {
     if (!st.ok()) return fail(st.message());
 
     Collector collector(*engine, 4);
+    collector.setFirstObservation(resumed.observations);
     st = collector.streamTo(out, false);
     if (!st.ok()) return fail(st.message());
     // --checkpoint: the engine's state every N observations, from its hook
@@ -78,9 +108,10 @@ int refineCommand(const RefineOptions& o) {
             w->captureEvery(every, r);
         });
     }
-    Progress progress("rost refine", static_cast<int64_t>(ws.observations.size()), o.quiet);
+    const std::span<const StreamObservation> todo(ws.observations.data() + skipped, ws.observations.size() - skipped);
+    Progress progress("rost refine", static_cast<int64_t>(todo.size()), o.quiet);
     int64_t done = 0;
-    for (const auto& ob : ws.observations) {
+    for (const auto& ob : todo) {
         ObservationView v;
         v.timestamp = ob.timestamp;
         v.words = ob.words;
@@ -110,7 +141,7 @@ int refineCommand(const RefineOptions& o) {
         {"perplexity.csv", [&] { return collector.perplexityCsv(); }},
         {"surprise.csv", [&] { return collector.surpriseCsv(); }},
         {"surprise_cells.csv", [&] { return collector.cellSurpriseCsv(); }},
-        {"topicmodel.csv", [&] { return topicModelCsv(engine->model()); }},
+        {"topicmodel.csv", [&] { return formatTopicModelCsv(engine->model()); }},
     };
     for (const auto& f : files) {
         st = out.write(f.name, f.body());
@@ -134,7 +165,7 @@ int refineCommand(const RefineOptions& o) {
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) {
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-        std::fprintf(stderr, "rost: %zu observations in %.1f s; outputs in %s\n", ws.observations.size(), s,
+        std::fprintf(stderr, "rost: %zu observations in %.1f s; outputs in %s\n", todo.size(), s,
                      o.out.c_str());
     }
     return kExitOk;

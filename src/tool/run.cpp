@@ -34,6 +34,7 @@
 #include "progress.hpp"
 #include "spsc_ring.hpp"
 #include "rost/checkpoint.hpp"
+#include "rost/topic_model_csv.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -171,19 +172,37 @@ int runCommand(const RunOptions& o) {
     std::unique_ptr<vision::WordExtractor> extractor = vision::WordExtractor::create(o.words, vocabulary, st);
     if (!extractor) return fail(st.message());
     const auto wordsV = static_cast<int>(extractor->vocabularySize());
-    int V = o.model.V > 0 ? o.model.V : wordsV;
+    const bool realtime = o.realtime || live;
+    // --resume: the checkpoint's model, for frames of its size.
+    const bool resuming = !o.model.resume.empty();
+    EngineConfig ec;
+    CheckpointInfo resumed;
+    bool refinementChanged = false;
+    if (resuming) {
+        st = resumeConfig(o.model, info.width, info.height, realtime, ec, resumed, refinementChanged);
+        if (!st.ok()) return fail(st.message());
+    }
+    const int V = resuming ? ec.model.V : o.model.V > 0 ? o.model.V : wordsV;
+    if (resuming && V < wordsV)
+        return fail("--resume " + o.model.resume + ": its model has V = " + std::to_string(V) + " words but the extractors produce " +
+                    std::to_string(wordsV) + " (use the vocabulary and word options of the run that made it)");
     if (V < wordsV)
         return fail("-V " + std::to_string(V) + " is smaller than the " + std::to_string(wordsV) +
                     " words the extractors produce (ORB " + std::to_string(extractor->layout().orb_size) +
                     " + intensity " + std::to_string(extractor->layout().intensity_size) + " + hue " +
                     std::to_string(extractor->layout().hue_size) + ")");
 
-    const bool realtime = o.realtime || live;
+    // Frames the checkpoint already has: a file's are skipped (its frame
+    // index is at most the checkpoint's last time stamp); a camera's are
+    // numbered after them.
+    const int64_t skipThrough = resuming && resumed.observations > 0 ? resumed.last_timestamp : -1;
     int64_t frames = info.frames;
+    if (frames > 0 && !live) frames = std::max<int64_t>(0, frames - (skipThrough + 1));
     if (o.max_frames > 0) frames = frames > 0 ? std::min(frames, o.max_frames) : o.max_frames;
-    EngineConfig ec;
-    st = makeEngineConfig(o.model, info.width, info.height, V, frames, realtime, ec);
-    if (!st.ok()) return fail(st.message());
+    if (!resuming) {
+        st = makeEngineConfig(o.model, info.width, info.height, V, frames, realtime, ec);
+        if (!st.ok()) return fail(st.message());
+    }
     ec.queue_slots = o.queue;
     st = parseDropPolicy(o.drop, ec.drop);
     if (!st.ok()) return fail("--drop: " + st.message());
@@ -191,10 +210,14 @@ int runCommand(const RunOptions& o) {
     ec.thread.cpu = o.cpu;
     std::unique_ptr<Engine> engine = Engine::create(ec, st);
     if (!engine) return fail(st.message());
+    if (resuming) {
+        CheckpointLoadOptions lo;
+        lo.allow_refinement_change = refinementChanged;
+        st = loadCheckpoint(o.model.resume, *engine, lo);
+        if (!st.ok()) return fail("--resume: " + st.message());
+    }
     if (!o.model.in_topicmodel.empty()) {
-        std::vector<int32_t> counts;
-        st = readTopicModelCsv(o.model.in_topicmodel, ec.model.K, V, counts);
-        if (st.ok()) st = engine->model().addTopicCounts(counts);
+        st = loadTopicModelCsv(o.model.in_topicmodel, engine->model());
         if (!st.ok()) return fail("--in.topicmodel: " + st.message());
     }
 
@@ -228,10 +251,16 @@ int runCommand(const RunOptions& o) {
                      ec.budget.kind == BudgetKind::Time ? fmt("%.3g ms", ec.budget.ms).c_str()
                                                         : (std::to_string(ec.budget.count) + " refines").c_str(),
                      mib, realtime ? ", realtime" : "");
+        if (resuming)
+            std::fprintf(stderr, "rost: resuming %s at observation %llu (frame %lld)%s%s\n", o.model.resume.c_str(),
+                         static_cast<unsigned long long>(resumed.observations), static_cast<long long>(resumed.last_timestamp),
+                         live ? "; camera frames are numbered after it" : "; earlier frames are skipped",
+                         refinementChanged ? "; refinement settings changed (not bit for bit)" : "");
     }
 
     // Hand-off rings, sized once.
     Collector collector(*engine, realtime ? 256 : 4);
+    collector.setFirstObservation(resumed.observations);
     st = collector.streamTo(out, true);
     if (!st.ok()) return fail(st.message());
     // --checkpoint: the engine's state every N observations, from its hook
@@ -340,16 +369,22 @@ int runCommand(const RunOptions& o) {
     const double fps = info.fps > 0 ? info.fps : 10.0;
     auto produceOne = [&](bool pace, Clock::time_point t0) -> bool {
         if (o.max_frames > 0 && captured.load(std::memory_order_relaxed) >= o.max_frames) return false;
-        const vision::ReadStatus rs = source->read(frame);
-        if (rs == vision::ReadStatus::End) return false;
-        if (rs == vision::ReadStatus::Error) {
-            readError = source->error();
-            return false;
+        for (;;) {
+            const vision::ReadStatus rs = source->read(frame);
+            if (rs == vision::ReadStatus::End) return false;
+            if (rs == vision::ReadStatus::Error) {
+                readError = source->error();
+                return false;
+            }
+            if (info.live) frame.index += skipThrough + 1;  // after the checkpoint's frames
+            else if (frame.index <= skipThrough) continue;  // in the checkpoint already
+            break;
         }
         if (pace && !info.live) {
-            // File input at its own frame rate: frame i is due at t0 + i / fps.
-            const auto due = t0 + std::chrono::duration_cast<Clock::duration>(
-                                      std::chrono::duration<double>(static_cast<double>(frame.index) / fps));
+            // File input at its own frame rate: frame i is due at t0 + i / fps
+            // (i counted from the first frame this run plays).
+            const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                                      static_cast<double>(frame.index - (skipThrough + 1)) / fps));
             std::this_thread::sleep_until(due);
         }
         extractor->extract(frame.image, words);
@@ -423,7 +458,10 @@ int runCommand(const RunOptions& o) {
     if (collector.lost() > 0)
         return fail("the output writer fell behind: " + std::to_string(collector.lost()) +
                     " records lost; outputs discarded (try a larger --queue or a slower input)");
-    if (collector.rows().empty()) return fail(info.description + ": no frames were processed");
+    if (collector.rows().empty())
+        return fail(info.description + ": no frames were processed" +
+                    (skipThrough >= 0 ? " (" + o.model.resume + " has every frame up to " + std::to_string(skipThrough) + ")"
+                                      : std::string()));
 
     collector.finish(o.model.final_sweeps);
     st = collector.closeStreams();
@@ -452,6 +490,10 @@ int runCommand(const RunOptions& o) {
         char buf[512];
         runTxt += "command: " + o.command_line + "\n";
         runTxt += "input: " + info.description + "\n";
+        if (resuming)
+            runTxt += "resumed: " + o.model.resume + " at observation " + std::to_string(resumed.observations) + " (frame " +
+                      std::to_string(resumed.last_timestamp) + ")" +
+                      (refinementChanged ? ", refinement settings changed" : "") + "\n";
         if (vocabulary) {
             const std::string note = vocabulary->note();
             runTxt += "vocabulary: " + (o.vocabulary.empty() ? std::string("built-in default") : o.vocabulary) + ", " +
@@ -496,7 +538,7 @@ int runCommand(const RunOptions& o) {
         {"surprise.csv", [&] { return collector.surpriseCsv(); }},
         {"surprise_cells.csv", [&] { return collector.cellSurpriseCsv(); }},
         {"frames.csv", [&] { return framesCsv; }},
-        {"topicmodel.csv", [&] { return topicModelCsv(engine->model()); }},
+        {"topicmodel.csv", [&] { return formatTopicModelCsv(engine->model()); }},
         {"run.txt", [&] { return runTxt; }},
     };
     for (const auto& f : files) {

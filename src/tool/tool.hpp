@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/words.hpp"
@@ -49,11 +50,28 @@ struct ModelOptions {
     std::string config;           // --config: key = value settings (rost/config_file.hpp) under explicit options
     std::string checkpoint;       // --checkpoint: engine state saved every checkpoint_every observations and at the end
     uint64_t checkpoint_every = 100;
+    std::string resume;           // --resume: carry on the mission a checkpoint holds
+    // Long names of the options set on the command line or by --config
+    // ("-K", "--alpha", ...): with --resume, those the checkpoint fixes are
+    // compared with it.
+    std::vector<std::string> given;
 };
 
 // Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
 Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, bool realtime,
                         EngineConfig& out);
+
+// --resume FILE: the configuration to carry on with. The checkpoint fixes
+// the model (K, V, alpha, beta, cells, neighbourhood, ring, capacities,
+// eviction, seed) and the frame size: an option that sets one of these to a
+// different value is an error naming it, as are --in.topicmodel and frames
+// of another size. Refinement options given (sampler, eta, q, budget) replace
+// the checkpoint's (`refinementChanged`: the run then continues under them,
+// not bit for bit); runtime settings are the caller's to set. `info`
+// describes the checkpoint; `frameWidth`/`frameHeight` are the input's
+// (0: take the checkpoint's).
+Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool realtime, EngineConfig& out,
+                    CheckpointInfo& info, bool& refinementChanged);
 
 struct RunOptions {
     std::vector<std::string> inputs;
