@@ -35,8 +35,12 @@ Status parseStrategy(const std::string& name, StrategyKind& out);
 
 struct StrategyConfig {
     StrategyKind kind = StrategyKind::UniformNow;
-    double eta = 0.5;  // mixing proportion of the local part, 0..1 (paper default 0.5)
-    double q = 0.1;    // geometric parameter of the exponential part, (0, 1]
+    // Defaults from the eta/q sweep (bench/RESULTS.md, "Tuning sweep"): the
+    // best setting of the mixtures averaged over budgets of 4, 31 and 437
+    // step refinements per observation. Larger budgets favour a smaller eta,
+    // smaller budgets a larger one (docs/engine.md).
+    double eta = 0.5;  // mixing proportion of the local part, 0..1 (the paper's 0.5; the sweep agrees)
+    double q = 0.5;    // geometric parameter of the exponential part, (0, 1] (the paper gives none)
     // Checks eta and q; the message names the field, its value and the range.
     [[nodiscard]] Status validate() const;
 };

@@ -37,7 +37,7 @@ struct ModelOptions {
     int g_time = 1;
     std::string sampler = "uni+now";
     double eta = 0.5;
-    double q = 0.1;
+    double q = 0.5;
     uint64_t budget_refines = 40; // time steps refined per observation (count budget): ~3 ms a 640x480 frame on one x86 core
     double budget_ms = 0.0;       // > 0: time budget per observation instead
     uint64_t seed = 1;
