@@ -335,4 +335,40 @@ TEST(ToolTrust, RunResumedAfterItsSourceFailedEndsAsIfItHadNeverFailed) {
                 t / "p");
 }
 
+TEST(ToolTrust, HostileWordStreamsAndVideosGetOneLineErrorsWithExitCode2) {
+    TempDir t;
+    const auto refineIt = [&](const std::string& words, const std::string& positions, const std::string& extra) {
+        rost::testing::writeText(t / "w.csv", words);
+        std::string cmd = "refine " + (t / "w.csv");
+        if (!positions.empty()) {
+            rost::testing::writeText(t / "p.csv", positions);
+            cmd += " --positions " + (t / "p.csv");
+        }
+        return runRost(cmd + " --out " + (t / "o") + " -q --no-summary " + extra);
+    };
+    const std::string words = "0,1,2\n1,3,4\n";
+    expectError(refineIt(words, "0,0,0,-1,5\n1,0,0,1,1\n", ""), (t / "p.csv") + ":1:7: position (-1, 5) outside the frame",
+                t / "o");
+    expectError(refineIt(words, "0,0,0,99999999999,5\n1,0,0,1,1\n", ""),
+                (t / "p.csv") + ":1:7: position (99999999999, 5) outside the frame", t / "o");
+    expectError(refineIt(words, "0,0,0,5000,5\n1,0,0,1,1\n", "--width 640 --height 480"),
+                (t / "p.csv") + ":1:7: position (5000, 5) outside the frame 640x480", t / "o");
+    std::string enormous = "0";
+    for (int i = 0; i < 5000; ++i) enormous += ",1";
+    expectError(refineIt(enormous + "\n", "", ""), (t / "w.csv") + ":1:1: 5000 words in one observation, at most 4096", t / "o");
+    expectError(refineIt("0,1,-2\n", "", ""), (t / "w.csv") + ":1:5", t / "o");
+    expectError(refineIt("# nothing\n\n", "", ""), (t / "w.csv") + ": no observations", t / "o");
+    // An empty frame (no words: a dark or featureless image) is an observation, not an error.
+    RunResult r = refineIt("0,1,2\n1\n2,3\n", "", "");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(lines(t / "o/perplexity.csv"), 4);
+    // Videos: empty, not video at all.
+    rost::testing::writeText(t / "empty.mp4", "");
+    expectError(runRost("run " + (t / "empty.mp4") + " --out " + (t / "v") + " -q"), (t / "empty.mp4") + ": cannot decode video",
+                t / "v");
+    rost::testing::writeText(t / "text.mp4", "hello, not a video\n");
+    expectError(runRost("run " + (t / "text.mp4") + " --out " + (t / "v") + " -q"), (t / "text.mp4") + ": cannot decode video",
+                t / "v");
+}
+
 } // namespace
