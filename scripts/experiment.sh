@@ -14,7 +14,8 @@
 #   observation on the first dataset; on in --reduced and --full),
 #   --out DIR (raw outputs, default data/experiment/out-MODE), --no-results (leave
 #   bench/RESULTS.md and the committed figures alone), --no-sweep, --no-timed,
-#   --frames N, --seeds N, --datasets "diver mire-2 vtest", --tokens-per-second R
+#   --frames N, --seeds N, --datasets "diver mire-2 vtest", --tr "40 160" (the T_R values, ms),
+#   --tokens-per-second R
 #   (skip calibration: use this rate, overhead 0), --calibration FILE (reuse one),
 #   --report-only (redo the tables, plots and RESULTS.md sections from the raw CSV of
 #   an earlier run in --out).
@@ -39,6 +40,7 @@ frames=""
 seeds=""
 datasets=""
 rate=""
+tr_given=""
 calibration=""
 report_only=0
 while [ $# -gt 0 ]; do
@@ -56,10 +58,11 @@ while [ $# -gt 0 ]; do
     --frames) frames=$2; shift 2 ;;
     --seeds) seeds=$2; shift 2 ;;
     --datasets) datasets=$2; shift 2 ;;
+    --tr) tr_given=$2; shift 2 ;;
     --tokens-per-second) rate=$2; shift 2 ;;
     --calibration) calibration=$2; shift 2 ;;
     --report-only) report_only=1; shift ;;
-    -h|--help) sed -n '2,28p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "experiment: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -72,6 +75,7 @@ case $mode in
   full)    : "${frames:=0}"; : "${seeds:=10}"; : "${datasets:=diver mire-2 vtest}"; trs="40 160"; : "${sweep:=1}"; : "${budget_sweep:=1}"
            timed_strategies="now,uniform,uni+now"; timed_seeds=2 ;;
 esac
+[ -n "$tr_given" ] && trs=$tr_given
 [ -n "$out" ] || out="$here/data/experiment/out-$mode"
 start_s=$(date +%s)
 started=$(date -u +%Y-%m-%dT%H:%M:%SZ)
@@ -231,7 +235,7 @@ commit=$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)
 git -C "$here" diff --quiet HEAD -- src include bench 2>/dev/null || commit="$commit (work tree with local changes)"
 cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n1)
 machine="$(nproc) x $cpu, $(uname -m), load average at the end $(cut -d' ' -f1-3 /proc/loadavg)"
-cmdline="scripts/experiment.sh --$mode (frames ${frames/#0/all}, seeds $seeds, datasets $datasets, jobs $jobs)"
+cmdline="scripts/experiment.sh --$mode (frames ${frames/#0/all}, seeds $seeds, datasets $datasets, T_R $trs ms, jobs $jobs)"
 { echo "command=$cmdline"; echo "commit=$commit"; echo "machine=$machine"; echo "started=$started"
   echo "duration=$((duration / 60)) min $((duration % 60)) s"
   if [ "$vocab_id" = built-in ]; then echo "note=ORB vocabulary: the library's built-in one"

@@ -12,9 +12,9 @@
 #include <cstdint>
 #include <vector>
 
-namespace rost::tool {
+#include "rost/aligned_buffer.hpp"  // kCacheLine
 
-inline constexpr std::size_t kCacheLine = 64;
+namespace rost::tool {
 
 template <typename T>
 class SpscRing {
