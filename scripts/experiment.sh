@@ -62,7 +62,7 @@ while [ $# -gt 0 ]; do
     --tokens-per-second) rate=$2; shift 2 ;;
     --calibration) calibration=$2; shift 2 ;;
     --report-only) report_only=1; shift ;;
-    -h|--help) sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "experiment: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
