@@ -43,7 +43,8 @@ TEST(ToolCli, HelpExplainsEveryCommandAndOption) {
     for (const char* s : {"-K", "-V", "--alpha", "--beta", "--cell.space", "--cell.time", "--g.space", "--g.time",
                           "--sampler", "now,uniform,agep,exp,uni+now,agep+now,uni+exp,agep+exp", "--eta", "--q",
                           "--budget.refines", "--budget.ms", "--seed", "--max-frames", "--realtime", "--quiet",
-                          "--in.topicmodel", "--vocabulary", "--out", "words.csv", "positions.csv", "topics.csv",
+                          "--in.topicmodel", "--config", "--checkpoint", "--checkpoint.every", "--resume",
+                          "--vocabulary", "--out", "words.csv", "positions.csv", "topics.csv",
                           "perplexity.csv", "surprise.csv", "topicmodel.csv", "overlay.mp4", "summary.png", "camera:N"})
         EXPECT_NE(r.out.find(s), std::string::npos) << "run --help lacks " << s;
     r = runRost("refine --help");

@@ -50,6 +50,7 @@ void addModelOptions(CLI::App& app, ModelOptions& m) {
         ->group(g);
     app.add_option("--in.topicmodel", m.in_topicmodel,
                    "start from a topic model: a topicmodel.csv of an earlier run (K rows of V counts)")
+        ->type_name("FILE")
         ->group(g);
 
     const char* r = "Refinement (paper section VI)";
@@ -77,10 +78,12 @@ void addModelOptions(CLI::App& app, ModelOptions& m) {
     app.add_option("--config", m.config,
                    "settings file: `key = value` lines named like these options (K, alpha, cell.space, sampler, "
                    "budget.refines, queue.slots, ...); options given on the command line win")
+        ->type_name("FILE")
         ->group(t);
     app.add_option("--checkpoint", m.checkpoint,
                    "save the engine's whole state to FILE every --checkpoint.every observations and at the end "
                    "(atomically: a crash leaves the previous checkpoint)")
+        ->type_name("FILE")
         ->group(t);
     app.add_option("--checkpoint.every", m.checkpoint_every, "observations between checkpoints")
         ->check(CLI::PositiveNumber)
@@ -89,6 +92,7 @@ void addModelOptions(CLI::App& app, ModelOptions& m) {
                    "carry on the mission FILE (a --checkpoint) holds: its model, window and random state; input "
                    "frames or observations it already has (time stamp up to its last) are skipped, a camera's "
                    "frames are numbered after them. Model options may be repeated but not changed")
+        ->type_name("FILE")
         ->group(t);
 }
 
