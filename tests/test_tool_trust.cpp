@@ -284,8 +284,7 @@ TEST(ToolTrust, ResumeErrorsNameWhatAndWhereWithExitCode2AndWriteNothing) {
     // Nothing after the checkpoint.
     expectError(runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") + " --out " + (t / "o") +
                         " -q --resume " + ckpt),
-                (t / "w25.csv") + ": nothing to resume with: every observation has a time stamp at most 24, the last one " +
-                    ckpt + " holds",
+                (t / "w25.csv") + ": nothing to resume with: its 25 observations are all in " + ckpt,
                 t / "o");
     // Missing, truncated, corrupt files.
     expectError(resume(t / "none.ckpt", ""), "--resume: " + (t / "none.ckpt") + ": cannot open: No such file or directory",
@@ -312,7 +311,8 @@ TEST(ToolTrust, RunResumedAfterItsSourceFailedEndsAsIfItHadNeverFailed) {
         images.push_back(img);
         ASSERT_TRUE(cv::imwrite(t / ("frames/f" + std::to_string(i) + ".png"), img));
     }
-    const std::string opts = " --no-overlay --no-summary -q --budget.refines 4";
+    // --max-frames counts the mission, so the same command line resumed ends where the first would have.
+    const std::string opts = " --no-overlay --no-summary -q --budget.refines 4 --max-frames 7";
     RunResult r = runRost("run " + (t / "frames") + " --out " + (t / "full") + opts);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     // The sixth frame goes bad: the run stops there and keeps its checkpoint.
@@ -326,13 +326,106 @@ TEST(ToolTrust, RunResumedAfterItsSourceFailedEndsAsIfItHadNeverFailed) {
     EXPECT_EQ(rost::testing::readText(t / "o/topicmodel.csv"), rost::testing::readText(t / "full/topicmodel.csv"));
     EXPECT_EQ(rost::testing::readText(t / "o/topics.csv"), rost::testing::readText(t / "full/topics.csv"));
     EXPECT_EQ(tail(t / "o/perplexity.csv", 1), tail(t / "full/perplexity.csv", 6));
-    EXPECT_EQ(lines(t / "o/frames.csv"), 1 + 3);
+    EXPECT_EQ(lines(t / "o/frames.csv"), 1 + 2);
     EXPECT_NE(rost::testing::readText(t / "o/run.txt").find("resumed: " + (t / "m.ckpt") + " at observation 5 (frame 4)"),
               std::string::npos);
     // Frames of another size do not fit the checkpoint's model.
     expectError(runRost("run " + (t / "frames") + " --width 64 --out " + (t / "p") + " --resume " + (t / "m.ckpt") + opts),
                 "--resume " + (t / "m.ckpt") + ": the frames are 64 pixels wide but " + (t / "m.ckpt") + " models 128x96 frames",
                 t / "p");
+    // Other words: the ids would mean something else.
+    expectError(runRost("run " + (t / "frames") + " --no-orb --out " + (t / "p") + " --resume " + (t / "m.ckpt") + opts),
+                "--resume " + (t / "m.ckpt") + ": its model has V = 5436 words but the extractors produce 436", t / "p");
+    // Nothing after the checkpoint: refused before anything is read or written, the checkpoint untouched.
+    const std::string bytes = rost::testing::readText(t / "m.ckpt");
+    const auto mtime = std::filesystem::last_write_time(t / "m.ckpt");
+    expectError(runRost("run " + (t / "frames") + " --max-frames 5 --out " + (t / "p") + " --resume " + (t / "m.ckpt") +
+                        " --checkpoint " + (t / "m.ckpt") + " -q --no-overlay --no-summary --budget.refines 4"),
+                "nothing to resume with: " + (t / "m.ckpt") + " has every frame up to 4 (--max-frames 5 counts the mission)",
+                t / "p");
+    EXPECT_FALSE(std::filesystem::exists(t / "p"));
+    EXPECT_EQ(rost::testing::readText(t / "m.ckpt"), bytes);
+    EXPECT_EQ(std::filesystem::last_write_time(t / "m.ckpt"), mtime);
+}
+
+TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) {
+    TempDir t;
+    // Time stamps that are neither increasing nor unique: position in the stream decides.
+    std::string words, positions;
+    const int stamps[] = {0, 1, 2, 3, 4, 10, 11, 12, 5, 6, 7, 7, 7, 20, 21};
+    rost::Rng rng(9);
+    for (int ts : stamps) {
+        words += std::to_string(ts);
+        positions += std::to_string(ts);
+        for (int i = 0; i < 10; ++i) {
+            for (uint32_t v : {rng.below(30)}) words.append(",").append(std::to_string(v));
+            for (uint32_t v : {rng.below(64), rng.below(64)}) positions.append(",").append(std::to_string(v));
+        }
+        words += "\n";
+        positions += "\n";
+    }
+    rost::testing::writeText(t / "words.csv", words);
+    rost::testing::writeText(t / "positions.csv", positions);
+    const auto cmd = [&](const std::string& w, const std::string& p, const std::string& out, const std::string& extra) {
+        return runRost("refine " + (t / w) + " --positions " + (t / p) + " --width 64 --height 64 -V 30 --ring.steps 20 "
+                       "--no-summary -q --out " + (t / out) + " " + extra);
+    };
+    RunResult r = cmd("words.csv", "positions.csv", "full", "");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    for (int n : {9, 12}) {  // stopped after "5" (a time stamp seen before), or between the repeated 7s
+        SCOPED_TRACE(n);
+        head(t / "words.csv", t / "wn.csv", n);
+        head(t / "positions.csv", t / "pn.csv", n);
+        r = cmd("wn.csv", "pn.csv", "first", "--checkpoint " + (t / "n.ckpt"));
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        r = cmd("words.csv", "positions.csv", "rest", "--resume " + (t / "n.ckpt"));
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        EXPECT_EQ(rost::testing::readText(t / "rest/topicmodel.csv"), rost::testing::readText(t / "full/topicmodel.csv"));
+        EXPECT_EQ(rost::testing::readText(t / "rest/topics.csv"), rost::testing::readText(t / "full/topics.csv"));
+        EXPECT_EQ(lines(t / "rest/perplexity.csv"), 1 + 15 - n);
+    }
+    // Only what came after (every time stamp later than the checkpoint's last): taken whole.
+    head(t / "words.csv", t / "wn.csv", 14);
+    head(t / "positions.csv", t / "pn.csv", 14);
+    ASSERT_EQ(cmd("wn.csv", "pn.csv", "first", "--checkpoint " + (t / "m.ckpt")).exit_code, 0);
+    rost::testing::writeText(t / "after.csv", tail(t / "words.csv", 14));
+    rost::testing::writeText(t / "pafter.csv", tail(t / "positions.csv", 14));
+    r = cmd("after.csv", "pafter.csv", "rest2", "--resume " + (t / "m.ckpt"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(rost::testing::readText(t / "rest2/topicmodel.csv"), rost::testing::readText(t / "full/topicmodel.csv"));
+    // Neither: refused, saying why.
+    rost::testing::writeText(t / "other.csv", "3,1,2\n30,4,5\n");
+    rost::testing::writeText(t / "pother.csv", "3,0,0,1,1\n30,2,2,3,3\n");
+    expectError(cmd("other.csv", "pother.csv", "x", "--resume " + (t / "m.ckpt")),
+                (t / "other.csv") + ": 2 observations, fewer than the 14 " + (t / "m.ckpt") +
+                    " holds, and not the ones after them (they would start after time stamp 20)",
+                t / "x");
+    expectError(cmd("wn.csv", "pn.csv", "x", "--resume " + (t / "m.ckpt")),
+                "nothing to resume with", t / "x");
+    // No positions for a model of 64 x 64 frames.
+    expectError(runRost("refine " + (t / "words.csv") + " -q --out " + (t / "x") + " --resume " + (t / "m.ckpt")),
+                (t / "words.csv") + ": no --positions, but " + (t / "m.ckpt") + " models 64x64 frames: give the words' positions",
+                t / "x");
+}
+
+TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {
+    TempDir t;
+    writeStream(t);
+    head(t / "words.csv", t / "w25.csv", 25);
+    head(t / "positions.csv", t / "p25.csv", 25);
+    ASSERT_EQ(runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") + " --width 64 --height 64 -V 40 --out " +
+                      (t / "first") + " --no-summary -q --checkpoint " + (t / "m.ckpt"))
+                  .exit_code,
+              0);
+    rost::testing::writeText(t / "k.conf", "alpha = 0.1\nK = 8\n");
+    expectError(runRost(refine(t, "o", "--resume " + (t / "m.ckpt") + " --config " + (t / "k.conf"))),
+                (t / "k.conf") + ":2: key 'K' = 8 differs from " + (t / "m.ckpt") +
+                    "'s K = 16 (a resumed mission keeps its model; leave the key out)",
+                t / "o");
+    expectError(runRost(refine(t, "o", "--resume ''")), "--resume: no file given", t / "o");
+    std::filesystem::create_directory(t / "dir.ckpt");
+    expectError(runRost(refine(t, "o", "--resume " + (t / "dir.ckpt"))),
+                "--resume: " + (t / "dir.ckpt") + " is a directory, not a checkpoint file", t / "o");
 }
 
 TEST(ToolTrust, HostileWordStreamsAndVideosGetOneLineErrorsWithExitCode2) {

@@ -252,6 +252,9 @@ int main(int argc, char** argv) {
         return fail(std::string(e.what()) + " (see rost --help)");
     }
 
+    if ((runCmd->parsed() && givenOn(runCmd)("--resume") && run.model.resume.empty()) ||
+        (refCmd->parsed() && givenOn(refCmd)("--resume") && ref.model.resume.empty()))
+        return fail("--resume: no file given");
     if (runCmd->parsed()) recordGiven(runCmd, run.model);
     if (refCmd->parsed()) recordGiven(refCmd, ref.model);
     if (runCmd->parsed() && !run.model.config.empty()) {

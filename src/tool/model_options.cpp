@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <filesystem>
 #include <cstdio>
 #include <sstream>
 
@@ -85,6 +86,10 @@ std::string show(const T& v) {
 Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool realtime, EngineConfig& out,
                     CheckpointInfo& info, bool& refinementChanged) {
     const std::string where = "--resume " + m.resume;
+    if (m.resume.empty()) return Status::error("--resume: no file given");
+    std::error_code ec;
+    if (std::filesystem::is_directory(m.resume, ec))
+        return Status::error("--resume: " + m.resume + " is a directory, not a checkpoint file");
     if (Status st = readCheckpointInfo(m.resume, info); !st.ok()) return Status::error("--resume: " + st.message());
     if (!m.in_topicmodel.empty())
         return Status::error("--in.topicmodel cannot be used with --resume: the checkpoint holds the mission's topic model");
@@ -118,10 +123,15 @@ Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool
         {"--eviction", "eviction", eviction == c.eviction, m.eviction, toString(c.eviction)},
         {"--seed", "seed", m.seed == c.seed, show(m.seed), show(c.seed)},
     };
-    for (const Fixed& f : fixed)
-        if (given(f.option) && !f.same)
-            return Status::error(std::string(f.option) + " " + f.mine + " differs from " + m.resume + "'s " + f.key +
-                                 " = " + f.theirs + " (a resumed mission keeps its model; leave " + f.option + " out)");
+    for (const Fixed& f : fixed) {
+        if (!given(f.option) || f.same) continue;
+        // Set by a --config file: name the file, line and key; else the option.
+        std::string source = std::string(f.option) + " ", leave = f.option;
+        for (const auto& [option, text] : m.given_by_file)
+            if (option == f.option) source = text, leave = "the key";
+        return Status::error(source + f.mine + " differs from " + m.resume + "'s " + f.key + " = " + f.theirs +
+                             " (a resumed mission keeps its model; leave " + leave + " out)");
+    }
     if (frameWidth > 0 && frameWidth != c.frame_width)
         return Status::error(where + ": the frames are " + show(frameWidth) + " pixels wide but " + m.resume + " models " +
                              show(c.frame_width) + "x" + show(c.frame_height) + " frames");
@@ -166,6 +176,7 @@ Status applyConfigFile(const std::string& path, const std::function<bool(const s
                                                           : "--" + key;
         if (key.rfind("budget.", 0) == 0 ? budgetGiven : given(option)) continue;  // the command line wins
         m.given.push_back(option);
+        m.given_by_file.emplace_back(option, path + ":" + std::to_string(line) + ": key '" + key + "' = ");
         if (key == "K") m.K = c.model.K;
         else if (key == "V") m.V = c.model.V;
         else if (key == "alpha") m.alpha = c.model.alpha;

@@ -303,7 +303,7 @@ cv::Mat drawSummary(const SummaryInput& in) {
     // Surprise, filled, with its peaks marked. The first frames meet an
     // empty model (surprise near V); they are left out of the scale, clipped
     // and labelled, so the rest of the curve keeps its detail.
-    const std::size_t warm = std::min<std::size_t>(10, rows.size() / 10 + 3);
+    const std::size_t warm = in.resumed ? 0 : std::min<std::size_t>(10, rows.size() / 10 + 3);
     range(rows, {&FrameRow::surprise}, lo, hi, warm);
     Axes sur{cv::Rect(left, titleH + pplH + gap, plotW, surH), f0, f1, lo, hi};
     drawFrame(img, sur, "surprise", true);
@@ -322,7 +322,7 @@ cv::Mat drawSummary(const SummaryInput& in) {
             drawFrame(img, sur, "surprise", true);
             cv::polylines(img, poly, false, kSurprise, 2, cv::LINE_AA);
         }
-        if (!rows.empty() && rows.size() > warm && rows.front().surprise > hi) {
+        if (!in.resumed && !rows.empty() && rows.size() > warm && rows.front().surprise > hi) {
             char buf[64];
             std::snprintf(buf, sizeof buf, "frame %lld: %.0f (empty model)", static_cast<long long>(rows.front().frame),
                           rows.front().surprise);

@@ -82,6 +82,8 @@ struct SummaryInput {
     // Thumbnails of some frames and their frame indices.
     std::span<const cv::Mat> thumbs;
     std::span<const int64_t> thumb_frames;
+    // A resumed run: the first rows meet a trained model, not an empty one.
+    bool resumed = false;
 };
 cv::Mat drawSummary(const SummaryInput& in);
 

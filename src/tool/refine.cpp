@@ -46,10 +46,33 @@ int refineCommand(const RefineOptions& o) {
 
     std::size_t skipped = 0;
     if (resuming) {
-        // What the checkpoint already has: observations up to its last time stamp.
-        if (resumed.observations > 0)
-            while (skipped < ws.observations.size() && ws.observations[skipped].timestamp <= resumed.last_timestamp)
-                ++skipped;
+        if (!ws.has_positions && (ec.model.frame_width != 1 || ec.model.frame_height != 1))
+            return fail(o.words + ": no --positions, but " + o.model.resume + " models " +
+                        std::to_string(ec.model.frame_width) + "x" + std::to_string(ec.model.frame_height) +
+                        " frames: give the words' positions");
+        // What the checkpoint already has. Either this is the stream it was
+        // made from (its first `observations` observations are the
+        // checkpoint's: skip them), or what came after it (every time stamp
+        // later than the checkpoint's last).
+        const auto n = static_cast<std::size_t>(resumed.observations);
+        const auto& obs = ws.observations;
+        const std::string last = std::to_string(resumed.last_timestamp);
+        if (n == 0) {
+            skipped = 0;
+        } else if (n <= obs.size() && obs[n - 1].timestamp == resumed.last_timestamp) {
+            skipped = n;
+        } else if (obs.front().timestamp > resumed.last_timestamp) {
+            skipped = 0;
+        } else if (n > obs.size()) {
+            return fail(o.words + ": " + std::to_string(obs.size()) + " observations, fewer than the " + std::to_string(n) +
+                        " " + o.model.resume + " holds, and not the ones after them (they would start after time stamp " +
+                        last + ")");
+        } else {
+            return fail(o.words + ": neither the stream " + o.model.resume + " was made from (its observation " +
+                        std::to_string(n) + " has time stamp " + last + ", here " +
+                        std::to_string(obs[n - 1].timestamp) + ") nor what came after it (the first time stamp here, " +
+                        std::to_string(obs.front().timestamp) + ", is not after " + last + ")");
+        }
     } else {
         // V and the frame geometry from the data unless given.
         uint32_t maxWord = 0;
@@ -74,8 +97,8 @@ int refineCommand(const RefineOptions& o) {
         st = loadCheckpoint(o.model.resume, *engine, lo);
         if (!st.ok()) return fail("--resume: " + st.message());
         if (skipped == ws.observations.size())
-            return fail(o.words + ": nothing to resume with: every observation has a time stamp at most " +
-                        std::to_string(resumed.last_timestamp) + ", the last one " + o.model.resume + " holds");
+            return fail(o.words + ": nothing to resume with: its " + std::to_string(skipped) + " observations are all in " +
+                        o.model.resume);
         if (!o.quiet)
             std::fprintf(stderr, "rost: resuming %s at observation %llu (time stamp %lld); %zu observations skipped%s\n",
                          o.model.resume.c_str(), static_cast<unsigned long long>(resumed.observations),
@@ -157,6 +180,7 @@ int refineCommand(const RefineOptions& o) {
         si.subtitle = sub;
         si.K = ec.model.K;
         si.rows = collector.rows();
+        si.resumed = resuming;
         if (!cv::imwrite(out.staged("summary.png"), drawSummary(si)))
             return fail(out.staged("summary.png") + ": cannot write");
         out.track("summary.png");

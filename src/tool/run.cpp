@@ -183,7 +183,12 @@ int runCommand(const RunOptions& o) {
         if (!st.ok()) return fail(st.message());
     }
     const int V = resuming ? ec.model.V : o.model.V > 0 ? o.model.V : wordsV;
-    if (resuming && V < wordsV)
+    // The word ids must mean what they meant: the extractors must produce the
+    // checkpoint's V (unless -V, then equal to it, made room for more). The
+    // checkpoint does not record which vocabulary made them: a different one
+    // of the same size is not detected (docs/tool.md).
+    const bool vGiven = std::find(o.model.given.begin(), o.model.given.end(), "-V") != o.model.given.end();
+    if (resuming && (V < wordsV || (V != wordsV && !vGiven)))
         return fail("--resume " + o.model.resume + ": its model has V = " + std::to_string(V) + " words but the extractors produce " +
                     std::to_string(wordsV) + " (use the vocabulary and word options of the run that made it)");
     if (V < wordsV)
@@ -196,9 +201,17 @@ int runCommand(const RunOptions& o) {
     // index is at most the checkpoint's last time stamp); a camera's are
     // numbered after them.
     const int64_t skipThrough = resuming && resumed.observations > 0 ? resumed.last_timestamp : -1;
+    // --max-frames counts the whole mission: with --resume, the checkpoint's frames too.
+    const int64_t before = skipThrough + 1;
     int64_t frames = info.frames;
-    if (frames > 0 && !live) frames = std::max<int64_t>(0, frames - (skipThrough + 1));
     if (o.max_frames > 0) frames = frames > 0 ? std::min(frames, o.max_frames) : o.max_frames;
+    if (frames > 0) {
+        frames -= before;
+        if (frames <= 0)
+            return fail(info.description + ": nothing to resume with: " + o.model.resume + " has every frame up to " +
+                        std::to_string(skipThrough) +
+                        (o.max_frames > 0 ? " (--max-frames " + std::to_string(o.max_frames) + " counts the mission)" : ""));
+    }
     if (!resuming) {
         st = makeEngineConfig(o.model, info.width, info.height, V, frames, realtime, ec);
         if (!st.ok()) return fail(st.message());
@@ -368,7 +381,7 @@ int runCommand(const RunOptions& o) {
     std::atomic<bool> producerDone{false};
     const double fps = info.fps > 0 ? info.fps : 10.0;
     auto produceOne = [&](bool pace, Clock::time_point t0) -> bool {
-        if (o.max_frames > 0 && captured.load(std::memory_order_relaxed) >= o.max_frames) return false;
+        if (o.max_frames > 0 && before + captured.load(std::memory_order_relaxed) >= o.max_frames) return false;
         for (;;) {
             const vision::ReadStatus rs = source->read(frame);
             if (rs == vision::ReadStatus::End) return false;
@@ -376,7 +389,7 @@ int runCommand(const RunOptions& o) {
                 readError = source->error();
                 return false;
             }
-            if (info.live) frame.index += skipThrough + 1;  // after the checkpoint's frames
+            if (info.live) frame.index += before;  // after the checkpoint's frames
             else if (frame.index <= skipThrough) continue;  // in the checkpoint already
             break;
         }
@@ -384,7 +397,7 @@ int runCommand(const RunOptions& o) {
             // File input at its own frame rate: frame i is due at t0 + i / fps
             // (i counted from the first frame this run plays).
             const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                                      static_cast<double>(frame.index - (skipThrough + 1)) / fps));
+                                      static_cast<double>(frame.index - before) / fps));
             std::this_thread::sleep_until(due);
         }
         extractor->extract(frame.image, words);
@@ -444,7 +457,7 @@ int runCommand(const RunOptions& o) {
     progress.finish();
     std::signal(SIGINT, SIG_DFL);
     std::signal(SIGTERM, SIG_DFL);
-    if (checkpoints) {  // the state after the last observation
+    if (checkpoints && !collector.rows().empty()) {  // the state after the last observation (if any came)
         (void)checkpoints->flush();
         checkpoints->capture();
         st = checkpoints->flush();
@@ -517,7 +530,10 @@ int runCommand(const RunOptions& o) {
                       toString(ec.strategy.kind), ec.strategy.eta, ec.strategy.q,
                       ec.budget.kind == BudgetKind::Time ? fmt("%g ms per observation", ec.budget.ms).c_str()
                                                          : (std::to_string(ec.budget.count) + " refines per observation").c_str(),
-                      o.model.final_sweeps, realtime ? "realtime (capture and refiner threads)" : "offline (count budget, reproducible)");
+                      o.model.final_sweeps,
+                      realtime                               ? "realtime (capture and refiner threads)"
+                      : ec.budget.kind == BudgetKind::Time ? "offline (time budget: not reproducible)"
+                                                             : "offline (count budget, reproducible)");
         runTxt += buf;
         std::snprintf(buf, sizeof buf,
                       "frames: %zu captured, %zu ingested, %llu dropped at the queue, %llu skipped by the writer, "
@@ -564,6 +580,7 @@ int runCommand(const RunOptions& o) {
         si.rows = rows;
         si.thumbs = strip;
         si.thumb_frames = stripFrames;
+        si.resumed = resuming;
         const cv::Mat img = drawSummary(si);
         if (!cv::imwrite(out.staged("summary.png"), img)) return fail(out.staged("summary.png") + ": cannot write");
         out.track("summary.png");

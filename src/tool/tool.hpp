@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "rost/checkpoint.hpp"
@@ -55,6 +56,8 @@ struct ModelOptions {
     // ("-K", "--alpha", ...): with --resume, those the checkpoint fixes are
     // compared with it.
     std::vector<std::string> given;
+    // For those a --config file set: the option -> "FILE:LINE: key 'K'" (messages name the file).
+    std::vector<std::pair<std::string, std::string>> given_by_file;
 };
 
 // Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
