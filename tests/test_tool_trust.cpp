@@ -81,6 +81,15 @@ std::string tail(const std::string& path, int n) {
     return text;
 }
 
+// A mission stopped after the first 25 observations of writeStream's
+// stream: w25.csv/p25.csv, outputs in first/, its checkpoint m.ckpt.
+RunResult stopAfter25(const TempDir& t, const std::string& extra) {
+    head(t / "words.csv", t / "w25.csv", 25);
+    head(t / "positions.csv", t / "p25.csv", 25);
+    return runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") + " --width 64 --height 64 -V 40 --out " +
+                   (t / "first") + " --no-summary -q --checkpoint " + (t / "m.ckpt") + " " + extra);
+}
+
 int lines(const std::string& path) {
     const std::string text = rost::testing::readText(path);
     return static_cast<int>(std::count(text.begin(), text.end(), '\n'));
@@ -200,10 +209,7 @@ TEST(ToolTrust, ResumedRefineContinuesBitForBitAsIfNeverStopped) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
     // Stopped after 25 (the stream so far), then resumed with the whole stream:
     // the 25 observations the checkpoint holds are skipped.
-    head(t / "words.csv", t / "w25.csv", 25);
-    head(t / "positions.csv", t / "p25.csv", 25);
-    r = runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") + " --width 64 --height 64 -V 40 --out " +
-                (t / "first") + " --no-summary -q --checkpoint " + (t / "m.ckpt") + ring);
+    r = stopAfter25(t, ring);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     r = runRost("refine " + (t / "words.csv") + " --positions " + (t / "positions.csv") + " --out " + (t / "rest") +
                 " --no-summary --resume " + (t / "m.ckpt") + " --checkpoint " + (t / "m.ckpt"));
@@ -224,17 +230,12 @@ TEST(ToolTrust, ResumedRefineContinuesBitForBitAsIfNeverStopped) {
     ASSERT_TRUE(rost::readCheckpointInfo(t / "m.ckpt", info).ok());
     EXPECT_EQ(info.observations, 40u);
     EXPECT_EQ(info.last_timestamp, 39);
-
 }
 
 TEST(ToolTrust, ResumeMayChangeRefinementAndSaysSo) {
     TempDir t;
     writeStream(t);
-    head(t / "words.csv", t / "w25.csv", 25);
-    head(t / "positions.csv", t / "p25.csv", 25);
-    RunResult r = runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") +
-                          " --width 64 --height 64 -V 40 --out " + (t / "first") + " --no-summary -q --checkpoint " +
-                          (t / "m.ckpt") + " --ring.steps 48");
+    RunResult r = stopAfter25(t, "--ring.steps 48");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     r = runRost(refine(t, "next", "--resume " + (t / "m.ckpt") + " --sampler now --budget.refines 2 --checkpoint " +
                                       (t / "n.ckpt")));
@@ -255,11 +256,7 @@ TEST(ToolTrust, ResumeMayChangeRefinementAndSaysSo) {
 TEST(ToolTrust, ResumeErrorsNameWhatAndWhereWithExitCode2AndWriteNothing) {
     TempDir t;
     writeStream(t);
-    head(t / "words.csv", t / "w25.csv", 25);
-    head(t / "positions.csv", t / "p25.csv", 25);
-    RunResult r = runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") +
-                          " --width 64 --height 64 -V 40 --out " + (t / "first") + " --no-summary -q --checkpoint " +
-                          (t / "m.ckpt") + " --seed 5");
+    RunResult r = stopAfter25(t, "--seed 5");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string ckpt = t / "m.ckpt";
     const std::string bytes = rost::testing::readText(ckpt);
@@ -411,12 +408,7 @@ TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) 
 TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {
     TempDir t;
     writeStream(t);
-    head(t / "words.csv", t / "w25.csv", 25);
-    head(t / "positions.csv", t / "p25.csv", 25);
-    ASSERT_EQ(runRost("refine " + (t / "w25.csv") + " --positions " + (t / "p25.csv") + " --width 64 --height 64 -V 40 --out " +
-                      (t / "first") + " --no-summary -q --checkpoint " + (t / "m.ckpt"))
-                  .exit_code,
-              0);
+    ASSERT_EQ(stopAfter25(t, "").exit_code, 0);
     rost::testing::writeText(t / "k.conf", "alpha = 0.1\nK = 8\n");
     expectError(runRost(refine(t, "o", "--resume " + (t / "m.ckpt") + " --config " + (t / "k.conf"))),
                 (t / "k.conf") + ":2: key 'K' = 8 differs from " + (t / "m.ckpt") +

@@ -159,6 +159,36 @@ Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool
     return {};
 }
 
+Status loadResumed(const ModelOptions& m, bool refinementChanged, Engine& engine) {
+    CheckpointLoadOptions lo;
+    lo.allow_refinement_change = refinementChanged;
+    const Status st = loadCheckpoint(m.resume, engine, lo);
+    return st.ok() ? st : Status::error("--resume: " + st.message());
+}
+
+Status attachCheckpoints(Engine& engine, const ModelOptions& m, std::unique_ptr<CheckpointWriter>& out) {
+    out.reset();
+    if (m.checkpoint.empty()) return {};
+    Status st;
+    out = CheckpointWriter::create(engine, m.checkpoint, st);
+    if (!out) return Status::error("--checkpoint: " + st.message());
+    const ObservationHook inner = engine.observationHook();
+    CheckpointWriter* w = out.get();
+    const uint64_t every = m.checkpoint_every;
+    engine.setObservationHook([inner, w, every](const ObservationResult& r, const Model& model) {
+        if (inner) inner(r, model);
+        w->captureEvery(every, r);
+    });
+    return {};
+}
+
+Status finishCheckpoints(CheckpointWriter& writer) {
+    (void)writer.flush();  // a periodic save still in progress
+    writer.capture();
+    const Status st = writer.flush();
+    return st.ok() ? st : Status::error("--checkpoint: " + st.message());
+}
+
 Status applyConfigFile(const std::string& path, const std::function<bool(const std::string&)>& given, ModelOptions& m,
                        RunOptions* run, RefineOptions* ref) {
     EngineConfig c;

@@ -88,17 +88,15 @@ int refineCommand(const RefineOptions& o) {
         st = makeEngineConfig(o.model, width, height, V, static_cast<int64_t>(ws.observations.size()), false, ec);
         if (!st.ok()) return fail(st.message());
     }
+    if (resuming && skipped == ws.observations.size())
+        return fail(o.words + ": nothing to resume with: its " + std::to_string(skipped) + " observations are all in " +
+                    o.model.resume);
     const int V = ec.model.V;
     std::unique_ptr<Engine> engine = Engine::create(ec, st);
     if (!engine) return fail(st.message());
     if (resuming) {
-        CheckpointLoadOptions lo;
-        lo.allow_refinement_change = refinementChanged;
-        st = loadCheckpoint(o.model.resume, *engine, lo);
-        if (!st.ok()) return fail("--resume: " + st.message());
-        if (skipped == ws.observations.size())
-            return fail(o.words + ": nothing to resume with: its " + std::to_string(skipped) + " observations are all in " +
-                        o.model.resume);
+        st = loadResumed(o.model, refinementChanged, *engine);
+        if (!st.ok()) return fail(st.message());
         if (!o.quiet)
             std::fprintf(stderr, "rost: resuming %s at observation %llu (time stamp %lld); %zu observations skipped%s\n",
                          o.model.resume.c_str(), static_cast<unsigned long long>(resumed.observations),
@@ -117,20 +115,9 @@ int refineCommand(const RefineOptions& o) {
     collector.setFirstObservation(resumed.observations);
     st = collector.streamTo(out, false);
     if (!st.ok()) return fail(st.message());
-    // --checkpoint: the engine's state every N observations, from its hook
-    // (a copy on the refining thread; a writer thread writes the file).
     std::unique_ptr<CheckpointWriter> checkpoints;
-    if (!o.model.checkpoint.empty()) {
-        checkpoints = CheckpointWriter::create(*engine, o.model.checkpoint, st);
-        if (!checkpoints) return fail("--checkpoint: " + st.message());
-        const ObservationHook inner = engine->observationHook();
-        CheckpointWriter* w = checkpoints.get();
-        const uint64_t every = o.model.checkpoint_every;
-        engine->setObservationHook([inner, w, every](const ObservationResult& r, const Model& m) {
-            if (inner) inner(r, m);
-            w->captureEvery(every, r);
-        });
-    }
+    st = attachCheckpoints(*engine, o.model, checkpoints);
+    if (!st.ok()) return fail(st.message());
     const std::span<const StreamObservation> todo(ws.observations.data() + skipped, ws.observations.size() - skipped);
     Progress progress("rost refine", static_cast<int64_t>(todo.size()), o.quiet);
     int64_t done = 0;
@@ -146,10 +133,8 @@ int refineCommand(const RefineOptions& o) {
     }
     progress.finish();
     if (checkpoints) {  // the state after the last observation
-        (void)checkpoints->flush();
-        checkpoints->capture();
-        st = checkpoints->flush();
-        if (!st.ok()) return fail("--checkpoint: " + st.message());
+        st = finishCheckpoints(*checkpoints);
+        if (!st.ok()) return fail(st.message());
     }
     if (!collector.rejection().empty()) return fail(o.words + ": " + collector.rejection());
     collector.finish(o.model.final_sweeps);

@@ -224,10 +224,8 @@ int runCommand(const RunOptions& o) {
     std::unique_ptr<Engine> engine = Engine::create(ec, st);
     if (!engine) return fail(st.message());
     if (resuming) {
-        CheckpointLoadOptions lo;
-        lo.allow_refinement_change = refinementChanged;
-        st = loadCheckpoint(o.model.resume, *engine, lo);
-        if (!st.ok()) return fail("--resume: " + st.message());
+        st = loadResumed(o.model, refinementChanged, *engine);
+        if (!st.ok()) return fail(st.message());
     }
     if (!o.model.in_topicmodel.empty()) {
         st = loadTopicModelCsv(o.model.in_topicmodel, engine->model());
@@ -276,20 +274,9 @@ int runCommand(const RunOptions& o) {
     collector.setFirstObservation(resumed.observations);
     st = collector.streamTo(out, true);
     if (!st.ok()) return fail(st.message());
-    // --checkpoint: the engine's state every N observations, from its hook
-    // (a copy on the refining thread; a writer thread writes the file).
     std::unique_ptr<CheckpointWriter> checkpoints;
-    if (!o.model.checkpoint.empty()) {
-        checkpoints = CheckpointWriter::create(*engine, o.model.checkpoint, st);
-        if (!checkpoints) return fail("--checkpoint: " + st.message());
-        const ObservationHook inner = engine->observationHook();
-        CheckpointWriter* w = checkpoints.get();
-        const uint64_t every = o.model.checkpoint_every;
-        engine->setObservationHook([inner, w, every](const ObservationResult& r, const Model& m) {
-            if (inner) inner(r, m);
-            w->captureEvery(every, r);
-        });
-    }
+    st = attachCheckpoints(*engine, o.model, checkpoints);
+    if (!st.ok()) return fail(st.message());
     const std::size_t frameSlots = realtime ? static_cast<std::size_t>(o.queue) + 24 : 4;
     SpscRing<FrameSlot> frameRing(frameSlots, [&](FrameSlot& s) { s.image.create(info.height, info.width, CV_8UC3); });
 
@@ -458,10 +445,8 @@ int runCommand(const RunOptions& o) {
     std::signal(SIGINT, SIG_DFL);
     std::signal(SIGTERM, SIG_DFL);
     if (checkpoints && !collector.rows().empty()) {  // the state after the last observation (if any came)
-        (void)checkpoints->flush();
-        checkpoints->capture();
-        st = checkpoints->flush();
-        if (!st.ok()) return fail("--checkpoint: " + st.message());
+        st = finishCheckpoints(*checkpoints);
+        if (!st.ok()) return fail(st.message());
     }
 
     if (!readError.empty()) return fail(readError);

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -75,6 +76,19 @@ Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int
 // (0: take the checkpoint's).
 Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool realtime, EngineConfig& out,
                     CheckpointInfo& info, bool& refinementChanged);
+
+// Loads the --resume checkpoint into `engine` (made with resumeConfig's
+// configuration). Errors start with "--resume: ".
+Status loadResumed(const ModelOptions& m, bool refinementChanged, Engine& engine);
+
+// --checkpoint FILE: a writer that captures `engine` every checkpoint_every
+// observations from its observation hook (wrapping the hook already set: a
+// copy on the refining thread, no allocation; a writer thread writes the
+// file). `out` stays empty without --checkpoint. Errors start with "--checkpoint: ".
+Status attachCheckpoints(Engine& engine, const ModelOptions& m, std::unique_ptr<CheckpointWriter>& out);
+// After the last observation: waits for a save in progress, captures the
+// final state and writes it. Errors start with "--checkpoint: ".
+Status finishCheckpoints(CheckpointWriter& writer);
 
 struct RunOptions {
     std::vector<std::string> inputs;
