@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <string>
 
+#include "rost/settings_schema.hpp"
 #include "rost/status.hpp"
 
 namespace rost {
@@ -15,31 +16,32 @@ enum class EvictionPolicy : uint8_t {
 };
 
 // Every size and hyperparameter of a model. All memory is sized from this at
-// construction and never grows afterwards.
+// construction and never grows afterwards. Defaults, ranges and documentation
+// are the settings schema's (rost/settings_schema.hpp), by key.
 struct Config {
     // Topic model (paper defaults: K = 16, alpha = 0.1, beta = 0.5).
-    int K = 16;          // topics, 1..1024
-    int V = 5436;        // vocabulary size, 1..16777216
-    double alpha = 0.1;  // Dirichlet prior on a neighbourhood's topics, > 0
-    double beta = 0.5;   // Dirichlet prior on a topic's words, > 0
+    int K = settingDefault<int>("K");                // topics
+    int V = settingDefault<int>("V");                // vocabulary size
+    double alpha = settingDefault<double>("alpha");  // Dirichlet prior on a neighbourhood's topics
+    double beta = settingDefault<double>("beta");    // Dirichlet prior on a topic's words
 
     // Cells (paper: 64x64 px, one time step).
-    int cell_space = 64;  // cell width and height in pixels
-    int cell_time = 1;    // observations (time steps) per temporal cell
-    int g_space = 1;      // spatial neighbourhood radius in cells (Manhattan: 1 = 4 neighbours)
-    int g_time = 1;       // temporal neighbourhood radius in cells (1 = previous and next)
+    int cell_space = settingDefault<int>("cell.space");  // cell width and height in pixels
+    int cell_time = settingDefault<int>("cell.time");    // observations (time steps) per temporal cell
+    int g_space = settingDefault<int>("g.space");        // spatial neighbourhood radius (Manhattan: 1 = 4 neighbours)
+    int g_time = settingDefault<int>("g.time");          // temporal neighbourhood radius (1 = previous and next)
 
     // Frame geometry: positions must lie in [0, width) x [0, height).
-    int frame_width = 640;
-    int frame_height = 480;
+    int frame_width = settingDefault<int>("frame.width");
+    int frame_height = settingDefault<int>("frame.height");
 
     // Capacities.
-    int ring_steps = 256;           // temporal cells kept refinable (T_max)
-    int cell_capacity = 128;        // words a cell holds; extra words are subsampled
-    int max_words_per_frame = 4096; // words one observation holds; extra are subsampled
+    int ring_steps = settingDefault<int>("ring.steps");             // temporal cells kept refinable (T_max)
+    int cell_capacity = settingDefault<int>("cell.capacity");       // words a cell holds; extra are subsampled
+    int max_words_per_frame = settingDefault<int>("max.words");     // words one observation holds; extra are subsampled
 
-    EvictionPolicy eviction = EvictionPolicy::Keep;
-    uint64_t seed = 1;
+    EvictionPolicy eviction = settingDefault<EvictionPolicy>("eviction");
+    uint64_t seed = settingDefault<uint64_t>("seed");
 
     // Grid size derived from the frame geometry.
     [[nodiscard]] int gridWidth() const noexcept { return (frame_width + cell_space - 1) / cell_space; }

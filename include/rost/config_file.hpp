@@ -1,7 +1,9 @@
 #pragma once
 
 // Configuration files: one `key = value` per line, keys named like the rost
-// tool's options, so a file and a command line say the same thing:
+// tool's options, so a file and a command line say the same thing. The keys
+// are the settings schema's (rost/settings_schema.hpp); rost/settings.hpp
+// reads and writes all of them, this header the engine's part (EngineConfig):
 //
 //   # diver survey, small board
 //   K = 16
@@ -18,14 +20,9 @@
 // text, written by formatConfig(), is the configuration section of a
 // checkpoint (rost/checkpoint.hpp). Set-up code: allocates.
 //
-// Keys (the tool's option names): K, V, alpha, beta, cell.space, cell.time,
-// g.space, g.time, frame.width, frame.height, ring.steps, cell.capacity,
-// max.words, eviction (keep|subtract), seed; sampler (now|uniform|agep|exp|
-// uni+now|agep+now|uni+exp|agep+exp), eta, q, budget.refines, budget.tokens,
-// budget.ms (at most one budget key per file); queue.slots, drop
-// (newest|oldest), thread.fifo, thread.priority, thread.cpu,
-// thread.lock-memory, ppx.instantaneous, ppx.snapshot, snapshot.labels,
-// stop-on-arrival. Booleans are true|false|yes|no|on|off|1|0.
+// Keys: every setting of rost/settings_schema.hpp (`rost config` prints
+// them all, documented); at most one budget key per file. Booleans are
+// true|false|yes|no|on|off|1|0.
 
 #include <cstdint>
 #include <initializer_list>
@@ -34,23 +31,20 @@
 #include <vector>
 
 #include "rost/engine.hpp"
+#include "rost/settings.hpp"
 #include "rost/status.hpp"
 
 namespace rost {
 
-// What a key configures.
-enum class ConfigGroup : uint8_t {
-    Model,       // Config: sizes and hyperparameters (they define a checkpoint's state)
-    Refinement,  // strategy and budget (they decide how a resumed run continues)
-    Runtime,     // queue, drop policy, threads, flags (how this process runs)
-};
+// What a key configures (rost/settings_schema.hpp).
+using ConfigGroup = SettingGroup;
 
 struct ConfigKey {
     const char* name;
     ConfigGroup group;
     const char* help;
 };
-// Every key, in the order formatConfig() writes them.
+// Every key of EngineConfig, in the order formatConfig() writes them.
 const std::vector<ConfigKey>& configKeys();
 
 // Applies the keys of `text` to `cfg` (keys not in the text keep their
@@ -60,10 +54,6 @@ const std::vector<ConfigKey>& configKeys();
 // is unchanged.
 // `set`, when given, receives the keys the text set with their line numbers
 // (a command line layers its explicit options over exactly these).
-struct ConfigKeyLine {
-    std::string key;
-    int line = 0;
-};
 Status parseConfigText(std::string_view text, std::string_view name, EngineConfig& cfg,
                        std::vector<ConfigKeyLine>* set = nullptr);
 

@@ -34,6 +34,7 @@
 #include "rost/config.hpp"
 #include "rost/model.hpp"
 #include "rost/realtime.hpp"
+#include "rost/settings_schema.hpp"
 #include "rost/snapshot.hpp"
 #include "rost/status.hpp"
 #include "rost/strategy.hpp"
@@ -49,9 +50,9 @@ enum class BudgetKind : uint8_t {
     Time,    // refine until `ms` (the paper's T_R) after the observation was taken up
 };
 struct Budget {
-    BudgetKind kind = BudgetKind::Steps;
-    uint64_t count = 4;  // Steps or Tokens
-    double ms = 40.0;    // Time
+    BudgetKind kind = BudgetKind::Steps;                          // the schema's default key: budget.refines
+    uint64_t count = settingDefault<uint64_t>("budget.refines");  // Steps or Tokens
+    double ms = 0.0;                                              // Time
 
     static Budget steps(uint64_t r) noexcept { return {BudgetKind::Steps, r, 0.0}; }
     static Budget tokens(uint64_t n) noexcept { return {BudgetKind::Tokens, n, 0.0}; }
@@ -73,22 +74,22 @@ Status parseDropPolicy(const std::string& text, DropPolicy& out);  // "newest" |
 struct EngineFlags {
     // Compute the instantaneous perplexity of step t just before step t+1 is
     // added (O(words K) per step, on the refiner).
-    bool instantaneous_perplexity = true;
+    bool instantaneous_perplexity = settingDefault<bool>("ppx.instantaneous");
     // Compute the newest step's perplexity when publishing (O(words K)).
-    bool snapshot_perplexity = true;
+    bool snapshot_perplexity = settingDefault<bool>("ppx.snapshot");
     // Publish the newest observation's labels and cell histograms.
-    bool snapshot_labels = true;
+    bool snapshot_labels = settingDefault<bool>("snapshot.labels");
     // Time budget only: stop refining as soon as a newer observation is
     // queued (paper Algorithm 2, "while no new observation").
-    bool stop_on_arrival = false;
+    bool stop_on_arrival = settingDefault<bool>("stop-on-arrival");
 };
 
 struct EngineConfig {
     Config model;
     StrategyConfig strategy;
     Budget budget;
-    int queue_slots = 8;  // observations the queue holds, 1..65536
-    DropPolicy drop = DropPolicy::DropOldest;
+    int queue_slots = settingDefault<int>("queue.slots");  // observations the queue holds
+    DropPolicy drop = settingDefault<DropPolicy>("drop");
     ThreadSettings thread;  // refiner thread scheduling (defaults: none requested)
     EngineFlags flags;
 

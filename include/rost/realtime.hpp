@@ -9,14 +9,16 @@
 #include <cstdint>
 #include <string>
 
+#include "rost/settings_schema.hpp"
+
 namespace rost {
 
 struct ThreadSettings {
     const char* name = "rost-refiner";  // thread name (15 characters at most are kept)
-    bool fifo = false;        // request SCHED_FIFO
-    int priority = 80;        // SCHED_FIFO priority, 1..99
-    int cpu = -1;             // pin to this CPU; -1 leaves the affinity alone
-    bool lock_memory = false; // mlockall(MCL_CURRENT | MCL_FUTURE) at start()
+    bool fifo = settingDefault<bool>("thread.fifo");              // request SCHED_FIFO
+    int priority = settingDefault<int>("thread.priority");        // SCHED_FIFO priority
+    int cpu = settingDefault<int>("thread.cpu");                  // pin to this CPU; -1 leaves the affinity alone
+    bool lock_memory = settingDefault<bool>("thread.lock-memory"); // mlockall(MCL_CURRENT | MCL_FUTURE) at start()
 
     // What an onboard deployment uses: SCHED_FIFO 80, pinned to the last CPU,
     // memory locked. The library default leaves all three off, so tests and

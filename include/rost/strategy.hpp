@@ -12,6 +12,7 @@
 #include <string>
 
 #include "rost/random.hpp"
+#include "rost/settings_schema.hpp"
 #include "rost/status.hpp"
 
 namespace rost {
@@ -34,13 +35,13 @@ const char* toString(StrategyKind k) noexcept;
 Status parseStrategy(const std::string& name, StrategyKind& out);
 
 struct StrategyConfig {
-    StrategyKind kind = StrategyKind::UniformNow;
+    StrategyKind kind = settingDefault<StrategyKind>("sampler");
     // Defaults from the eta/q sweep (bench/RESULTS.md, "Tuning sweep"): the
     // best setting of the mixtures averaged over budgets of 4, 31 and 437
     // step refinements per observation. Larger budgets favour a smaller eta,
     // smaller budgets a larger one (docs/engine.md).
-    double eta = 0.5;  // mixing proportion of the local part, 0..1 (the paper's 0.5; the sweep agrees)
-    double q = 0.5;    // geometric parameter of the exponential part, (0, 1] (the paper gives none)
+    double eta = settingDefault<double>("eta");  // mixing proportion of the local part (the paper's 0.5; the sweep agrees)
+    double q = settingDefault<double>("q");      // geometric parameter of the exponential part (the paper gives none)
     // Checks eta and q; the message names the field, its value and the range.
     [[nodiscard]] Status validate() const;
 };

@@ -34,21 +34,27 @@ Status checkPositive(const char* field, double value, double hi) {
 } // namespace
 
 Status Config::validate() const {
+    // The ranges are the settings schema's (rost/settings_schema.hpp).
+#define ROST_CHECK_INT(key, field) checkInt(key, field, static_cast<long long>(settingSpec(key).lo), \
+                                            static_cast<long long>(settingSpec(key).hi))
+#define ROST_CHECK_POSITIVE(key, field) checkPositive(key, field, settingSpec(key).hi)
     const Status checks[] = {
-        checkInt("K", K, 1, 1024),
-        checkInt("V", V, 1, 1 << 24),
-        checkPositive("alpha", alpha, 1e6),
-        checkPositive("beta", beta, 1e6),
-        checkInt("cell.space", cell_space, 1, 1 << 16),
-        checkInt("cell.time", cell_time, 1, 1024),
-        checkInt("g.space", g_space, 0, 16),
-        checkInt("g.time", g_time, 0, 64),
-        checkInt("frame.width", frame_width, 1, 1 << 16),
-        checkInt("frame.height", frame_height, 1, 1 << 16),
-        checkInt("ring.steps", ring_steps, 1, 1 << 20),
-        checkInt("cell.capacity", cell_capacity, 1, 1 << 20),
-        checkInt("max.words", max_words_per_frame, 1, 1 << 22),
+        ROST_CHECK_INT("K", K),
+        ROST_CHECK_INT("V", V),
+        ROST_CHECK_POSITIVE("alpha", alpha),
+        ROST_CHECK_POSITIVE("beta", beta),
+        ROST_CHECK_INT("cell.space", cell_space),
+        ROST_CHECK_INT("cell.time", cell_time),
+        ROST_CHECK_INT("g.space", g_space),
+        ROST_CHECK_INT("g.time", g_time),
+        ROST_CHECK_INT("frame.width", frame_width),
+        ROST_CHECK_INT("frame.height", frame_height),
+        ROST_CHECK_INT("ring.steps", ring_steps),
+        ROST_CHECK_INT("cell.capacity", cell_capacity),
+        ROST_CHECK_INT("max.words", max_words_per_frame),
     };
+#undef ROST_CHECK_INT
+#undef ROST_CHECK_POSITIVE
     for (const Status& s : checks)
         if (!s.ok()) return s;
     if (g_time >= ring_steps && ring_steps > 1)

@@ -231,19 +231,25 @@ Status parseDropPolicy(const std::string& text, DropPolicy& out) {
 Status EngineConfig::validate() const {
     if (Status s = model.validate(); !s.ok()) return s;
     if (Status s = strategy.validate(); !s.ok()) return s;
-    if (budget.kind == BudgetKind::Time && !(budget.ms > 0.0 && budget.ms <= 3.6e6))
+    // The ranges are the settings schema's (rost/settings_schema.hpp).
+    constexpr double kMaxMs = settingSpec("budget.ms").hi;
+    constexpr double kMaxCount = settingSpec("budget.refines").hi;
+    constexpr auto kQueue = settingSpec("queue.slots");
+    constexpr auto kPriority = settingSpec("thread.priority");
+    constexpr auto kCpu = settingSpec("thread.cpu");
+    if (budget.kind == BudgetKind::Time && !(budget.ms > 0.0 && budget.ms <= kMaxMs))
         return Status::error("budget.ms = " + std::to_string(budget.ms) +
                              " is out of range (expected 0 < ms <= 3600000)");
-    if (budget.kind != BudgetKind::Time && budget.count > (1ull << 40))
+    if (budget.kind != BudgetKind::Time && static_cast<double>(budget.count) > kMaxCount)
         return Status::error("budget.count = " + std::to_string(budget.count) +
                              " is out of range (expected at most 2^40)");
-    if (queue_slots < 1 || queue_slots > 65536)
+    if (queue_slots < kQueue.lo || queue_slots > kQueue.hi)
         return Status::error("queue_slots = " + std::to_string(queue_slots) +
                              " is out of range (expected 1..65536)");
-    if (thread.fifo && (thread.priority < 1 || thread.priority > 99))
+    if (thread.fifo && (thread.priority < kPriority.lo || thread.priority > kPriority.hi))
         return Status::error("thread.priority = " + std::to_string(thread.priority) +
                              " is out of range (expected 1..99 for SCHED_FIFO)");
-    if (thread.cpu < -1 || thread.cpu >= 1024)
+    if (thread.cpu < kCpu.lo || thread.cpu > kCpu.hi)
         return Status::error("thread.cpu = " + std::to_string(thread.cpu) +
                              " is out of range (expected -1 for none, or 0..1023)");
     return {};

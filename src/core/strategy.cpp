@@ -92,9 +92,11 @@ Status parseStrategy(const std::string& name, StrategyKind& out) {
 }
 
 Status StrategyConfig::validate() const {
-    if (!(eta >= 0.0 && eta <= 1.0))
+    constexpr auto kEta = settingSpec("eta");  // ranges: the settings schema's
+    constexpr auto kQ = settingSpec("q");
+    if (!(eta >= kEta.lo && eta <= kEta.hi))
         return Status::error("strategy.eta = " + std::to_string(eta) + " is out of range (expected 0 <= eta <= 1)");
-    if (!(q > 0.0 && q <= 1.0))
+    if (!(q > kQ.lo && q <= kQ.hi))
         return Status::error("strategy.q = " + std::to_string(q) + " is out of range (expected 0 < q <= 1)");
     return {};
 }

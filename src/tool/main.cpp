@@ -26,86 +26,6 @@ std::string joinArgs(int argc, char** argv) {
     return s;
 }
 
-void addModelOptions(CLI::App& app, ModelOptions& m) {
-    const char* g = "Model";
-    app.add_option("-K,--topics", m.K, "topics (1..1024)")->group(g);
-    app.add_option("-V,--vocabulary-size", m.V,
-                   "vocabulary size; 0: what the words need (run: the extractors' V, 5436 by default; refine: "
-                   "largest word id + 1). Larger values leave ids unused; a word id >= V is an error")
-        ->group(g);
-    app.add_option("--alpha", m.alpha, "Dirichlet prior on a neighbourhood's topic mix (paper: 0.1)")->group(g);
-    app.add_option("--beta", m.beta, "Dirichlet prior on a topic's words (paper: 0.5)")->group(g);
-    app.add_option("--cell.space", m.cell_space, "cell width and height in pixels (paper: 64)")->group(g);
-    app.add_option("--cell.time", m.cell_time, "observations (frames) per temporal cell")->group(g);
-    app.add_option("--g.space", m.g_space, "spatial neighbourhood radius in cells (1: the 4 neighbours)")->group(g);
-    app.add_option("--g.time", m.g_time, "temporal neighbourhood radius in cells (1: previous and next)")->group(g);
-    app.add_option("--ring.steps", m.ring,
-                   "time steps kept refinable; 0: the whole input when its length is known (up to 2048), else 256")
-        ->group(g);
-    app.add_option("--cell.capacity", m.cell_capacity, "words a cell holds; more are uniformly subsampled")->group(g);
-    app.add_option("--max.words", m.max_words, "words an observation holds; more are uniformly subsampled")->group(g);
-    app.add_option("--eviction", m.eviction,
-                   "what a step leaving the window does to the topic model: keep its counts or subtract them")
-        ->check(CLI::IsMember({"keep", "subtract"}))
-        ->group(g);
-    app.add_option("--in.topicmodel", m.in_topicmodel,
-                   "start from a topic model: a topicmodel.csv of an earlier run (K rows of V counts)")
-        ->type_name("FILE")
-        ->group(g);
-
-    const char* r = "Refinement (paper section VI)";
-    app.add_option("--sampler", m.sampler,
-                   "which time step to refine next, P(t|T): now, uniform, agep (age-proportional), exp "
-                   "(exponential), or a mixture uni+now, agep+now, uni+exp, agep+exp")
-        ->check(CLI::IsMember({"now", "uniform", "agep", "exp", "uni+now", "agep+now", "uni+exp", "agep+exp"}))
-        ->group(r);
-    app.add_option("--eta", m.eta, "mixing weight of the local part (now / exp) in a mixture sampler, 0..1")->group(r);
-    app.add_option("--q", m.q, "parameter of the exponential sampler, (0, 1]")->group(r);
-    auto* refines = app.add_option("--budget.refines", m.budget_refines,
-                                   "count budget: time steps refined per observation (reproducible)")
-                        ->group(r);
-    auto* ms = app.add_option("--budget.ms", m.budget_ms,
-                              "time budget instead: milliseconds of refinement per observation (the paper's T_R; "
-                              "not reproducible)")
-                   ->check(CLI::PositiveNumber)
-                   ->group(r);
-    refines->excludes(ms);
-    app.add_option("--final.sweeps", m.final_sweeps, "batch Gibbs sweeps over the window at the end of the stream")
-        ->group(r);
-    app.add_option("--seed", m.seed, "random seed; same seed, input and count budget give the same outputs")->group(r);
-
-    const char* t = "Missions (docs/trust.md)";
-    app.add_option("--config", m.config,
-                   "settings file: `key = value` lines named like these options (K, alpha, cell.space, sampler, "
-                   "budget.refines, queue.slots, ...); options given on the command line win")
-        ->type_name("FILE")
-        ->group(t);
-    app.add_option("--checkpoint", m.checkpoint,
-                   "save the engine's whole state to FILE every --checkpoint.every observations and at the end "
-                   "(atomically: a crash leaves the previous checkpoint)")
-        ->type_name("FILE")
-        ->group(t);
-    app.add_option("--checkpoint.every", m.checkpoint_every, "observations between checkpoints")
-        ->check(CLI::PositiveNumber)
-        ->group(t);
-    app.add_option("--resume", m.resume,
-                   "carry on the mission FILE (a --checkpoint) holds: its model, window and random state; input "
-                   "frames or observations it already has (time stamp up to its last) are skipped, a camera's "
-                   "frames are numbered after them. Model options may be repeated but not changed")
-        ->type_name("FILE")
-        ->group(t);
-}
-
-// The model options (addModelOptions) given on `cmd`'s command line, by the
-// name ModelOptions::given uses.
-void recordGiven(const CLI::App* cmd, ModelOptions& m) {
-    for (const CLI::Option* o : cmd->get_options()) {
-        if (o->count() == 0) continue;
-        for (const std::string& n : o->get_lnames()) m.given.push_back("--" + n);
-        for (const std::string& n : o->get_snames()) m.given.push_back("-" + n);
-    }
-}
-
 // Whether an option was given on `cmd`'s command line.
 std::function<bool(const std::string&)> givenOn(const CLI::App* cmd) {
     return [cmd](const std::string& name) {
@@ -145,28 +65,11 @@ int main(int argc, char** argv) {
                        "Several inputs play one after the other at the first one's size")
         ->required();
     runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required();
-    addModelOptions(*runCmd, run.model);
-    const char* w = "Words";
+    SettingsOptions runSettings(*runCmd, run.model, SettingsOptions::Command::Run);
     runCmd->add_option("--vocabulary", run.vocabulary,
                        "ORB vocabulary file from `rost vocab`; default: the built-in one (share/rost/README.md)")
-        ->group(w);
-    runCmd->add_option("--orb.features", run.words.orb_features, "ORB keypoints per frame at most")->group(w);
-    runCmd->add_option("--orb.fast", run.words.orb_fast_threshold, "ORB's FAST corner threshold")->group(w);
-    std::string searchMethod = "tree";
-    runCmd->add_option("--orb.search", searchMethod,
-                       "how a descriptor finds its word: tree (coarse-to-fine, approximate) or linear (exact)")
-        ->check(CLI::IsMember({"tree", "linear"}))
-        ->group(w);
-    runCmd->add_option("--orb.probes", run.words.search.probes,
-                       "coarse buckets the tree search visits (more: closer to exact, slower)")
-        ->group(w);
-    runCmd->add_option("--thumb.cell", run.words.thumb_cell,
-                       "pixels per thumbnail pixel for intensity and hue words (one word each per block)")
-        ->group(w);
-    bool noOrb = false, noIntensity = false, noHue = false;
-    runCmd->add_flag("--no-orb", noOrb, "no ORB words")->group(w);
-    runCmd->add_flag("--no-intensity", noIntensity, "no intensity words")->group(w);
-    runCmd->add_flag("--no-hue", noHue, "no hue words")->group(w);
+        ->type_name("FILE")
+        ->group("Words");
     const char* f = "Frames";
     runCmd->add_option("--max-frames", run.max_frames, "stop after this many frames (0: all)")->group(f);
     runCmd->add_option("--width", run.width, "resize frames to this width (0: as the input)")->group(f);
@@ -182,13 +85,6 @@ int main(int argc, char** argv) {
                      "run as onboard: a capture thread (a file paced at its frame rate) and the refiner thread; "
                      "frames are dropped when the refiner falls behind. Always on for camera:N")
         ->group(rt);
-    runCmd->add_option("--queue", run.queue, "observations the capture-to-refiner queue holds")->group(rt);
-    runCmd->add_option("--drop", run.drop, "when the queue is full, drop the oldest queued or the newest observation")
-        ->check(CLI::IsMember({"oldest", "newest"}))
-        ->group(rt);
-    runCmd->add_flag("--fifo", run.fifo, "ask for SCHED_FIFO priority for the refiner (falls back with a note)")
-        ->group(rt);
-    runCmd->add_option("--cpu", run.cpu, "pin the refiner to this CPU (-1: no pinning)")->group(rt);
     const char* out = "Output";
     bool noOverlay = false, noSummary = false;
     runCmd->add_flag("--no-overlay", noOverlay, "do not write the overlay video")->group(out);
@@ -216,7 +112,7 @@ int main(int argc, char** argv) {
     refCmd->add_option("--out,-o", ref.out, "output directory")->required();
     refCmd->add_option("--width", ref.width, "frame width positions lie in (0: the largest x + 1)");
     refCmd->add_option("--height", ref.height, "frame height positions lie in (0: the largest y + 1)");
-    addModelOptions(*refCmd, ref.model);
+    SettingsOptions refSettings(*refCmd, ref.model, SettingsOptions::Command::Refine);
     bool refNoSummary = false;
     refCmd->add_flag("--no-summary", refNoSummary, "do not draw summary.png");
     refCmd->add_flag("--quiet,-q", ref.quiet, "no progress bar and no notes on stderr");
@@ -242,6 +138,12 @@ int main(int argc, char** argv) {
     vocCmd->add_option("--width", voc.width, "resize frames to this width first (0: as the input)");
     vocCmd->add_flag("--quiet,-q", voc.quiet, "no progress on stderr");
 
+    // ---- config
+    ModelOptions conf;
+    CLI::App* confCmd = app.add_subcommand("config", "print every setting as a configuration file (key = value, "
+                                                     "documented), after --config FILE and the options given");
+    SettingsOptions confSettings(*confCmd, conf, SettingsOptions::Command::Config);
+
     // ---- cameras
     CLI::App* camCmd = app.add_subcommand("cameras", "list the cameras libcamera can see");
 
@@ -255,28 +157,20 @@ int main(int argc, char** argv) {
     if ((runCmd->parsed() && givenOn(runCmd)("--resume") && run.model.resume.empty()) ||
         (refCmd->parsed() && givenOn(refCmd)("--resume") && ref.model.resume.empty()))
         return fail("--resume: no file given");
-    if (runCmd->parsed()) recordGiven(runCmd, run.model);
-    if (refCmd->parsed()) recordGiven(refCmd, ref.model);
-    if (runCmd->parsed() && !run.model.config.empty()) {
-        const rost::Status st = applyConfigFile(run.model.config, givenOn(runCmd), run.model, &run, nullptr);
-        if (!st.ok()) return fail("--config: " + st.message());
-    }
-    if (refCmd->parsed() && !ref.model.config.empty()) {
-        const rost::Status st = applyConfigFile(ref.model.config, givenOn(refCmd), ref.model, nullptr, &ref);
-        if (!st.ok()) return fail("--config: " + st.message());
-    }
     if (runCmd->parsed()) {
-        (void)rost::vision::parseSearchMethod(searchMethod, run.words.search.method);  // checked by IsMember
-        run.words.orb = !noOrb;
-        run.words.intensity = !noIntensity;
-        run.words.hue = !noHue;
+        if (const rost::Status st = runSettings.apply(&run, nullptr); !st.ok()) return fail(st.message());
         run.overlay = !noOverlay;
         run.summary = !noSummary;
         return runCommand(run);
     }
     if (refCmd->parsed()) {
+        if (const rost::Status st = refSettings.apply(nullptr, &ref); !st.ok()) return fail(st.message());
         ref.summary = !refNoSummary;
         return refineCommand(ref);
+    }
+    if (confCmd->parsed()) {
+        if (const rost::Status st = confSettings.apply(nullptr, nullptr); !st.ok()) return fail(st.message());
+        return configCommand(conf);
     }
     if (vocCmd->parsed()) return vocabCommand(voc);
     if (camCmd->parsed()) return camerasCommand();

@@ -33,10 +33,11 @@ int refineCommand(const RefineOptions& o) {
         if (!st.ok()) return fail(st.message());
     }
     WordStreamLimits limits;
-    limits.vocabulary = resuming ? static_cast<uint32_t>(ec.model.V) : o.model.V > 0 ? static_cast<uint32_t>(o.model.V) : 0;
+    const Config& given = o.model.settings.engine.model;
+    limits.vocabulary = resuming ? static_cast<uint32_t>(ec.model.V) : o.model.isGiven("V") ? static_cast<uint32_t>(given.V) : 0;
     limits.width = resuming ? ec.model.frame_width : o.width;
     limits.height = resuming ? ec.model.frame_height : o.height;
-    limits.max_words = static_cast<uint32_t>(std::max(1, resuming ? ec.model.max_words_per_frame : o.model.max_words));
+    limits.max_words = static_cast<uint32_t>(std::max(1, resuming ? ec.model.max_words_per_frame : given.max_words_per_frame));
     WordStream ws;
     st = readWordStream(o.words, o.positions, limits, ws);
     if (!st.ok()) return fail(st.message());
@@ -81,7 +82,7 @@ int refineCommand(const RefineOptions& o) {
             for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
             for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
         }
-        const int V = o.model.V > 0 ? o.model.V : static_cast<int>(maxWord) + 1;
+        const int V = o.model.isGiven("V") ? given.V : static_cast<int>(maxWord) + 1;
         int width = o.width > 0 ? o.width : maxX + 1;
         int height = o.height > 0 ? o.height : maxY + 1;
         if (!ws.has_positions) width = height = 1;  // one cell per time step (a temporal topic model)
@@ -137,7 +138,7 @@ int refineCommand(const RefineOptions& o) {
         if (!st.ok()) return fail(st.message());
     }
     if (!collector.rejection().empty()) return fail(o.words + ": " + collector.rejection());
-    collector.finish(o.model.final_sweeps);
+    collector.finish(o.model.settings.final_sweeps);
     st = collector.closeStreams();
     if (!st.ok()) return fail(st.message());
 

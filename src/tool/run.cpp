@@ -158,8 +158,9 @@ int runCommand(const RunOptions& o) {
     if (!source) return fail(st.message());
     const vision::SourceInfo info = source->info();
 
+    const vision::ExtractorConfig extractors = vision::ExtractorConfig::from(o.model.settings.words);
     std::shared_ptr<const vision::Vocabulary> vocabulary;
-    if (o.words.orb) {
+    if (extractors.orb) {
         if (o.vocabulary.empty()) {
             vocabulary = vision::defaultVocabulary(st);
         } else {
@@ -169,7 +170,7 @@ int runCommand(const RunOptions& o) {
         }
         if (!st.ok()) return fail(st.message());
     }
-    std::unique_ptr<vision::WordExtractor> extractor = vision::WordExtractor::create(o.words, vocabulary, st);
+    std::unique_ptr<vision::WordExtractor> extractor = vision::WordExtractor::create(extractors, vocabulary, st);
     if (!extractor) return fail(st.message());
     const auto wordsV = static_cast<int>(extractor->vocabularySize());
     const bool realtime = o.realtime || live;
@@ -182,12 +183,12 @@ int runCommand(const RunOptions& o) {
         st = resumeConfig(o.model, info.width, info.height, realtime, ec, resumed, refinementChanged);
         if (!st.ok()) return fail(st.message());
     }
-    const int V = resuming ? ec.model.V : o.model.V > 0 ? o.model.V : wordsV;
+    const bool vGiven = o.model.isGiven("V");
+    const int V = resuming ? ec.model.V : vGiven ? o.model.settings.engine.model.V : wordsV;
     // The word ids must mean what they meant: the extractors must produce the
     // checkpoint's V (unless -V, then equal to it, made room for more). The
     // checkpoint does not record which vocabulary made them: a different one
     // of the same size is not detected (docs/tool.md).
-    const bool vGiven = std::find(o.model.given.begin(), o.model.given.end(), "-V") != o.model.given.end();
     if (resuming && (V < wordsV || (V != wordsV && !vGiven)))
         return fail("--resume " + o.model.resume + ": its model has V = " + std::to_string(V) + " words but the extractors produce " +
                     std::to_string(wordsV) + " (use the vocabulary and word options of the run that made it)");
@@ -216,11 +217,6 @@ int runCommand(const RunOptions& o) {
         st = makeEngineConfig(o.model, info.width, info.height, V, frames, realtime, ec);
         if (!st.ok()) return fail(st.message());
     }
-    ec.queue_slots = o.queue;
-    st = parseDropPolicy(o.drop, ec.drop);
-    if (!st.ok()) return fail("--drop: " + st.message());
-    ec.thread.fifo = o.fifo;
-    ec.thread.cpu = o.cpu;
     std::unique_ptr<Engine> engine = Engine::create(ec, st);
     if (!engine) return fail(st.message());
     if (resuming) {
@@ -277,7 +273,7 @@ int runCommand(const RunOptions& o) {
     std::unique_ptr<CheckpointWriter> checkpoints;
     st = attachCheckpoints(*engine, o.model, checkpoints);
     if (!st.ok()) return fail(st.message());
-    const std::size_t frameSlots = realtime ? static_cast<std::size_t>(o.queue) + 24 : 4;
+    const std::size_t frameSlots = realtime ? static_cast<std::size_t>(ec.queue_slots) + 24 : 4;
     SpscRing<FrameSlot> frameRing(frameSlots, [&](FrameSlot& s) { s.image.create(info.height, info.width, CV_8UC3); });
 
     std::vector<CaptureRow> capture;
@@ -461,7 +457,7 @@ int runCommand(const RunOptions& o) {
                     (skipThrough >= 0 ? " (" + o.model.resume + " has every frame up to " + std::to_string(skipThrough) + ")"
                                       : std::string()));
 
-    collector.finish(o.model.final_sweeps);
+    collector.finish(o.model.settings.final_sweeps);
     st = collector.closeStreams();
     if (!st.ok()) return fail(st.message());
     drainFrames();
@@ -501,7 +497,7 @@ int runCommand(const RunOptions& o) {
         std::snprintf(buf, sizeof buf,
                       "words: V = %d (orb %u at %u, intensity %u at %u, hue %u at %u), orb.features %d, thumb.cell %d\n",
                       V, L.orb_size, L.orb_offset, L.intensity_size, L.intensity_offset, L.hue_size, L.hue_offset,
-                      o.words.orb_features, o.words.thumb_cell);
+                      extractors.orb_features, extractors.thumb_cell);
         runTxt += buf;
         std::snprintf(buf, sizeof buf,
                       "model: K = %d, alpha = %g, beta = %g, cell.space = %d, cell.time = %d, g.space = %d, g.time = %d, "
@@ -515,7 +511,7 @@ int runCommand(const RunOptions& o) {
                       toString(ec.strategy.kind), ec.strategy.eta, ec.strategy.q,
                       ec.budget.kind == BudgetKind::Time ? fmt("%g ms per observation", ec.budget.ms).c_str()
                                                          : (std::to_string(ec.budget.count) + " refines per observation").c_str(),
-                      o.model.final_sweeps,
+                      o.model.settings.final_sweeps,
                       realtime                               ? "realtime (capture and refiner threads)"
                       : ec.budget.kind == BudgetKind::Time ? "offline (time budget: not reproducible)"
                                                              : "offline (count budget, reproducible)");

@@ -8,11 +8,13 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
 #include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
+#include "rost/settings.hpp"
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/words.hpp"
 
@@ -27,41 +29,31 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitError = 2;        // bad input, bad option, unreadable file, write failure
 inline constexpr int kExitInterrupted = 130; // Ctrl-C on a file input (outputs discarded)
 
-// Model and refinement options, named as earlier ROST tools named them.
+// The settings of a run or refine command: every setting of the schema
+// (rost/settings_schema.hpp), layered defaults < --config FILE < options,
+// and the mission's files.
 struct ModelOptions {
-    int K = 16;
-    int V = 0;  // 0: what the words need (the extractors' vocabulary, or the largest id + 1)
-    double alpha = 0.1;
-    double beta = 0.5;
-    int cell_space = 64;
-    int cell_time = 1;
-    int g_space = 1;
-    int g_time = 1;
-    std::string sampler = "uni+now";
-    double eta = 0.5;
-    double q = 0.5;
-    uint64_t budget_refines = 40; // time steps refined per observation (count budget): ~3 ms a 640x480 frame on one x86 core
-    double budget_ms = 0.0;       // > 0: time budget per observation instead
-    uint64_t seed = 1;
-    int ring = 0;                 // steps kept refinable; 0: the whole input when its length is known (up to 2048), else 256
-    int cell_capacity = 256;
-    int max_words = 4096;
-    std::string eviction = "keep";
-    int final_sweeps = 0;         // batch Gibbs sweeps over the window at the end of the stream
+    Settings settings;
     std::string in_topicmodel;    // K x V counts to start from
-    std::string config;           // --config: key = value settings (rost/config_file.hpp) under explicit options
-    std::string checkpoint;       // --checkpoint: engine state saved every checkpoint_every observations and at the end
-    uint64_t checkpoint_every = 100;
+    std::string config;           // --config: key = value settings under explicit options
+    std::string checkpoint;       // --checkpoint: engine state saved every checkpoint.every observations and at the end
     std::string resume;           // --resume: carry on the mission a checkpoint holds
-    // Long names of the options set on the command line or by --config
-    // ("-K", "--alpha", ...): with --resume, those the checkpoint fixes are
-    // compared with it.
+    // Keys set on the command line or by --config ("K", "alpha", ...): the
+    // tool derives V, ring.steps and the frame size from its input unless
+    // set, and with --resume compares the model's with the checkpoint's.
     std::vector<std::string> given;
-    // For those a --config file set: the option -> "FILE:LINE: key 'K'" (messages name the file).
+    // For keys a --config file set (and the command line did not): the key -> "FILE:LINE: key 'K' = ".
     std::vector<std::pair<std::string, std::string>> given_by_file;
+
+    bool isGiven(std::string_view key) const;
 };
 
+// The option that sets `key` on the command line ("-K", "--alpha").
+std::string optionName(const SettingSpec& spec);
+
 // Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
+// `V` is the caller's (what the words need, unless -V); ring.steps is the
+// input's length + 1 (up to 2048) when it is known and not set.
 Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, bool realtime,
                         EngineConfig& out);
 
@@ -93,22 +85,16 @@ Status finishCheckpoints(CheckpointWriter& writer);
 struct RunOptions {
     std::vector<std::string> inputs;
     std::string out;
-    ModelOptions model;
-    // Words.
+    ModelOptions model;  // the word settings too (model.settings.words)
     std::string vocabulary;  // empty: the built-in default
-    vision::ExtractorConfig words;
     // Frames.
     int width = 0;  // resize frames to this width (height keeps the aspect ratio unless given)
     int height = 0;
     int64_t max_frames = 0;  // 0: all
     int camera_width = 640, camera_height = 480;
     std::string camera_format;
-    // Realtime.
+    // Realtime (queue, drop and thread settings are in model.settings).
     bool realtime = false;
-    int queue = 8;
-    std::string drop = "oldest";
-    bool fifo = false;
-    int cpu = -1;
     // Outputs.
     bool overlay = true;
     std::string overlay_format = "mp4";  // mp4 or avi
@@ -144,12 +130,26 @@ struct VocabOptions {
     std::string command_line;
 };
 
-// --config FILE: the file's keys set the options the command line did not
-// give (`given("--alpha")`, `given("-K")`: was that option on the command
-// line). `run` or `ref` receives the command's own keys (queue, drop,
-// threads; frame size). Errors name the file, line and key.
-Status applyConfigFile(const std::string& path, const std::function<bool(const std::string&)>& given, ModelOptions& m,
-                       RunOptions* run, RefineOptions* ref);
+// The settings options of `rost run`, `rost refine` and `rost config`, one
+// per setting of the schema (its key as a long option, its documentation as
+// help), and the mission options; `apply()` after parsing layers
+// defaults < --config FILE < the options given, then validates. Errors name
+// the option, or the file, line and key.
+class SettingsOptions {
+public:
+    enum class Command : uint8_t { Run, Refine, Config };
+    SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd);
+    ~SettingsOptions();
+    // `run` or `ref` receive what a config file may set of their own (frame size for refine).
+    Status apply(RunOptions* run, RefineOptions* ref);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+// `rost config`: prints every setting as a configuration file.
+int configCommand(const ModelOptions& m);
 
 int runCommand(const RunOptions& o);
 int refineCommand(const RefineOptions& o);

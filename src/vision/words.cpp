@@ -33,6 +33,19 @@ Status ExtractorConfig::validate() const {
     return {};
 }
 
+ExtractorConfig ExtractorConfig::from(const WordSettings& w) noexcept {
+    ExtractorConfig c;
+    c.orb = w.orb;
+    c.intensity = w.intensity;
+    c.hue = w.hue;
+    c.orb_features = w.orb_features;
+    c.orb_fast_threshold = w.orb_fast_threshold;
+    c.search.method = w.orb_search;
+    c.search.probes = w.orb_probes;
+    c.thumb_cell = w.thumb_cell;
+    return c;
+}
+
 const char* WordLayout::kindOf(uint32_t w) const noexcept {
     if (w >= orb_offset && w < orb_offset + orb_size) return "orb";
     if (w >= intensity_offset && w < intensity_offset + intensity_size) return "intensity";

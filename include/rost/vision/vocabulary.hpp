@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "rost/status.hpp"
+#include "rost/word_settings.hpp"
 
 namespace rost::vision {
 
@@ -53,23 +54,22 @@ struct Descriptor {
 // Hamming distance of two descriptors (0..256).
 int hammingDistance(const Descriptor& a, const Descriptor& b) noexcept;
 
-// How quantize() finds a descriptor's word.
-enum class SearchMethod : uint8_t {
-    Linear,  // exact: every word, a popcount per word
-    Tree,    // coarse-to-fine: distances to ~sqrt(W) coarse centres, then only the words of
-             // the `probes` nearest coarse buckets. Approximate unless probes >= coarseCentres();
-             // bench/bench_vision.cpp measures how often it agrees with Linear.
-};
+// How quantize() finds a descriptor's word (rost/word_settings.hpp): Linear
+// is exact; Tree computes distances to ~sqrt(W) coarse centres, then only to
+// the words of the `probes` nearest coarse buckets, approximate unless
+// probes >= coarseCentres() (bench/bench_vision.cpp measures how often it
+// agrees with Linear).
+using rost::SearchMethod;
 const char* toString(SearchMethod m) noexcept;
 // Parses "linear" or "tree".
 Status parseSearchMethod(const std::string& text, SearchMethod& out);
 
 struct Search {
-    SearchMethod method = SearchMethod::Tree;
+    SearchMethod method = settingDefault<SearchMethod>("orb.search");
     // Coarse buckets visited by Tree. 16 of the ~71 buckets of a 5000-word
     // vocabulary agree with the exact word for ~98% of ORB descriptors of real
     // footage, at about a quarter of the distance computations (bench_vision).
-    uint32_t probes = 16;
+    uint32_t probes = settingDefault<uint32_t>("orb.probes");
 };
 
 class Vocabulary {

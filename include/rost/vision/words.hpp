@@ -16,6 +16,7 @@
 
 #include "rost/model.hpp"
 #include "rost/status.hpp"
+#include "rost/word_settings.hpp"
 #include "rost/vision/vocabulary.hpp"
 
 namespace cv {
@@ -27,11 +28,11 @@ namespace rost::vision {
 struct ExtractorConfig {
     // ORB words: keypoints and descriptors by OpenCV's ORB, each descriptor
     // quantised to its nearest vocabulary word, positioned at its keypoint.
-    bool orb = true;
-    int orb_features = 1000;       // keypoints per frame at most (strongest kept)
+    bool orb = settingDefault<bool>("words.orb");
+    int orb_features = settingDefault<int>("orb.features");  // keypoints per frame at most (strongest kept)
     float orb_scale_factor = 1.2f; // pyramid scale step
     int orb_levels = 8;            // pyramid levels
-    int orb_fast_threshold = 20;   // FAST corner threshold
+    int orb_fast_threshold = settingDefault<int>("orb.fast");  // FAST corner threshold
     Search search;                 // how descriptors find their word (vocabulary.hpp)
 
     // Intensity and hue words: the frame is shrunk (area average) so each
@@ -39,9 +40,9 @@ struct ExtractorConfig {
     // pixel gives one intensity word (grey level 0..255) and, where colour is
     // defined, one hue word (OpenCV 8-bit hue 0..179), positioned at the
     // block's centre.
-    bool intensity = true;
-    bool hue = true;
-    int thumb_cell = 16;           // pixels per thumbnail pixel, 1..256
+    bool intensity = settingDefault<bool>("words.intensity");
+    bool hue = settingDefault<bool>("words.hue");
+    int thumb_cell = settingDefault<int>("thumb.cell");  // pixels per thumbnail pixel
     // Hue is meaningless for grey or dark pixels: no hue word below these
     // (OpenCV 8-bit HSV saturation and value, 0..255).
     int hue_min_saturation = 32;
@@ -49,6 +50,9 @@ struct ExtractorConfig {
 
     // Checks every field; the message names the field and the allowed range.
     [[nodiscard]] Status validate() const;
+    // The extractors the word settings of the schema describe (the other
+    // fields keep their defaults).
+    static ExtractorConfig from(const WordSettings& w) noexcept;
 };
 
 // Which ids belong to which extractor.

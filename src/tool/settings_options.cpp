@@ -1,0 +1,187 @@
+// The tool's settings options, made from the settings schema: one option per
+// setting (rost/settings_schema.hpp), never written by hand.
+
+#include <cstdio>
+#include <deque>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "rost/settings.hpp"
+#include "tool.hpp"
+
+namespace rost::tool {
+
+namespace {
+
+const char* groupTitle(SettingGroup g) {
+    switch (g) {
+    case SettingGroup::Model: return "Model";
+    case SettingGroup::Refinement: return "Refinement (paper section VI)";
+    case SettingGroup::Runtime: return "Realtime";
+    case SettingGroup::Mission: return "Missions (docs/trust.md)";
+    case SettingGroup::Words: return "Words";
+    }
+    return "Settings";
+}
+
+std::string typeName(const SettingSpec& s) {
+    switch (s.type) {
+    case SettingType::Integer: return "INT";
+    case SettingType::Real: return "NUM";
+    case SettingType::Bool: return "";
+    case SettingType::Choice: {
+        std::string c = "{" + std::string(s.choices) + "}";
+        std::replace(c.begin(), c.end(), '|', ',');
+        return c;
+    }
+    case SettingType::BudgetMs: return "MS";
+    default: return "N";
+    }
+}
+
+// The frame size is the input's: --width/--height resize it (run) or give it (refine).
+bool isFrameSize(const SettingSpec& s) { return s.key == "frame.width" || s.key == "frame.height"; }
+
+// Which settings a command takes as options: refine has no frames to extract
+// words from and no realtime threads.
+bool isOption(const SettingSpec& s, SettingsOptions::Command cmd) {
+    if (s.has(setting_flags::Library) || isFrameSize(s)) return false;
+    return cmd != SettingsOptions::Command::Refine ||
+           (s.group != SettingGroup::Words && s.group != SettingGroup::Runtime);
+}
+
+// "key 'alpha': expected a finite number, found 'x'" -> "expected a finite number, found 'x'".
+std::string withoutKey(const std::string& message) {
+    const std::size_t at = message.find("': ");
+    return message.rfind("key '", 0) == 0 && at != std::string::npos ? message.substr(at + 3) : message;
+}
+
+} // namespace
+
+struct SettingsOptions::Impl {
+    struct Entry {
+        const SettingSpec* spec;
+        CLI::Option* option;
+        std::string text;
+        bool flag = false;
+    };
+    ModelOptions& m;
+    std::deque<Entry> entries;  // stable addresses: CLI11 writes into text and flag
+    CLI::App& app;
+
+    Impl(CLI::App& a, ModelOptions& mo) : m(mo), app(a) {}
+
+    bool onCommandLine(const SettingSpec& spec) const {
+        for (const Entry& e : entries)
+            if (e.spec == &spec) return e.option->count() > 0;
+        return false;
+    }
+    bool budgetOnCommandLine() const {
+        for (const Entry& e : entries)
+            if (e.spec->isBudget() && e.option->count() > 0) return true;
+        return false;
+    }
+    Status applyFile(Settings& s, RunOptions* run, RefineOptions* ref);
+};
+
+SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : impl_(std::make_unique<Impl>(app, m)) {
+    std::vector<CLI::Option*> budgets;
+    for (const SettingSpec& spec : settingSpecs()) {
+        if (!isOption(spec, cmd)) continue;
+        Impl::Entry& e = impl_->entries.emplace_back(Impl::Entry{&spec, nullptr, {}, false});
+        const std::string names = spec.cli.empty() ? "--" + std::string(spec.key) : std::string(spec.cli);
+        std::string help(spec.doc);
+        if (spec.type != SettingType::Bool && spec.type != SettingType::Choice) help += "; " + settingRange(spec);
+        if (spec.type == SettingType::Bool) {
+            e.flag = spec.def == "true";
+            e.option = app.add_flag(names, e.flag, help + " (default " + std::string(spec.def) + ")");
+        } else {
+            e.option = app.add_option(names, e.text, help)->type_name(typeName(spec));
+            if (spec.has(setting_flags::Derived)) e.option->default_str("from the input");
+            else if (!spec.def.empty()) e.option->default_str(std::string(spec.def));
+        }
+        e.option->group(groupTitle(spec.group));
+        if (spec.isBudget()) budgets.push_back(e.option);
+    }
+    for (CLI::Option* a : budgets)
+        for (CLI::Option* b : budgets)
+            if (a != b) a->excludes(b);
+    app.add_option("--config", m.config,
+                   "settings file: `key = value` lines with the keys of these options (`rost config` prints them "
+                   "all); options given on the command line win")
+        ->type_name("FILE")
+        ->group(groupTitle(SettingGroup::Mission));
+    if (cmd == Command::Config) return;
+    app.add_option("--in.topicmodel", m.in_topicmodel,
+                   "start from a topic model: a topicmodel.csv of an earlier run (K rows of V counts)")
+        ->type_name("FILE")
+        ->group(groupTitle(SettingGroup::Model));
+    app.add_option("--checkpoint", m.checkpoint,
+                   "save the engine's whole state to FILE every --checkpoint.every observations and at the end "
+                   "(atomically: a crash leaves the previous checkpoint)")
+        ->type_name("FILE")
+        ->group(groupTitle(SettingGroup::Mission));
+    app.add_option("--resume", m.resume,
+                   "carry on the mission FILE (a --checkpoint) holds: its model, window and random state; input "
+                   "frames or observations it already has (time stamp up to its last) are skipped, a camera's "
+                   "frames are numbered after them. Model options may be repeated but not changed")
+        ->type_name("FILE")
+        ->group(groupTitle(SettingGroup::Mission));
+}
+
+SettingsOptions::~SettingsOptions() = default;
+
+// --config FILE: its keys onto `s`, except where the command line gives the
+// same setting (the command line wins).
+Status SettingsOptions::Impl::applyFile(Settings& s, RunOptions* runOpts, RefineOptions* ref) {
+    Settings file = s;
+    std::vector<ConfigKeyLine> keys;
+    if (Status st = readSettingsFile(m.config, file, &keys); !st.ok()) return st;
+    for (const auto& [key, line] : keys) {
+        const SettingSpec& spec = *findSetting(key);
+        const std::string where = m.config + ":" + std::to_string(line) + ": key '" + key + "'";
+        if (spec.has(setting_flags::Library))
+            return Status::error(where + " is not a setting of this command (the rost tool sets it itself)");
+        if (isFrameSize(spec)) {
+            if (runOpts)
+                return Status::error(where + " is not a setting of this command (the input sets the frame size; "
+                                             "--width/--height resize it)");
+            int& size = key == "frame.width" ? ref->width : ref->height;
+            const CLI::Option* cli = app.get_option_no_throw(key == "frame.width" ? "--width" : "--height");
+            if (!cli || cli->count() == 0) size = key == "frame.width" ? file.engine.model.frame_width : file.engine.model.frame_height;
+            continue;
+        }
+        if (spec.isBudget() ? budgetOnCommandLine() : onCommandLine(spec)) continue;
+        m.given.push_back(key);
+        m.given_by_file.emplace_back(key, where + " = ");
+    }
+    s = file;
+    return {};
+}
+
+Status SettingsOptions::apply(RunOptions* run, RefineOptions* ref) {
+    Impl& d = *impl_;
+    ModelOptions& m = d.m;
+    Settings s = m.settings;
+    if (!m.config.empty())
+        if (Status st = d.applyFile(s, run, ref); !st.ok()) return Status::error("--config: " + st.message());
+    for (const Impl::Entry& e : d.entries) {
+        if (e.option->count() == 0) continue;
+        const std::string value = e.spec->type == SettingType::Bool ? (e.flag ? "true" : "false") : e.text;
+        if (Status st = setSetting(s, e.spec->key, value); !st.ok())
+            return Status::error(optionName(*e.spec) + ": " + withoutKey(st.message()));
+        m.given.emplace_back(e.spec->key);
+    }
+    if (Status st = s.validate(); !st.ok()) return st;
+    m.settings = s;
+    return {};
+}
+
+int configCommand(const ModelOptions& m) {
+    const std::string text = formatSettingsDocumented(m.settings);
+    std::fwrite(text.data(), 1, text.size(), stdout);
+    return std::fflush(stdout) == 0 ? kExitOk : kExitError;
+}
+
+} // namespace rost::tool
