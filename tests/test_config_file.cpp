@@ -114,7 +114,7 @@ TEST(ConfigFile, EveryKeyIsWrittenAndDocumented) {
         }
         EXPECT_GT(std::string(k.help).size(), 5u) << k.name;
     }
-    EXPECT_NE(text.find("budget.refines = 4\n"), std::string::npos);  // the default budget
+    EXPECT_NE(text.find("budget.refines = 40\n"), std::string::npos);  // the default budget
 }
 
 TEST(ConfigFile, ErrorsNameTheFileLineAndKey) {

@@ -7,6 +7,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "rost/settings.hpp"
 #include "test_vision_support.hpp"
 
 using rost::testing::RunResult;
@@ -145,4 +146,75 @@ TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {
     expectError(runRost("refine " + (t / "words.csv") + " -K 2 -V 4 --in.topicmodel " + (t / "tm.csv") + " --out " +
                      (t / "o")),
                 "1 topic lines, expected K = 2", t / "o");
+}
+
+// The settings schema is the tool's options: every setting a command takes
+// is an option with the schema's default in --help, and `rost config` writes
+// every key.
+TEST(ToolCli, EverySettingIsAnOptionWithTheSchemasDefault) {
+    const RunResult help = runRost("run --help");
+    ASSERT_EQ(help.exit_code, 0);
+    const RunResult conf = runRost("config");
+    ASSERT_EQ(conf.exit_code, 0) << conf.err;
+    for (const rost::SettingSpec& s : rost::settingSpecs()) {
+        EXPECT_NE(conf.out.find(std::string(s.key) + " ="), std::string::npos) << "rost config lacks " << s.key;
+        if (s.has(rost::setting_flags::Library) || s.key.starts_with("frame.")) continue;
+        const std::string option = s.cli.empty() ? "--" + std::string(s.key) : std::string(s.cli.substr(0, s.cli.find(',')));
+        EXPECT_NE(help.out.find(option), std::string::npos) << "run --help lacks " << option;
+        if (s.type != rost::SettingType::Bool && !s.def.empty() && !s.has(rost::setting_flags::Derived))
+            EXPECT_NE(help.out.find("[" + std::string(s.def) + "]"), std::string::npos) << s.key << " default " << s.def;
+    }
+}
+
+// The library, the configuration file and the command line agree on every
+// default: the file `rost config` prints changes nothing, and setting each
+// of its values again on the command line changes nothing either.
+TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
+    TempDir t;
+    std::string words, positions;
+    for (int i = 0; i < 25; ++i) {
+        words += std::to_string(i);
+        positions += std::to_string(i);
+        for (int j = 0; j < 30; ++j) {
+            words += "," + std::to_string((i < 12 ? 0 : 40) + (i * 5 + j * 7) % 40);
+            positions += "," + std::to_string((j * 37) % 200) + "," + std::to_string((j * 53) % 150);
+        }
+        words += "\n";
+        positions += "\n";
+    }
+    rost::testing::writeText(t / "w.csv", words);
+    rost::testing::writeText(t / "p.csv", positions);
+    const RunResult conf = runRost("config");
+    ASSERT_EQ(conf.exit_code, 0);
+    rost::testing::writeText(t / "all.conf", conf.out);
+    std::string explicitOptions;  // every refine option set to its default
+    for (const rost::SettingSpec& s : rost::settingSpecs()) {
+        if (s.has(rost::setting_flags::Library) || s.has(rost::setting_flags::Derived) || s.def.empty()) continue;
+        if (s.group == rost::SettingGroup::Words || s.group == rost::SettingGroup::Runtime) continue;
+        if (s.type == rost::SettingType::Bool) continue;
+        const std::string option = s.cli.empty() ? "--" + std::string(s.key) : std::string(s.cli.substr(0, s.cli.find(',')));
+        explicitOptions += " " + option + " " + std::string(s.def);
+    }
+    const std::string in = "refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " -q --no-summary --out ";
+    ASSERT_EQ(runRost(in + (t / "a")).exit_code, 0);
+    const RunResult b = runRost(in + (t / "b") + " --config " + (t / "all.conf"));
+    ASSERT_EQ(b.exit_code, 0) << b.err;
+    const RunResult c = runRost(in + (t / "c") + explicitOptions);
+    ASSERT_EQ(c.exit_code, 0) << c.err << explicitOptions;
+    for (const char* f : {"topics.csv", "perplexity.csv", "surprise.csv", "topicmodel.csv"}) {
+        const std::string a = rost::testing::readText(t / "a" / f);
+        EXPECT_FALSE(a.empty()) << f;
+        EXPECT_EQ(rost::testing::readText(t / "b" / f), a) << f;
+        EXPECT_EQ(rost::testing::readText(t / "c" / f), a) << f;
+    }
+}
+
+TEST(ToolCli, ASettingsValueOnTheCommandLineIsCheckedByTheSchema) {
+    TempDir t;
+    cv::imwrite(t / "a.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 20, 30)));
+    const std::string in = t.path() + "/a.png --out " + (t / "o");
+    expectError(runRost("run " + in + " --orb.search fast"), "--orb.search: expected linear or tree, found 'fast'", t / "o");
+    expectError(runRost("run " + in + " --thumb.cell 0"), "thumb.cell = 0, allowed [1, 256]", t / "o");
+    expectError(runRost("run " + in + " --queue x"), "--queue.slots: expected an integer, found 'x'", t / "o");
+    expectError(runRost("config --alpha 0"), "alpha = 0, allowed (0, 1e+06]");
 }

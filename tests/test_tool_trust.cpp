@@ -266,7 +266,7 @@ TEST(ToolTrust, ResumeErrorsNameWhatAndWhereWithExitCode2AndWriteNothing) {
     // The model cannot change; repeating it is fine (refine() passes -V 40 and the frame size).
     expectError(resume(ckpt, "-K 8"), "-K 8 differs from " + ckpt + "'s K = 16 (a resumed mission keeps its model; leave -K out)",
                 t / "o");
-    expectError(resume(ckpt, "--alpha 0.2"), "--alpha 0.20000000000000001 differs from " + ckpt + "'s alpha = 0.10000000000000001",
+    expectError(resume(ckpt, "--alpha 0.2"), "--alpha 0.2 differs from " + ckpt + "'s alpha = 0.1",
                 t / "o");
     expectError(resume(ckpt, "--seed 6"), "--seed 6 differs from " + ckpt + "'s seed = 5", t / "o");
     expectError(resume(ckpt, "--in.topicmodel " + (t / "first/topicmodel.csv")),

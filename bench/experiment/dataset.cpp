@@ -89,7 +89,7 @@ Status writeDatasetMeta(const std::string& dir, const std::vector<std::pair<std:
 }
 
 Config modelConfig(const Dataset& d, const ModelParams& p, uint64_t seed) {
-    Config c;
+    Config c;  // only the model parameters come from p; the rest is sized from the data
     c.K = p.K;
     c.V = static_cast<int>(d.V);
     c.alpha = p.alpha;

@@ -40,21 +40,16 @@ Status loadDataset(const std::string& dir, int64_t max_frames, Dataset& out);
 // Writes dataset.txt (atomically) from key=value pairs, in the given order.
 Status writeDatasetMeta(const std::string& dir, const std::vector<std::pair<std::string, std::string>>& kv);
 
-// The model parameters the experiment fixes (paper section VII: 64 px cells
-// one step wide, alpha 0.1, beta 0.5, K 16, 4 spatial + 2 temporal neighbours).
-struct ModelParams {
-    int K = 16;
-    double alpha = 0.1;
-    double beta = 0.5;
-    int cell_space = 64;
-    int g_space = 1;
-    int g_time = 1;
-};
+// The model parameters the experiment takes from the settings (defaults:
+// the schema's, the paper's section VII: 64 px cells one step wide, alpha
+// 0.1, beta 0.5, K 16, 4 spatial + 2 temporal neighbours): K, alpha, beta,
+// cell.space, g.space, g.time. `rost_experiment --set KEY=VALUE` changes them.
+using ModelParams = Config;
 
-// A Model configuration that holds the whole stream in its window (no
-// eviction: final perplexity is measured on every step) and never
-// subsamples: the cell capacity is the largest number of words any cell
-// receives, the frame capacity the largest frame.
+// A Model configuration with `p`'s parameters that holds the whole stream in
+// its window (no eviction: final perplexity is measured on every step) and
+// never subsamples: the cell capacity is the largest number of words any
+// cell receives, the frame capacity the largest frame.
 Config modelConfig(const Dataset& d, const ModelParams& p, uint64_t seed);
 
 } // namespace rost::experiment

@@ -30,6 +30,7 @@
 
 #include "dataset.hpp"
 #include "harness.hpp"
+#include "rost/settings.hpp"
 
 using namespace rost;
 using namespace rost::experiment;
@@ -41,6 +42,21 @@ using Clock = std::chrono::steady_clock;
 [[noreturn]] void fail(const std::string& what) {
     std::fprintf(stderr, "rost_experiment: %s\n", what.c_str());
     std::exit(1);
+}
+
+// The settings (rost/settings.hpp): the schema's defaults, then --config FILE, then --set KEY=VALUE.
+Settings gSettings;
+ModelParams modelParams() { return gSettings.engine.model; }
+
+void applySettings(const std::string& config, const std::vector<std::string>& sets) {
+    if (!config.empty())
+        if (Status st = readSettingsFile(config, gSettings); !st.ok()) fail("--config: " + st.message());
+    for (const std::string& kv : sets) {
+        const std::size_t eq = kv.find('=');
+        if (eq == std::string::npos) fail("--set " + kv + ": expected KEY=VALUE");
+        if (Status st = setSetting(gSettings, kv.substr(0, eq), kv.substr(eq + 1)); !st.ok()) fail("--set: " + st.message());
+    }
+    if (Status st = gSettings.validate(); !st.ok()) fail(st.message());
 }
 
 std::vector<std::string> splitList(const std::string& s) {
@@ -157,7 +173,7 @@ int doCalibrate(const CalibrateArgs& a, const std::string& command) {
     const auto trs = parseDoubles(a.tr_ms, "--tr-ms");
     if (a.hi <= a.lo) fail("--hi must be larger than --lo");
     const auto t0 = Clock::now();
-    const Calibration c = calibrate(d, ModelParams{}, parseStrategies(a.strategies), a.frames, a.lo, a.hi, a.repeats,
+    const Calibration c = calibrate(d, modelParams(), parseStrategies(a.strategies), a.frames, a.lo, a.hi, a.repeats,
                                     [](const std::string& l) { std::fprintf(stderr, "%s\n", l.c_str()); });
     std::string text = "# rost_experiment calibrate: T_R -> tokens per observation on this machine\n";
     text += "command=" + command + "\n";
@@ -220,7 +236,7 @@ int doRun(const RunArgs& a, const std::string& command) {
     const auto kinds = parseStrategies(a.strategies);
     const auto etas = parseDoubles(a.eta, "--eta");
     const auto qs = parseDoubles(a.q, "--q");
-    const ModelParams params;
+    const ModelParams params = modelParams();
 
     std::vector<OnlineTask> online;
     for (std::size_t b = 0; b < budgets.size(); ++b)
@@ -423,7 +439,7 @@ struct FloorArgs {
 int doFloor(const FloorArgs& a, const std::string& command) {
     const Dataset d = load(a.dataset, a.frames);
     const std::string tag = a.tag.empty() ? d.name + "-floor" : a.tag;
-    const Config base = modelConfig(d, ModelParams{}, 1);
+    const Config base = modelConfig(d, modelParams(), 1);
     std::vector<int64_t> points;
     for (int i = 1; i <= a.points; ++i) points.push_back(d.steps() * i / (a.points + 1));
     struct Task {
@@ -500,7 +516,7 @@ int doModes(const ModesArgs& a, const std::string& command) {
     const std::string tag = a.tag.empty() ? d.name + "-modes" : a.tag;
     const BudgetSpec b = parseBudget(a.budget);
     if (b.budget.kind != BudgetKind::Tokens) fail("modes: --budget must be TR_MS=tokens:N");
-    const Config base = modelConfig(d, ModelParams{}, 1);
+    const Config base = modelConfig(d, modelParams(), 1);
     const int sweeps = sweepsFor(b.budget.count * static_cast<uint64_t>(d.steps()), d.words);
     struct Task {
         StrategyKind kind;
@@ -565,6 +581,13 @@ int doModes(const ModesArgs& a, const std::string& command) {
 int main(int argc, char** argv) {
     CLI::App app{"rost_experiment: the paper's section VII (strategies x budgets x seeds against batch Gibbs)"};
     app.require_subcommand(1);
+    app.fallthrough();
+    std::string configFile;
+    std::vector<std::string> sets;
+    app.add_option("--config", configFile, "settings file (rost config prints one); model parameters K, alpha, beta, "
+                                           "cell.space, g.space, g.time are taken from it")
+        ->type_name("FILE");
+    app.add_option("--set", sets, "KEY=VALUE: one setting of the schema (e.g. --set K=32); repeat")->type_name("KEY=VALUE");
 
     CalibrateArgs ca;
     auto* cal = app.add_subcommand("calibrate", "measure tokens/s on this machine and convert T_R to count budgets");
@@ -628,6 +651,7 @@ int main(int argc, char** argv) {
 
     CLI11_PARSE(app, argc, argv);
     const std::string command = joinArgs(argc, argv);
+    applySettings(configFile, sets);
     if (cal->parsed()) return doCalibrate(ca, command);
     if (floor->parsed()) return doFloor(fa, command);
     if (modes->parsed()) return doModes(ma, command);

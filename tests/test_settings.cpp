@@ -1,0 +1,151 @@
+// The one settings schema (rost/settings_schema.hpp): every default of the
+// library is the schema's, every key round-trips through its text form and a
+// configuration file, every range is enforced with a message naming the key,
+// and parameter names (Python, ROS) find their keys.
+
+#include <gtest/gtest.h>
+
+#include <charconv>
+#include <cmath>
+#include <set>
+#include <string>
+
+#include "rost/config_file.hpp"
+#include "rost/settings.hpp"
+
+namespace rost {
+namespace {
+
+TEST(Settings, KeysAreUniqueDocumentedAndTheirParameterNamesToo) {
+    std::set<std::string> keys, params;
+    for (const SettingSpec& s : settingSpecs()) {
+        EXPECT_TRUE(keys.insert(std::string(s.key)).second) << s.key;
+        EXPECT_TRUE(params.insert(paramName(s)).second) << s.key;
+        EXPECT_GT(s.doc.size(), 10u) << s.key;
+        EXPECT_EQ(findSetting(s.key), &s);
+        EXPECT_EQ(findSetting(paramName(s)), &s) << paramName(s);
+        EXPECT_EQ(paramName(s).find_first_of(".-"), std::string::npos);
+    }
+    EXPECT_EQ(paramName(*findSetting("cell.space")), "cell_space");
+    EXPECT_EQ(paramName(*findSetting("thread.lock-memory")), "thread_lock_memory");
+    EXPECT_EQ(findSetting("cell_spac"), nullptr);
+}
+
+// The library's defaults (the fields' initialisers) are the schema's: a
+// default-constructed Settings writes every key as the schema declares it.
+TEST(Settings, TheLibrarysDefaultsAreTheSchemas) {
+    const Settings s;
+    for (const SettingSpec& spec : settingSpecs())
+        EXPECT_EQ(settingValue(s, spec.key), spec.def) << spec.key;
+    // The sub-structs a user may make alone start from the same values.
+    EXPECT_EQ(settingValue(Settings{.engine = EngineConfig{.model = Config{}}}, "cell.capacity"), "256");
+    EXPECT_EQ(StrategyConfig{}.kind, s.engine.strategy.kind);
+    EXPECT_EQ(Budget{}.count, 40u);
+    EXPECT_EQ(ThreadSettings{}.priority, 80);
+    EXPECT_TRUE(s.validate().ok());
+}
+
+// settingDefault<double> parses at compile time: it must give the double
+// std::from_chars gives for the same text.
+TEST(Settings, CompileTimeDefaultsAreTheCorrectlyRoundedValues) {
+    for (const SettingSpec& spec : settingSpecs()) {
+        if (spec.type != SettingType::Real || spec.def.empty()) continue;
+        double v = 0.0;
+        std::from_chars(spec.def.data(), spec.def.data() + spec.def.size(), v);
+        EXPECT_EQ(settingValue(Settings{}, spec.key), spec.def);
+        double back = 0.0;
+        const std::string text = settingValue(Settings{}, spec.key);
+        std::from_chars(text.data(), text.data() + text.size(), back);
+        EXPECT_EQ(back, v) << spec.key;
+    }
+    static_assert(settingDefault<double>("alpha") == 0.1);
+    static_assert(settingDefault<int>("thread.cpu") == -1);
+    static_assert(settingDefault<StrategyKind>("sampler") == StrategyKind::UniformNow);
+    static_assert(settingDefault<SearchMethod>("orb.search") == SearchMethod::Tree);
+}
+
+// Every number outside its declared range is refused, by validate() or by
+// the type, with a message that names the key.
+TEST(Settings, EveryRangeIsEnforcedNamingTheKey) {
+    int checked = 0;
+    for (const SettingSpec& spec : settingSpecs()) {
+        if (spec.type == SettingType::Bool || spec.type == SettingType::Choice) continue;
+        const bool integer = spec.type != SettingType::Real && spec.type != SettingType::BudgetMs;
+        const double below = spec.has(setting_flags::LoOpen) ? spec.lo : spec.lo - (integer ? 1 : 1e-9);
+        const double above = spec.hi + (integer ? 1 : spec.hi * 1e-9 + 1e-9);
+        for (double bad : {below, above}) {
+            if (integer && (bad < -9.2e18 || bad > 1.8e19)) continue;  // not writable as the field's integer
+            Settings s;
+            char text[64];
+            const auto r = integer ? std::to_chars(text, text + 64, static_cast<long long>(bad))
+                                   : std::to_chars(text, text + 64, bad);
+            const std::string value(text, r.ptr);
+            if (spec.lo >= 0 && bad < 0 && integer && spec.key == "seed") continue;
+            const Status set = setSetting(s, spec.key, value);
+            const Status valid = set.ok() ? s.validate() : set;
+            ASSERT_FALSE(valid.ok()) << spec.key << " = " << value;
+            const std::string& m = valid.message();
+            const bool named = m.find(std::string(spec.key)) != std::string::npos ||
+                               (spec.key == "queue.slots" && m.find("queue_slots") != std::string::npos) ||
+                               (spec.isBudget() && m.find("budget.") != std::string::npos);
+            EXPECT_TRUE(named) << spec.key << ": " << m;
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 40);
+}
+
+TEST(Settings, EveryKeyRoundTripsThroughTheDocumentedFile) {
+    Settings s;
+    ASSERT_TRUE(setSetting(s, "K", "32").ok());
+    ASSERT_TRUE(setSetting(s, "orb_features", "700").ok());  // a parameter name
+    ASSERT_TRUE(setSetting(s, "words.hue", "false").ok());
+    ASSERT_TRUE(setSetting(s, "budget.ms", "12.5").ok());
+    ASSERT_TRUE(setSetting(s, "sampler", "agep+exp").ok());
+    ASSERT_TRUE(setSetting(s, "final.sweeps", "3").ok());
+    const std::string text = formatSettingsDocumented(s);
+    Settings back;
+    const Status st = parseSettingsText(text, "config", back);
+    ASSERT_TRUE(st.ok()) << st.message();
+    for (const SettingSpec& spec : settingSpecs()) {
+        if (spec.has(setting_flags::Derived) || spec.has(setting_flags::Library)) continue;
+        EXPECT_EQ(settingValue(back, spec.key), settingValue(s, spec.key)) << spec.key;
+    }
+    // Settings the tool derives or sets itself are there, commented out.
+    EXPECT_NE(text.find("\n# V = 5436\n"), std::string::npos);
+    EXPECT_NE(text.find("\n# ppx.snapshot = true\n"), std::string::npos);
+    EXPECT_NE(text.find("\n# budget.refines = 40\n"), std::string::npos);  // not in force: budget.ms is
+    EXPECT_NE(text.find("\nbudget.ms = 12.5\n"), std::string::npos);
+    EXPECT_NE(text.find("# topics (paper: 16); [1, 1024]\nK = 32\n"), std::string::npos);
+}
+
+TEST(Settings, ErrorsNameTheKeyAndWhatWasExpected) {
+    Settings s;
+    EXPECT_EQ(setSetting(s, "orb.search", "fast").message(), "key 'orb.search': expected linear or tree, found 'fast'");
+    EXPECT_EQ(setSetting(s, "orb.featurs", "1").message(), "unknown key 'orb.featurs' (did you mean 'orb.features'?)");
+    EXPECT_EQ(setSetting(s, "checkpoint.every", "-2").message(),
+              "key 'checkpoint.every': expected a non-negative integer, found '-2'");
+    EXPECT_EQ(parseSettingsText("cell_space = 32\n", "f", s).message(),
+              "f:1: unknown key 'cell_space' (did you mean 'cell.space'?)");
+    EXPECT_EQ(parseSettingsText("thumb.cell = 0\n", "f", s).message(),
+              "f:1: key 'thumb.cell': invalid configuration: thumb.cell = 0, allowed [1, 256]");
+    EXPECT_EQ(settingRange(*findSetting("q")), "(0, 1]");
+    EXPECT_EQ(settingRange(*findSetting("drop")), "newest|oldest");
+}
+
+// The engine's part (rost/config_file.hpp) writes exactly the engine's keys,
+// in schema order: the configuration section of a checkpoint.
+TEST(Settings, TheEnginesPartIsTheCheckpointsConfigurationText) {
+    std::string expected;
+    for (const SettingSpec& spec : settingSpecs())
+        if (isEngineSetting(spec) && !settingValue(Settings{}, spec.key).empty())
+            expected += std::string(spec.key) + " = " + settingValue(Settings{}, spec.key) + "\n";
+    EXPECT_EQ(formatConfig(EngineConfig{}), expected);
+    EXPECT_FALSE(isEngineSetting(*findSetting("orb.features")));
+    EXPECT_FALSE(isEngineSetting(*findSetting("final.sweeps")));
+    EngineConfig c;
+    EXPECT_EQ(setConfigValue("orb.features", "5", c).message(), "key 'orb.features' is not an engine setting");
+}
+
+} // namespace
+} // namespace rost
