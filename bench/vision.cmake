@@ -2,7 +2,7 @@
 # quantize_count: a plain program (vocabulary.cpp and the standard library
 # only) that builds in cross builds too, for instruction counts on ARM.
 add_executable(quantize_count quantize_count.cpp ${PROJECT_SOURCE_DIR}/src/vision/vocabulary.cpp)
-target_link_libraries(quantize_count PRIVATE rost::core rost_warnings)
+target_link_libraries(quantize_count PRIVATE rost::core rost_internal rost_warnings)
 # bench_vision: descriptor quantisation (linear and tree), ORB, whole-frame extraction, training.
 if(TARGET rost_vision AND COMMAND rost_add_bench)
   rost_add_bench(bench_vision SOURCES bench_vision.cpp LIBS rost::vision)

@@ -16,7 +16,7 @@ set_tests_properties(vision_fetch_footage PROPERTIES FIXTURES_SETUP rost_footage
 function(rost_add_vision_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE rost::core GTest::gtest GTest::gtest_main rost_warnings ${ARG_LIBS})
+  target_link_libraries(${name} PRIVATE rost::core rost_internal GTest::gtest GTest::gtest_main rost_warnings ${ARG_LIBS})
   target_include_directories(${name} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
   target_compile_options(${name} PRIVATE -UNDEBUG)
   target_compile_definitions(${name} PRIVATE ROST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
