@@ -32,3 +32,9 @@ if(TARGET rost)
   rost_add_vision_test(test_tool SOURCES test_tool_cli.cpp test_tool_end_to_end.cpp LIBS rost::vision)
   add_dependencies(test_tool rost)
 endif()
+# `rost --version`: the version and the commit the build was configured at.
+if(TARGET rost)
+  add_test(NAME tool_version COMMAND rost --version)
+  set_tests_properties(tool_version PROPERTIES
+    PASS_REGULAR_EXPRESSION "^rost ${PROJECT_VERSION} \\(git ([0-9a-f]+|unknown)\\)")
+endif()
