@@ -3,7 +3,7 @@
 # x86-64). A plain program, so it builds in cross builds too; see
 # scripts/cross-footprint.sh and bench/RESULTS.md.
 add_executable(footprint footprint.cpp)
-target_link_libraries(footprint PRIVATE rost::core rost_warnings)
+target_link_libraries(footprint PRIVATE rost::core rost_internal rost_warnings)
 if(EXISTS ${PROJECT_SOURCE_DIR}/src/core/engine.cpp)
   target_compile_definitions(footprint PRIVATE ROST_FOOTPRINT_ENGINE=1)
 endif()

@@ -24,7 +24,7 @@ add_library(rost_experiment_lib STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/experiment/dataset.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/experiment/harness.cpp)
 target_include_directories(rost_experiment_lib PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/experiment)
-target_link_libraries(rost_experiment_lib PUBLIC rost::core PRIVATE rost_warnings)
+target_link_libraries(rost_experiment_lib PUBLIC rost::core rost_internal PRIVATE rost_warnings)
 
 add_executable(rost_experiment ${CMAKE_CURRENT_SOURCE_DIR}/experiment/main.cpp)
 target_link_libraries(rost_experiment PRIVATE rost_experiment_lib CLI11::CLI11 rost_warnings)

@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "rost/kernel.hpp"
+#include "rost/kernel_types.hpp"
 #include "rost/model.hpp"
 #if defined(ROST_FOOTPRINT_ENGINE)
 #include "rost/engine.hpp"

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "rost/kernel.hpp"
+#include "kernel.hpp"
 #include "rost/model.hpp"
 #include "rost/random.hpp"
 #if defined(ROST_TEST_ENGINE)

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "rost/engine.hpp"
-#include "rost/observation_queue.hpp"
+#include "observation_queue.hpp"
 #include "rost/realtime.hpp"
 #include "rost/replay.hpp"
 #include "test_engine_support.hpp"

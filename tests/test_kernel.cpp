@@ -3,7 +3,7 @@
 #include <cstring>
 #include <vector>
 
-#include "rost/kernel.hpp"
+#include "kernel.hpp"
 #include "rost/model.hpp"
 
 namespace {

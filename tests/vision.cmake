@@ -16,7 +16,7 @@ set_tests_properties(vision_fetch_footage PROPERTIES FIXTURES_SETUP rost_footage
 function(rost_add_vision_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE rost::core GTest::gtest GTest::gtest_main rost_warnings ${ARG_LIBS})
+  target_link_libraries(${name} PRIVATE rost::core rost_internal GTest::gtest GTest::gtest_main rost_warnings ${ARG_LIBS})
   target_include_directories(${name} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
   target_compile_options(${name} PRIVATE -UNDEBUG)
   target_compile_definitions(${name} PRIVATE ROST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
@@ -31,4 +31,10 @@ rost_add_vision_test(test_vision
 if(TARGET rost)
   rost_add_vision_test(test_tool SOURCES test_tool_cli.cpp test_tool_end_to_end.cpp LIBS rost::vision)
   add_dependencies(test_tool rost)
+endif()
+# `rost --version`: the version and the commit the build was configured at.
+if(TARGET rost)
+  add_test(NAME tool_version COMMAND rost --version)
+  set_tests_properties(tool_version PROPERTIES
+    PASS_REGULAR_EXPRESSION "^rost ${PROJECT_VERSION} \\(git ([0-9a-f]+|unknown)\\)")
 endif()

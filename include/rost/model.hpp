@@ -14,7 +14,7 @@
 
 #include "rost/aligned_buffer.hpp"
 #include "rost/config.hpp"
-#include "rost/kernel.hpp"
+#include "rost/kernel_types.hpp"
 #include "rost/random.hpp"
 #include "rost/status.hpp"
 

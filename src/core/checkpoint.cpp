@@ -11,7 +11,7 @@
 #include <new>
 
 #include "rost/config_file.hpp"
-#include "rost/kernel.hpp"
+#include "rost/kernel_types.hpp"
 #include "rost/word_stream.hpp"
 
 namespace rost {

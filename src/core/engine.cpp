@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "rost/observation_queue.hpp"
+#include "observation_queue.hpp"
 
 namespace rost {
 

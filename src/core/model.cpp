@@ -1,5 +1,7 @@
 #include "rost/model.hpp"
 
+#include "kernel.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>

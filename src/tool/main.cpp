@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 #include <opencv2/core/utils/logger.hpp>
 
+#include "rost/version.hpp"
 #include "tool.hpp"
 
 using namespace rost::tool;
@@ -48,6 +49,7 @@ int main(int argc, char** argv) {
                  "tool writes the topic labels, perplexity, and the surprise (curiosity) of each frame and cell.",
                  "rost"};
     app.option_defaults()->always_capture_default();
+    app.set_version_flag("--version", std::string("rost ") + rost::versionString());
     app.require_subcommand(1);
     app.footer("Exit status: 0 on success, 2 on bad input or options (one line on stderr says what and where),\n"
                "130 when a file run is interrupted. Run `rost COMMAND --help` for a command's options.\n"

@@ -29,6 +29,7 @@
 
 #include "camera_source.hpp"
 #include "rost/vision/pixel_format.hpp"
+#include "spsc_ring.hpp"
 
 namespace rost::vision {
 
@@ -175,25 +176,24 @@ public:
 
     ReadStatus read(Frame& out) override {
         for (;;) {
+            // The signal before the ring: a completion after this load changes it, so the wait returns.
             const uint32_t seen = signal_.load(std::memory_order_acquire);
-            const uint64_t head = head_.load(std::memory_order_acquire);
-            uint64_t tail = tail_.load(std::memory_order_relaxed);
-            if (tail == head) {
+            if (completed_.front() == nullptr) {
                 if (stop_.load(std::memory_order_acquire)) return ReadStatus::End;
                 signal_.wait(seen, std::memory_order_acquire);
                 continue;
             }
             // Newest completed request wins; older ones go straight back to the camera.
             libcamera::Request* newest = nullptr;
-            for (; tail != head; ++tail) {
-                libcamera::Request* r = ring_[tail % kMaxBuffers];
+            while (libcamera::Request** slot = completed_.front()) {
+                libcamera::Request* r = *slot;
+                completed_.pop();
                 if (newest) {
                     requeue(newest);
                     ++skipped_;
                 }
                 newest = r;
             }
-            tail_.store(tail, std::memory_order_release);
             if (newest->status() != libcamera::Request::RequestComplete) {
                 requeue(newest);
                 continue;
@@ -231,9 +231,11 @@ private:
     // Runs on libcamera's thread: hand the request over and return.
     void onRequestCompleted(libcamera::Request* r) {
         if (r->status() == libcamera::Request::RequestCancelled) return;
-        const uint64_t h = head_.load(std::memory_order_relaxed);
-        ring_[h % kMaxBuffers] = r;  // never full: at most kMaxBuffers requests exist
-        head_.store(h + 1, std::memory_order_release);
+        // Never full: at most kMaxBuffers requests exist.
+        libcamera::Request** slot = completed_.beginPush();
+        if (slot == nullptr) return;
+        *slot = r;
+        completed_.commitPush();
         signal_.fetch_add(1, std::memory_order_release);
         signal_.notify_one();
     }
@@ -324,11 +326,9 @@ private:
     uint64_t skipped_ = 0;  // completed frames requeued unread because a newer one was waiting
 
     // Completed requests: libcamera's thread produces, the capture thread consumes.
-    alignas(kCacheLine) std::atomic<uint64_t> head_{0};
-    alignas(kCacheLine) std::atomic<uint64_t> tail_{0};
+    SpscRing<libcamera::Request*> completed_{kMaxBuffers};
     alignas(kCacheLine) std::atomic<uint32_t> signal_{0};
     std::atomic<bool> stop_{false};
-    std::array<libcamera::Request*, kMaxBuffers> ring_{};
 };
 
 } // namespace

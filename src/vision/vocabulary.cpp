@@ -11,6 +11,8 @@
 #include <limits>
 #include <thread>
 
+#include <zlib.h>
+
 #include "rost/random.hpp"
 
 #if defined(__ARM_NEON)
@@ -98,18 +100,6 @@ uint32_t getU32(const uint8_t* p) {
            static_cast<uint32_t>(p[3]) << 24;
 }
 
-struct CrcTable {
-    uint32_t t[256];
-    constexpr CrcTable() : t{} {
-        for (uint32_t i = 0; i < 256; ++i) {
-            uint32_t c = i;
-            for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-            t[i] = c;
-        }
-    }
-};
-constexpr CrcTable kCrc;
-
 } // namespace
 
 Descriptor Descriptor::fromBytes(const uint8_t* bytes) noexcept {
@@ -138,9 +128,18 @@ Status parseSearchMethod(const std::string& text, SearchMethod& out) {
 }
 
 uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc) noexcept {
-    crc = ~crc;
-    for (uint8_t b : bytes) crc = kCrc.t[(crc ^ b) & 0xFFu] ^ (crc >> 8);
-    return ~crc;
+    // zlib's CRC-32 (IEEE 802.3), continuing from `crc`; its length is a uInt,
+    // so larger inputs go in chunks.
+    uLong c = crc;
+    const uint8_t* p = bytes.data();
+    std::size_t left = bytes.size();
+    while (left > 0) {
+        const uInt n = static_cast<uInt>(std::min<std::size_t>(left, std::numeric_limits<uInt>::max()));
+        c = ::crc32(c, p, n);
+        p += n;
+        left -= n;
+    }
+    return static_cast<uint32_t>(c);
 }
 
 // ---- vocabulary -----------------------------------------------------------------
@@ -360,22 +359,16 @@ Status Vocabulary::parse(std::span<const uint8_t> b, const std::string& name, Vo
 
 // ---- k-majority -------------------------------------------------------------------
 
-Status trainKMajority(std::span<const Descriptor> data, const KMajorityOptions& o, std::vector<Descriptor>& centres,
-                      KMajorityReport* report, const std::function<void(int, uint64_t)>& progress) {
-    const std::size_t N = data.size();
-    const uint32_t K = o.words;
-    if (K == 0) return Status::error("k-majority: the vocabulary size must be at least 1");
-    if (N < K)
-        return Status::error("k-majority: " + std::to_string(N) + " descriptors cannot make " + std::to_string(K) +
-                             " words; use more footage or fewer words");
-    if (o.max_iterations < 1) return Status::error("k-majority: max_iterations must be at least 1");
+namespace {
 
-    // Initial centres by k-means++ seeding (Arthur & Vassilvitskii 2007): the
-    // first uniformly, each next one with probability proportional to its
-    // squared distance to the nearest centre so far. Centres spread over the
-    // clusters, so k-majority rarely starts with two in one cluster and none
-    // in another. A duplicate of a centre has weight 0, so centres are distinct.
-    Rng rng(o.seed);
+// Initial centres by k-means++ seeding (Arthur & Vassilvitskii 2007): the
+// first uniformly, each next one with probability proportional to its
+// squared distance to the nearest centre so far. Centres spread over the
+// clusters, so k-majority rarely starts with two in one cluster and none
+// in another. A duplicate of a centre has weight 0, so centres are distinct;
+// fewer than K come back when the data has fewer distinct descriptors.
+void seedCentres(std::span<const Descriptor> data, uint32_t K, Rng& rng, std::vector<Descriptor>& centres) {
+    const std::size_t N = data.size();
     centres.clear();
     centres.reserve(K);
     std::vector<uint32_t> weight(N);
@@ -404,6 +397,115 @@ Status trainKMajority(std::span<const Descriptor> data, const KMajorityOptions& 
             total += weight[i];
         }
     }
+}
+
+// Assignment step: each descriptor to its nearest centre (ties to the lowest
+// index), with its distance. In parallel over `threads` contiguous chunks;
+// each descriptor is independent, so the result is the same for any thread
+// count. Returns how many assignments changed.
+uint64_t assignToNearest(std::span<const Descriptor> data, const std::vector<Descriptor>& centres, int threads,
+                         std::vector<uint32_t>& assign, std::vector<uint16_t>& dist) {
+    const std::size_t N = data.size();
+    const auto K = static_cast<uint32_t>(centres.size());
+    std::atomic<uint64_t> changed{0};
+    auto work = [&](std::size_t b, std::size_t e) {
+        uint64_t ch = 0;
+        for (std::size_t i = b; i < e; ++i) {
+            int best = std::numeric_limits<int>::max();
+            uint32_t id = 0;
+            scan(centres.data(), nullptr, K, data[i], best, id);
+            if (id != assign[i]) ++ch;
+            assign[i] = id;
+            dist[i] = static_cast<uint16_t>(best);
+        }
+        changed += ch;
+    };
+    std::vector<std::thread> pool;
+    const std::size_t chunk = (N + threads - 1) / threads;
+    for (int t = 1; t < threads; ++t) {
+        const std::size_t b = std::min(N, t * chunk), e = std::min(N, (t + 1) * chunk);
+        if (b < e) pool.emplace_back(work, b, e);
+    }
+    work(0, std::min(N, chunk));
+    for (auto& th : pool) th.join();
+    return changed.load();
+}
+
+// Counts each cluster's members, then gives every empty cluster the
+// descriptor farthest from its centre (stable order by distance; never the
+// last member of another cluster). Returns how many clusters were reseeded.
+uint32_t reseedEmptyClusters(std::vector<uint32_t>& assign, std::vector<uint16_t>& dist,
+                             std::vector<uint32_t>& members) {
+    const std::size_t N = assign.size();
+    const auto K = static_cast<uint32_t>(members.size());
+    std::fill(members.begin(), members.end(), 0u);
+    for (std::size_t i = 0; i < N; ++i) ++members[assign[i]];
+    std::vector<uint32_t> empties;
+    for (uint32_t k = 0; k < K; ++k)
+        if (members[k] == 0) empties.push_back(k);
+    if (empties.empty()) return 0;
+    std::vector<uint32_t> far(N);
+    for (std::size_t i = 0; i < N; ++i) far[i] = static_cast<uint32_t>(i);
+    std::stable_sort(far.begin(), far.end(), [&](uint32_t a, uint32_t b) { return dist[a] > dist[b]; });
+    uint32_t reseeded = 0;
+    std::size_t next = 0;
+    for (uint32_t k : empties) {
+        while (next < N && members[assign[far[next]]] <= 1) ++next;  // do not empty another cluster
+        if (next == N) break;
+        const uint32_t i = far[next++];
+        --members[assign[i]];
+        assign[i] = k;
+        dist[i] = 0;
+        members[k] = 1;
+        ++reseeded;
+    }
+    return reseeded;
+}
+
+// Update step: each non-empty centre's bits become the majority of its
+// members' bits (ties keep the old bit). `bits` is K x 256 scratch.
+void voteCentres(std::span<const Descriptor> data, const std::vector<uint32_t>& assign,
+                 const std::vector<uint32_t>& members, std::vector<uint32_t>& bits, std::vector<Descriptor>& centres) {
+    const std::size_t N = data.size();
+    const auto K = static_cast<uint32_t>(centres.size());
+    std::fill(bits.begin(), bits.end(), 0u);
+    for (std::size_t i = 0; i < N; ++i) {
+        uint32_t* c = bits.data() + static_cast<std::size_t>(assign[i]) * 256;
+        for (int w = 0; w < 4; ++w) {
+            uint64_t x = data[i].w[w];
+            while (x) {
+                ++c[w * 64 + __builtin_ctzll(x)];
+                x &= x - 1;
+            }
+        }
+    }
+    for (uint32_t k = 0; k < K; ++k) {
+        if (members[k] == 0) continue;
+        const uint32_t* c = bits.data() + static_cast<std::size_t>(k) * 256;
+        Descriptor nd = centres[k];
+        for (int b = 0; b < 256; ++b) {
+            const uint64_t mask = 1ull << (b & 63);
+            if (2 * c[b] > members[k]) nd.w[b >> 6] |= mask;
+            else if (2 * c[b] < members[k]) nd.w[b >> 6] &= ~mask;
+        }
+        centres[k] = nd;
+    }
+}
+
+} // namespace
+
+Status trainKMajority(std::span<const Descriptor> data, const KMajorityOptions& o, std::vector<Descriptor>& centres,
+                      KMajorityReport* report, const std::function<void(int, uint64_t)>& progress) {
+    const std::size_t N = data.size();
+    const uint32_t K = o.words;
+    if (K == 0) return Status::error("k-majority: the vocabulary size must be at least 1");
+    if (N < K)
+        return Status::error("k-majority: " + std::to_string(N) + " descriptors cannot make " + std::to_string(K) +
+                             " words; use more footage or fewer words");
+    if (o.max_iterations < 1) return Status::error("k-majority: max_iterations must be at least 1");
+
+    Rng rng(o.seed);
+    seedCentres(data, K, rng, centres);
     if (centres.size() < K)
         return Status::error("k-majority: only " + std::to_string(centres.size()) + " distinct descriptors, " +
                              std::to_string(K) + " words asked for");
@@ -415,79 +517,12 @@ Status trainKMajority(std::span<const Descriptor> data, const KMajorityOptions& 
     const int threads = std::max(1, o.threads);
     KMajorityReport rep;
     for (int it = 0; it < o.max_iterations; ++it) {
-        // Assignment (parallel; each descriptor independent, so the result is the same for any thread count).
-        std::atomic<uint64_t> changed{0};
-        auto work = [&](std::size_t b, std::size_t e) {
-            uint64_t ch = 0;
-            for (std::size_t i = b; i < e; ++i) {
-                int best = std::numeric_limits<int>::max();
-                uint32_t id = 0;
-                scan(centres.data(), nullptr, K, data[i], best, id);
-                if (id != assign[i]) ++ch;
-                assign[i] = id;
-                dist[i] = static_cast<uint16_t>(best);
-            }
-            changed += ch;
-        };
-        std::vector<std::thread> pool;
-        const std::size_t chunk = (N + threads - 1) / threads;
-        for (int t = 1; t < threads; ++t) {
-            const std::size_t b = std::min(N, t * chunk), e = std::min(N, (t + 1) * chunk);
-            if (b < e) pool.emplace_back(work, b, e);
-        }
-        work(0, std::min(N, chunk));
-        for (auto& th : pool) th.join();
         rep.iterations = it + 1;
-        rep.changed_last = changed.load();
+        rep.changed_last = assignToNearest(data, centres, threads, assign, dist);
         if (progress) progress(it + 1, rep.changed_last);
         if (rep.changed_last == 0) break;
-
-        // Empty clusters take the descriptors farthest from their centres.
-        std::fill(members.begin(), members.end(), 0u);
-        for (std::size_t i = 0; i < N; ++i) ++members[assign[i]];
-        std::vector<uint32_t> empties;
-        for (uint32_t k = 0; k < K; ++k)
-            if (members[k] == 0) empties.push_back(k);
-        if (!empties.empty()) {
-            std::vector<uint32_t> far(N);
-            for (std::size_t i = 0; i < N; ++i) far[i] = static_cast<uint32_t>(i);
-            std::stable_sort(far.begin(), far.end(), [&](uint32_t a, uint32_t b) { return dist[a] > dist[b]; });
-            std::size_t next = 0;
-            for (uint32_t k : empties) {
-                while (next < N && members[assign[far[next]]] <= 1) ++next;  // do not empty another cluster
-                if (next == N) break;
-                const uint32_t i = far[next++];
-                --members[assign[i]];
-                assign[i] = k;
-                dist[i] = 0;
-                members[k] = 1;
-                ++rep.reseeded;
-            }
-        }
-
-        // Majority vote per bit (ties keep the old bit).
-        std::fill(bits.begin(), bits.end(), 0u);
-        for (std::size_t i = 0; i < N; ++i) {
-            uint32_t* c = bits.data() + static_cast<std::size_t>(assign[i]) * 256;
-            for (int w = 0; w < 4; ++w) {
-                uint64_t x = data[i].w[w];
-                while (x) {
-                    ++c[w * 64 + __builtin_ctzll(x)];
-                    x &= x - 1;
-                }
-            }
-        }
-        for (uint32_t k = 0; k < K; ++k) {
-            if (members[k] == 0) continue;
-            const uint32_t* c = bits.data() + static_cast<std::size_t>(k) * 256;
-            Descriptor nd = centres[k];
-            for (int b = 0; b < 256; ++b) {
-                const uint64_t mask = 1ull << (b & 63);
-                if (2 * c[b] > members[k]) nd.w[b >> 6] |= mask;
-                else if (2 * c[b] < members[k]) nd.w[b >> 6] &= ~mask;
-            }
-            centres[k] = nd;
-        }
+        rep.reseeded += reseedEmptyClusters(assign, dist, members);
+        voteCentres(data, assign, members, bits, centres);
     }
     double sum = 0.0;
     for (std::size_t i = 0; i < N; ++i) sum += hammingDistance(data[i], centres[assign[i]]);

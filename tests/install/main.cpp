@@ -5,6 +5,7 @@
 #include <vector>
 
 #include <rost/engine.hpp>
+#include <rost/version.hpp>
 
 int main() {
     rost::EngineConfig cfg;
@@ -28,8 +29,8 @@ int main() {
         if (!r.add.ok()) return 1;
         last = r.perplexity;
     }
-    std::printf("rost %s: perplexity of the last step %.1f (vocabulary 100), model %zu bytes\n",
-                rost::kernel::simdName(), last, engine.memoryBytes());
+    std::printf("rost %s, %s: perplexity of the last step %.1f (vocabulary 100), model %zu bytes\n",
+                rost::versionString(), rost::kernel::simdName(), last, engine.memoryBytes());
     // Two halves of 50 words each; cells see their own half and, through the
     // neighbourhood, a little of the other: about 70 once learned, 100 for a model that learned nothing.
     return std::isfinite(last) && last < 80.0 ? 0 : 1;

@@ -15,7 +15,7 @@
 //       12     4  number of words W (1 .. 1,000,000)
 //       16     4  bytes per descriptor D (32 = 256 bits, ORB)
 //       20     4  length N of the UTF-8 note (0 .. 65,536)
-//       24     4  CRC-32 (IEEE 802.3, as zlib's crc32) of everything after the header
+//       24     4  CRC-32 (IEEE 802.3: zlib's crc32) of everything after the header
 //       28     4  reserved, 0
 //       32     N  note: free text saying how the vocabulary was made
 //     32+N   W*D  the words' descriptors, word 0 first, bytes as the extractor produced them
@@ -132,7 +132,7 @@ private:
     std::vector<uint16_t> bucket_radius_;
 };
 
-// CRC-32 (IEEE, reflected, polynomial 0xEDB88320), as zlib computes it.
+// CRC-32 (IEEE, reflected, polynomial 0xEDB88320): zlib's crc32, continuing from `crc`.
 uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc = 0) noexcept;
 
 // ---- training ---------------------------------------------------------------

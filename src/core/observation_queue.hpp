@@ -2,21 +2,24 @@
 
 // Single-producer single-consumer queue of preallocated observation slots
 // (words, positions, time stamp, count), between the capture thread and the
-// refiner. All memory is allocated in the constructor.
+// refiner. All memory is allocated in the constructor. Internal to the
+// library (engine.hpp only forward-declares it).
 //
-// Indices are monotone 64-bit counters, each on its own cache line:
-//   tail_     observations published (written by the producer only)
-//   head_     observations taken up by the consumer or discarded by the
-//             producer (advanced by compare-exchange from either side)
-//   released_ observations whose slot may be reused (the consumer after it
-//             has finished reading a slot; the producer after discarding one)
+// Built on the library's SPSC ring indices (spsc_ring.hpp), which hold two of
+// its three monotone 64-bit counters, each on its own cache line:
+//   published  observations published (written by the producer only)
+//   released   observations whose slot may be reused (the consumer after it
+//              has finished reading a slot; the producer after discarding one)
+// and adds a third, on its own cache line:
+//   head_      observations taken up by the consumer or discarded by the
+//              producer (advanced by compare-exchange from either side)
 // Each side caches the other side's index and reloads it only when the
 // cached value says full (producer) or empty (consumer).
 //
 // Dropping the oldest observation from the producer side is safe because the
 // consumer *claims* an observation (compare-exchange on head_) before it reads
 // the slot, and releases it afterwards. The producer discards only when the
-// consumer holds no claim (head_ == released_), by a single compare-exchange
+// consumer holds no claim (head_ == released), by a single compare-exchange
 // of head_ from that value: if the consumer claims the observation first,
 // the exchange fails and the producer drops the new observation instead. A
 // discarded observation's slot is the very slot the new one goes into, so the
@@ -32,6 +35,7 @@
 #include "rost/aligned_buffer.hpp"
 #include "rost/model.hpp"
 #include "rost/random.hpp"
+#include "spsc_ring.hpp"
 
 namespace rost {
 
@@ -59,7 +63,7 @@ public:
     // with more words are uniformly subsampled on push, seeded by `seed` and
     // the sequence number, so the same stream gives the same words.
     ObservationQueue(uint32_t slots, uint32_t max_words, uint64_t seed)
-        : n_(slots), maxw_(max_words), seed_(seed), words_(static_cast<std::size_t>(slots) * max_words),
+        : n_(slots), maxw_(max_words), seed_(seed), ring_(slots), words_(static_cast<std::size_t>(slots) * max_words),
           positions_(static_cast<std::size_t>(slots) * max_words), meta_(slots) {}
 
     ObservationQueue(const ObservationQueue&) = delete;
@@ -77,47 +81,35 @@ public:
                  bool drop_oldest) noexcept {
         const uint64_t seq = p_.pushed.load(std::memory_order_relaxed);
         p_.pushed.store(seq + 1, std::memory_order_relaxed);
-        const uint64_t t = p_.tail_local;
+        const uint64_t t = ring_.next();
         Push result = Push::Queued;
-        if (t - p_.released_cache >= n_) {
-            p_.released_cache = released_.load(std::memory_order_acquire);
-            if (t - p_.released_cache >= n_) {
-                if (!drop_oldest || !discardOldest(t)) {
-                    p_.dropped_newest.store(p_.dropped_newest.load(std::memory_order_relaxed) + 1,
-                                            std::memory_order_relaxed);
-                    return Push::Dropped;
-                }
-                result = Push::QueuedDroppedOldest;
+        if (!ring_.hasSpace()) {
+            if (!drop_oldest || !discardOldest(t)) {
+                p_.dropped_newest.store(p_.dropped_newest.load(std::memory_order_relaxed) + 1,
+                                        std::memory_order_relaxed);
+                return Push::Dropped;
             }
+            result = Push::QueuedDroppedOldest;
         }
-        write(t % n_, seq, timestamp, words, positions);
-        p_.tail_local = t + 1;
-        tail_.store(t + 1, std::memory_order_release);
+        write(ring_.slot(t), seq, timestamp, words, positions);
+        ring_.publish();  // release: the slot's contents before the new count
         return result;
     }
 
     // Producer side: a slot is free now (a push would not drop).
-    bool hasSpace() noexcept {
-        const uint64_t t = p_.tail_local;
-        if (t - p_.released_cache < n_) return true;
-        p_.released_cache = released_.load(std::memory_order_acquire);
-        return t - p_.released_cache < n_;
-    }
+    bool hasSpace() noexcept { return ring_.hasSpace(); }
 
     // ---- consumer ----------------------------------------------------------
     // Claims the oldest published observation; false when there is none.
     bool claim(Item& out) noexcept {
         uint64_t h = head_.load(std::memory_order_acquire);
         for (;;) {
-            if (h >= c_.tail_cache) {
-                c_.tail_cache = tail_.load(std::memory_order_acquire);
-                if (h >= c_.tail_cache) return false;
-            }
+            if (!ring_.available(h)) return false;  // acquire: the slot's contents are visible
             // Fails only when the producer discarded observation h meanwhile.
             if (head_.compare_exchange_weak(h, h + 1, std::memory_order_acq_rel, std::memory_order_acquire)) break;
         }
         c_.claimed = h;
-        const std::size_t s = h % n_;
+        const std::size_t s = ring_.slot(h);
         const Meta& m = meta_[s];
         out.sequence = m.sequence;
         out.timestamp = m.timestamp;
@@ -130,18 +122,15 @@ public:
         return true;
     }
     // Gives the claimed slot back to the producer.
-    void release() noexcept { released_.store(c_.claimed + 1, std::memory_order_release); }
+    void release() noexcept { ring_.release(c_.claimed + 1); }
     // Consumer side: something is published and not yet claimed.
     bool pending() noexcept {
-        const uint64_t h = head_.load(std::memory_order_acquire);
-        if (h < c_.tail_cache) return true;
-        c_.tail_cache = tail_.load(std::memory_order_acquire);
-        return h < c_.tail_cache;
+        return ring_.available(head_.load(std::memory_order_acquire));
     }
 
     // ---- any thread (monitoring) -------------------------------------------
     uint32_t size() const noexcept {
-        const uint64_t t = tail_.load(std::memory_order_acquire);
+        const uint64_t t = ring_.published();
         const uint64_t h = head_.load(std::memory_order_acquire);
         return t > h ? static_cast<uint32_t>(t - h) : 0u;
     }
@@ -171,23 +160,18 @@ private:
         uint32_t truncated;
     };
 
-    // Full queue, DropOldest: discard observation released_ if the consumer
+    // Full queue, DropOldest: discard observation `released` if the consumer
     // holds no claim on it. Its slot is t % n_, where the new one goes.
     bool discardOldest(uint64_t t) noexcept {
-        uint64_t r = p_.released_cache;
+        const uint64_t r = ring_.releasedSeen();
         uint64_t h = head_.load(std::memory_order_acquire);
         if (h != r || h >= t) return false;  // the consumer is reading observation r
         if (!head_.compare_exchange_strong(h, r + 1, std::memory_order_acq_rel, std::memory_order_acquire))
             return false;  // the consumer claimed it first
-        // Advance released_ past the discarded observation (monotone maximum:
-        // the consumer may already have released a later one).
-        // Acquire: a release by the consumer seen here must order its reads
-        // of that slot before the producer's next write into it.
-        uint64_t cur = released_.load(std::memory_order_acquire);
-        while (cur < r + 1 &&
-               !released_.compare_exchange_weak(cur, r + 1, std::memory_order_acq_rel, std::memory_order_acquire)) {
-        }
-        p_.released_cache = std::max(cur, r + 1);
+        // Advance released past the discarded observation (monotone maximum:
+        // the consumer may already have released a later one; acquire orders
+        // the consumer's reads of that slot before the producer's next write).
+        ring_.advanceReleased(r + 1);
         p_.dropped_oldest.store(p_.dropped_oldest.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
         return true;
     }
@@ -238,17 +222,14 @@ private:
     const uint32_t n_;
     const uint32_t maxw_;
     const uint64_t seed_;
+    SpscIndices ring_;  // published and released, the producer's and consumer's cached copies
     AlignedBuffer<uint32_t> words_;
     AlignedBuffer<Position> positions_;
     AlignedBuffer<Meta> meta_;
 
-    alignas(kCacheLine) std::atomic<uint64_t> tail_{0};
     alignas(kCacheLine) std::atomic<uint64_t> head_{0};
-    alignas(kCacheLine) std::atomic<uint64_t> released_{0};
-    // Producer-private state and producer-written counters.
+    // Producer-written counters.
     struct alignas(kCacheLine) ProducerSide {
-        uint64_t tail_local = 0;
-        uint64_t released_cache = 0;
         std::atomic<uint64_t> pushed{0};
         std::atomic<uint64_t> dropped_newest{0};
         std::atomic<uint64_t> dropped_oldest{0};
@@ -256,7 +237,6 @@ private:
     } p_;
     // Consumer-private state.
     struct alignas(kCacheLine) ConsumerSide {
-        uint64_t tail_cache = 0;
         uint64_t claimed = 0;
     } c_;
 };

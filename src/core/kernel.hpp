@@ -2,6 +2,8 @@
 
 // The collapsed Gibbs refinement kernel (paper eq. 5), with a scalar reference
 // and a 4-lane SIMD path (SSE2 on x86-64, NEON on aarch64 and ARMv7+NEON).
+// Internal to the library (not installed): the public headers name only its
+// types (rost/kernel_types.hpp).
 //
 // Determinism across paths and architectures: both paths perform exactly the
 // same IEEE binary32 operations in the same order, so they draw the same
@@ -19,6 +21,7 @@
 
 #include <cstdint>
 
+#include "rost/kernel_types.hpp"
 #include "rost/random.hpp"
 
 #if defined(__SSE2__) && !defined(ROST_FORCE_SCALAR)
@@ -30,38 +33,6 @@
 #endif
 
 namespace rost::kernel {
-
-inline constexpr int kBlock = 4;
-
-// Topics padded to a whole number of 4-lane blocks; padding lanes carry zero weight.
-constexpr int paddedK(int K) noexcept { return (K + kBlock - 1) / kBlock * kBlock; }
-
-enum class Path : uint8_t { Scalar, Simd };
-
-// Name of the SIMD instruction set the Simd path compiles to on this target.
-constexpr const char* simdName() noexcept {
-#if defined(ROST_SIMD_SSE2)
-    return "sse2";
-#elif defined(ROST_SIMD_NEON)
-    return "neon";
-#else
-    return "scalar";
-#endif
-}
-
-// The word-topic side of the count tables, shared by every cell.
-struct Tables {
-    int32_t* nkv = nullptr;  // V x Kp, word-major: a word's K counts are contiguous
-    int32_t* nk = nullptr;   // Kp topic totals
-    float* inv = nullptr;    // Kp cached 1 / (n_k + V beta); 0 in padding lanes
-    float* dec = nullptr;    // Kp cached 1 / (n_k - 1 + V beta)
-    float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
-    int K = 0;
-    int Kp = 0;
-    float alpha = 0.f;
-    float beta = 0.f;
-    float vbeta = 0.f;
-};
 
 inline float reciprocal(int32_t nk, float vbeta) noexcept {
     return 1.0f / (static_cast<float>(nk) + vbeta);

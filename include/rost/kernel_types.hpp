@@ -1,0 +1,38 @@
+#pragma once
+
+// What the public Model names of the Gibbs kernel: the path selector (SIMD or
+// the scalar reference), the topic padding and the word-topic tables. The
+// kernel itself (SSE2/NEON intrinsics) is internal to the library and is
+// compiled with the library's flags (src/core/kernel.hpp); users never
+// instantiate it.
+
+#include <cstdint>
+
+namespace rost::kernel {
+
+inline constexpr int kBlock = 4;
+
+// Topics padded to a whole number of 4-lane blocks; padding lanes carry zero weight.
+constexpr int paddedK(int K) noexcept { return (K + kBlock - 1) / kBlock * kBlock; }
+
+enum class Path : uint8_t { Scalar, Simd };
+
+// Name of the SIMD instruction set the library's Simd path was compiled to:
+// "sse2", "neon" or "scalar".
+const char* simdName() noexcept;
+
+// The word-topic side of the count tables, shared by every cell.
+struct Tables {
+    int32_t* nkv = nullptr;  // V x Kp, word-major: a word's K counts are contiguous
+    int32_t* nk = nullptr;   // Kp topic totals
+    float* inv = nullptr;    // Kp cached 1 / (n_k + V beta); 0 in padding lanes
+    float* dec = nullptr;    // Kp cached 1 / (n_k - 1 + V beta)
+    float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
+    int K = 0;
+    int Kp = 0;
+    float alpha = 0.f;
+    float beta = 0.f;
+    float vbeta = 0.f;
+};
+
+} // namespace rost::kernel
