@@ -16,6 +16,7 @@
 #include "rost/config.hpp"
 #include "rost/kernel.hpp"
 #include "rost/random.hpp"
+#include "rost/state_layout.hpp"
 #include "rost/status.hpp"
 
 namespace rost {
@@ -162,38 +163,13 @@ public:
 
     Rng& rng() noexcept { return rng_; }
 
-    // Every part of the state that changes after construction, in a fixed
-    // order, as (name, pointer, bytes): the ring, the count tables, the
-    // cached reciprocals, the counters and the RNG. Their sizes follow from
-    // the Config alone, so a checkpoint is the Config plus these bytes, and
-    // writing them back into a Model built from the same Config resumes it
-    // exactly. `f` is called as f(const char* name, void* data, std::size_t bytes).
-    template <typename F>
-    void visitState(F&& f) {
-        f("counters.frames", &frames_, sizeof frames_);
-        f("counters.steps", &steps_, sizeof steps_);
-        f("counters.tokens_refined", &tokens_refined_, sizeof tokens_refined_);
-        f("counters.words_in_model", &words_in_model_, sizeof words_in_model_);
-        f("counters.nkv_is_window", &nkv_is_window_, sizeof nkv_is_window_);
-        f("rng", &rng_, sizeof rng_);
-        auto buf = [&](const char* name, auto& b) { f(name, static_cast<void*>(b.data()), b.size() * sizeof(b[0])); };
-        buf("n_kv", nkv_);
-        buf("n_k", nk_);
-        buf("inv", inv_);
-        buf("inv_dec", inv_dec_);
-        buf("inv_inc", inv_inc_);
-        buf("ring.slot_step", slot_step_);
-        buf("ring.cell_n", cell_n_);
-        buf("ring.cell_words", cell_words_);
-        buf("ring.cell_z", cell_z_);
-        buf("ring.n_ck", nck_);
-        buf("ring.cell_surprise", cell_surprise_);
-        buf("ring.in_word", in_word_);
-        buf("ring.in_pos", in_pos_);
-        buf("ring.in_slot", in_slot_);
-        buf("ring.in_n", in_n_);
-        buf("ring.obs_surprise", obs_surprise_);
-    }
+    // Every part of the state that changes after construction, as named
+    // sections in a fixed order (rost/state_layout.hpp): the counters, the
+    // RNG, the count tables and cached reciprocals, the ring. Their sizes
+    // follow from the Config alone, so a checkpoint is the Config plus these
+    // sections, and writing them back into a Model built from the same
+    // Config resumes it exactly. Appends to `out`; allocates nothing.
+    void describeState(StateLayout& out) noexcept;
 
 private:
     std::size_t slotOf(int64_t step) const noexcept { return static_cast<std::size_t>(step % ring_); }

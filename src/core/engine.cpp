@@ -272,6 +272,9 @@ struct Engine::Refiner {
     uint64_t publish_samples = 0;
     uint64_t next_sequence = 0;    // producer sequence after the last observation taken up (checkpoints)
     uint64_t truncated_taken = 0;  // words subsampled away at push from the observations taken up (checkpoints)
+    // The counters and predictors as describeState() lists them (copied there, applied by applyState()).
+    EngineStateCounters saved_counters;
+    EngineStatePredictors saved_predictors;
 
     alignas(kCacheLine) std::atomic<uint64_t> ingested{0};
     std::atomic<uint64_t> rejected{0};
@@ -673,62 +676,53 @@ void Engine::flushWindowToEvictionHook() const { visitWindow(on_evict_); }
 
 // ---- checkpoint support -------------------------------------------------------
 
-namespace {
-constexpr std::size_t kStateCounters = 12;
-} // namespace
-
-void Engine::readState(StateReader read, void* context) const noexcept {
-    const Refiner& R = *refiner_;
+void Engine::describeState(StateLayout& out) noexcept {
+    Refiner& R = *refiner_;
     // Producer-side losses as of the last observation taken up (the
     // producer may be ahead, and what it queued since is not in the state):
     // sequence numbers skipped before next_sequence were dropped.
-    const uint64_t takenUp = R.ingested.load(std::memory_order_relaxed) + R.rejected.load(std::memory_order_relaxed);
+    EngineStateCounters& c = R.saved_counters;
+    c.ingested = R.ingested.load(std::memory_order_relaxed);
+    c.rejected = R.rejected.load(std::memory_order_relaxed);
+    const uint64_t takenUp = c.ingested + c.rejected;
     const uint64_t drops = R.next_sequence > takenUp ? R.next_sequence - takenUp : 0;
-    const uint64_t dropsOldest = std::min(drops, queue_->droppedOldest());
-    const uint64_t c[kStateCounters] = {
-        R.ingested.load(std::memory_order_relaxed),
-        R.rejected.load(std::memory_order_relaxed),
-        R.words_dropped_cell.load(std::memory_order_relaxed),
-        R.refinements.load(std::memory_order_relaxed),
-        R.tokens.load(std::memory_order_relaxed),
-        R.overruns.load(std::memory_order_relaxed),
-        static_cast<uint64_t>(R.max_overrun_ns.load(std::memory_order_relaxed)),
-        R.published.load(std::memory_order_relaxed),
-        drops - dropsOldest,
-        dropsOldest,
-        R.truncated_taken,
-        R.next_sequence,
-    };
-    read(context, "engine.counters", c, sizeof c);
-    const double p[2] = {R.ns_per_token, R.publish_ns};
-    read(context, "engine.predictors", p, sizeof p);
-    read(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.size() * sizeof(int64_t));
-    read(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.size() * sizeof(uint64_t));
+    c.dropped_oldest = std::min(drops, queue_->droppedOldest());
+    c.dropped_newest = drops - c.dropped_oldest;
+    c.words_dropped_cell = R.words_dropped_cell.load(std::memory_order_relaxed);
+    c.refinements = R.refinements.load(std::memory_order_relaxed);
+    c.tokens = R.tokens.load(std::memory_order_relaxed);
+    c.overruns = R.overruns.load(std::memory_order_relaxed);
+    c.max_overrun_ns = static_cast<uint64_t>(R.max_overrun_ns.load(std::memory_order_relaxed));
+    c.published = R.published.load(std::memory_order_relaxed);
+    c.words_truncated = R.truncated_taken;
+    c.next_sequence = R.next_sequence;
+    R.saved_predictors = {R.ns_per_token, R.publish_ns};
+
+    model_->describeState(out);
+    out.addBytes("engine.counters", 0, &R.saved_counters, sizeof R.saved_counters, sizeof(uint64_t));
+    out.addBytes("engine.predictors", 0, &R.saved_predictors, sizeof R.saved_predictors, sizeof(double));
+    out.add("engine.window.timestamp", 0, R.win_ts.data(), R.win_ts.size());
+    out.add("engine.window.sequence", 0, R.win_seq.data(), R.win_seq.size());
 }
 
-Status Engine::writeState(StateWriter write, void* context) {
+Status Engine::applyState() {
     if (running()) return Status::error("engine: cannot restore state while running");
     if (queue_->size() != 0) return Status::error("engine: cannot restore state while observations are queued");
     Refiner& R = *refiner_;
-    uint64_t c[kStateCounters] = {};
-    write(context, "engine.counters", c, sizeof c);
-    double p[2] = {R.ns_per_token, R.publish_ns};
-    write(context, "engine.predictors", p, sizeof p);
-    write(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.size() * sizeof(int64_t));
-    write(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.size() * sizeof(uint64_t));
-    R.ingested.store(c[0], std::memory_order_relaxed);
-    R.rejected.store(c[1], std::memory_order_relaxed);
-    R.words_dropped_cell.store(c[2], std::memory_order_relaxed);
-    R.refinements.store(c[3], std::memory_order_relaxed);
-    R.tokens.store(c[4], std::memory_order_relaxed);
-    R.overruns.store(c[5], std::memory_order_relaxed);
-    R.max_overrun_ns.store(static_cast<int64_t>(c[6]), std::memory_order_relaxed);
-    R.published.store(c[7], std::memory_order_relaxed);
-    R.next_sequence = c[11];
-    R.truncated_taken = c[10];
-    queue_->restoreProducer(c[11], c[8], c[9], c[10]);
-    R.ns_per_token = p[0];
-    R.publish_ns = p[1];
+    const EngineStateCounters& c = R.saved_counters;
+    R.ingested.store(c.ingested, std::memory_order_relaxed);
+    R.rejected.store(c.rejected, std::memory_order_relaxed);
+    R.words_dropped_cell.store(c.words_dropped_cell, std::memory_order_relaxed);
+    R.refinements.store(c.refinements, std::memory_order_relaxed);
+    R.tokens.store(c.tokens, std::memory_order_relaxed);
+    R.overruns.store(c.overruns, std::memory_order_relaxed);
+    R.max_overrun_ns.store(static_cast<int64_t>(c.max_overrun_ns), std::memory_order_relaxed);
+    R.published.store(c.published, std::memory_order_relaxed);
+    R.next_sequence = c.next_sequence;
+    R.truncated_taken = c.words_truncated;
+    queue_->restoreProducer(c.next_sequence, c.dropped_newest, c.dropped_oldest, c.words_truncated);
+    R.ns_per_token = R.saved_predictors.ns_per_token;
+    R.publish_ns = R.saved_predictors.publish_ns;
     R.token_samples = R.publish_samples = 1;  // restored averages, not first samples
     return {};
 }

@@ -149,6 +149,34 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
                     sizeof(Model);
 }
 
+void Model::describeState(StateLayout& out) noexcept {
+    // Section names and order are checkpoint format 1's; a change to what a
+    // section holds bumps its version.
+    out.add("counters.frames", 0, &frames_, 1);
+    out.add("counters.steps", 0, &steps_, 1);
+    out.add("counters.tokens_refined", 0, &tokens_refined_, 1);
+    out.add("counters.words_in_model", 0, &words_in_model_, 1);
+    out.add("counters.nkv_is_window", 0, &nkv_is_window_, 1);
+    out.add("rng", 0, std::span<uint32_t>(rng_.stateWords()));
+    auto buf = [&out](std::string_view name, auto& b) { out.add(name, 0, b.data(), b.size()); };
+    buf("n_kv", nkv_);
+    buf("n_k", nk_);
+    buf("inv", inv_);
+    buf("inv_dec", inv_dec_);
+    buf("inv_inc", inv_inc_);
+    buf("ring.slot_step", slot_step_);
+    buf("ring.cell_n", cell_n_);
+    buf("ring.cell_words", cell_words_);
+    buf("ring.cell_z", cell_z_);
+    buf("ring.n_ck", nck_);
+    buf("ring.cell_surprise", cell_surprise_);
+    buf("ring.in_word", in_word_);
+    buf("ring.in_pos", in_pos_);
+    buf("ring.in_slot", in_slot_);
+    buf("ring.in_n", in_n_);
+    buf("ring.obs_surprise", obs_surprise_);
+}
+
 void Model::evict(std::size_t slot) noexcept {
     if (cfg_.eviction == EvictionPolicy::Subtract) {
         for (int c = 0; c < cells_; ++c) {
