@@ -287,6 +287,13 @@ public:
 private:
     struct Refiner;
     bool takeUpOne(ObservationResult* out) noexcept;
+    // The parts of takeUpOne: a rejected observation's result and hook; the
+    // instantaneous perplexity and eviction hook before an observation opens
+    // a step; the budget, publication and timing.
+    void reject(ObservationResult& r, ObservationResult* out) noexcept;
+    void beforeObservation(ObservationResult& r) noexcept;
+    void refineAndPublish(ObservationResult& r, std::chrono::steady_clock::time_point t0,
+                          std::chrono::steady_clock::time_point deadline) noexcept;
     void refinerMain() noexcept;
     uint64_t spend(const Budget& budget, std::chrono::steady_clock::time_point deadline, bool newest,
                    uint64_t* tokens_out) noexcept;

@@ -481,92 +481,89 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     const auto deadline =
         t0 + std::chrono::nanoseconds(timed ? static_cast<int64_t>(cfg_.budget.ms * 1e6) : int64_t{0});
     Model& m = *model_;
-    Refiner& R = *refiner_;
     ObservationResult r;
     r.sequence = it.sequence;
     r.timestamp = it.timestamp;
-    const uint64_t frame = m.observations();
-    r.observation = frame;
+    r.observation = m.observations();
+    const std::span<const uint32_t> words(it.words, it.size);
+    const std::span<const Position> positions(it.positions, it.size);
 
-    // Validate first, so the eviction hook and the instantaneous perplexity
-    // run only for an observation that will enter the model.
-    AddError err = AddError::None;
-    uint32_t at = 0;
+    // Validate first (the model's own checks), so the eviction hook and the
+    // instantaneous perplexity run only for an observation that will enter the model.
+    AddResult check;
     if (it.size_mismatch) {
-        err = AddError::SizeMismatch;
-        at = it.mismatch_index;
+        check.error = AddError::SizeMismatch;
+        check.index = it.mismatch_index;
     } else {
-        const auto V = static_cast<uint32_t>(m.V());
-        const int fw = m.config().frame_width, fh = m.config().frame_height;
-        for (uint32_t i = 0; i < it.size; ++i) {
-            const Position p = it.positions[i];
-            if (it.words[i] >= V) {
-                err = AddError::WordOutOfRange;
-            } else if (p.x < 0 || p.y < 0 || p.x >= fw || p.y >= fh) {
-                err = AddError::PositionOutOfRange;
-            } else {
-                continue;
-            }
-            at = i;
-            break;
-        }
+        check = m.validateObservation(words, positions);
     }
-    if (err != AddError::None) {
+    if (!check.ok()) {
         queue_->release();
-        bump(R.rejected);
-        r.add.error = err;
-        r.add.index = at;
-        r.step = -1;
+        r.add = check;
         r.elapsed_ns = (Clock::now() - t0).count();
-        if (on_observation_) on_observation_(r, m);
-        if (out) *out = r;
+        reject(r, out);
         return true;
     }
-
-    const auto ct = static_cast<uint64_t>(m.config().cell_time);
-    if (frame % ct == 0 && frame > 0) {
-        const auto newStep = static_cast<int64_t>(frame / ct);
-        // Instantaneous perplexity of the step just completed: one step after
-        // its arrival, before the next observation touches the model.
-        if (cfg_.flags.instantaneous_perplexity) {
-            r.previous_step = newStep - 1;
-            r.previous_perplexity = m.stepPerplexity(newStep - 1);
-        }
-        const int64_t ring = m.config().ring_steps;
-        if (on_evict_ && newStep >= ring) {
-            const int64_t gone = newStep - ring;
-            for (uint64_t f = static_cast<uint64_t>(gone) * ct; f < static_cast<uint64_t>(gone + 1) * ct; ++f) {
-                const std::size_t w = f % R.win_cap;
-                on_evict_(WindowObservation{f, R.win_seq[w], R.win_ts[w], gone}, m);
-            }
-        }
-    }
-    r.add = m.addObservation({it.words, it.size}, {it.positions, it.size});
+    beforeObservation(r);
+    r.add = m.addObservation(words, positions);
     queue_->release();
     if (!r.add.ok()) {  // not reached: validated above
-        bump(R.rejected);
-        r.step = -1;
-        if (on_observation_) on_observation_(r, m);
-        if (out) *out = r;
+        reject(r, out);
         return true;
     }
-    const std::size_t w = frame % R.win_cap;
-    R.win_ts[w] = it.timestamp;
-    R.win_seq[w] = it.sequence;
-    r.step = m.stepOfObservation(frame);
-    r.surprise = m.observationSurprise(frame);
-    bump(R.ingested);
-    bump(R.words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
+    const std::size_t w = r.observation % refiner_->win_cap;
+    refiner_->win_ts[w] = it.timestamp;
+    refiner_->win_seq[w] = it.sequence;
+    r.step = m.stepOfObservation(r.observation);
+    r.surprise = m.observationSurprise(r.observation);
+    bump(refiner_->ingested);
+    bump(refiner_->words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
+    refineAndPublish(r, t0, deadline);
+    if (on_observation_) on_observation_(r, m);
+    if (out) *out = r;
+    return true;
+}
 
+void Engine::reject(ObservationResult& r, ObservationResult* out) noexcept {
+    bump(refiner_->rejected);
+    r.step = -1;
+    if (on_observation_) on_observation_(r, *model_);
+    if (out) *out = r;
+}
+
+void Engine::beforeObservation(ObservationResult& r) noexcept {
+    const Model& m = *model_;
+    const uint64_t frame = r.observation;
+    const auto ct = static_cast<uint64_t>(m.config().cell_time);
+    if (frame % ct != 0 || frame == 0) return;
+    const auto newStep = static_cast<int64_t>(frame / ct);
+    // Instantaneous perplexity of the step just completed: one step after
+    // its arrival, before the next observation touches the model.
+    if (cfg_.flags.instantaneous_perplexity) {
+        r.previous_step = newStep - 1;
+        r.previous_perplexity = m.stepPerplexity(newStep - 1);
+    }
+    const int64_t ring = m.config().ring_steps;
+    if (!on_evict_ || newStep < ring) return;
+    const Refiner& R = *refiner_;
+    const int64_t gone = newStep - ring;
+    for (uint64_t f = static_cast<uint64_t>(gone) * ct; f < static_cast<uint64_t>(gone + 1) * ct; ++f) {
+        const std::size_t w = f % R.win_cap;
+        on_evict_(WindowObservation{f, R.win_seq[w], R.win_ts[w], gone}, m);
+    }
+}
+
+void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock::time_point deadline) noexcept {
+    Refiner& R = *refiner_;
     const auto ts = Clock::now();
     r.refinements = spend(cfg_.budget, deadline, true, &r.tokens);
     const auto tp = Clock::now();
     r.refine_ns = (tp - ts).count();
 
-    if (cfg_.flags.snapshot_perplexity) r.perplexity = m.stepPerplexity(r.step);
+    if (cfg_.flags.snapshot_perplexity) r.perplexity = model_->stepPerplexity(r.step);
     publish(r);
     const auto t1 = Clock::now();
-    if (timed) {
+    if (cfg_.budget.kind == BudgetKind::Time) {
         // Publishing costs about the same for observations of similar size: a faster average.
         R.publish_ns = std::min(robustAverage(R.publish_ns, static_cast<double>((t1 - tp).count()), 0.25,
                                               R.publish_samples),
@@ -580,9 +577,6 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
         }
     }
     r.elapsed_ns = (t1 - t0).count();
-    if (on_observation_) on_observation_(r, m);
-    if (out) *out = r;
-    return true;
 }
 
 void Engine::refinerMain() noexcept {
