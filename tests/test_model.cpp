@@ -230,18 +230,20 @@ TEST(ModelState, CopiedStateResumesBitForBit) {
     }
     // Copy every state buffer into a fresh model built from the same config.
     std::vector<std::vector<char>> saved;
-    a.visitState([&](const char*, void* data, std::size_t bytes) {
-        saved.emplace_back(static_cast<char*>(data), static_cast<char*>(data) + bytes);
-    });
+    rost::StateLayout layoutA;
+    a.describeState(layoutA);
+    for (const rost::StateSection& s : layoutA.sections())
+        saved.emplace_back(static_cast<char*>(s.data), static_cast<char*>(s.data) + s.bytes);
     rost::Config other = c;
     other.seed = 999;  // the RNG state comes from the copy, not the seed
     rost::Model b(other);
-    std::size_t i = 0;
-    b.visitState([&](const char* name, void* data, std::size_t bytes) {
-        ASSERT_EQ(saved[i].size(), bytes) << name;
-        std::memcpy(data, saved[i].data(), bytes);
-        ++i;
-    });
+    rost::StateLayout layoutB;
+    b.describeState(layoutB);
+    ASSERT_EQ(layoutB.size(), saved.size());
+    for (std::size_t i = 0; i < layoutB.size(); ++i) {
+        ASSERT_EQ(saved[i].size(), layoutB[i].bytes) << layoutB[i].name;
+        std::memcpy(layoutB[i].data, saved[i].data(), layoutB[i].bytes);
+    }
     std::string why;
     ASSERT_TRUE(b.checkInvariants(&why)) << why;
     for (int f = 0; f < 5; ++f) {

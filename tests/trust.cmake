@@ -1,6 +1,8 @@
 # Trust on a long mission (issue 7): checkpoints, configuration files, the
 # topic model CSV, faults and overload, a short soak.
-rost_add_test(test_checkpoint SOURCES test_checkpoint.cpp)
+rost_add_test(test_checkpoint SOURCES test_checkpoint.cpp test_checkpoint_golden.cpp)
+# Golden checkpoints written by earlier builds (test_checkpoint_golden.cpp).
+target_compile_definitions(test_checkpoint PRIVATE ROST_TEST_DATA_DIR="${CMAKE_CURRENT_SOURCE_DIR}/data")
 rost_add_test(test_config_file SOURCES test_config_file.cpp test_settings.cpp)
 rost_add_test(test_faults SOURCES test_faults.cpp)
 rost_add_test(test_soak SOURCES test_soak.cpp)

@@ -20,7 +20,7 @@
 //       32        S sections, back to back, each:
 //                   +0   32  name, ASCII, NUL-padded
 //                   +32   4  element width in bytes (1, 2, 4 or 8)
-//                   +36   4  reserved, 0
+//                   +36   4  section version (0 for every section of format 1)
 //                   +40   8  payload bytes P (a multiple of the width)
 //                   +48   4  CRC-32C of the payload
 //                   +52   4  CRC-32C of bytes +0..+51 of this section header
@@ -29,8 +29,11 @@
 // The file ends right after the last payload. Section 0 is "config": the
 // EngineConfig as rost/config_file.hpp text (formatConfig), so a file made
 // with another configuration is named key by key. Then come the sections
-// of Model::visitState and of Engine::readState, in their order, each with
-// the size the configuration implies.
+// of Engine::describeState (the Model's, then the engine's own; see
+// rost/state_layout.hpp), in their order, each with the name, version,
+// element width and size the layout gives for this configuration. This file
+// only walks that layout; a section whose version differs from this
+// build's is refused, naming both versions.
 //
 // Why CRC-32C (Castagnoli): it is what storage stacks use to catch the same
 // faults (ext4 and btrfs metadata, iSCSI, SCTP), it detects every burst

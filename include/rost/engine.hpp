@@ -36,6 +36,7 @@
 #include "rost/realtime.hpp"
 #include "rost/settings_schema.hpp"
 #include "rost/snapshot.hpp"
+#include "rost/state_layout.hpp"
 #include "rost/status.hpp"
 #include "rost/strategy.hpp"
 
@@ -148,6 +149,32 @@ struct EngineMemory {
     std::size_t total() const noexcept { return model + queue + snapshot + other; }
 };
 
+// The engine's counters as its state holds them ("engine.counters"): the
+// refiner's, the producer's losses as of the last observation taken up, and
+// the producer's next sequence number. Twelve little-endian uint64 in a checkpoint.
+struct EngineStateCounters {
+    uint64_t ingested = 0;
+    uint64_t rejected = 0;
+    uint64_t words_dropped_cell = 0;
+    uint64_t refinements = 0;
+    uint64_t tokens = 0;
+    uint64_t overruns = 0;
+    uint64_t max_overrun_ns = 0;
+    uint64_t published = 0;
+    uint64_t dropped_newest = 0;
+    uint64_t dropped_oldest = 0;
+    uint64_t words_truncated = 0;  // at push, in the observations taken up
+    uint64_t next_sequence = 0;
+};
+static_assert(sizeof(EngineStateCounters) == 12 * sizeof(uint64_t));
+
+// The time-budget cost predictors ("engine.predictors").
+struct EngineStatePredictors {
+    double ns_per_token = 0.0;
+    double publish_ns = 0.0;
+};
+static_assert(sizeof(EngineStatePredictors) == 2 * sizeof(double));
+
 class Engine {
 public:
     // Throws std::invalid_argument with validate()'s message on a bad configuration.
@@ -242,26 +269,32 @@ public:
     void flushWindowToEvictionHook() const;
 
     // ---- checkpoint support (rost/checkpoint.hpp) ---------------------------
-    // The engine's state outside the Model, as named sections of fixed size
-    // (set by the Config) in a fixed order: "engine.counters" (12 x uint64:
-    // the refiner's counters, the producer's losses as of the last
-    // observation taken up, and the next producer sequence number), "engine.predictors" (2 x double: the time-budget
-    // cost predictors), "engine.window.timestamp" and
-    // "engine.window.sequence" (ring_steps x cell_time x int64/uint64).
-    // Model::visitState plus these sections is the engine's whole state.
-    using StateReader = void (*)(void* context, const char* name, const void* data, std::size_t bytes);
-    using StateWriter = void (*)(void* context, const char* name, void* data, std::size_t bytes);
-    // When the engine is not running, or on the refining thread (in the
-    // observation hook). Copies counters into locals first: no allocation, no lock.
-    void readState(StateReader read, void* context) const noexcept;
-    // Overwrites the sections with what `write` puts in them. Set-up only:
-    // error when running or when observations are queued. The producer's next
-    // push gets the saved next sequence number.
-    Status writeState(StateWriter write, void* context);
+    // The engine's whole state as one layout (rost/state_layout.hpp): the
+    // Model's sections (Model::describeState), then the engine's own, of
+    // sizes fixed by the Config: "engine.counters" (EngineStateCounters),
+    // "engine.predictors" (EngineStatePredictors), "engine.window.timestamp"
+    // and "engine.window.sequence" (ring_steps x cell_time int64/uint64).
+    // Also copies the counters and predictors into the sections, so reading
+    // them right after gives the current state. When the engine is not
+    // running, or on the refining thread (in the observation hook): no
+    // allocation, no lock.
+    void describeState(StateLayout& out) noexcept;
+    // After the sections of describeState() were overwritten: puts the
+    // counters and predictors back in use. Set-up only: error when running or
+    // when observations are queued. The producer's next push gets the saved
+    // next sequence number.
+    Status applyState();
 
 private:
     struct Refiner;
     bool takeUpOne(ObservationResult* out) noexcept;
+    // The parts of takeUpOne: a rejected observation's result and hook; the
+    // instantaneous perplexity and eviction hook before an observation opens
+    // a step; the budget, publication and timing.
+    void reject(ObservationResult& r, ObservationResult* out) noexcept;
+    void beforeObservation(ObservationResult& r) noexcept;
+    void refineAndPublish(ObservationResult& r, std::chrono::steady_clock::time_point t0,
+                          std::chrono::steady_clock::time_point deadline) noexcept;
     void refinerMain() noexcept;
     uint64_t spend(const Budget& budget, std::chrono::steady_clock::time_point deadline, bool newest,
                    uint64_t* tokens_out) noexcept;

@@ -16,6 +16,7 @@
 #include "rost/config.hpp"
 #include "rost/kernel_types.hpp"
 #include "rost/random.hpp"
+#include "rost/state_layout.hpp"
 #include "rost/status.hpp"
 
 namespace rost {
@@ -42,6 +43,36 @@ struct AddResult {
     uint32_t dropped_cell = 0;   // words beyond a cell's capacity (uniformly subsampled away)
     [[nodiscard]] bool ok() const noexcept { return error == AddError::None; }
 };
+
+// ---- one observation's checks and subsampling ----------------------------------
+// Shared by Model::addObservation and the engine's queue (which subsamples a
+// long observation when it is pushed and checks the rest when it is taken
+// up), so an observation is judged and thinned the same way wherever it enters.
+
+// Words and positions must be as many: SizeMismatch at the shorter length otherwise.
+AddResult checkObservationSizes(std::size_t words, std::size_t positions) noexcept;
+
+// Uniform subsample of `keep` of `n` items in input order (selection
+// sampling, Knuth's algorithm S): calls kept(i) for each index kept and
+// returns how many. Keeps everything without a draw when n <= keep;
+// otherwise draws rng.below(n - i) for each item looked at.
+template <typename Kept>
+std::size_t selectUniform(std::size_t n, std::size_t keep, Rng& rng, Kept&& kept) noexcept {
+    if (n <= keep) {
+        for (std::size_t i = 0; i < n; ++i) kept(i);
+        return n;
+    }
+    std::size_t need = keep, j = 0;
+    for (std::size_t i = 0; i < n && need > 0; ++i) {
+        const uint64_t left = n - i;
+        const uint64_t pick = left > 0xFFFFFFFFull ? need : rng.below(static_cast<uint32_t>(left));
+        if (pick >= need) continue;
+        kept(i);
+        ++j;
+        --need;
+    }
+    return j;
+}
 
 // Sum of -log p(w) over some words; perplexity = exp(nll / words).
 struct LogLoss {
@@ -77,6 +108,9 @@ public:
     // a cell's capacity is uniformly subsampled (selection sampling, seeded)
     // and counted. On error nothing changes. Never allocates.
     AddResult addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept;
+    // The checks addObservation makes before it changes anything (sizes,
+    // word ids < V, positions inside the frame): the first offending word.
+    AddResult validateObservation(std::span<const uint32_t> words, std::span<const Position> positions) const noexcept;
 
     uint64_t observations() const noexcept { return frames_; }
     // Temporal cells so far (the paper's T, counting from 1). Step indices run 0..steps()-1.
@@ -162,38 +196,13 @@ public:
 
     Rng& rng() noexcept { return rng_; }
 
-    // Every part of the state that changes after construction, in a fixed
-    // order, as (name, pointer, bytes): the ring, the count tables, the
-    // cached reciprocals, the counters and the RNG. Their sizes follow from
-    // the Config alone, so a checkpoint is the Config plus these bytes, and
-    // writing them back into a Model built from the same Config resumes it
-    // exactly. `f` is called as f(const char* name, void* data, std::size_t bytes).
-    template <typename F>
-    void visitState(F&& f) {
-        f("counters.frames", &frames_, sizeof frames_);
-        f("counters.steps", &steps_, sizeof steps_);
-        f("counters.tokens_refined", &tokens_refined_, sizeof tokens_refined_);
-        f("counters.words_in_model", &words_in_model_, sizeof words_in_model_);
-        f("counters.nkv_is_window", &nkv_is_window_, sizeof nkv_is_window_);
-        f("rng", &rng_, sizeof rng_);
-        auto buf = [&](const char* name, auto& b) { f(name, static_cast<void*>(b.data()), b.size() * sizeof(b[0])); };
-        buf("n_kv", nkv_);
-        buf("n_k", nk_);
-        buf("inv", inv_);
-        buf("inv_dec", inv_dec_);
-        buf("inv_inc", inv_inc_);
-        buf("ring.slot_step", slot_step_);
-        buf("ring.cell_n", cell_n_);
-        buf("ring.cell_words", cell_words_);
-        buf("ring.cell_z", cell_z_);
-        buf("ring.n_ck", nck_);
-        buf("ring.cell_surprise", cell_surprise_);
-        buf("ring.in_word", in_word_);
-        buf("ring.in_pos", in_pos_);
-        buf("ring.in_slot", in_slot_);
-        buf("ring.in_n", in_n_);
-        buf("ring.obs_surprise", obs_surprise_);
-    }
+    // Every part of the state that changes after construction, as named
+    // sections in a fixed order (rost/state_layout.hpp): the counters, the
+    // RNG, the count tables and cached reciprocals, the ring. Their sizes
+    // follow from the Config alone, so a checkpoint is the Config plus these
+    // sections, and writing them back into a Model built from the same
+    // Config resumes it exactly. Appends to `out`; allocates nothing.
+    void describeState(StateLayout& out) noexcept;
 
 private:
     std::size_t slotOf(int64_t step) const noexcept { return static_cast<std::size_t>(step % ring_); }
@@ -217,6 +226,16 @@ private:
     template <int KP, kernel::Path P>
     uint32_t refineCells(const StepSlots& slots, int c0, int c1) noexcept;
     void evict(std::size_t slot) noexcept;
+    // The parts of addObservation, in order (ring slot `slot`, input row `obs`).
+    void openStep(int64_t step, std::size_t slot) noexcept;
+    uint32_t keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::size_t obs) noexcept;
+    void fillCells(std::size_t slot, std::size_t obs, uint32_t kept, AddResult& res) noexcept;
+    void observeSurprise(int64_t step, std::size_t slot, std::size_t obs, const uint32_t* firstNew) noexcept;
+    void drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexcept;
+    // The parts of the constructor.
+    void allocateState();
+    void buildNeighbourhoods();
+    void selectKernels() noexcept;
     // 1 / (n_k + V beta) and 1 / (n_k - 1 + V beta) in double, computed once
     // per call of an output function instead of K divisions per word.
     struct Reciprocals {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 
 namespace rost {
 
@@ -64,6 +65,8 @@ public:
     void setState(const State& st) noexcept {
         for (int i = 0; i < 4; ++i) s_[i] = st.s[i];
     }
+    // The state words themselves (a checkpoint section).
+    std::span<uint32_t, 4> stateWords() noexcept { return std::span<uint32_t, 4>(s_); }
 
 private:
     static uint32_t rotl(uint32_t x, int k) noexcept { return (x << k) | (x >> (32 - k)); }

@@ -5,6 +5,7 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -12,6 +13,7 @@
 
 #include "rost/config_file.hpp"
 #include "rost/kernel_types.hpp"
+#include "rost/state_layout.hpp"
 #include "rost/word_stream.hpp"
 
 namespace rost {
@@ -61,6 +63,7 @@ constexpr std::size_t kFileHeader = 32;
 constexpr std::size_t kSectionHeader = 56;
 constexpr std::size_t kNameBytes = 32;
 constexpr uint32_t kMaxSections = 256;
+constexpr uint32_t kConfigSectionVersion = 0;  // the "config" section's text format (formatConfig)
 constexpr bool kLittleEndian = std::endian::native == std::endian::little;
 
 void putU32(uint8_t* p, uint32_t v) noexcept {
@@ -103,123 +106,94 @@ T element(const uint8_t* payload, std::size_t i) noexcept {
     return std::bit_cast<T>(u);
 }
 
-// Element width of every state section (how it is byte-swapped on a
-// big-endian host). A section this table does not know is refused, so a
-// new state buffer cannot slip into checkpoints without a decision here.
-struct KnownSection {
-    const char* name;
-    uint32_t width;
-};
-constexpr KnownSection kKnown[] = {
-    {"config", 1},
-    {"counters.frames", 8},
-    {"counters.steps", 8},
-    {"counters.tokens_refined", 8},
-    {"counters.words_in_model", 8},
-    {"counters.nkv_is_window", 1},
-    {"rng", 4},
-    {"n_kv", 4},
-    {"n_k", 4},
-    {"inv", 4},
-    {"inv_dec", 4},
-    {"inv_inc", 4},
-    {"ring.slot_step", 8},
-    {"ring.cell_n", 4},
-    {"ring.cell_words", 4},
-    {"ring.cell_z", 2},
-    {"ring.n_ck", 4},
-    {"ring.cell_surprise", 4},
-    {"ring.in_word", 4},
-    {"ring.in_pos", 4},
-    {"ring.in_slot", 4},
-    {"ring.in_n", 4},
-    {"ring.obs_surprise", 4},
-    {"engine.counters", 8},
-    {"engine.predictors", 8},
-    {"engine.window.timestamp", 8},
-    {"engine.window.sequence", 8},
-};
-
-uint32_t knownWidth(std::string_view name) noexcept {
-    for (const auto& k : kKnown)
-        if (name == k.name) return k.width;
-    return 0;
-}
-
-struct LayoutEntry {
-    std::string name;
-    std::size_t bytes;
-    uint32_t width;
-};
-
-// The sections an engine's state consists of, after "config".
-Status engineLayout(Engine& engine, std::vector<LayoutEntry>& out) {
-    out.clear();
-    std::string unknown;
-    auto record = [&](const char* name, std::size_t bytes) {
-        const uint32_t w = knownWidth(name);
-        if (w == 0 || bytes % w != 0 || std::strlen(name) >= kNameBytes) {
-            if (unknown.empty()) unknown = name;
-            return;
-        }
-        out.push_back({name, bytes, w});
-    };
-    engine.model().visitState([&](const char* name, void*, std::size_t bytes) { record(name, bytes); });
-    engine.readState(
-        [](void* ctx, const char* name, const void*, std::size_t bytes) {
-            (*static_cast<decltype(record)*>(ctx))(name, bytes);
-        },
-        &record);
-    if (!unknown.empty())
-        return Status::error("checkpoint: state section '" + unknown +
-                             "' is not known to the checkpoint format (add its element width to checkpoint.cpp)");
-    // The fill below addresses sections by their place in this order.
-    bool inOrder = out.size() + 1 == std::size(kKnown);
-    for (std::size_t i = 0; inOrder && i < out.size(); ++i) inOrder = out[i].name == kKnown[i + 1].name;
-    if (!inOrder) return Status::error("checkpoint: the engine's state sections changed order (update checkpoint.cpp)");
+// The engine's state as one layout (Engine::describeState): the sections
+// after "config", each with its name, version, element width and size.
+Status engineLayout(Engine& engine, StateLayout& layout) {
+    layout.clear();
+    engine.describeState(layout);
+    if (layout.overflowed())
+        return Status::error("checkpoint: the engine's state has more than " + std::to_string(StateLayout::kMaxSections) +
+                             " sections");
+    for (const StateSection& s : layout.sections()) {
+        const bool widthOk = s.width == 1 || s.width == 2 || s.width == 4 || s.width == 8;
+        if (s.name.empty() || s.name.size() >= kNameBytes || s.name == "config" || !widthOk || s.bytes % s.width != 0 ||
+            s.size != SectionSize::Fixed || layout.find(s.name) != &s)
+            return Status::error("checkpoint: state section '" + std::string(s.name) +
+                                 "' cannot be stored (a unique name of 1..31 characters, a width of 1, 2, 4 or 8 "
+                                 "bytes, a size fixed by the configuration)");
+    }
     return {};
 }
 
+// Writes a section header (checksums are left for sealImage).
+void putSectionHeader(uint8_t* h, std::string_view name, uint32_t version, uint32_t width, std::size_t bytes) noexcept {
+    std::memcpy(h, name.data(), name.size());
+    putU32(h + 32, width);
+    putU32(h + 36, version);
+    putU64(h + 40, bytes);
+}
+
 // Lays out a file image: header, the config section (filled), then a
-// section per state buffer (headers filled, payloads left for fillImage).
+// section per state section (headers filled, payloads left for fillImage).
 Status buildImage(Engine& engine, std::vector<uint8_t>& image, std::vector<detail::CheckpointSlot>& slots) {
-    std::vector<LayoutEntry> layout;
+    StateLayout layout;
     if (Status st = engineLayout(engine, layout); !st.ok()) return st;
     const std::string config = formatConfig(engine.config());
-    layout.insert(layout.begin(), LayoutEntry{"config", config.size(), 1});
-    std::size_t size = kFileHeader;
+    auto slotAt = [](std::size_t at, std::size_t bytes, uint32_t width) {
+        return detail::CheckpointSlot{at, at + kSectionHeader, bytes, width};
+    };
     slots.clear();
-    for (const LayoutEntry& e : layout) {
-        detail::CheckpointSlot s;
-        s.header = size;
-        s.payload = size + kSectionHeader;
-        s.bytes = e.bytes;
-        s.width = e.width;
-        slots.push_back(s);
-        size = s.payload + e.bytes;
-    }
+    slots.push_back(slotAt(kFileHeader, config.size(), 1));
+    for (const StateSection& s : layout.sections())
+        slots.push_back(slotAt(slots.back().payload + slots.back().bytes, s.bytes, s.width));
+    const std::size_t size = slots.back().payload + slots.back().bytes;
     image.assign(size, 0);
     std::memcpy(image.data(), kMagic, sizeof kMagic);
     putU32(image.data() + 8, kCheckpointVersion);
     putU32(image.data() + 12, static_cast<uint32_t>(slots.size()));
     putU64(image.data() + 16, size);
-    for (std::size_t i = 0; i < slots.size(); ++i) {
-        uint8_t* h = image.data() + slots[i].header;
-        std::memcpy(h, layout[i].name.data(), layout[i].name.size());
-        putU32(h + 32, slots[i].width);
-        putU64(h + 40, slots[i].bytes);
-    }
+    putSectionHeader(image.data() + slots[0].header, "config", kConfigSectionVersion, 1, config.size());
+    for (std::size_t i = 0; i < layout.size(); ++i)
+        putSectionHeader(image.data() + slots[i + 1].header, layout[i].name, layout[i].version, layout[i].width,
+                         layout[i].bytes);
     std::memcpy(image.data() + slots[0].payload, config.data(), config.size());
     return {};
 }
 
-// Places of the sections in kKnown order (section 0 is "config").
-enum SectionIndex : std::size_t {
-    kFrames = 1, kSteps, kTokensRefined, kWordsInModel, kNkvIsWindow, kRng, kNkv, kNk, kInv, kInvDec, kInvInc,
-    kSlotStep, kCellN, kCellWords, kCellZ, kNck, kCellSurprise, kInWord, kInPos, kInSlot, kInN, kObsSurprise,
-    kEngineFirst, kSectionCount = kEngineFirst + 4
+// One section of a file image beside its state section in the engine.
+struct Pair {
+    const uint8_t* src = nullptr;  // the engine's memory (stable while we copy)
+    uint8_t* dst = nullptr;        // the payload in the image
+    uint32_t width = 1;
+    template <typename T>
+    T state(std::size_t i) const noexcept {  // element i of the engine's state
+        T v;
+        std::memcpy(&v, src + i * sizeof(T), sizeof(T));
+        return v;
+    }
+    template <typename T>
+    T image(std::size_t i) const noexcept {  // element i as the image holds it
+        return element<T>(dst, i);
+    }
+    // Elements [from, to): copied from the state, or zeroed.
+    void copy(std::size_t from, std::size_t to) const noexcept {
+        if (to > from) copyLittleEndian(dst + from * width, src + from * width, (to - from) * width, width);
+    }
+    void zero(std::size_t from, std::size_t to) const noexcept {
+        if (to > from) std::memset(dst + from * width, 0, (to - from) * width);
+    }
 };
-static_assert(kSectionCount == std::size(kKnown));
+
+// The ring's sections are copied sparsely (Filler::fillRing); every other
+// section is copied whole.
+constexpr std::string_view kRingSections[] = {
+    "ring.slot_step", "ring.cell_n",    "ring.cell_words", "ring.cell_z", "ring.n_ck",         "ring.cell_surprise",
+    "ring.in_word",   "ring.in_pos",    "ring.in_slot",    "ring.in_n",   "ring.obs_surprise",
+};
+enum Ring : std::size_t {
+    kSlotStep, kCellN, kCellWords, kCellZ, kNck, kCellSurprise, kInWord, kInPos, kInSlot, kInN, kObsSurprise, kRingCount
+};
+static_assert(std::size(kRingSections) == kRingCount);
 
 // Copies the engine's state into the payloads of an image laid out by
 // buildImage. Runs on the refining thread: no allocation, no lock.
@@ -234,122 +208,99 @@ static_assert(kSectionCount == std::size(kKnown));
 // input slots and surprises now; only its labels and topic counts, which
 // refinement changes, are copied again. A fresh (zero) image copies all.
 struct Filler {
-    uint8_t* image;
-    const detail::CheckpointSlot* slots;
     const Config& cfg;
-    const uint8_t* src[kEngineFirst] = {};  // the model's buffers (stable while we copy)
-    std::size_t bytes[kEngineFirst] = {};
+    Pair ring[kRingCount];
+    Pair frames;
+    uint64_t imageFrames = 0;  // counters.frames as the image held it before this fill
     bool fresh = false;
-    std::size_t cursor = 1;
-    bool mismatch = false;
 
-    uint8_t* dst(std::size_t section) const noexcept { return image + slots[section].payload; }
-    void copyAll(std::size_t section) noexcept {
-        copyLittleEndian(dst(section), src[section], bytes[section], slots[section].width);
+    void fillRing() const noexcept {
+        const auto slots = static_cast<std::size_t>(cfg.ring_steps);
+        const auto ct = static_cast<std::size_t>(cfg.cell_time);
+        // What the image held when it was last filled (a fresh image: nothing).
+        uint64_t prevFrames = fresh ? 0 : imageFrames;
+        if (frames.state<uint64_t>(0) < prevFrames) prevFrames = 0;  // not the same history
+        for (std::size_t slot = 0; slot < slots; ++slot) {
+            const auto step = ring[kSlotStep].state<int64_t>(slot);
+            const bool same = step >= 0 && ring[kSlotStep].image<int64_t>(slot) == step &&
+                              static_cast<uint64_t>(step + 1) * ct <= prevFrames;
+            ring[kSlotStep].copy(slot, slot + 1);
+            fillCells(slot, same);
+            if (!same) fillInputs(slot);
+        }
     }
-    // Elements [from, to) of a section: copied from the model, or zeroed.
-    void copyRange(std::size_t section, std::size_t from, std::size_t to) noexcept {
-        if (to <= from) return;
-        const uint32_t w = slots[section].width;
-        copyLittleEndian(dst(section) + from * w, src[section] + from * w, (to - from) * w, w);
-    }
-    void zeroRange(std::size_t section, std::size_t from, std::size_t to) noexcept {
-        if (to <= from) return;
-        const uint32_t w = slots[section].width;
-        std::memset(dst(section) + from * w, 0, (to - from) * w);
-    }
-    template <typename T>
-    T model(std::size_t section, std::size_t i) const noexcept {
-        T v;
-        std::memcpy(&v, src[section] + i * sizeof(T), sizeof(T));
-        return v;
-    }
-
-    void fillModel() noexcept {
-        const auto ring = static_cast<std::size_t>(cfg.ring_steps);
+    // The cells of one ring slot; `same`: its words are already in the image.
+    void fillCells(std::size_t slot, bool same) const noexcept {
         const auto cells = static_cast<std::size_t>(cfg.cellsPerStep());
         const auto cap = static_cast<std::size_t>(cfg.cell_capacity);
+        const auto Kp = static_cast<std::size_t>(kernel::paddedK(cfg.K));
+        for (std::size_t c = 0; c < cells; ++c) {
+            const std::size_t ci = slot * cells + c;
+            const auto n = ring[kCellN].state<uint32_t>(ci);
+            if (same) {
+                // Words unchanged; labels and counts refined since.
+                if (n > 0) {
+                    ring[kCellZ].copy(ci * cap, ci * cap + n);
+                    ring[kNck].copy(ci * Kp, (ci + 1) * Kp);
+                }
+                continue;
+            }
+            const auto before = ring[kCellN].image<uint32_t>(ci);
+            ring[kCellN].copy(ci, ci + 1);
+            ring[kCellWords].copy(ci * cap, ci * cap + n);
+            ring[kCellZ].copy(ci * cap, ci * cap + n);
+            ring[kCellWords].zero(ci * cap + n, ci * cap + before);
+            ring[kCellZ].zero(ci * cap + n, ci * cap + before);
+            ring[kNck].copy(ci * Kp, (ci + 1) * Kp);
+            ring[kCellSurprise].copy(ci, ci + 1);
+        }
+    }
+    // The kept inputs of the observations of one ring slot.
+    void fillInputs(std::size_t slot) const noexcept {
         const auto ct = static_cast<std::size_t>(cfg.cell_time);
         const auto maxw = static_cast<std::size_t>(cfg.max_words_per_frame);
-        const auto Kp = static_cast<std::size_t>(kernel::paddedK(cfg.K));
-
-        // What the image held when it was last filled (a fresh image: nothing).
-        uint64_t prevFrames = fresh ? 0 : element<uint64_t>(dst(kFrames), 0);
-        if (model<uint64_t>(kFrames, 0) < prevFrames) prevFrames = 0;  // not the same history
-
-        for (std::size_t s : {kFrames, kSteps, kTokensRefined, kWordsInModel, kNkvIsWindow, kRng, kNkv, kNk, kInv,
-                              kInvDec, kInvInc})
-            copyAll(s);
-        for (std::size_t slot = 0; slot < ring; ++slot) {
-            const auto step = model<int64_t>(kSlotStep, slot);
-            const bool same = step >= 0 && element<int64_t>(dst(kSlotStep), slot) == step &&
-                              static_cast<uint64_t>(step + 1) * ct <= prevFrames;
-            copyRange(kSlotStep, slot, slot + 1);
-            for (std::size_t c = 0; c < cells; ++c) {
-                const std::size_t ci = slot * cells + c;
-                const auto n = model<uint32_t>(kCellN, ci);
-                if (same) {
-                    // Words unchanged; labels and counts refined since.
-                    if (n > 0) {
-                        copyRange(kCellZ, ci * cap, ci * cap + n);
-                        copyRange(kNck, ci * Kp, (ci + 1) * Kp);
-                    }
-                    continue;
-                }
-                const auto before = element<uint32_t>(dst(kCellN), ci);
-                copyRange(kCellN, ci, ci + 1);
-                copyRange(kCellWords, ci * cap, ci * cap + n);
-                copyRange(kCellZ, ci * cap, ci * cap + n);
-                zeroRange(kCellWords, ci * cap + n, ci * cap + before);
-                zeroRange(kCellZ, ci * cap + n, ci * cap + before);
-                copyRange(kNck, ci * Kp, (ci + 1) * Kp);
-                copyRange(kCellSurprise, ci, ci + 1);
-            }
-            if (same) continue;
-            for (std::size_t o = slot * ct; o < (slot + 1) * ct; ++o) {
-                const auto n = model<uint32_t>(kInN, o);
-                const auto before = element<uint32_t>(dst(kInN), o);
-                copyRange(kInN, o, o + 1);
-                copyRange(kObsSurprise, o, o + 1);
-                for (std::size_t s : {kInWord, kInPos, kInSlot}) {
-                    copyRange(s, o * maxw, o * maxw + n);
-                    zeroRange(s, o * maxw + n, o * maxw + before);
-                }
+        for (std::size_t o = slot * ct; o < (slot + 1) * ct; ++o) {
+            const auto n = ring[kInN].state<uint32_t>(o);
+            const auto before = ring[kInN].image<uint32_t>(o);
+            ring[kInN].copy(o, o + 1);
+            ring[kObsSurprise].copy(o, o + 1);
+            for (std::size_t s : {kInWord, kInPos, kInSlot}) {
+                ring[s].copy(o * maxw, o * maxw + n);
+                ring[s].zero(o * maxw + n, o * maxw + before);
             }
         }
     }
 };
 
+// Walks the engine's layout beside the image's sections (slot i + 1 holds
+// layout section i): sections outside the ring are copied whole, the ring
+// sparsely. False when the state no longer matches the image's layout.
 bool fillImage(Engine& engine, uint8_t* image, const std::vector<detail::CheckpointSlot>& slots, bool fresh) noexcept {
-    if (slots.size() != kSectionCount) return false;
-    Filler f{image, slots.data(), engine.config().model};
-    f.fresh = fresh;
-    engine.model().visitState([&](const char*, void* data, std::size_t n) {
-        if (f.cursor < kEngineFirst && slots[f.cursor].bytes == n) {
-            f.src[f.cursor] = static_cast<const uint8_t*>(data);
-            f.bytes[f.cursor] = n;
-        } else {
-            f.mismatch = true;
+    StateLayout layout;
+    engine.describeState(layout);
+    if (layout.overflowed() || slots.size() != layout.size() + 1) return false;
+    Filler f{engine.config().model, {}, {}, 0, fresh};
+    std::size_t bound = 0;
+    for (std::size_t i = 0; i < layout.size(); ++i) {
+        const StateSection& s = layout[i];
+        const detail::CheckpointSlot& slot = slots[i + 1];
+        if (slot.bytes != s.bytes || slot.width != s.width) return false;
+        const Pair pair{static_cast<const uint8_t*>(s.data), image + slot.payload, s.width};
+        if (s.name == "counters.frames" && s.bytes == sizeof(uint64_t)) {
+            f.frames = pair;
+            f.imageFrames = pair.image<uint64_t>(0);
         }
-        ++f.cursor;
-    });
-    if (f.mismatch || f.cursor != kEngineFirst) return false;
-    f.fillModel();
-    // The engine's own sections are small (counters, the window's stamps):
-    // copied whole, inside the callback (they may be temporaries).
-    engine.readState(
-        [](void* ctx, const char*, const void* data, std::size_t n) {
-            Filler& g = *static_cast<Filler*>(ctx);
-            if (g.cursor >= kSectionCount || g.slots[g.cursor].bytes != n) {
-                g.mismatch = true;
-                ++g.cursor;
-                return;
-            }
-            const detail::CheckpointSlot& s = g.slots[g.cursor++];
-            copyLittleEndian(g.image + s.payload, static_cast<const uint8_t*>(data), n, s.width);
-        },
-        &f);
-    return !f.mismatch && f.cursor == kSectionCount;
+        const auto* ring = std::find(std::begin(kRingSections), std::end(kRingSections), s.name);
+        if (ring != std::end(kRingSections)) {
+            f.ring[ring - std::begin(kRingSections)] = pair;
+            ++bound;
+        } else {
+            pair.copy(0, s.bytes / s.width);
+        }
+    }
+    if (bound != kRingCount || !f.frames.src) return false;
+    f.fillRing();
+    return true;
 }
 
 // Computes every checksum of a filled image.
@@ -367,6 +318,7 @@ void sealImage(std::vector<uint8_t>& image, const std::vector<detail::Checkpoint
 struct ParsedSection {
     std::string name;
     uint32_t width = 1;
+    uint32_t version = 0;
     std::size_t header = 0;
     std::size_t payload = 0;
     std::size_t bytes = 0;
@@ -455,7 +407,7 @@ Status parseImage(std::span<const uint8_t> bytes, std::string_view name, Parsed&
         const std::string S = P + "section '" + s.name + "' (header at byte " + std::to_string(at) + "): ";
         if (s.width != 1 && s.width != 2 && s.width != 4 && s.width != 8)
             return Status::error(S + "element width " + std::to_string(s.width) + " (expected 1, 2, 4 or 8)");
-        if (getU32(h + 36) != 0) return Status::error(S + "reserved field is not 0");
+        s.version = getU32(h + 36);
         if (payloadBytes % s.width != 0)
             return Status::error(S + std::to_string(payloadBytes) + " bytes is not a whole number of " +
                                  std::to_string(s.width) + "-byte elements");
@@ -484,6 +436,9 @@ Status parseImage(std::span<const uint8_t> bytes, std::string_view name, Parsed&
     const ParsedSection& c = out.sections[0];
     if (c.name != "config")
         return Status::error(P + "section 0 is '" + c.name + "', expected 'config'");
+    if (c.version != kConfigSectionVersion)
+        return Status::error(P + "section 'config' is version " + std::to_string(c.version) + ", this build reads version " +
+                             std::to_string(kConfigSectionVersion));
     const std::string_view text(reinterpret_cast<const char*>(b + c.payload), c.bytes);
     EngineConfig cfg;
     if (Status st = parseConfigText(text, std::string(name) + " [config section at byte " + std::to_string(c.payload) + "]", cfg);
@@ -508,8 +463,8 @@ void fillInfo(const Parsed& p, std::span<const uint8_t> bytes, CheckpointInfo& i
     if (const auto* s = findSection(p, "counters.frames"); s && s->bytes == 8) info.observations = getU64(b + s->payload);
     if (const auto* s = findSection(p, "counters.steps"); s && s->bytes == 8)
         info.steps = static_cast<int64_t>(getU64(b + s->payload));
-    if (const auto* s = findSection(p, "engine.counters"); s && s->bytes >= 12 * 8)
-        info.next_sequence = getU64(b + s->payload + 11 * 8);
+    if (const auto* s = findSection(p, "engine.counters"); s && s->bytes == sizeof(EngineStateCounters))
+        info.next_sequence = getU64(b + s->payload + offsetof(EngineStateCounters, next_sequence));
     if (const auto* s = findSection(p, "engine.window.timestamp"); s && info.observations > 0) {
         const std::size_t cap = std::max<std::size_t>(
             1, static_cast<std::size_t>(p.config.model.ring_steps) * static_cast<std::size_t>(p.config.model.cell_time));
@@ -527,122 +482,149 @@ void fillInfo(const Parsed& p, std::span<const uint8_t> bytes, CheckpointInfo& i
 class Validator {
 public:
     Validator(const Parsed& p, std::span<const uint8_t> bytes, std::string_view name, const Config& cfg)
-        : p_(p), b_(bytes.data()), name_(name), c_(cfg) {}
+        : p_(p), b_(bytes.data()), name_(name), c_(cfg), ring_(static_cast<std::size_t>(cfg.ring_steps)),
+          cells_(static_cast<std::size_t>(cfg.cellsPerStep())), cap_(static_cast<std::size_t>(cfg.cell_capacity)),
+          ct_(static_cast<std::size_t>(cfg.cell_time)), maxw_(static_cast<std::size_t>(cfg.max_words_per_frame)),
+          K_(static_cast<std::size_t>(cfg.K)), Kp_(static_cast<std::size_t>(kernel::paddedK(cfg.K))),
+          V_(static_cast<std::size_t>(cfg.V)) {}
 
     Status run() {
-        const auto ring = static_cast<std::size_t>(c_.ring_steps);
-        const auto cells = static_cast<std::size_t>(c_.cellsPerStep());
-        const auto cap = static_cast<std::size_t>(c_.cell_capacity);
-        const auto ct = static_cast<std::size_t>(c_.cell_time);
-        const auto maxw = static_cast<std::size_t>(c_.max_words_per_frame);
-        const auto K = static_cast<std::size_t>(c_.K);
-        const auto Kp = static_cast<std::size_t>(kernel::paddedK(c_.K));
-        const auto V = static_cast<std::size_t>(c_.V);
+        if (Status st = checkCounters(); !st.ok()) return st;
+        if (Status st = checkCells(); !st.ok()) return st;
+        if (Status st = checkInputs(); !st.ok()) return st;
+        return checkFloats();
+    }
 
+private:
+    // Observation and step counts, the n_kv flag and the generator.
+    Status checkCounters() {
         const ParsedSection& framesS = sec("counters.frames");
-        const uint64_t frames = element<uint64_t>(pay(framesS), 0);
-        if (frames > (uint64_t{1} << 62)) return bad(framesS, 0, "observation count " + std::to_string(frames) + " is implausible");
+        frames_ = element<uint64_t>(pay(framesS), 0);
+        if (frames_ > (uint64_t{1} << 62))
+            return bad(framesS, 0, "observation count " + std::to_string(frames_) + " is implausible");
         const ParsedSection& stepsS = sec("counters.steps");
-        const auto steps = element<int64_t>(pay(stepsS), 0);
-        const auto expectSteps = static_cast<int64_t>((frames + ct - 1) / ct);
-        if (steps != expectSteps)
-            return bad(stepsS, 0, "step count " + std::to_string(steps) + " does not follow from " + std::to_string(frames) +
-                                      " observations and cell.time " + std::to_string(ct) + " (expected " +
-                                      std::to_string(expectSteps) + ")");
+        steps_ = element<int64_t>(pay(stepsS), 0);
+        const auto expectSteps = static_cast<int64_t>((frames_ + ct_ - 1) / ct_);
+        if (steps_ != expectSteps)
+            return bad(stepsS, 0, "step count " + std::to_string(steps_) + " does not follow from " +
+                                      std::to_string(frames_) + " observations and cell.time " + std::to_string(ct_) +
+                                      " (expected " + std::to_string(expectSteps) + ")");
+        oldest_ = steps_ > c_.ring_steps ? steps_ - c_.ring_steps : 0;
         const ParsedSection& win = sec("counters.nkv_is_window");
-        const uint8_t isWindow = pay(win)[0];
-        if (isWindow > 1) return bad(win, 0, "flag value " + std::to_string(isWindow) + " (expected 0 or 1)");
+        isWindow_ = pay(win)[0];
+        if (isWindow_ > 1) return bad(win, 0, "flag value " + std::to_string(isWindow_) + " (expected 0 or 1)");
         const ParsedSection& rngS = sec("rng");
         if (rngS.bytes != 16) return bad(rngS, 0, "expected 16 bytes of generator state");
         if ((element<uint32_t>(pay(rngS), 0) | element<uint32_t>(pay(rngS), 1) | element<uint32_t>(pay(rngS), 2) |
              element<uint32_t>(pay(rngS), 3)) == 0)
             return bad(rngS, 0, "generator state is all zero (a stuck generator)");
+        return {};
+    }
 
-        const int64_t oldest = steps > c_.ring_steps ? steps - c_.ring_steps : 0;
-        auto inWindowSlot = [&](std::size_t slot, int64_t& step) {
-            // The step held by `slot` if one of the window's steps maps to it.
-            if (steps == 0) return false;
-            const int64_t newest = steps - 1;
-            const int64_t back = (static_cast<int64_t>(newest % c_.ring_steps) - static_cast<int64_t>(slot) + c_.ring_steps) %
-                                 c_.ring_steps;
-            step = newest - back;
-            return step >= oldest;
-        };
+    // The step held by `slot` if one of the window's steps maps to it.
+    bool inWindowSlot(std::size_t slot, int64_t& step) const {
+        if (steps_ == 0) return false;
+        const int64_t newest = steps_ - 1;
+        const int64_t back =
+            (static_cast<int64_t>(newest % c_.ring_steps) - static_cast<int64_t>(slot) + c_.ring_steps) % c_.ring_steps;
+        step = newest - back;
+        return step >= oldest_;
+    }
 
+    // Which step each slot holds, the words and labels of every cell, and
+    // n_kv at least the window's own counts.
+    Status checkCells() {
         const ParsedSection& slotStep = sec("ring.slot_step");
-        const ParsedSection& cellN = sec("ring.cell_n");
-        const ParsedSection& cellWords = sec("ring.cell_words");
-        const ParsedSection& cellZ = sec("ring.cell_z");
-        const ParsedSection& nck = sec("ring.n_ck");
-        const ParsedSection& nkv = sec("n_kv");
-        std::vector<int64_t> windowCounts(isWindow ? 0 : V * Kp, 0);
-        for (std::size_t slot = 0; slot < ring; ++slot) {
+        std::vector<int64_t> windowCounts(isWindow_ ? 0 : V_ * Kp_, 0);
+        for (std::size_t slot = 0; slot < ring_; ++slot) {
             int64_t step = -1;
             const bool used = inWindowSlot(slot, step);
             const auto stored = element<int64_t>(pay(slotStep), slot);
             if (stored != (used ? step : -1))
                 return bad(slotStep, slot, "slot " + std::to_string(slot) + " holds step " + std::to_string(stored) +
                                                ", expected " + std::to_string(used ? step : -1));
-            for (std::size_t c = 0; c < cells; ++c) {
-                const std::size_t ci = slot * cells + c;
-                const auto n = element<uint32_t>(pay(cellN), ci);
-                if (n > (used ? cap : 0))
-                    return bad(cellN, ci, std::to_string(n) + " words in cell " + std::to_string(c) + " of slot " +
-                                              std::to_string(slot) + (used ? ", capacity " + std::to_string(cap) : ", which is not in the window"));
-                if (!used)
-                    for (std::size_t k = 0; k < Kp; ++k)
-                        if (element<int32_t>(pay(nck), ci * Kp + k) != 0)
-                            return bad(nck, ci * Kp + k, "topic count in a slot outside the window");
-                for (std::size_t i = 0; i < n; ++i) {
-                    const std::size_t wi = ci * cap + i;
-                    const auto w = element<uint32_t>(pay(cellWords), wi);
-                    if (w >= V) return bad(cellWords, wi, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V) + ")");
-                    const auto z = element<uint16_t>(pay(cellZ), wi);
-                    if (z >= K) return bad(cellZ, wi, "topic label " + std::to_string(z) + " out of range [0, " + std::to_string(K) + ")");
-                    if (!isWindow) ++windowCounts[w * Kp + z];
-                }
-            }
+            for (std::size_t c = 0; c < cells_; ++c)
+                if (Status st = checkCell(slot, c, used, windowCounts); !st.ok()) return st;
         }
         // With counts kept from outside the window (a prior, or evicted
         // steps), n_k^v must still hold at least the window's own words.
-        if (!isWindow)
-            for (std::size_t i = 0; i < windowCounts.size(); ++i)
-                if (element<int32_t>(pay(nkv), i) < windowCounts[i])
-                    return bad(nkv, i, "count " + std::to_string(element<int32_t>(pay(nkv), i)) + " of word " +
-                                           std::to_string(i / Kp) + ", topic " + std::to_string(i % Kp) +
-                                           " is below the " + std::to_string(windowCounts[i]) + " words in the window");
+        const ParsedSection& nkv = sec("n_kv");
+        for (std::size_t i = 0; i < windowCounts.size(); ++i)
+            if (element<int32_t>(pay(nkv), i) < windowCounts[i])
+                return bad(nkv, i, "count " + std::to_string(element<int32_t>(pay(nkv), i)) + " of word " +
+                                       std::to_string(i / Kp_) + ", topic " + std::to_string(i % Kp_) + " is below the " +
+                                       std::to_string(windowCounts[i]) + " words in the window");
+        return {};
+    }
 
+    Status checkCell(std::size_t slot, std::size_t c, bool used, std::vector<int64_t>& windowCounts) {
+        const ParsedSection& cellN = sec("ring.cell_n");
+        const ParsedSection& cellWords = sec("ring.cell_words");
+        const ParsedSection& cellZ = sec("ring.cell_z");
+        const ParsedSection& nck = sec("ring.n_ck");
+        const std::size_t ci = slot * cells_ + c;
+        const auto n = element<uint32_t>(pay(cellN), ci);
+        if (n > (used ? cap_ : 0))
+            return bad(cellN, ci, std::to_string(n) + " words in cell " + std::to_string(c) + " of slot " +
+                                      std::to_string(slot) +
+                                      (used ? ", capacity " + std::to_string(cap_) : ", which is not in the window"));
+        if (!used)
+            for (std::size_t k = 0; k < Kp_; ++k)
+                if (element<int32_t>(pay(nck), ci * Kp_ + k) != 0)
+                    return bad(nck, ci * Kp_ + k, "topic count in a slot outside the window");
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::size_t wi = ci * cap_ + i;
+            const auto w = element<uint32_t>(pay(cellWords), wi);
+            if (w >= V_) return bad(cellWords, wi, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V_) + ")");
+            const auto z = element<uint16_t>(pay(cellZ), wi);
+            if (z >= K_) return bad(cellZ, wi, "topic label " + std::to_string(z) + " out of range [0, " + std::to_string(K_) + ")");
+            if (!isWindow_) ++windowCounts[w * Kp_ + z];
+        }
+        return {};
+    }
+
+    // Every observation's kept inputs: word ids, positions, where each went.
+    Status checkInputs() {
         const ParsedSection& inN = sec("ring.in_n");
+        for (std::size_t o = 0; o < ring_ * ct_; ++o)
+            if (element<uint32_t>(pay(inN), o) > maxw_)
+                return bad(inN, o, std::to_string(element<uint32_t>(pay(inN), o)) + " words in an observation, at most " +
+                                       std::to_string(maxw_));
+        for (uint64_t f = static_cast<uint64_t>(oldest_) * ct_; f < frames_; ++f) {
+            const std::size_t slot = static_cast<std::size_t>((f / ct_) % ring_);
+            const std::size_t o = slot * ct_ + static_cast<std::size_t>(f % ct_);
+            const auto n = element<uint32_t>(pay(inN), o);
+            for (std::size_t i = 0; i < n; ++i)
+                if (Status st = checkInput(slot, o * maxw_ + i); !st.ok()) return st;
+        }
+        return {};
+    }
+
+    Status checkInput(std::size_t slot, std::size_t at) {
         const ParsedSection& inWord = sec("ring.in_word");
         const ParsedSection& inPos = sec("ring.in_pos");
         const ParsedSection& inSlot = sec("ring.in_slot");
-        for (std::size_t o = 0; o < ring * ct; ++o)
-            if (element<uint32_t>(pay(inN), o) > maxw)
-                return bad(inN, o, std::to_string(element<uint32_t>(pay(inN), o)) + " words in an observation, at most " +
-                                       std::to_string(maxw));
-        for (uint64_t f = static_cast<uint64_t>(oldest) * ct; f < frames; ++f) {
-            const std::size_t slot = static_cast<std::size_t>((f / ct) % ring);
-            const std::size_t o = slot * ct + static_cast<std::size_t>(f % ct);
-            const auto n = element<uint32_t>(pay(inN), o);
-            for (std::size_t i = 0; i < n; ++i) {
-                const std::size_t at = o * maxw + i;
-                const auto w = element<uint32_t>(pay(inWord), at);
-                if (w >= V) return bad(inWord, at, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V) + ")");
-                const auto xy = element<uint32_t>(pay(inPos), at);
-                if ((xy & 0xFFFFu) >= static_cast<uint32_t>(c_.frame_width) || (xy >> 16) >= static_cast<uint32_t>(c_.frame_height))
-                    return bad(inPos, at, "position (" + std::to_string(xy & 0xFFFFu) + ", " + std::to_string(xy >> 16) +
-                                              ") outside the " + std::to_string(c_.frame_width) + "x" +
-                                              std::to_string(c_.frame_height) + " frame");
-                const auto s = element<uint32_t>(pay(inSlot), at);
-                if (s & Model::kDropped) {
-                    if ((s & ~Model::kDropped) >= cells) return bad(inSlot, at, "cell " + std::to_string(s & ~Model::kDropped) + " out of range");
-                } else {
-                    const std::size_t cell = s / cap, i2 = s % cap;
-                    if (cell >= cells || i2 >= element<uint32_t>(pay(cellN), slot * cells + cell))
-                        return bad(inSlot, at, "word slot " + std::to_string(s) + " does not refer to a word in a cell");
-                }
-            }
+        const auto w = element<uint32_t>(pay(inWord), at);
+        if (w >= V_) return bad(inWord, at, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V_) + ")");
+        const auto xy = element<uint32_t>(pay(inPos), at);
+        if ((xy & 0xFFFFu) >= static_cast<uint32_t>(c_.frame_width) || (xy >> 16) >= static_cast<uint32_t>(c_.frame_height))
+            return bad(inPos, at, "position (" + std::to_string(xy & 0xFFFFu) + ", " + std::to_string(xy >> 16) +
+                                      ") outside the " + std::to_string(c_.frame_width) + "x" +
+                                      std::to_string(c_.frame_height) + " frame");
+        const auto s = element<uint32_t>(pay(inSlot), at);
+        if (s & Model::kDropped) {
+            if ((s & ~Model::kDropped) >= cells_)
+                return bad(inSlot, at, "cell " + std::to_string(s & ~Model::kDropped) + " out of range");
+            return {};
         }
+        const std::size_t cell = s / cap_, i2 = s % cap_;
+        if (cell >= cells_ || i2 >= element<uint32_t>(pay(sec("ring.cell_n")), slot * cells_ + cell))
+            return bad(inSlot, at, "word slot " + std::to_string(s) + " does not refer to a word in a cell");
+        return {};
+    }
+
+    // Surprises and the time-budget predictors.
+    Status checkFloats() {
         for (const char* fname : {"ring.cell_surprise", "ring.obs_surprise"}) {
             const ParsedSection& s = sec(fname);
             for (std::size_t i = 0; i < s.bytes / 4; ++i) {
@@ -658,7 +640,6 @@ public:
         return {};
     }
 
-private:
     const ParsedSection& sec(std::string_view n) const { return *findSection(p_, n); }
     const uint8_t* pay(const ParsedSection& s) const { return b_ + s.payload; }
     Status bad(const ParsedSection& s, std::size_t index, const std::string& what) const {
@@ -670,19 +651,21 @@ private:
     const uint8_t* b_;
     std::string_view name_;
     const Config& c_;
+    const std::size_t ring_, cells_, cap_, ct_, maxw_, K_, Kp_, V_;
+    uint64_t frames_ = 0;
+    int64_t steps_ = 0;
+    int64_t oldest_ = 0;
+    uint8_t isWindow_ = 1;
 };
 
-// Writes a parsed file's sections into visitState / writeState buffers, by order.
-struct RestoreContext {
-    const uint8_t* bytes;
-    const Parsed* parsed;
-    std::size_t cursor;
-};
-void restoreOne(RestoreContext& r, void* data, std::size_t bytes) noexcept {
-    if (r.cursor >= r.parsed->sections.size()) return;
-    const ParsedSection& s = r.parsed->sections[r.cursor++];
-    if (s.bytes != bytes) return;  // not reached: layouts were compared before
-    copyLittleEndian(static_cast<uint8_t*>(data), r.bytes + s.payload, bytes, s.width);
+// Copies the file's sections into the state sections of the same names.
+// The caller has checked that every section is there with the right size.
+void restoreLayout(const StateLayout& layout, const Parsed& p, const uint8_t* bytes) noexcept {
+    for (const StateSection& s : layout.sections()) {
+        const ParsedSection* f = findSection(p, s.name);
+        if (!f || f->bytes != s.bytes) continue;  // not reached: layouts were compared before
+        copyLittleEndian(static_cast<uint8_t*>(s.data), bytes + f->payload, s.bytes, f->width);
+    }
 }
 
 } // namespace
@@ -716,6 +699,59 @@ Status readCheckpointInfo(const std::string& path, CheckpointInfo& info) {
     return inspectCheckpoint({reinterpret_cast<const uint8_t*>(data.data()), data.size()}, path, info);
 }
 
+namespace {
+
+// The configuration: the model keys define what the state means.
+Status checkConfig(const Parsed& p, const EngineConfig& mine, const CheckpointLoadOptions& options,
+                   const std::string& P) {
+    std::vector<std::string> diffs = configDifferences(p.config, mine, {ConfigGroup::Model}, "the checkpoint", "this run");
+    if (!options.allow_refinement_change) {
+        auto more = configDifferences(p.config, mine, {ConfigGroup::Refinement}, "the checkpoint", "this run");
+        diffs.insert(diffs.end(), more.begin(), more.end());
+    }
+    if (diffs.empty()) return {};
+    std::string msg = P + "checkpoint was made with a different configuration: ";
+    for (std::size_t i = 0; i < diffs.size(); ++i) msg += (i ? "; " : "") + diffs[i];
+    return Status::error(msg);
+}
+
+// Every section of the layout by name, version and size, in order.
+Status checkSections(const Parsed& p, const StateLayout& layout, const std::string& P) {
+    if (p.sections.size() != layout.size() + 1)
+        return Status::error(P + std::to_string(p.sections.size()) + " sections, this build expects " +
+                             std::to_string(layout.size() + 1) + " for this configuration");
+    for (std::size_t i = 0; i < layout.size(); ++i) {
+        const ParsedSection& s = p.sections[i + 1];
+        const StateSection& e = layout[i];
+        if (s.name != e.name || s.bytes != e.bytes || s.width != e.width)
+            return Status::error(P + "section " + std::to_string(i + 1) + " (header at byte " + std::to_string(s.header) +
+                                 ") is '" + s.name + "' of " + std::to_string(s.bytes) + " bytes, expected '" +
+                                 std::string(e.name) + "' of " + std::to_string(e.bytes) + " bytes");
+        if (s.version != e.version)
+            return Status::error(P + "section '" + s.name + "' (header at byte " + std::to_string(s.header) +
+                                 ") is version " + std::to_string(s.version) + ", this build reads version " +
+                                 std::to_string(e.version));
+    }
+    return {};
+}
+
+// The file's model sections in a scratch model, whose counts must agree with its labels.
+Status checkOnScratchModel(const Parsed& p, std::span<const uint8_t> bytes, const Config& cfg, const std::string& P) {
+    try {
+        Model scratch(cfg);
+        StateLayout layout;
+        scratch.describeState(layout);
+        restoreLayout(layout, p, bytes.data());
+        std::string why;
+        if (!scratch.checkInvariants(&why)) return Status::error(P + "the model state is inconsistent: " + why);
+    } catch (const std::bad_alloc&) {
+        return Status::error(P + "not enough memory to validate the checkpoint");
+    }
+    return {};
+}
+
+} // namespace
+
 Status loadCheckpoint(std::span<const uint8_t> bytes, std::string_view name, Engine& engine,
                       const CheckpointLoadOptions& options, CheckpointInfo* info) {
     const std::string P = prefix(name);
@@ -725,56 +761,17 @@ Status loadCheckpoint(std::span<const uint8_t> bytes, std::string_view name, Eng
                              " observations are queued");
     Parsed p;
     if (Status st = parseImage(bytes, name, p); !st.ok()) return st;
-
-    // The configuration: the model keys define what the state means.
-    std::vector<std::string> diffs = configDifferences(p.config, engine.config(), {ConfigGroup::Model}, "the checkpoint",
-                                                       "this run");
-    if (!options.allow_refinement_change) {
-        auto more = configDifferences(p.config, engine.config(), {ConfigGroup::Refinement}, "the checkpoint", "this run");
-        diffs.insert(diffs.end(), more.begin(), more.end());
-    }
-    if (!diffs.empty()) {
-        std::string msg = P + "checkpoint was made with a different configuration: ";
-        for (std::size_t i = 0; i < diffs.size(); ++i) msg += (i ? "; " : "") + diffs[i];
-        return Status::error(msg);
-    }
-
-    // Every section by name and size, in order.
-    std::vector<LayoutEntry> layout;
+    if (Status st = checkConfig(p, engine.config(), options, P); !st.ok()) return st;
+    StateLayout layout;
     if (Status st = engineLayout(engine, layout); !st.ok()) return st;
-    if (p.sections.size() != layout.size() + 1)
-        return Status::error(P + std::to_string(p.sections.size()) + " sections, this build expects " +
-                             std::to_string(layout.size() + 1) + " for this configuration");
-    for (std::size_t i = 0; i < layout.size(); ++i) {
-        const ParsedSection& s = p.sections[i + 1];
-        const LayoutEntry& e = layout[i];
-        if (s.name != e.name || s.bytes != e.bytes || s.width != e.width)
-            return Status::error(P + "section " + std::to_string(i + 1) + " (header at byte " + std::to_string(s.header) +
-                                 ") is '" + s.name + "' of " + std::to_string(s.bytes) + " bytes, expected '" + e.name +
-                                 "' of " + std::to_string(e.bytes) + " bytes");
-    }
-
-    // Every value in range, then every count against the labels, on a scratch model.
+    if (Status st = checkSections(p, layout, P); !st.ok()) return st;
+    // Every value in range, then every count against the labels.
     if (Status st = Validator(p, bytes, name, engine.config().model).run(); !st.ok()) return st;
-    try {
-        Model scratch(engine.config().model);
-        RestoreContext r{bytes.data(), &p, 1};
-        scratch.visitState([&](const char*, void* data, std::size_t n) { restoreOne(r, data, n); });
-        std::string why;
-        if (!scratch.checkInvariants(&why))
-            return Status::error(P + "the model state is inconsistent: " + why);
-    } catch (const std::bad_alloc&) {
-        return Status::error(P + "not enough memory to validate the checkpoint");
-    }
+    if (Status st = checkOnScratchModel(p, bytes, engine.config().model, P); !st.ok()) return st;
 
     // Everything checked: now the engine.
-    RestoreContext r{bytes.data(), &p, 1};
-    engine.model().visitState([&](const char*, void* data, std::size_t n) { restoreOne(r, data, n); });
-    if (Status st = engine.writeState(
-            [](void* ctx, const char*, void* data, std::size_t n) { restoreOne(*static_cast<RestoreContext*>(ctx), data, n); },
-            &r);
-        !st.ok())
-        return Status::error(P + st.message());
+    restoreLayout(layout, p, bytes.data());
+    if (Status st = engine.applyState(); !st.ok()) return Status::error(P + st.message());
     if (info) fillInfo(p, bytes, *info);
     return {};
 }

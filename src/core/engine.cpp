@@ -278,6 +278,9 @@ struct Engine::Refiner {
     uint64_t publish_samples = 0;
     uint64_t next_sequence = 0;    // producer sequence after the last observation taken up (checkpoints)
     uint64_t truncated_taken = 0;  // words subsampled away at push from the observations taken up (checkpoints)
+    // The counters and predictors as describeState() lists them (copied there, applied by applyState()).
+    EngineStateCounters saved_counters;
+    EngineStatePredictors saved_predictors;
 
     alignas(kCacheLine) std::atomic<uint64_t> ingested{0};
     std::atomic<uint64_t> rejected{0};
@@ -484,92 +487,89 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     const auto deadline =
         t0 + std::chrono::nanoseconds(timed ? static_cast<int64_t>(cfg_.budget.ms * 1e6) : int64_t{0});
     Model& m = *model_;
-    Refiner& R = *refiner_;
     ObservationResult r;
     r.sequence = it.sequence;
     r.timestamp = it.timestamp;
-    const uint64_t frame = m.observations();
-    r.observation = frame;
+    r.observation = m.observations();
+    const std::span<const uint32_t> words(it.words, it.size);
+    const std::span<const Position> positions(it.positions, it.size);
 
-    // Validate first, so the eviction hook and the instantaneous perplexity
-    // run only for an observation that will enter the model.
-    AddError err = AddError::None;
-    uint32_t at = 0;
+    // Validate first (the model's own checks), so the eviction hook and the
+    // instantaneous perplexity run only for an observation that will enter the model.
+    AddResult check;
     if (it.size_mismatch) {
-        err = AddError::SizeMismatch;
-        at = it.mismatch_index;
+        check.error = AddError::SizeMismatch;
+        check.index = it.mismatch_index;
     } else {
-        const auto V = static_cast<uint32_t>(m.V());
-        const int fw = m.config().frame_width, fh = m.config().frame_height;
-        for (uint32_t i = 0; i < it.size; ++i) {
-            const Position p = it.positions[i];
-            if (it.words[i] >= V) {
-                err = AddError::WordOutOfRange;
-            } else if (p.x < 0 || p.y < 0 || p.x >= fw || p.y >= fh) {
-                err = AddError::PositionOutOfRange;
-            } else {
-                continue;
-            }
-            at = i;
-            break;
-        }
+        check = m.validateObservation(words, positions);
     }
-    if (err != AddError::None) {
+    if (!check.ok()) {
         queue_->release();
-        bump(R.rejected);
-        r.add.error = err;
-        r.add.index = at;
-        r.step = -1;
+        r.add = check;
         r.elapsed_ns = (Clock::now() - t0).count();
-        if (on_observation_) on_observation_(r, m);
-        if (out) *out = r;
+        reject(r, out);
         return true;
     }
-
-    const auto ct = static_cast<uint64_t>(m.config().cell_time);
-    if (frame % ct == 0 && frame > 0) {
-        const auto newStep = static_cast<int64_t>(frame / ct);
-        // Instantaneous perplexity of the step just completed: one step after
-        // its arrival, before the next observation touches the model.
-        if (cfg_.flags.instantaneous_perplexity) {
-            r.previous_step = newStep - 1;
-            r.previous_perplexity = m.stepPerplexity(newStep - 1);
-        }
-        const int64_t ring = m.config().ring_steps;
-        if (on_evict_ && newStep >= ring) {
-            const int64_t gone = newStep - ring;
-            for (uint64_t f = static_cast<uint64_t>(gone) * ct; f < static_cast<uint64_t>(gone + 1) * ct; ++f) {
-                const std::size_t w = f % R.win_cap;
-                on_evict_(WindowObservation{f, R.win_seq[w], R.win_ts[w], gone}, m);
-            }
-        }
-    }
-    r.add = m.addObservation({it.words, it.size}, {it.positions, it.size});
+    beforeObservation(r);
+    r.add = m.addObservation(words, positions);
     queue_->release();
     if (!r.add.ok()) {  // not reached: validated above
-        bump(R.rejected);
-        r.step = -1;
-        if (on_observation_) on_observation_(r, m);
-        if (out) *out = r;
+        reject(r, out);
         return true;
     }
-    const std::size_t w = frame % R.win_cap;
-    R.win_ts[w] = it.timestamp;
-    R.win_seq[w] = it.sequence;
-    r.step = m.stepOfObservation(frame);
-    r.surprise = m.observationSurprise(frame);
-    bump(R.ingested);
-    bump(R.words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
+    const std::size_t w = r.observation % refiner_->win_cap;
+    refiner_->win_ts[w] = it.timestamp;
+    refiner_->win_seq[w] = it.sequence;
+    r.step = m.stepOfObservation(r.observation);
+    r.surprise = m.observationSurprise(r.observation);
+    bump(refiner_->ingested);
+    bump(refiner_->words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
+    refineAndPublish(r, t0, deadline);
+    if (on_observation_) on_observation_(r, m);
+    if (out) *out = r;
+    return true;
+}
 
+void Engine::reject(ObservationResult& r, ObservationResult* out) noexcept {
+    bump(refiner_->rejected);
+    r.step = -1;
+    if (on_observation_) on_observation_(r, *model_);
+    if (out) *out = r;
+}
+
+void Engine::beforeObservation(ObservationResult& r) noexcept {
+    const Model& m = *model_;
+    const uint64_t frame = r.observation;
+    const auto ct = static_cast<uint64_t>(m.config().cell_time);
+    if (frame % ct != 0 || frame == 0) return;
+    const auto newStep = static_cast<int64_t>(frame / ct);
+    // Instantaneous perplexity of the step just completed: one step after
+    // its arrival, before the next observation touches the model.
+    if (cfg_.flags.instantaneous_perplexity) {
+        r.previous_step = newStep - 1;
+        r.previous_perplexity = m.stepPerplexity(newStep - 1);
+    }
+    const int64_t ring = m.config().ring_steps;
+    if (!on_evict_ || newStep < ring) return;
+    const Refiner& R = *refiner_;
+    const int64_t gone = newStep - ring;
+    for (uint64_t f = static_cast<uint64_t>(gone) * ct; f < static_cast<uint64_t>(gone + 1) * ct; ++f) {
+        const std::size_t w = f % R.win_cap;
+        on_evict_(WindowObservation{f, R.win_seq[w], R.win_ts[w], gone}, m);
+    }
+}
+
+void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock::time_point deadline) noexcept {
+    Refiner& R = *refiner_;
     const auto ts = Clock::now();
     r.refinements = spend(cfg_.budget, deadline, true, &r.tokens);
     const auto tp = Clock::now();
     r.refine_ns = (tp - ts).count();
 
-    if (cfg_.flags.snapshot_perplexity) r.perplexity = m.stepPerplexity(r.step);
+    if (cfg_.flags.snapshot_perplexity) r.perplexity = model_->stepPerplexity(r.step);
     publish(r);
     const auto t1 = Clock::now();
-    if (timed) {
+    if (cfg_.budget.kind == BudgetKind::Time) {
         // Publishing costs about the same for observations of similar size: a faster average.
         R.publish_ns = std::min(robustAverage(R.publish_ns, static_cast<double>((t1 - tp).count()), 0.25,
                                               R.publish_samples),
@@ -583,9 +583,6 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
         }
     }
     r.elapsed_ns = (t1 - t0).count();
-    if (on_observation_) on_observation_(r, m);
-    if (out) *out = r;
-    return true;
 }
 
 void Engine::refinerMain() noexcept {
@@ -679,62 +676,53 @@ void Engine::flushWindowToEvictionHook() const { visitWindow(on_evict_); }
 
 // ---- checkpoint support -------------------------------------------------------
 
-namespace {
-constexpr std::size_t kStateCounters = 12;
-} // namespace
-
-void Engine::readState(StateReader read, void* context) const noexcept {
-    const Refiner& R = *refiner_;
+void Engine::describeState(StateLayout& out) noexcept {
+    Refiner& R = *refiner_;
     // Producer-side losses as of the last observation taken up (the
     // producer may be ahead, and what it queued since is not in the state):
     // sequence numbers skipped before next_sequence were dropped.
-    const uint64_t takenUp = R.ingested.load(std::memory_order_relaxed) + R.rejected.load(std::memory_order_relaxed);
+    EngineStateCounters& c = R.saved_counters;
+    c.ingested = R.ingested.load(std::memory_order_relaxed);
+    c.rejected = R.rejected.load(std::memory_order_relaxed);
+    const uint64_t takenUp = c.ingested + c.rejected;
     const uint64_t drops = R.next_sequence > takenUp ? R.next_sequence - takenUp : 0;
-    const uint64_t dropsOldest = std::min(drops, queue_->droppedOldest());
-    const uint64_t c[kStateCounters] = {
-        R.ingested.load(std::memory_order_relaxed),
-        R.rejected.load(std::memory_order_relaxed),
-        R.words_dropped_cell.load(std::memory_order_relaxed),
-        R.refinements.load(std::memory_order_relaxed),
-        R.tokens.load(std::memory_order_relaxed),
-        R.overruns.load(std::memory_order_relaxed),
-        static_cast<uint64_t>(R.max_overrun_ns.load(std::memory_order_relaxed)),
-        R.published.load(std::memory_order_relaxed),
-        drops - dropsOldest,
-        dropsOldest,
-        R.truncated_taken,
-        R.next_sequence,
-    };
-    read(context, "engine.counters", c, sizeof c);
-    const double p[2] = {R.ns_per_token, R.publish_ns};
-    read(context, "engine.predictors", p, sizeof p);
-    read(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.size() * sizeof(int64_t));
-    read(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.size() * sizeof(uint64_t));
+    c.dropped_oldest = std::min(drops, queue_->droppedOldest());
+    c.dropped_newest = drops - c.dropped_oldest;
+    c.words_dropped_cell = R.words_dropped_cell.load(std::memory_order_relaxed);
+    c.refinements = R.refinements.load(std::memory_order_relaxed);
+    c.tokens = R.tokens.load(std::memory_order_relaxed);
+    c.overruns = R.overruns.load(std::memory_order_relaxed);
+    c.max_overrun_ns = static_cast<uint64_t>(R.max_overrun_ns.load(std::memory_order_relaxed));
+    c.published = R.published.load(std::memory_order_relaxed);
+    c.words_truncated = R.truncated_taken;
+    c.next_sequence = R.next_sequence;
+    R.saved_predictors = {R.ns_per_token, R.publish_ns};
+
+    model_->describeState(out);
+    out.addBytes("engine.counters", 0, &R.saved_counters, sizeof R.saved_counters, sizeof(uint64_t));
+    out.addBytes("engine.predictors", 0, &R.saved_predictors, sizeof R.saved_predictors, sizeof(double));
+    out.add("engine.window.timestamp", 0, R.win_ts.data(), R.win_ts.size());
+    out.add("engine.window.sequence", 0, R.win_seq.data(), R.win_seq.size());
 }
 
-Status Engine::writeState(StateWriter write, void* context) {
+Status Engine::applyState() {
     if (running()) return Status::error("engine: cannot restore state while running");
     if (queue_->size() != 0) return Status::error("engine: cannot restore state while observations are queued");
     Refiner& R = *refiner_;
-    uint64_t c[kStateCounters] = {};
-    write(context, "engine.counters", c, sizeof c);
-    double p[2] = {R.ns_per_token, R.publish_ns};
-    write(context, "engine.predictors", p, sizeof p);
-    write(context, "engine.window.timestamp", R.win_ts.data(), R.win_ts.size() * sizeof(int64_t));
-    write(context, "engine.window.sequence", R.win_seq.data(), R.win_seq.size() * sizeof(uint64_t));
-    R.ingested.store(c[0], std::memory_order_relaxed);
-    R.rejected.store(c[1], std::memory_order_relaxed);
-    R.words_dropped_cell.store(c[2], std::memory_order_relaxed);
-    R.refinements.store(c[3], std::memory_order_relaxed);
-    R.tokens.store(c[4], std::memory_order_relaxed);
-    R.overruns.store(c[5], std::memory_order_relaxed);
-    R.max_overrun_ns.store(static_cast<int64_t>(c[6]), std::memory_order_relaxed);
-    R.published.store(c[7], std::memory_order_relaxed);
-    R.next_sequence = c[11];
-    R.truncated_taken = c[10];
-    queue_->restoreProducer(c[11], c[8], c[9], c[10]);
-    R.ns_per_token = p[0];
-    R.publish_ns = p[1];
+    const EngineStateCounters& c = R.saved_counters;
+    R.ingested.store(c.ingested, std::memory_order_relaxed);
+    R.rejected.store(c.rejected, std::memory_order_relaxed);
+    R.words_dropped_cell.store(c.words_dropped_cell, std::memory_order_relaxed);
+    R.refinements.store(c.refinements, std::memory_order_relaxed);
+    R.tokens.store(c.tokens, std::memory_order_relaxed);
+    R.overruns.store(c.overruns, std::memory_order_relaxed);
+    R.max_overrun_ns.store(static_cast<int64_t>(c.max_overrun_ns), std::memory_order_relaxed);
+    R.published.store(c.published, std::memory_order_relaxed);
+    R.next_sequence = c.next_sequence;
+    R.truncated_taken = c.words_truncated;
+    queue_->restoreProducer(c.next_sequence, c.dropped_newest, c.dropped_oldest, c.words_truncated);
+    R.ns_per_token = R.saved_predictors.ns_per_token;
+    R.publish_ns = R.saved_predictors.publish_ns;
     R.token_samples = R.publish_samples = 1;  // restored averages, not first samples
     return {};
 }

@@ -55,6 +55,31 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     beta_f_ = static_cast<float>(cfg_.beta);
     vbeta_f_ = static_cast<float>(static_cast<double>(V_) * cfg_.beta);
 
+    allocateState();
+    buildNeighbourhoods();
+    selectKernels();
+    tables_.nkv = nkv_.data();
+    tables_.nk = nk_.data();
+    tables_.inv = inv_.data();
+    tables_.dec = inv_dec_.data();
+    tables_.inc = inv_inc_.data();
+    tables_.K = K_;
+    tables_.Kp = Kp_;
+    tables_.alpha = alpha_f_;
+    tables_.beta = beta_f_;
+    tables_.vbeta = vbeta_f_;
+    kernel::refreshReciprocals(tables_);
+
+    memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
+                    cell_words_.bytes() + cell_z_.bytes() + nck_.bytes() + cell_surprise_.bytes() +
+                    in_word_.bytes() + in_pos_.bytes() + in_slot_.bytes() + in_n_.bytes() + obs_surprise_.bytes() +
+                    nbr_begin_.bytes() + nbr_cell_.bytes() + scratch_cell_.bytes() + scratch_count_.bytes() +
+                    scratch_need_.bytes() + scratch_g_.bytes() + scratch_ll_.bytes() + scratch_wn_.bytes() +
+                    out_g_.bytes() + out_g_epoch_.bytes() +
+                    sizeof(Model);
+}
+
+void Model::allocateState() {
     const auto ring = static_cast<std::size_t>(ring_);
     const auto cells = static_cast<std::size_t>(cells_);
     const auto cap = static_cast<std::size_t>(cap_);
@@ -80,6 +105,18 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     in_n_.reset(ring * static_cast<std::size_t>(ct_));
     obs_surprise_.reset(ring * static_cast<std::size_t>(ct_));
 
+    scratch_cell_.reset(static_cast<std::size_t>(maxw_));
+    scratch_count_.reset(cells);
+    scratch_need_.reset(cells);
+    scratch_g_.reset(Kp);
+    scratch_ll_.reset(cells);
+    scratch_wn_.reset(cells);
+    out_g_.reset(cells * Kp);
+    out_g_epoch_.reset(cells);
+}
+
+void Model::buildNeighbourhoods() {
+    const auto cells = static_cast<std::size_t>(cells_);
     // Spatial neighbourhood: the cell itself, then every cell within
     // Manhattan distance g.space (g.space = 1: the paper's 4 neighbours).
     std::vector<uint32_t> begin(cells + 1), list;
@@ -101,16 +138,9 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     std::copy(begin.begin(), begin.end(), nbr_begin_.data());
     nbr_cell_.reset(list.size());
     std::copy(list.begin(), list.end(), nbr_cell_.data());
+}
 
-    scratch_cell_.reset(static_cast<std::size_t>(maxw_));
-    scratch_count_.reset(cells);
-    scratch_need_.reset(cells);
-    scratch_g_.reset(Kp);
-    scratch_ll_.reset(cells);
-    scratch_wn_.reset(cells);
-    out_g_.reset(cells * Kp);
-    out_g_epoch_.reset(cells);
-
+void Model::selectKernels() noexcept {
     // Compile-time K for the common sizes (unrolled blocks, registers).
     switch (Kp_) {
     case 16:
@@ -130,25 +160,34 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
         scalar_kernel_ = &Model::refineCells<0, kernel::Path::Scalar>;
         break;
     }
-    tables_.nkv = nkv_.data();
-    tables_.nk = nk_.data();
-    tables_.inv = inv_.data();
-    tables_.dec = inv_dec_.data();
-    tables_.inc = inv_inc_.data();
-    tables_.K = K_;
-    tables_.Kp = Kp_;
-    tables_.alpha = alpha_f_;
-    tables_.beta = beta_f_;
-    tables_.vbeta = vbeta_f_;
-    kernel::refreshReciprocals(tables_);
+}
 
-    memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
-                    cell_words_.bytes() + cell_z_.bytes() + nck_.bytes() + cell_surprise_.bytes() +
-                    in_word_.bytes() + in_pos_.bytes() + in_slot_.bytes() + in_n_.bytes() + obs_surprise_.bytes() +
-                    nbr_begin_.bytes() + nbr_cell_.bytes() + scratch_cell_.bytes() + scratch_count_.bytes() +
-                    scratch_need_.bytes() + scratch_g_.bytes() + scratch_ll_.bytes() + scratch_wn_.bytes() +
-                    out_g_.bytes() + out_g_epoch_.bytes() +
-                    sizeof(Model);
+void Model::describeState(StateLayout& out) noexcept {
+    // Section names and order are checkpoint format 1's; a change to what a
+    // section holds bumps its version.
+    out.add("counters.frames", 0, &frames_, 1);
+    out.add("counters.steps", 0, &steps_, 1);
+    out.add("counters.tokens_refined", 0, &tokens_refined_, 1);
+    out.add("counters.words_in_model", 0, &words_in_model_, 1);
+    out.add("counters.nkv_is_window", 0, &nkv_is_window_, 1);
+    out.add("rng", 0, std::span<uint32_t>(rng_.stateWords()));
+    auto buf = [&out](std::string_view name, auto& b) { out.add(name, 0, b.data(), b.size()); };
+    buf("n_kv", nkv_);
+    buf("n_k", nk_);
+    buf("inv", inv_);
+    buf("inv_dec", inv_dec_);
+    buf("inv_inc", inv_inc_);
+    buf("ring.slot_step", slot_step_);
+    buf("ring.cell_n", cell_n_);
+    buf("ring.cell_words", cell_words_);
+    buf("ring.cell_z", cell_z_);
+    buf("ring.n_ck", nck_);
+    buf("ring.cell_surprise", cell_surprise_);
+    buf("ring.in_word", in_word_);
+    buf("ring.in_pos", in_pos_);
+    buf("ring.in_slot", in_slot_);
+    buf("ring.in_n", in_n_);
+    buf("ring.obs_surprise", obs_surprise_);
 }
 
 void Model::evict(std::size_t slot) noexcept {
@@ -198,58 +237,83 @@ void Model::neighbourhood(int64_t step, int cell, int32_t* out, bool pastOnly) c
     }
 }
 
-AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept {
+AddResult checkObservationSizes(std::size_t words, std::size_t positions) noexcept {
     AddResult res;
-    const auto n = static_cast<uint32_t>(std::min<std::size_t>(words.size(), UINT32_MAX));
-    if (words.size() != positions.size()) {
+    if (words != positions) {
         res.error = AddError::SizeMismatch;
-        res.index = static_cast<uint32_t>(std::min(words.size(), positions.size()));
+        res.index = static_cast<uint32_t>(std::min<std::size_t>(std::min(words, positions), UINT32_MAX));
+    }
+    return res;
+}
+
+AddResult Model::validateObservation(std::span<const uint32_t> words, std::span<const Position> positions) const noexcept {
+    AddResult res = checkObservationSizes(words.size(), positions.size());
+    if (!res.ok()) return res;
+    const auto n = static_cast<uint32_t>(std::min<std::size_t>(words.size(), UINT32_MAX));
+    for (uint32_t i = 0; i < n; ++i) {
+        const Position p = positions[i];
+        if (words[i] >= static_cast<uint32_t>(V_))
+            res.error = AddError::WordOutOfRange;
+        else if (p.x < 0 || p.y < 0 || p.x >= cfg_.frame_width || p.y >= cfg_.frame_height)
+            res.error = AddError::PositionOutOfRange;
+        else
+            continue;
+        res.index = i;
         return res;
     }
-    for (uint32_t i = 0; i < n; ++i) {
-        if (words[i] >= static_cast<uint32_t>(V_)) {
-            res.error = AddError::WordOutOfRange;
-            res.index = i;
-            return res;
-        }
-        const Position p = positions[i];
-        if (p.x < 0 || p.y < 0 || p.x >= cfg_.frame_width || p.y >= cfg_.frame_height) {
-            res.error = AddError::PositionOutOfRange;
-            res.index = i;
-            return res;
-        }
-    }
+    return res;
+}
 
+AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept {
+    AddResult res = validateObservation(words, positions);
+    if (!res.ok()) return res;
     const uint64_t frame = frames_;
     const int64_t step = stepOfObservation(frame);
-    const int sub = static_cast<int>(frame % static_cast<uint64_t>(ct_));
+    const auto sub = static_cast<std::size_t>(frame % static_cast<uint64_t>(ct_));
     const std::size_t slot = slotOf(step);
-    if (sub == 0) {
-        if (slot_step_[slot] >= 0) evict(slot);
-        slot_step_[slot] = step;
-        steps_ = step + 1;
-    }
-    const std::size_t obs = slot * ct_ + static_cast<std::size_t>(sub);
-    const std::size_t ibase = obs * static_cast<std::size_t>(maxw_);
+    if (sub == 0) openStep(step, slot);
+    const std::size_t obs = slot * ct_ + sub;
 
+    const uint32_t m = keepInputs(words, positions, obs);
+    res.dropped_frame = static_cast<uint32_t>(std::min<std::size_t>(words.size(), UINT32_MAX)) - m;
+    // firstNew[c]: the cell's words before this observation.
+    uint32_t* firstNew = scratch_wn_.data();
+    const uint32_t* cellN = cell_n_.data() + slot * cells_;
+    std::copy_n(cellN, cells_, firstNew);
+    fillCells(slot, obs, m, res);
+    observeSurprise(step, slot, obs, firstNew);
+    drawInitialLabels(slot, firstNew);
+    words_in_model_ += res.kept;
+    ++frames_;
+    return res;
+}
+
+void Model::openStep(int64_t step, std::size_t slot) noexcept {
+    if (slot_step_[slot] >= 0) evict(slot);
+    slot_step_[slot] = step;
+    steps_ = step + 1;
+}
+
+uint32_t Model::keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::size_t obs) noexcept {
     // Frame-level uniform subsample (selection sampling keeps input order).
-    const uint32_t m = std::min<uint32_t>(n, static_cast<uint32_t>(maxw_));
-    uint32_t need = m, j = 0;
-    for (uint32_t i = 0; i < n && need > 0; ++i) {
-        if (n > m && rng_.below(n - i) >= need) continue;
+    const std::size_t ibase = obs * static_cast<std::size_t>(maxw_);
+    const std::size_t n = std::min<std::size_t>(words.size(), UINT32_MAX);
+    uint32_t j = 0;
+    selectUniform(n, static_cast<std::size_t>(maxw_), rng_, [&](std::size_t i) {
         in_word_[ibase + j] = words[i];
         in_pos_[ibase + j] = static_cast<uint32_t>(positions[i].x) | (static_cast<uint32_t>(positions[i].y) << 16);
         ++j;
-        --need;
-    }
-    res.dropped_frame = n - m;
-    in_n_[obs] = m;
+    });
+    in_n_[obs] = j;
+    return j;
+}
 
+void Model::fillCells(std::size_t slot, std::size_t obs, uint32_t m, AddResult& res) noexcept {
+    const std::size_t ibase = obs * static_cast<std::size_t>(maxw_);
     // Cells of the kept inputs, and how many each cell can still take.
     uint32_t* cellOf = scratch_cell_.data();
     uint32_t* count = scratch_count_.data();
     uint32_t* needc = scratch_need_.data();
-    uint32_t* firstNew = scratch_wn_.data();
     std::fill_n(count, cells_, 0u);
     for (uint32_t i = 0; i < m; ++i) {
         const uint32_t packed = in_pos_[ibase + i];
@@ -259,10 +323,7 @@ AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const
         ++count[cellOf[i]];
     }
     uint32_t* cellN = cell_n_.data() + slot * cells_;
-    for (int c = 0; c < cells_; ++c) {
-        needc[c] = std::min<uint32_t>(count[c], static_cast<uint32_t>(cap_) - cellN[c]);
-        firstNew[c] = cellN[c];
-    }
+    for (int c = 0; c < cells_; ++c) needc[c] = std::min<uint32_t>(count[c], static_cast<uint32_t>(cap_) - cellN[c]);
     // Cell-level uniform subsample, again by selection sampling.
     for (uint32_t i = 0; i < m; ++i) {
         const uint32_t c = cellOf[i];
@@ -279,45 +340,47 @@ AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const
             ++res.dropped_cell;
         }
     }
+}
 
+void Model::observeSurprise(int64_t step, std::size_t slot, std::size_t obs, const uint32_t* firstNew) noexcept {
     // Surprise, before the new words touch any count.
-    {
-        alignas(64) int32_t g[kMaxKp];
-        double globalSum = 0.0;
-        for (int k = 0; k < K_; ++k) globalSum += nk_[k];
-        double frameNll = 0.0;
-        uint64_t frameWords = 0;
-        float* cs = cell_surprise_.data() + slot * cells_;
-        for (int c = 0; c < cells_; ++c) {
-            const uint32_t s0 = firstNew[c], s1 = cellN[c];
-            if (s1 == s0) continue;
-            neighbourhood(step, c, g, true);
-            double gsum = 0.0;
-            for (int k = 0; k < K_; ++k) gsum += g[k];
-            const int32_t* prior = g;
-            if (gsum == 0.0) {
-                prior = nk_.data();
-                gsum = globalSum;
-            }
-            const double thetaNorm = 1.0 / (gsum + K_ * cfg_.alpha);
-            double nll = 0.0;
-            const uint32_t* w = cell_words_.data() + (slot * cells_ + c) * cap_;
-            for (uint32_t s = s0; s < s1; ++s) {
-                const int32_t* row = nkv_.data() + static_cast<std::size_t>(w[s]) * Kp_;
-                double p = 0.0;
-                for (int k = 0; k < K_; ++k)
-                    p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
-                nll -= std::log(p * thetaNorm);
-            }
-            cs[c] = static_cast<float>(std::exp(nll / (s1 - s0)));
-            frameNll += nll;
-            frameWords += s1 - s0;
+    alignas(64) int32_t g[kMaxKp];
+    double globalSum = 0.0;
+    for (int k = 0; k < K_; ++k) globalSum += nk_[k];
+    double frameNll = 0.0;
+    uint64_t frameWords = 0;
+    float* cs = cell_surprise_.data() + slot * cells_;
+    const uint32_t* cellN = cell_n_.data() + slot * cells_;
+    for (int c = 0; c < cells_; ++c) {
+        const uint32_t s0 = firstNew[c], s1 = cellN[c];
+        if (s1 == s0) continue;
+        neighbourhood(step, c, g, true);
+        double gsum = 0.0;
+        for (int k = 0; k < K_; ++k) gsum += g[k];
+        const int32_t* prior = g;
+        if (gsum == 0.0) {
+            prior = nk_.data();
+            gsum = globalSum;
         }
-        obs_surprise_[obs] =
-            frameWords ? static_cast<float>(std::exp(frameNll / static_cast<double>(frameWords))) : 0.f;
+        const double thetaNorm = 1.0 / (gsum + K_ * cfg_.alpha);
+        double nll = 0.0;
+        const uint32_t* w = cell_words_.data() + (slot * cells_ + c) * cap_;
+        for (uint32_t s = s0; s < s1; ++s) {
+            const int32_t* row = nkv_.data() + static_cast<std::size_t>(w[s]) * Kp_;
+            double p = 0.0;
+            for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
+            nll -= std::log(p * thetaNorm);
+        }
+        cs[c] = static_cast<float>(std::exp(nll / (s1 - s0)));
+        frameNll += nll;
+        frameWords += s1 - s0;
     }
+    obs_surprise_[obs] = frameWords ? static_cast<float>(std::exp(frameNll / static_cast<double>(frameWords))) : 0.f;
+}
 
+void Model::drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexcept {
     // Initial labels z ~ Uniform(K) (paper Algorithm 2) and their counts.
+    const uint32_t* cellN = cell_n_.data() + slot * cells_;
     for (int c = 0; c < cells_; ++c) {
         const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
         int32_t* h = nck(slot, c);
@@ -330,9 +393,6 @@ AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const
         }
     }
     kernel::refreshReciprocals(tables_);
-    words_in_model_ += res.kept;
-    ++frames_;
-    return res;
 }
 
 void Model::stepSlots(int64_t step, StepSlots& out) const noexcept {

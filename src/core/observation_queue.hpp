@@ -181,9 +181,10 @@ private:
         Meta& m = meta_[s];
         m.sequence = seq;
         m.timestamp = timestamp;
-        m.mismatch = words.size() != positions.size() ? 1u : 0u;
-        const std::size_t n = std::min(words.size(), positions.size());
-        m.mismatch_index = static_cast<uint32_t>(std::min<std::size_t>(n, UINT32_MAX));
+        const AddResult sizes = checkObservationSizes(words.size(), positions.size());  // shared with Model
+        m.mismatch = sizes.ok() ? 0u : 1u;
+        m.mismatch_index = sizes.index;
+        const std::size_t n = words.size();
         m.truncated = 0;
         uint32_t* w = words_.data() + s * maxw_;
         Position* p = positions_.data() + s * maxw_;
@@ -200,19 +201,14 @@ private:
             return;
         }
         // Uniform subsample of maxw_ of the n words, in input order
-        // (selection sampling), seeded by the sequence number.
+        // (selection sampling, as Model::addObservation), seeded by the sequence number.
         Rng rng(seed_ ^ (seq * 0x9E3779B97F4A7C15ull));
-        uint64_t need = maxw_;
         uint32_t j = 0;
-        for (std::size_t i = 0; i < n && need > 0; ++i) {
-            const uint64_t left = n - i;
-            const uint64_t pick = left > 0xFFFFFFFFull ? need : rng.below(static_cast<uint32_t>(left));
-            if (pick >= need) continue;
+        selectUniform(n, maxw_, rng, [&](std::size_t i) {
             w[j] = words[i];
             p[j] = positions[i];
             ++j;
-            --need;
-        }
+        });
         m.size = j;
         m.truncated = static_cast<uint32_t>(std::min<std::size_t>(n - j, UINT32_MAX));
         p_.words_truncated.store(p_.words_truncated.load(std::memory_order_relaxed) + (n - j),
