@@ -161,8 +161,9 @@ TEST(ToolCli, EverySettingIsAnOptionWithTheSchemasDefault) {
         if (s.has(rost::setting_flags::Library) || s.key.starts_with("frame.")) continue;
         const std::string option = s.cli.empty() ? "--" + std::string(s.key) : std::string(s.cli.substr(0, s.cli.find(',')));
         EXPECT_NE(help.out.find(option), std::string::npos) << "run --help lacks " << option;
-        if (s.type != rost::SettingType::Bool && !s.def.empty() && !s.has(rost::setting_flags::Derived))
+        if (s.type != rost::SettingType::Bool && !s.def.empty() && !s.has(rost::setting_flags::Derived)) {
             EXPECT_NE(help.out.find("[" + std::string(s.def) + "]"), std::string::npos) << s.key << " default " << s.def;
+        }
     }
 }
 
@@ -202,10 +203,10 @@ TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
     const RunResult c = runRost(in + (t / "c") + explicitOptions);
     ASSERT_EQ(c.exit_code, 0) << c.err << explicitOptions;
     for (const char* f : {"topics.csv", "perplexity.csv", "surprise.csv", "topicmodel.csv"}) {
-        const std::string a = rost::testing::readText(t / "a" / f);
+        const std::string a = rost::testing::readText(t / "a/" + f);
         EXPECT_FALSE(a.empty()) << f;
-        EXPECT_EQ(rost::testing::readText(t / "b" / f), a) << f;
-        EXPECT_EQ(rost::testing::readText(t / "c" / f), a) << f;
+        EXPECT_EQ(rost::testing::readText(t / "b/" + f), a) << f;
+        EXPECT_EQ(rost::testing::readText(t / "c/" + f), a) << f;
     }
 }
 
