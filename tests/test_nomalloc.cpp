@@ -249,6 +249,41 @@ TEST(NoMalloc, ThreadedEngineMakesNoAllocationAfterStartWithATimeBudget) {
     runThreaded(Budget::time(0.2), DropPolicy::DropOldest);
 }
 
+// The engine's publication of results (Engine::publishResults): the refiner
+// copies every observation's results and every leaving observation's final
+// labels into its rings, and this thread reads them, with nothing allocated
+// on either side after start().
+TEST(NoMalloc, ThreadedEngineWithPublishedResultsMakesNoAllocationAfterStart) {
+    Engine e(config(Budget::steps(2), DropPolicy::DropOldest));
+    ASSERT_TRUE(e.publishResults(8).ok());
+    const auto frames = makeStream(e.config().model, 64, 300, 33);
+    PublishedResult result = e.makeResult();
+    FinalLabels final = e.makeFinal();
+    ASSERT_TRUE(e.start().ok());
+    uint64_t results = 0, finals = 0;
+    {
+        Counting c;
+        for (int i = 0; i < 2000; ++i) {
+            ASSERT_TRUE(e.pushWait(frames[static_cast<std::size_t>(i) % frames.size()].view()));
+            while (e.readResult(result)) ++results;
+            while (e.readFinal(final)) ++finals;
+        }
+        // Every observation published a result; all but the last ring's worth left the window.
+        const uint64_t expected = 2000u + (2000u - static_cast<uint64_t>(e.config().model.ring_steps));
+        const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+        while (results + finals + e.resultsLost() < expected && std::chrono::steady_clock::now() < until) {
+            while (e.readResult(result)) ++results;
+            while (e.readFinal(final)) ++finals;
+            std::this_thread::yield();
+        }
+        EXPECT_EQ(c.count(), 0u) << "allocations on the publication paths";
+    }
+    e.stop();
+    EXPECT_GT(results, 0u);
+    EXPECT_GT(finals, 0u);
+    EXPECT_EQ(results + finals + e.resultsLost(), 2000u + (2000u - static_cast<uint64_t>(e.config().model.ring_steps)));
+}
+
 TEST(NoMalloc, SynchronousProcessNowEvictionAndFinalPassMakeNoAllocation) {
     Engine e(config(Budget::steps(2), DropPolicy::DropOldest));
     const auto frames = makeStream(e.config().model, 64, 300, 32);

@@ -30,6 +30,7 @@
 #include <span>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "rost/config.hpp"
 #include "rost/model.hpp"
@@ -139,6 +140,29 @@ struct WindowObservation {
 };
 
 using ObservationHook = std::function<void(const ObservationResult&, const Model&)>;
+
+// Results the engine publishes itself (Engine::publishResults): one record
+// per observation taken up, read by any one consumer thread with
+// Engine::readResult. Sized once (makeResult); copying one in or out does
+// not allocate.
+struct PublishedResult {
+    ObservationResult result;
+    // The observation's time step after its budget (empty content when rejected):
+    std::vector<int32_t> histograms;   // cells x K topic counts, cell-major
+    std::vector<float> cell_surprise;  // per cell
+};
+
+// An observation leaving the window: its final labels (Engine::readFinal).
+struct FinalLabels {
+    WindowObservation where;
+    double perplexity = 0.0;  // of its step, when it left
+    uint32_t n = 0;           // words (at most max.words)
+    std::vector<uint32_t> words;
+    std::vector<Position> positions;
+    std::vector<uint16_t> labels;
+};
+
+class CheckpointWriter;
 using EvictionHook = std::function<void(const WindowObservation&, const Model&)>;
 
 struct EngineMemory {
@@ -195,6 +219,24 @@ public:
 
     // ---- set-up (not while running) -----------------------------------------
     // Called on the refining thread after each observation (see ObservationResult).
+    // Publication for a consumer thread (set-up only: before start(); allocates).
+    // The refiner copies each observation's results, and each leaving
+    // observation's final labels, into engine-owned rings of `slots` records
+    // (0: off) as part of its publish step: no allocation, no lock. A full
+    // ring drops the record and counts it (resultsLost()).
+    Status publishResults(std::size_t slots);
+    PublishedResult makeResult() const;  // a record sized for readResult (allocates)
+    FinalLabels makeFinal() const;       // a record sized for readFinal (allocates)
+    // Consumer (one thread at a time): the oldest unread record; false when none.
+    bool readResult(PublishedResult& out) noexcept;
+    bool readFinal(FinalLabels& out) noexcept;
+    uint64_t resultsLost() const noexcept;
+    // Periodic checkpoints (set-up only): after every `every`-th observation
+    // taken up, the refiner captures its state into `writer` at that
+    // observation boundary (CheckpointWriter::captureEvery; its stall bound).
+    // nullptr detaches.
+    void captureCheckpoints(CheckpointWriter* writer, uint64_t every) noexcept;
+
     void setObservationHook(ObservationHook hook);
     // Called on the refining thread for each observation of a step about to
     // leave the window, before the observation that evicts it is added.
@@ -306,6 +348,13 @@ private:
     std::unique_ptr<ObservationQueue> queue_;
     std::unique_ptr<SnapshotPublisher> publisher_;
     std::unique_ptr<Refiner> refiner_;  // refiner-side state (staging snapshot, window bookkeeping)
+    struct Publication;
+    void publishResult(const ObservationResult& r) noexcept;
+    void publishFinal(const WindowObservation& w) noexcept;
+    void afterObservation(const ObservationResult& r) noexcept;
+    std::unique_ptr<Publication> pub_;
+    CheckpointWriter* checkpoints_ = nullptr;
+    uint64_t checkpoint_every_ = 0;
     ObservationHook on_observation_;
     EvictionHook on_evict_;
     std::thread thread_;

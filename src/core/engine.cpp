@@ -8,6 +8,8 @@
 #include <string>
 
 #include "observation_queue.hpp"
+#include "rost/checkpoint.hpp"
+#include "spsc_ring.hpp"
 
 namespace rost {
 
@@ -320,6 +322,138 @@ std::unique_ptr<Engine> Engine::create(const EngineConfig& cfg, Status& status) 
 
 Engine::~Engine() { stop(StopMode::Discard); }
 
+// ---- publication of results to a consumer thread ------------------------------
+
+struct Engine::Publication {
+    Publication(std::size_t slots, const Engine& e)
+        : results(slots, [&](PublishedResult& r) { r = e.makeResult(); }),
+          finals(slots, [&](FinalLabels& f) { f = e.makeFinal(); }) {
+        const PublishedResult r = e.makeResult();
+        const FinalLabels f = e.makeFinal();
+        bytes = sizeof(Publication) +
+                slots * (sizeof(PublishedResult) + r.histograms.size() * sizeof(int32_t) +
+                         r.cell_surprise.size() * sizeof(float) + sizeof(FinalLabels) +
+                         f.labels.size() * (sizeof(uint32_t) + sizeof(Position) + sizeof(uint16_t)));
+    }
+    SpscRing<PublishedResult> results;
+    SpscRing<FinalLabels> finals;
+    std::atomic<uint64_t> lost{0};
+    std::size_t bytes = 0;
+};
+
+Status Engine::publishResults(std::size_t slots) {
+    if (running()) return Status::error("publishResults: the engine is running (set-up only)");
+    try {
+        pub_ = slots > 0 ? std::make_unique<Publication>(slots, *this) : nullptr;
+    } catch (const std::exception& e) {
+        return Status::error(std::string("publishResults: ") + e.what());
+    }
+    return {};
+}
+
+PublishedResult Engine::makeResult() const {
+    PublishedResult r;
+    const auto cells = static_cast<std::size_t>(model_->cellsPerStep());
+    r.histograms.assign(cells * static_cast<std::size_t>(model_->K()), 0);
+    r.cell_surprise.assign(cells, 0.f);
+    return r;
+}
+
+FinalLabels Engine::makeFinal() const {
+    FinalLabels f;
+    const auto n = static_cast<std::size_t>(cfg_.model.max_words_per_frame);
+    f.words.assign(n, 0);
+    f.positions.assign(n, Position{});
+    f.labels.assign(n, 0);
+    return f;
+}
+
+void Engine::captureCheckpoints(CheckpointWriter* writer, uint64_t every) noexcept {
+    checkpoints_ = writer;
+    checkpoint_every_ = every;
+}
+
+uint64_t Engine::resultsLost() const noexcept { return pub_ ? pub_->lost.load(std::memory_order_relaxed) : 0; }
+
+// Refiner side: copies into the next free record, no allocation.
+void Engine::publishResult(const ObservationResult& r) noexcept {
+    PublishedResult* o = pub_->results.beginPush();
+    if (!o) {
+        pub_->lost.fetch_add(1, std::memory_order_relaxed);
+        return;
+    }
+    o->result = r;
+    if (r.add.ok() && r.step >= 0) {
+        const Model& m = *model_;
+        const auto K = static_cast<std::size_t>(m.K());
+        const auto cells = o->cell_surprise.size();
+        const std::span<const float> cs = m.cellSurprise(r.step);
+        for (std::size_t c = 0; c < cells; ++c) {
+            o->cell_surprise[c] = c < cs.size() ? cs[c] : 0.f;
+            const std::span<const int32_t> h = m.cellHistogram(r.step, static_cast<int>(c));
+            std::copy_n(h.begin(), K, o->histograms.begin() + static_cast<std::ptrdiff_t>(c * K));
+        }
+    }
+    pub_->results.commitPush();
+}
+
+void Engine::publishFinal(const WindowObservation& w) noexcept {
+    FinalLabels* f = pub_->finals.beginPush();
+    if (!f) {
+        pub_->lost.fetch_add(1, std::memory_order_relaxed);
+        return;
+    }
+    const Model& m = *model_;
+    f->where = w;
+    f->perplexity = m.stepPerplexity(w.step);
+    f->n = std::min<uint32_t>(m.observationSize(w.observation), static_cast<uint32_t>(f->labels.size()));
+    m.observationWords(w.observation, {f->words.data(), f->n});
+    m.observationPositions(w.observation, {f->positions.data(), f->n});
+    m.observationLabels(w.observation, {f->labels.data(), f->n});
+    pub_->finals.commitPush();
+}
+
+namespace {
+template <typename T>
+void copyInto(std::vector<T>& to, const std::vector<T>& from) noexcept {
+    // Records are sized alike (makeResult/makeFinal): no allocation.
+    std::copy_n(from.begin(), std::min(to.size(), from.size()), to.begin());
+}
+} // namespace
+
+bool Engine::readResult(PublishedResult& out) noexcept {
+    if (!pub_) return false;
+    PublishedResult* r = pub_->results.front();
+    if (!r) return false;
+    out.result = r->result;
+    copyInto(out.histograms, r->histograms);
+    copyInto(out.cell_surprise, r->cell_surprise);
+    pub_->results.pop();
+    return true;
+}
+
+bool Engine::readFinal(FinalLabels& out) noexcept {
+    if (!pub_) return false;
+    FinalLabels* f = pub_->finals.front();
+    if (!f) return false;
+    out.where = f->where;
+    out.perplexity = f->perplexity;
+    out.n = std::min<uint32_t>(f->n, static_cast<uint32_t>(out.labels.size()));
+    std::copy_n(f->words.begin(), out.n, out.words.begin());
+    std::copy_n(f->positions.begin(), out.n, out.positions.begin());
+    std::copy_n(f->labels.begin(), out.n, out.labels.begin());
+    pub_->finals.pop();
+    return true;
+}
+
+// After an observation's publish step (ingested or rejected): the results
+// to the consumer, the hook, a periodic checkpoint (an observation boundary).
+void Engine::afterObservation(const ObservationResult& r) noexcept {
+    if (pub_) publishResult(r);
+    if (on_observation_) on_observation_(r, *model_);
+    if (checkpoints_) checkpoints_->captureEvery(checkpoint_every_, r);
+}
+
 EngineMemory Engine::memory() const noexcept {
     EngineMemory m;
     m.model = model_->memoryBytes();
@@ -329,6 +463,7 @@ EngineMemory Engine::memory() const noexcept {
                  s.words_.capacity() * sizeof(uint32_t) + s.positions_.capacity() * sizeof(Position) +
                  s.hist_.capacity() * sizeof(int32_t) + s.cell_surprise_.capacity() * sizeof(float);
     m.other = refiner_->win_ts.bytes() + refiner_->win_seq.bytes() + sizeof(Refiner) + sizeof(Engine);
+    if (pub_) m.other += pub_->bytes;
     return m;
 }
 
@@ -525,7 +660,7 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     bump(refiner_->ingested);
     bump(refiner_->words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
     refineAndPublish(r, t0, deadline);
-    if (on_observation_) on_observation_(r, m);
+    afterObservation(r);
     if (out) *out = r;
     return true;
 }
@@ -533,7 +668,7 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
 void Engine::reject(ObservationResult& r, ObservationResult* out) noexcept {
     bump(refiner_->rejected);
     r.step = -1;
-    if (on_observation_) on_observation_(r, *model_);
+    afterObservation(r);
     if (out) *out = r;
 }
 
@@ -550,12 +685,14 @@ void Engine::beforeObservation(ObservationResult& r) noexcept {
         r.previous_perplexity = m.stepPerplexity(newStep - 1);
     }
     const int64_t ring = m.config().ring_steps;
-    if (!on_evict_ || newStep < ring) return;
+    if ((!on_evict_ && !pub_) || newStep < ring) return;
     const Refiner& R = *refiner_;
     const int64_t gone = newStep - ring;
     for (uint64_t f = static_cast<uint64_t>(gone) * ct; f < static_cast<uint64_t>(gone + 1) * ct; ++f) {
         const std::size_t w = f % R.win_cap;
-        on_evict_(WindowObservation{f, R.win_seq[w], R.win_ts[w], gone}, m);
+        const WindowObservation leaving{f, R.win_seq[w], R.win_ts[w], gone};
+        if (on_evict_) on_evict_(leaving, m);
+        if (pub_) publishFinal(leaving);
     }
 }
 

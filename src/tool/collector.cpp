@@ -9,92 +9,66 @@
 namespace rost::tool {
 
 Collector::Collector(Engine& engine, std::size_t slots)
-    : engine_(engine),
-      K_(engine.model().K()),
-      cells_(engine.model().cellsPerStep()),
-      maxw_(static_cast<std::size_t>(engine.model().config().max_words_per_frame)),
-      obs_(slots,
-           [&](ObservationRecord& r) {
-               r.dominant.resize(static_cast<std::size_t>(cells_));
-               r.cell_surprise.resize(static_cast<std::size_t>(cells_));
-               r.topic_share.resize(static_cast<std::size_t>(K_));
-           }),
-      final_(slots, [&](FinalRecord& f) {
-          f.words.resize(maxw_);
-          f.positions.resize(maxw_);
-          f.labels.resize(maxw_);
-      }) {
-    engine_.setObservationHook([this](const ObservationResult& r, const Model& m) { onObservationHook(r, m); });
-    engine_.setEvictionHook([this](const WindowObservation& w, const Model& m) { onEvictionHook(w, m); });
+    : engine_(engine), K_(engine.model().K()), cells_(engine.model().cellsPerStep()) {
+    publishing_ = engine_.publishResults(slots);
+    published_ = engine_.makeResult();
+    final_ = engine_.makeFinal();
+    record_.dominant.resize(static_cast<std::size_t>(cells_));
+    record_.cell_surprise.resize(static_cast<std::size_t>(cells_));
+    record_.topic_share.resize(static_cast<std::size_t>(K_));
 }
 
-// Refiner thread: copy out, no allocation.
-void Collector::onObservationHook(const ObservationResult& r, const Model& m) noexcept {
-    ObservationRecord* o = obs_.beginPush();
-    if (!o) {
-        lost_.fetch_add(1, std::memory_order_relaxed);
-        return;
-    }
-    o->frame = r.timestamp;
-    o->observation = r.observation;
-    o->step = r.step;
-    o->rejected = !r.add.ok();
-    o->error = r.add.error;
-    o->error_index = r.add.index;
-    o->kept = r.add.kept;
-    o->surprise = r.surprise;
-    o->previous_step = r.previous_step;
-    o->previous_perplexity = r.previous_perplexity;
-    o->refinements = r.refinements;
-    o->elapsed_ns = r.elapsed_ns;
-    if (!o->rejected) {
-        const std::span<const float> cs = m.cellSurprise(r.step);
-        double total = 0.0;
-        std::fill(o->topic_share.begin(), o->topic_share.end(), 0.f);
-        for (int c = 0; c < cells_; ++c) {
-            const auto uc = static_cast<std::size_t>(c);
-            o->cell_surprise[uc] = c < static_cast<int>(cs.size()) ? cs[uc] : 0.f;
-            const std::span<const int32_t> h = m.cellHistogram(r.step, c);
-            int best = -1;
-            int32_t bestN = 0;
-            for (int k = 0; k < K_; ++k) {
-                const int32_t n = h[static_cast<std::size_t>(k)];
-                o->topic_share[static_cast<std::size_t>(k)] += static_cast<float>(n);
-                total += n;
-                if (n > bestN) best = k, bestN = n;
-            }
-            o->dominant[uc] = best < 0 ? ObservationRecord::kNoTopic : static_cast<uint16_t>(best);
+// Writer side: the published histograms -> dominant topic per cell and topic shares.
+void Collector::fromPublished() {
+    const ObservationResult& r = published_.result;
+    ObservationRecord& o = record_;
+    o.frame = r.timestamp;
+    o.observation = r.observation;
+    o.step = r.step;
+    o.rejected = !r.add.ok();
+    o.error = r.add.error;
+    o.error_index = r.add.index;
+    o.kept = r.add.kept;
+    o.surprise = r.surprise;
+    o.previous_step = r.previous_step;
+    o.previous_perplexity = r.previous_perplexity;
+    o.refinements = r.refinements;
+    o.elapsed_ns = r.elapsed_ns;
+    if (o.rejected) return;
+    double total = 0.0;
+    std::fill(o.topic_share.begin(), o.topic_share.end(), 0.f);
+    const auto K = static_cast<std::size_t>(K_);
+    for (std::size_t c = 0; c < static_cast<std::size_t>(cells_); ++c) {
+        o.cell_surprise[c] = published_.cell_surprise[c];
+        const int32_t* h = published_.histograms.data() + c * K;
+        int best = -1;
+        int32_t bestN = 0;
+        for (std::size_t k = 0; k < K; ++k) {
+            const int32_t n = h[k];
+            o.topic_share[k] += static_cast<float>(n);
+            total += n;
+            if (n > bestN) best = static_cast<int>(k), bestN = n;
         }
-        if (total > 0)
-            for (auto& s : o->topic_share) s = static_cast<float>(s / total);
+        o.dominant[c] = best < 0 ? ObservationRecord::kNoTopic : static_cast<uint16_t>(best);
     }
-    obs_.commitPush();
+    if (total > 0)
+        for (auto& s : o.topic_share) s = static_cast<float>(s / total);
 }
 
-void Collector::fillFinal(FinalRecord& f, const WindowObservation& w, const Model& m) noexcept {
-    f.observation = w.observation;
-    f.frame = w.timestamp;
-    f.step = w.step;
+void Collector::fillFinal(const WindowObservation& w, const Model& m) noexcept {
+    FinalLabels& f = final_;
+    f.where = w;
     f.perplexity = m.stepPerplexity(w.step);
-    f.n = std::min<uint32_t>(m.observationSize(w.observation), static_cast<uint32_t>(maxw_));
+    f.n = std::min<uint32_t>(m.observationSize(w.observation), static_cast<uint32_t>(f.labels.size()));
     m.observationWords(w.observation, {f.words.data(), f.n});
     m.observationPositions(w.observation, {f.positions.data(), f.n});
     m.observationLabels(w.observation, {f.labels.data(), f.n});
 }
 
-void Collector::onEvictionHook(const WindowObservation& w, const Model& m) noexcept {
-    FinalRecord* f = final_.beginPush();
-    if (!f) {
-        lost_.fetch_add(1, std::memory_order_relaxed);
-        return;
-    }
-    fillFinal(*f, w, m);
-    final_.commitPush();
-}
-
 Collector::~Collector() { (void)closeStreams(); }
 
 Status Collector::streamTo(OutputDir& out, bool words) {
+    if (!publishing_.ok()) return publishing_;
     auto open = [&](Stream& s, const char* name) -> Status {
         s.path = out.staged(name);
         s.file = std::fopen(s.path.c_str(), "wb");
@@ -122,56 +96,59 @@ Status Collector::closeStreams() {
     return {};
 }
 
-void Collector::takeFinal(const FinalRecord& f) {
-    if (f.observation >= first_ && f.observation - first_ < rows_.size()) rows_[f.observation - first_].final = f.perplexity;
+void Collector::takeFinal(const FinalLabels& f) {
+    const uint64_t ob = f.where.observation;
+    if (ob >= first_ && ob - first_ < rows_.size()) rows_[ob - first_].final = f.perplexity;
     auto put = [&](Stream& s) {
         if (s.file && std::fwrite(line_.data(), 1, line_.size(), s.file) != line_.size()) writeFailed_ = true;
         line_.clear();
     };
     line_.clear();
-    appendCsvLine(line_, f.frame, f.words.data(), f.n);
+    const int64_t frame = f.where.timestamp;
+    appendCsvLine(line_, frame, f.words.data(), f.n);
     put(words_);
-    appendPositionsLine(line_, f.frame, f.positions.data(), f.n);
+    appendPositionsLine(line_, frame, f.positions.data(), f.n);
     put(positions_);
-    appendCsvLine(line_, f.frame, f.labels.data(), f.n);
+    appendCsvLine(line_, frame, f.labels.data(), f.n);
     put(topics_);
     ++finals_;
 }
 
+void Collector::takeObservation(const ObservationRecord& o) {
+    if (o.rejected) {
+        if (rejection_.empty())
+            rejection_ = "frame " + std::to_string(o.frame) + ": the model rejected the observation (" +
+                         toString(o.error) + " at word " + std::to_string(o.error_index) + ")";
+        return;
+    }
+    FrameRow row;
+    row.frame = o.frame;
+    row.ingested = true;
+    row.observation = o.observation;
+    row.step = o.step;
+    row.kept = o.kept;
+    row.surprise = o.surprise;
+    row.refinements = o.refinements;
+    row.refine_ms = static_cast<double>(o.elapsed_ns) * 1e-6;
+    row.cell_surprise = o.cell_surprise;
+    row.topic_share = o.topic_share;
+    if (first_ + rows_.size() == o.observation) rows_.push_back(std::move(row));
+    // Instantaneous perplexity of the step before, for each of its observations.
+    if (o.previous_step >= 0)
+        for (auto it = rows_.rbegin(); it != rows_.rend(); ++it) {
+            if (it->step < o.previous_step) break;
+            if (it->step == o.previous_step) it->instantaneous = o.previous_perplexity;
+        }
+}
+
 void Collector::drain(const std::function<void(const ObservationRecord&)>& onObservation) {
     // Observations first: a final record always refers to an earlier observation.
-    while (ObservationRecord* o = obs_.front()) {
-        if (onObservation) onObservation(*o);
-        if (o->rejected) {
-            if (rejection_.empty())
-                rejection_ = "frame " + std::to_string(o->frame) + ": the model rejected the observation (" +
-                             toString(o->error) + " at word " + std::to_string(o->error_index) + ")";
-        } else {
-            FrameRow row;
-            row.frame = o->frame;
-            row.ingested = true;
-            row.observation = o->observation;
-            row.step = o->step;
-            row.kept = o->kept;
-            row.surprise = o->surprise;
-            row.refinements = o->refinements;
-            row.refine_ms = static_cast<double>(o->elapsed_ns) * 1e-6;
-            row.cell_surprise = o->cell_surprise;
-            row.topic_share = o->topic_share;
-            if (first_ + rows_.size() == o->observation) rows_.push_back(std::move(row));
-            // Instantaneous perplexity of the step before, for each of its observations.
-            if (o->previous_step >= 0)
-                for (auto it = rows_.rbegin(); it != rows_.rend(); ++it) {
-                    if (it->step < o->previous_step) break;
-                    if (it->step == o->previous_step) it->instantaneous = o->previous_perplexity;
-                }
-        }
-        obs_.pop();
+    while (engine_.readResult(published_)) {
+        fromPublished();
+        if (onObservation) onObservation(record_);
+        takeObservation(record_);
     }
-    while (FinalRecord* f = final_.front()) {
-        takeFinal(*f);
-        final_.pop();
-    }
+    while (engine_.readFinal(final_)) takeFinal(final_);
 }
 
 void Collector::finish(int sweeps) {
@@ -185,13 +162,9 @@ void Collector::finish(int sweeps) {
         for (auto it = rows_.rbegin(); it != rows_.rend() && it->step == last; ++it) it->instantaneous = p;
     }
     if (sweeps > 0) engine_.finalPass(sweeps);
-    FinalRecord f;
-    f.words.resize(maxw_);
-    f.positions.resize(maxw_);
-    f.labels.resize(maxw_);
     engine_.visitWindow([&](const WindowObservation& w, const Model& model) {
-        fillFinal(f, w, model);
-        takeFinal(f);
+        fillFinal(w, model);
+        takeFinal(final_);
     });
 }
 

@@ -1,11 +1,12 @@
 #pragma once
 
-// Collects what an engine run produces, for `rost run` and `rost refine`:
-// the engine's hooks (on the refiner thread under --realtime) copy each
-// observation's results and each leaving observation's final labels into
-// preallocated records of two single-producer rings; the writer thread
-// drains them into per-frame rows and CSV text. The hooks neither allocate
-// nor lock.
+// The results sink of `rost run` and `rost refine`: the engine publishes
+// each observation's results and each leaving observation's final labels
+// into its own preallocated rings (Engine::publishResults; no allocation,
+// no lock on the refiner); this sink reads them on the writer thread
+// (Engine::readResult, readFinal), derives what the outputs need (dominant
+// topic per cell, topic shares) and makes per-frame rows and CSV text. It
+// installs no hook: writing outputs never runs on the refiner thread.
 
 #include <cstdint>
 #include <cstdio>
@@ -16,7 +17,6 @@
 
 #include "outputs.hpp"
 #include "rost/engine.hpp"
-#include "spsc_ring.hpp"
 
 namespace rost::tool {
 
@@ -40,21 +40,10 @@ struct ObservationRecord {
     static constexpr uint16_t kNoTopic = 0xFFFF;
 };
 
-// An observation leaving the window (or still in it at the end): its final labels.
-struct FinalRecord {
-    uint64_t observation = 0;
-    int64_t frame = 0;
-    int64_t step = 0;
-    double perplexity = 0.0;  // of its step, now
-    uint32_t n = 0;
-    std::vector<uint32_t> words;
-    std::vector<Position> positions;
-    std::vector<uint16_t> labels;
-};
-
 class Collector {
 public:
-    // Installs the engine's hooks. `slots` records per ring.
+    // Turns on the engine's publication, `slots` records per ring (set-up:
+    // before the engine starts). A failure is reported by streamTo().
     Collector(Engine& engine, std::size_t slots);
     ~Collector();
     Collector(const Collector&) = delete;
@@ -73,8 +62,8 @@ public:
     // leave the window still get their final labels in topics.csv.
     void setFirstObservation(uint64_t n) noexcept { first_ = n; }
 
-    // Records a hook could not store because the writer fell behind (realtime only).
-    uint64_t lost() const noexcept { return lost_.load(std::memory_order_relaxed); }
+    // Records the engine could not publish because the writer fell behind (realtime only).
+    uint64_t lost() const noexcept { return engine_.resultsLost(); }
     // First observation the model rejected, if any ("" when none).
     const std::string& rejection() const noexcept { return rejection_; }
 
@@ -91,17 +80,17 @@ public:
     std::string cellSurpriseCsv() const;
 
 private:
-    void onObservationHook(const ObservationResult& r, const Model& m) noexcept;
-    void onEvictionHook(const WindowObservation& w, const Model& m) noexcept;
-    void fillFinal(FinalRecord& f, const WindowObservation& w, const Model& m) noexcept;
-    void takeFinal(const FinalRecord& f);
+    void fromPublished();  // published_ -> record_
+    void takeObservation(const ObservationRecord& o);
+    void fillFinal(const WindowObservation& w, const Model& m) noexcept;
+    void takeFinal(const FinalLabels& f);
 
     Engine& engine_;
     int K_, cells_;
-    std::size_t maxw_;
-    SpscRing<ObservationRecord> obs_;
-    SpscRing<FinalRecord> final_;
-    std::atomic<uint64_t> lost_{0};
+    Status publishing_;
+    PublishedResult published_;  // read from the engine, sized once
+    ObservationRecord record_;   // made from it
+    FinalLabels final_;          // sized once
     std::vector<FrameRow> rows_;
     struct Stream {
         std::FILE* file = nullptr;

@@ -121,13 +121,7 @@ Status attachCheckpoints(Engine& engine, const ModelOptions& m, std::unique_ptr<
     Status st;
     out = CheckpointWriter::create(engine, m.checkpoint, st);
     if (!out) return Status::error("--checkpoint: " + st.message());
-    const ObservationHook inner = engine.observationHook();
-    CheckpointWriter* w = out.get();
-    const uint64_t every = m.settings.checkpoint_every;
-    engine.setObservationHook([inner, w, every](const ObservationResult& r, const Model& model) {
-        if (inner) inner(r, model);
-        w->captureEvery(every, r);
-    });
+    engine.captureCheckpoints(out.get(), m.settings.checkpoint_every);
     return {};
 }
 

@@ -73,10 +73,9 @@ Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool
 // configuration). Errors start with "--resume: ".
 Status loadResumed(const ModelOptions& m, bool refinementChanged, Engine& engine);
 
-// --checkpoint FILE: a writer that captures `engine` every checkpoint_every
-// observations from its observation hook (wrapping the hook already set: a
-// copy on the refining thread, no allocation; a writer thread writes the
-// file). `out` stays empty without --checkpoint. Errors start with "--checkpoint: ".
+// --checkpoint FILE: a writer the engine captures into every checkpoint_every
+// observations (Engine::captureCheckpoints: a copy on the refining thread at
+// an observation boundary, no allocation; a writer thread writes the file). `out` stays empty without --checkpoint. Errors start with "--checkpoint: ".
 Status attachCheckpoints(Engine& engine, const ModelOptions& m, std::unique_ptr<CheckpointWriter>& out);
 // After the last observation: waits for a save in progress, captures the
 // final state and writes it. Errors start with "--checkpoint: ".
