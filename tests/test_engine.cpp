@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -534,6 +535,106 @@ TEST(Replay, AStreamWithoutPositionsPutsEveryWordInTheFirstCell) {
     ASSERT_TRUE(replay(e, s, {}, r).ok());
     EXPECT_EQ(e.model().cellWordCount(4, 0), 3u);
     EXPECT_EQ(r.observations[4].labels.size(), 3u);
+}
+
+// The engine's publication (publishResults / readResult / readFinal) carries
+// what the hooks see at the same moment: each observation's result with its
+// step's cell histograms and surprises, and each leaving observation's
+// final labels; a rejected observation is published too.
+TEST(EnginePublication, PublishedResultsEqualWhatTheHooksReport) {
+    EngineConfig c;
+    c.model = smallConfig();
+    c.budget = Budget::steps(2);
+    Engine e(c);
+    ASSERT_TRUE(e.publishResults(64).ok());
+    const Model& model = e.model();
+    const auto cells = static_cast<std::size_t>(model.cellsPerStep());
+    const auto K = static_cast<std::size_t>(model.K());
+    std::vector<PublishedResult> fromHook;
+    std::vector<FinalLabels> finalsFromHook;
+    e.setObservationHook([&](const ObservationResult& r, const Model& m) {
+        PublishedResult p = e.makeResult();
+        p.result = r;
+        if (r.add.ok())
+            for (std::size_t cc = 0; cc < cells; ++cc) {
+                const auto h = m.cellHistogram(r.step, static_cast<int>(cc));
+                std::copy_n(h.begin(), K, p.histograms.begin() + static_cast<std::ptrdiff_t>(cc * K));
+                p.cell_surprise[cc] = m.cellSurprise(r.step)[cc];
+            }
+        fromHook.push_back(std::move(p));
+    });
+    e.setEvictionHook([&](const WindowObservation& w, const Model& m) {
+        FinalLabels f = e.makeFinal();
+        f.where = w;
+        f.perplexity = m.stepPerplexity(w.step);
+        f.n = m.observationSize(w.observation);
+        m.observationWords(w.observation, {f.words.data(), f.n});
+        m.observationPositions(w.observation, {f.positions.data(), f.n});
+        m.observationLabels(w.observation, {f.labels.data(), f.n});
+        finalsFromHook.push_back(std::move(f));
+    });
+    auto frames = makeStream(c.model, 40, 120, 41);
+    frames[7].words[3] = static_cast<uint32_t>(c.model.V) + 5;  // out of range: rejected
+    PublishedResult got = e.makeResult();
+    FinalLabels gotFinal = e.makeFinal();
+    std::size_t results = 0, finals = 0;
+    for (const Frame& f : frames) {
+        ASSERT_TRUE(e.tryPush(f.view()));
+        e.processPending();
+        while (e.readResult(got)) {
+            ASSERT_LT(results, fromHook.size());
+            const PublishedResult& want = fromHook[results++];
+            EXPECT_EQ(got.result.observation, want.result.observation);
+            EXPECT_EQ(got.result.timestamp, want.result.timestamp);
+            EXPECT_EQ(got.result.step, want.result.step);
+            EXPECT_EQ(got.result.add.error, want.result.add.error);
+            EXPECT_EQ(got.result.refinements, want.result.refinements);
+            if (!want.result.add.ok()) continue;
+            EXPECT_EQ(std::memcmp(&got.result.surprise, &want.result.surprise, sizeof(double)), 0);
+            EXPECT_EQ(got.histograms, want.histograms);
+            EXPECT_EQ(got.cell_surprise, want.cell_surprise);
+        }
+        while (e.readFinal(gotFinal)) {
+            ASSERT_LT(finals, finalsFromHook.size());
+            const FinalLabels& want = finalsFromHook[finals++];
+            EXPECT_EQ(gotFinal.where.observation, want.where.observation);
+            EXPECT_EQ(gotFinal.where.timestamp, want.where.timestamp);
+            EXPECT_EQ(gotFinal.where.step, want.where.step);
+            EXPECT_EQ(gotFinal.perplexity, want.perplexity);
+            ASSERT_EQ(gotFinal.n, want.n);
+            for (uint32_t i = 0; i < want.n; ++i) {
+                EXPECT_EQ(gotFinal.words[i], want.words[i]);
+                EXPECT_EQ(gotFinal.positions[i].x, want.positions[i].x);
+                EXPECT_EQ(gotFinal.positions[i].y, want.positions[i].y);
+                EXPECT_EQ(gotFinal.labels[i], want.labels[i]);
+            }
+        }
+    }
+    EXPECT_EQ(results, frames.size());
+    EXPECT_EQ(results, fromHook.size());
+    EXPECT_EQ(finals, finalsFromHook.size());
+    EXPECT_GT(finals, 0u);
+    EXPECT_EQ(e.resultsLost(), 0u);
+    EXPECT_EQ(e.counters().rejected, 1u);
+}
+
+// A full ring drops the newest record and counts it; publication off reads nothing.
+TEST(EnginePublication, AFullRingCountsLostRecordsAndOffPublishesNothing) {
+    EngineConfig c;
+    c.model = smallConfig();
+    c.budget = Budget::steps(1);
+    Engine e(c);
+    PublishedResult r = e.makeResult();
+    const auto frames = makeStream(c.model, 6, 50, 42);
+    for (const Frame& f : frames) (void)e.processNow(f.view());
+    EXPECT_FALSE(e.readResult(r));
+    ASSERT_TRUE(e.publishResults(2).ok());
+    for (const Frame& f : frames) (void)e.processNow(f.view());
+    EXPECT_EQ(e.resultsLost(), 4u);
+    EXPECT_TRUE(e.readResult(r));
+    EXPECT_EQ(r.result.observation, 6u);
+    EXPECT_TRUE(e.readResult(r));
+    EXPECT_FALSE(e.readResult(r));
 }
 
 } // namespace
