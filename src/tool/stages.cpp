@@ -1,0 +1,180 @@
+#include "stages.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <thread>
+
+#include "rost/topic_model_csv.hpp"
+
+namespace rost::tool {
+
+namespace {
+std::string fmtMs(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.3g ms", v);
+    return buf;
+}
+} // namespace
+
+Status WordsStage::open(const RunOptions& o) {
+    vision::SourceOptions so;
+    so.width = o.width;
+    so.height = o.height;
+    so.camera_width = o.camera_width;
+    so.camera_height = o.camera_height;
+    so.camera_format = o.camera_format;
+    for (const auto& in : o.inputs) live = live || vision::isCameraInput(in);
+    Status st;
+    source = vision::openFrameSources(o.inputs, so, st);
+    if (!source) return st;
+    info = source->info();
+
+    extractors = vision::ExtractorConfig::from(o.model.settings.words);
+    if (extractors.orb) {
+        if (o.vocabulary.empty()) {
+            vocabulary = vision::defaultVocabulary(st);
+        } else {
+            auto v = std::make_shared<vision::Vocabulary>();
+            st = vision::Vocabulary::load(o.vocabulary, *v);
+            vocabulary = std::move(v);
+        }
+        if (!st.ok()) return st;
+    }
+    extractor = vision::WordExtractor::create(extractors, vocabulary, st);
+    if (!extractor) return st;
+    return {};
+}
+
+Status RunEngine::checkV(const RunOptions& o, const WordsStage& w) const {
+    const int wordsV = w.wordsV();
+    const bool vGiven = o.model.isGiven("V");
+    // The word ids must mean what they meant: the extractors must produce the
+    // checkpoint's V (unless -V, then equal to it, made room for more). The
+    // checkpoint does not record which vocabulary made them: a different one
+    // of the same size is not detected (docs/tool.md).
+    if (resuming && (V < wordsV || (V != wordsV && !vGiven)))
+        return Status::error("--resume " + o.model.resume + ": its model has V = " + std::to_string(V) +
+                             " words but the extractors produce " + std::to_string(wordsV) +
+                             " (use the vocabulary and word options of the run that made it)");
+    if (V < wordsV)
+        return Status::error("-V " + std::to_string(V) + " is smaller than the " + std::to_string(wordsV) +
+                             " words the extractors produce (ORB " + std::to_string(w.extractor->layout().orb_size) +
+                             " + intensity " + std::to_string(w.extractor->layout().intensity_size) + " + hue " +
+                             std::to_string(w.extractor->layout().hue_size) + ")");
+    return {};
+}
+
+// Frames the checkpoint already has: a file's are skipped (its frame index
+// is at most the checkpoint's last time stamp); a camera's are numbered
+// after them. --max-frames counts the whole mission: with --resume, the
+// checkpoint's frames too.
+Status RunEngine::countFrames(const RunOptions& o, const WordsStage& w) {
+    skipThrough = resuming && resumed.observations > 0 ? resumed.last_timestamp : -1;
+    before = skipThrough + 1;
+    frames = w.info.frames;
+    if (o.max_frames > 0) frames = frames > 0 ? std::min(frames, o.max_frames) : o.max_frames;
+    if (frames > 0) {
+        frames -= before;
+        if (frames <= 0)
+            return Status::error(w.info.description + ": nothing to resume with: " + o.model.resume +
+                                 " has every frame up to " + std::to_string(skipThrough) +
+                                 (o.max_frames > 0 ? " (--max-frames " + std::to_string(o.max_frames) + " counts the mission)"
+                                                   : ""));
+    }
+    return {};
+}
+
+Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) {
+    // --resume: the checkpoint's model, for frames of its size.
+    resuming = !o.model.resume.empty();
+    Status st;
+    if (resuming) {
+        st = resumeConfig(o.model, w.info.width, w.info.height, realtime, ec, resumed, refinementChanged);
+        if (!st.ok()) return st;
+    }
+    V = resuming ? ec.model.V : o.model.isGiven("V") ? o.model.settings.engine.model.V : w.wordsV();
+    if (st = checkV(o, w); !st.ok()) return st;
+    if (st = countFrames(o, w); !st.ok()) return st;
+    if (!resuming) {
+        st = makeEngineConfig(o.model, w.info.width, w.info.height, V, frames, realtime, ec);
+        if (!st.ok()) return st;
+    }
+    engine = Engine::create(ec, st);
+    if (!engine) return st;
+    if (resuming) {
+        st = loadResumed(o.model, refinementChanged, *engine);
+        if (!st.ok()) return st;
+    }
+    if (!o.model.in_topicmodel.empty()) {
+        st = loadTopicModelCsv(o.model.in_topicmodel, engine->model());
+        if (!st.ok()) return Status::error("--in.topicmodel: " + st.message());
+    }
+    return {};
+}
+
+void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime) const {
+    const double mib = static_cast<double>(engine->memoryBytes()) / (1024.0 * 1024.0);
+    std::fprintf(stderr, "rost: %s\nrost: V = %d, K = %d, %d cells of %d px, ring of %d steps, %s budget %s, model memory %.1f MiB%s\n",
+                 w.info.description.c_str(), V, ec.model.K, ec.model.cellsPerStep(), ec.model.cell_space,
+                 ec.model.ring_steps, toString(ec.strategy.kind),
+                 ec.budget.kind == BudgetKind::Time ? fmtMs(ec.budget.ms).c_str()
+                                                    : (std::to_string(ec.budget.count) + " refines").c_str(),
+                 mib, realtime ? ", realtime" : "");
+    if (resuming)
+        std::fprintf(stderr, "rost: resuming %s at observation %llu (frame %lld)%s%s\n", o.model.resume.c_str(),
+                     static_cast<unsigned long long>(resumed.observations), static_cast<long long>(resumed.last_timestamp),
+                     w.live ? "; camera frames are numbered after it" : "; earlier frames are skipped",
+                     refinementChanged ? "; refinement settings changed (not bit for bit)" : "");
+}
+
+bool Capture::readNext() {
+    for (;;) {
+        const vision::ReadStatus rs = w_.source->read(frame_);
+        if (rs == vision::ReadStatus::End) return false;
+        if (rs == vision::ReadStatus::Error) {
+            read_error_ = w_.source->error();
+            return false;
+        }
+        if (w_.info.live) frame_.index += e_.before;  // after the checkpoint's frames
+        else if (frame_.index <= e_.skipThrough) continue;  // in the checkpoint already
+        return true;
+    }
+}
+
+// File input at its own frame rate: frame i is due at t0 + i / fps (i
+// counted from the first frame this run plays).
+void Capture::pace(Clock::time_point t0) const {
+    const double fps = w_.info.fps > 0 ? w_.info.fps : 10.0;
+    const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                              static_cast<double>(frame_.index - e_.before) / fps));
+    std::this_thread::sleep_until(due);
+}
+
+bool Capture::produceOne(bool pacing, Clock::time_point t0) {
+    if (max_frames_ > 0 && e_.before + captured() >= max_frames_) return false;
+    if (!readNext()) return false;
+    if (pacing && !w_.info.live) pace(t0);
+    w_.extractor->extract(frame_.image, words_);
+    captured_.fetch_add(1, std::memory_order_relaxed);
+    FrameSlot* s = ring_.beginPush();
+    if (!s) {  // the writer is behind: skip this frame entirely (counted)
+        dropped_.fetch_add(1, std::memory_order_relaxed);
+        return true;
+    }
+    s->frame = frame_.index;
+    s->timestamp_us = frame_.timestamp_us;
+    s->words = words_.size();
+    s->orb = words_.orb;
+    s->intensity = words_.intensity;
+    s->hue = words_.hue;
+    frame_.image.copyTo(s->image);
+    ObservationView view;
+    view.timestamp = frame_.index;
+    view.words = words_.words;
+    view.positions = words_.positions;
+    s->pushed = e_.engine->tryPush(view);
+    ring_.commitPush();
+    return true;
+}
+
+} // namespace rost::tool

@@ -1,0 +1,100 @@
+#pragma once
+
+// The stages of `rost run`, composed by runCommand (run.cpp):
+//   frame source -> word extraction (WordsStage, Capture)
+//   -> engine (RunEngine: its capture-to-refiner queue and refiner thread)
+//   -> result sinks (sinks.hpp).
+// Set-up fails here, before any output, with a message for fail().
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "rost/checkpoint.hpp"
+#include "rost/engine.hpp"
+#include "rost/vision/frame_source.hpp"
+#include "rost/vision/words.hpp"
+#include "spsc_ring.hpp"
+#include "tool.hpp"
+
+namespace rost::tool {
+
+// A captured frame on its way to the writer (overlay, thumbnails, frames.csv).
+struct FrameSlot {
+    int64_t frame = 0;
+    int64_t timestamp_us = 0;
+    uint32_t words = 0, orb = 0, intensity = 0, hue = 0;
+    bool pushed = false;  // the engine queued it (false: refused by a full queue)
+    cv::Mat image;
+};
+using FrameRing = SpscRing<FrameSlot>;
+
+// Frame source and word extractor (with its vocabulary).
+struct WordsStage {
+    std::unique_ptr<vision::FrameSource> source;
+    vision::SourceInfo info;
+    bool live = false;  // a camera among the inputs
+    vision::ExtractorConfig extractors;
+    std::shared_ptr<const vision::Vocabulary> vocabulary;
+    std::unique_ptr<vision::WordExtractor> extractor;
+
+    Status open(const RunOptions& o);
+    int wordsV() const { return static_cast<int>(extractor->vocabularySize()); }
+};
+
+// The engine, made for the input or resumed from a checkpoint, and where
+// the mission stands in the input.
+struct RunEngine {
+    EngineConfig ec;
+    CheckpointInfo resumed;
+    bool resuming = false;
+    bool refinementChanged = false;
+    int V = 0;
+    int64_t skipThrough = -1;  // frames up to this index are in the checkpoint
+    int64_t before = 0;        // frames the checkpoint has (skipThrough + 1)
+    int64_t frames = -1;       // frames this run plays, when known
+    std::unique_ptr<Engine> engine;
+
+    Status open(const RunOptions& o, const WordsStage& w, bool realtime);
+    // The set-up lines on stderr (without -q).
+    void describe(const RunOptions& o, const WordsStage& w, bool realtime) const;
+
+private:
+    Status checkV(const RunOptions& o, const WordsStage& w) const;
+    Status countFrames(const RunOptions& o, const WordsStage& w);
+};
+
+// The capture stage: one frame -> words -> the engine's queue, and the
+// frame to the writer's ring. Runs on the capture thread under --realtime.
+class Capture {
+public:
+    using Clock = std::chrono::steady_clock;
+    Capture(WordsStage& w, const RunEngine& e, FrameRing& ring, int64_t maxFrames)
+        : w_(w), e_(e), ring_(ring), max_frames_(maxFrames) {}
+    // False at the end of the input (or of --max-frames, or on a read error).
+    bool produceOne(bool pace, Clock::time_point t0);
+
+    int64_t captured() const noexcept { return captured_.load(std::memory_order_relaxed); }
+    uint64_t dropped() const noexcept { return dropped_.load(std::memory_order_relaxed); }
+    const std::string& readError() const noexcept { return read_error_; }
+
+private:
+    bool readNext();
+    void pace(Clock::time_point t0) const;
+
+    WordsStage& w_;
+    const RunEngine& e_;
+    FrameRing& ring_;
+    int64_t max_frames_;
+    vision::Frame frame_;
+    vision::FrameWords words_;
+    std::string read_error_;
+    std::atomic<int64_t> captured_{0};
+    std::atomic<uint64_t> dropped_{0};
+};
+
+} // namespace rost::tool
