@@ -10,12 +10,14 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 
 #include <opencv2/core.hpp>
 
 #include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
+#include "rost/word_stream.hpp"
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/words.hpp"
 #include "spsc_ring.hpp"
@@ -95,6 +97,30 @@ private:
     std::string read_error_;
     std::atomic<int64_t> captured_{0};
     std::atomic<uint64_t> dropped_{0};
+};
+
+// `rost refine`'s source: a word stream read from files (earlier ROST
+// formats), the engine made for it or resumed, and the observations it
+// still has to play (those a checkpoint holds are skipped).
+struct StreamStage {
+    WordStream ws;
+    EngineConfig ec;
+    CheckpointInfo resumed;
+    bool resuming = false;
+    bool refinementChanged = false;
+    std::size_t skipped = 0;
+    std::unique_ptr<Engine> engine;
+
+    Status open(const RefineOptions& o);
+    std::span<const StreamObservation> todo() const {
+        return {ws.observations.data() + skipped, ws.observations.size() - skipped};
+    }
+
+private:
+    Status read(const RefineOptions& o);
+    Status resumeSkip(const RefineOptions& o);
+    Status configFromData(const RefineOptions& o);
+    Status makeEngine(const RefineOptions& o);
 };
 
 } // namespace rost::tool
