@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <memory>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -35,6 +36,105 @@ std::function<bool(const std::string&)> givenOn(const CLI::App* cmd) {
     };
 }
 
+// `rost run`'s options.
+struct RunCli {
+    RunOptions o;
+    CLI::App* cmd = nullptr;
+    std::unique_ptr<SettingsOptions> settings;
+    bool noOverlay = false, noSummary = false;
+};
+
+void addRun(CLI::App& app, RunCli& r) {
+    RunOptions& run = r.o;
+    CLI::App* runCmd = app.add_subcommand("run", "model a video, image sequence or camera; write labels, perplexity, "
+                                                 "surprise, the topic model, an overlay video and a summary plot");
+    runCmd->add_option("input", run.inputs,
+                       "INPUT...: a video file, a directory of images, a glob ('frames/*.png', quoted), or camera:N. "
+                       "Several inputs play one after the other at the first one's size")
+        ->required();
+    runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required();
+    r.settings = std::make_unique<SettingsOptions>(*runCmd, run.model, SettingsOptions::Command::Run);
+    runCmd->add_option("--vocabulary", run.vocabulary,
+                       "ORB vocabulary file from `rost vocab`; default: the built-in one (share/rost/README.md)")
+        ->type_name("FILE")
+        ->group("Words");
+    const char* f = "Frames";
+    runCmd->add_option("--max-frames", run.max_frames, "stop after this many frames (0: all)")->group(f);
+    runCmd->add_option("--width", run.width, "resize frames to this width (0: as the input)")->group(f);
+    runCmd->add_option("--height", run.height, "resize frames to this height (0: keep the aspect ratio)")->group(f);
+    runCmd->add_option("--camera.width", run.camera_width, "camera:N capture width")->group(f);
+    runCmd->add_option("--camera.height", run.camera_height, "camera:N capture height")->group(f);
+    runCmd->add_option("--camera.format", run.camera_format,
+                       "camera:N pixel format (RGB888, BGR888, XRGB8888, XBGR8888, YUYV, UYVY, NV12, NV21, YUV420, "
+                       "R8); default: the first of these the camera offers")
+        ->group(f);
+    const char* rt = "Realtime";
+    runCmd->add_flag("--realtime", run.realtime,
+                     "run as onboard: a capture thread (a file paced at its frame rate) and the refiner thread; "
+                     "frames are dropped when the refiner falls behind. Always on for camera:N")
+        ->group(rt);
+    const char* out = "Output";
+    runCmd->add_flag("--no-overlay", r.noOverlay, "do not write the overlay video")->group(out);
+    runCmd->add_option("--overlay.format", run.overlay_format, "overlay container: mp4 (mp4v) or avi (MJPG)")
+        ->check(CLI::IsMember({"mp4", "avi"}))
+        ->group(out);
+    runCmd->add_flag("--no-summary", r.noSummary, "do not draw summary.png")->group(out);
+    runCmd->add_flag("--quiet,-q", run.quiet, "no progress bar and no notes on stderr (errors still)")->group(out);
+    runCmd->footer(
+        "Writes into DIR: words.csv (timestamp,w1,w2,...), positions.csv (timestamp,x1,y1,...), topics.csv\n"
+        "(timestamp,z1,z2,...: final maximum-likelihood labels), perplexity.csv (frame,instantaneous,final),\n"
+        "surprise.csv (frame,surprise), surprise_cells.csv (frame,cell0,...), frames.csv (words per frame and\n"
+        "extractor), topicmodel.csv (K rows of V counts), overlay.mp4 (cells tinted by dominant topic),\n"
+        "summary.png, run.txt. The timestamp is the input frame index. Files appear only when the run succeeds.");
+    r.cmd = runCmd;
+}
+
+// `rost refine`'s options.
+struct RefineCli {
+    RefineOptions o;
+    CLI::App* cmd = nullptr;
+    std::unique_ptr<SettingsOptions> settings;
+    bool noSummary = false;
+};
+
+void addRefine(CLI::App& app, RefineCli& r) {
+    RefineOptions& ref = r.o;
+    CLI::App* refCmd = app.add_subcommand("refine", "model a word stream made elsewhere (words.csv from earlier ROST "
+                                                    "tools or another extractor)");
+    refCmd->add_option("words", ref.words, "WORDS.csv: timestamp,w1,w2,... per observation")->required();
+    refCmd->add_option("--positions", ref.positions,
+                       "POSITIONS.csv: timestamp,x1,y1,x2,y2,... for the same observations; without it every word "
+                       "is at (0,0): one cell per time step");
+    refCmd->add_option("--out,-o", ref.out, "output directory")->required();
+    refCmd->add_option("--width", ref.width, "frame width positions lie in (0: the largest x + 1)");
+    refCmd->add_option("--height", ref.height, "frame height positions lie in (0: the largest y + 1)");
+    r.settings = std::make_unique<SettingsOptions>(*refCmd, ref.model, SettingsOptions::Command::Refine);
+    refCmd->add_flag("--no-summary", r.noSummary, "do not draw summary.png");
+    refCmd->add_flag("--quiet,-q", ref.quiet, "no progress bar and no notes on stderr");
+    refCmd->footer("Writes topics.csv, perplexity.csv, surprise.csv, surprise_cells.csv, topicmodel.csv and "
+                   "summary.png into DIR.");
+    r.cmd = refCmd;
+}
+
+CLI::App* addVocab(CLI::App& app, VocabOptions& voc) {
+    CLI::App* vocCmd = app.add_subcommand("vocab", "train an ORB vocabulary from footage (k-majority clustering in "
+                                                   "Hamming space)");
+    vocCmd->add_option("input", voc.inputs, "INPUT...: videos, image directories or globs")->required();
+    vocCmd->add_option("--out,-o", voc.out, "vocabulary file to write (format: docs/vision.md)")->required();
+    vocCmd->add_option("--words", voc.words, "vocabulary size (paper: 5000)");
+    vocCmd->add_option("--features", voc.features, "ORB keypoints per frame used for training");
+    vocCmd->add_option("--every", voc.every, "use every N-th frame");
+    vocCmd->add_option("--max-frames", voc.max_frames, "frames read per input at most (0: all)");
+    vocCmd->add_option("--max-descriptors", voc.max_descriptors,
+                       "descriptors clustered at most (a seeded uniform sample beyond)");
+    vocCmd->add_option("--iterations", voc.iterations, "k-majority iterations at most");
+    vocCmd->add_option("--seed", voc.seed, "random seed (initial centres, sampling)");
+    vocCmd->add_option("--threads", voc.threads, "threads for the assignment step (the result does not depend on it)");
+    vocCmd->add_option("--width", voc.width, "resize frames to this width first (0: as the input)");
+    vocCmd->add_flag("--quiet,-q", voc.quiet, "no progress on stderr");
+    return vocCmd;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -57,88 +157,16 @@ int main(int argc, char** argv) {
 
     const std::string cmdline = joinArgs(argc, argv);
 
-    // ---- run
-    RunOptions run;
-    run.command_line = cmdline;
-    CLI::App* runCmd = app.add_subcommand("run", "model a video, image sequence or camera; write labels, perplexity, "
-                                                 "surprise, the topic model, an overlay video and a summary plot");
-    runCmd->add_option("input", run.inputs,
-                       "INPUT...: a video file, a directory of images, a glob ('frames/*.png', quoted), or camera:N. "
-                       "Several inputs play one after the other at the first one's size")
-        ->required();
-    runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required();
-    SettingsOptions runSettings(*runCmd, run.model, SettingsOptions::Command::Run);
-    runCmd->add_option("--vocabulary", run.vocabulary,
-                       "ORB vocabulary file from `rost vocab`; default: the built-in one (share/rost/README.md)")
-        ->type_name("FILE")
-        ->group("Words");
-    const char* f = "Frames";
-    runCmd->add_option("--max-frames", run.max_frames, "stop after this many frames (0: all)")->group(f);
-    runCmd->add_option("--width", run.width, "resize frames to this width (0: as the input)")->group(f);
-    runCmd->add_option("--height", run.height, "resize frames to this height (0: keep the aspect ratio)")->group(f);
-    runCmd->add_option("--camera.width", run.camera_width, "camera:N capture width")->group(f);
-    runCmd->add_option("--camera.height", run.camera_height, "camera:N capture height")->group(f);
-    runCmd->add_option("--camera.format", run.camera_format,
-                       "camera:N pixel format (RGB888, BGR888, XRGB8888, XBGR8888, YUYV, UYVY, NV12, NV21, YUV420, "
-                       "R8); default: the first of these the camera offers")
-        ->group(f);
-    const char* rt = "Realtime";
-    runCmd->add_flag("--realtime", run.realtime,
-                     "run as onboard: a capture thread (a file paced at its frame rate) and the refiner thread; "
-                     "frames are dropped when the refiner falls behind. Always on for camera:N")
-        ->group(rt);
-    const char* out = "Output";
-    bool noOverlay = false, noSummary = false;
-    runCmd->add_flag("--no-overlay", noOverlay, "do not write the overlay video")->group(out);
-    runCmd->add_option("--overlay.format", run.overlay_format, "overlay container: mp4 (mp4v) or avi (MJPG)")
-        ->check(CLI::IsMember({"mp4", "avi"}))
-        ->group(out);
-    runCmd->add_flag("--no-summary", noSummary, "do not draw summary.png")->group(out);
-    runCmd->add_flag("--quiet,-q", run.quiet, "no progress bar and no notes on stderr (errors still)")->group(out);
-    runCmd->footer(
-        "Writes into DIR: words.csv (timestamp,w1,w2,...), positions.csv (timestamp,x1,y1,...), topics.csv\n"
-        "(timestamp,z1,z2,...: final maximum-likelihood labels), perplexity.csv (frame,instantaneous,final),\n"
-        "surprise.csv (frame,surprise), surprise_cells.csv (frame,cell0,...), frames.csv (words per frame and\n"
-        "extractor), topicmodel.csv (K rows of V counts), overlay.mp4 (cells tinted by dominant topic),\n"
-        "summary.png, run.txt. The timestamp is the input frame index. Files appear only when the run succeeds.");
-
-    // ---- refine
-    RefineOptions ref;
-    ref.command_line = cmdline;
-    CLI::App* refCmd = app.add_subcommand("refine", "model a word stream made elsewhere (words.csv from earlier ROST "
-                                                    "tools or another extractor)");
-    refCmd->add_option("words", ref.words, "WORDS.csv: timestamp,w1,w2,... per observation")->required();
-    refCmd->add_option("--positions", ref.positions,
-                       "POSITIONS.csv: timestamp,x1,y1,x2,y2,... for the same observations; without it every word "
-                       "is at (0,0): one cell per time step");
-    refCmd->add_option("--out,-o", ref.out, "output directory")->required();
-    refCmd->add_option("--width", ref.width, "frame width positions lie in (0: the largest x + 1)");
-    refCmd->add_option("--height", ref.height, "frame height positions lie in (0: the largest y + 1)");
-    SettingsOptions refSettings(*refCmd, ref.model, SettingsOptions::Command::Refine);
-    bool refNoSummary = false;
-    refCmd->add_flag("--no-summary", refNoSummary, "do not draw summary.png");
-    refCmd->add_flag("--quiet,-q", ref.quiet, "no progress bar and no notes on stderr");
-    refCmd->footer("Writes topics.csv, perplexity.csv, surprise.csv, surprise_cells.csv, topicmodel.csv and "
-                   "summary.png into DIR.");
-
-    // ---- vocab
+    // ---- run, refine, vocab
+    RunCli run;
+    run.o.command_line = cmdline;
+    addRun(app, run);
+    RefineCli ref;
+    ref.o.command_line = cmdline;
+    addRefine(app, ref);
     VocabOptions voc;
     voc.command_line = cmdline;
-    CLI::App* vocCmd = app.add_subcommand("vocab", "train an ORB vocabulary from footage (k-majority clustering in "
-                                                   "Hamming space)");
-    vocCmd->add_option("input", voc.inputs, "INPUT...: videos, image directories or globs")->required();
-    vocCmd->add_option("--out,-o", voc.out, "vocabulary file to write (format: docs/vision.md)")->required();
-    vocCmd->add_option("--words", voc.words, "vocabulary size (paper: 5000)");
-    vocCmd->add_option("--features", voc.features, "ORB keypoints per frame used for training");
-    vocCmd->add_option("--every", voc.every, "use every N-th frame");
-    vocCmd->add_option("--max-frames", voc.max_frames, "frames read per input at most (0: all)");
-    vocCmd->add_option("--max-descriptors", voc.max_descriptors,
-                       "descriptors clustered at most (a seeded uniform sample beyond)");
-    vocCmd->add_option("--iterations", voc.iterations, "k-majority iterations at most");
-    vocCmd->add_option("--seed", voc.seed, "random seed (initial centres, sampling)");
-    vocCmd->add_option("--threads", voc.threads, "threads for the assignment step (the result does not depend on it)");
-    vocCmd->add_option("--width", voc.width, "resize frames to this width first (0: as the input)");
-    vocCmd->add_flag("--quiet,-q", voc.quiet, "no progress on stderr");
+    CLI::App* vocCmd = addVocab(app, voc);
 
     // ---- config
     ModelOptions conf;
@@ -156,19 +184,19 @@ int main(int argc, char** argv) {
         return fail(std::string(e.what()) + " (see rost --help)");
     }
 
-    if ((runCmd->parsed() && givenOn(runCmd)("--resume") && run.model.resume.empty()) ||
-        (refCmd->parsed() && givenOn(refCmd)("--resume") && ref.model.resume.empty()))
+    if ((run.cmd->parsed() && givenOn(run.cmd)("--resume") && run.o.model.resume.empty()) ||
+        (ref.cmd->parsed() && givenOn(ref.cmd)("--resume") && ref.o.model.resume.empty()))
         return fail("--resume: no file given");
-    if (runCmd->parsed()) {
-        if (const rost::Status st = runSettings.apply(&run, nullptr); !st.ok()) return fail(st.message());
-        run.overlay = !noOverlay;
-        run.summary = !noSummary;
-        return runCommand(run);
+    if (run.cmd->parsed()) {
+        if (const rost::Status st = run.settings->apply(&run.o, nullptr); !st.ok()) return fail(st.message());
+        run.o.overlay = !run.noOverlay;
+        run.o.summary = !run.noSummary;
+        return runCommand(run.o);
     }
-    if (refCmd->parsed()) {
-        if (const rost::Status st = refSettings.apply(nullptr, &ref); !st.ok()) return fail(st.message());
-        ref.summary = !refNoSummary;
-        return refineCommand(ref);
+    if (ref.cmd->parsed()) {
+        if (const rost::Status st = ref.settings->apply(nullptr, &ref.o); !st.ok()) return fail(st.message());
+        ref.o.summary = !ref.noSummary;
+        return refineCommand(ref.o);
     }
     if (confCmd->parsed()) {
         if (const rost::Status st = confSettings.apply(nullptr, nullptr); !st.ok()) return fail(st.message());
