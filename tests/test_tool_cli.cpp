@@ -177,8 +177,13 @@ TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
         words += std::to_string(i);
         positions += std::to_string(i);
         for (int j = 0; j < 30; ++j) {
-            words += "," + std::to_string((i < 12 ? 0 : 40) + (i * 5 + j * 7) % 40);
-            positions += "," + std::to_string((j * 37) % 200) + "," + std::to_string((j * 53) % 150);
+            // Appended piece by piece (GCC 12's -Wrestrict misfires on "," + std::to_string(...)).
+            words += ',';
+            words += std::to_string((i < 12 ? 0 : 40) + (i * 5 + j * 7) % 40);
+            positions += ',';
+            positions += std::to_string((j * 37) % 200);
+            positions += ',';
+            positions += std::to_string((j * 53) % 150);
         }
         words += "\n";
         positions += "\n";

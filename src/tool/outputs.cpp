@@ -259,6 +259,103 @@ void legend(cv::Mat& img, cv::Point at, std::initializer_list<std::pair<const ch
     }
 }
 
+// The surprise curve, filled, with the empty model's first value labelled when clipped.
+void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows, bool resumed, std::size_t warm, double lo,
+                  double hi) {
+    std::vector<cv::Point> poly;
+    for (const auto& r : rows)
+        if (std::isfinite(r.surprise))
+            poly.emplace_back(sur.px(static_cast<double>(r.frame)), sur.py(std::clamp(r.surprise, lo, hi)));
+    if (poly.size() > 1) {
+        std::vector<cv::Point> fill = poly;
+        fill.emplace_back(poly.back().x, sur.py(lo));
+        fill.emplace_back(poly.front().x, sur.py(lo));
+        cv::Mat layer = img.clone();
+        cv::fillPoly(layer, std::vector<std::vector<cv::Point>>{fill}, cv::Scalar(190, 190, 240), cv::LINE_AA);
+        cv::addWeighted(layer, 0.55, img, 0.45, 0, img);
+        drawFrame(img, sur, "surprise", true);
+        cv::polylines(img, poly, false, kSurprise, 2, cv::LINE_AA);
+    }
+    if (!resumed && !rows.empty() && rows.size() > warm && rows.front().surprise > hi) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "frame %lld: %.0f (empty model)", static_cast<long long>(rows.front().frame),
+                      rows.front().surprise);
+        text(img, buf, {sur.box.x + 14, sur.box.y + 16}, 0.42, cv::Scalar(110, 110, 110));
+    }
+}
+
+// Dashed lines through both plots at the surprise peaks, each labelled with its frame.
+void drawPeaks(cv::Mat& img, const Axes& ppl, const Axes& sur, std::span<const FrameRow> rows,
+               const std::vector<std::size_t>& peaks) {
+    for (std::size_t p : peaks) {
+        const int x = sur.px(static_cast<double>(rows[p].frame));
+        for (int y = ppl.box.y; y < sur.box.y + sur.box.height; y += 8)
+            cv::line(img, {x, y}, {x, std::min(y + 4, sur.box.y + sur.box.height - 1)}, kPeak, 1, cv::LINE_AA);
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "frame %lld", static_cast<long long>(rows[p].frame));
+        const int w = textWidth(buf, 0.45);
+        const int tx = std::clamp(x - w / 2, sur.box.x + 2, sur.box.x + sur.box.width - w - 2);
+        cv::rectangle(img, {tx - 3, sur.box.y + 4}, {tx + w + 3, sur.box.y + 22}, kWhite, -1);
+        text(img, buf, {tx, sur.box.y + 18}, 0.45, kPeak);
+    }
+}
+
+// Topic mix over time: a column per pixel, stacked topic shares.
+void drawTopicMix(cv::Mat& img, const cv::Rect& box, std::span<const FrameRow> rows, double f0, double f1) {
+    const int left = box.x, topY = box.y, topH = box.height;
+    for (int x = 0; x < box.width; ++x) {
+        const double f = f0 + (f1 - f0) * x / std::max(1, box.width - 1);
+        auto it = std::lower_bound(rows.begin(), rows.end(), f,
+                                   [](const FrameRow& r, double v) { return static_cast<double>(r.frame) < v; });
+        if (it == rows.end()) it = rows.end() - (rows.empty() ? 0 : 1);
+        if (it == rows.end() || it->topic_share.empty()) continue;
+        double acc = 0.0;
+        for (int k = 0; k < static_cast<int>(it->topic_share.size()); ++k) {
+            const double s = it->topic_share[static_cast<std::size_t>(k)];
+            if (s <= 0) continue;
+            const int yA = box.y + static_cast<int>(std::lround(acc * box.height));
+            acc += s;
+            const int yB = box.y + static_cast<int>(std::lround(acc * box.height));
+            if (yB > yA) cv::line(img, {box.x + x, yA}, {box.x + x, yB - 1}, topicColour(k), 1);
+        }
+    }
+    cv::rectangle(img, box, kAxis, 1);
+    text(img, "topics", {left - 8 - textWidth("topics", 0.42), topY + topH / 2 + 5}, 0.42, kInk);
+}
+
+// Thumbnails, each tied to its frame on the time axis.
+struct Strip {
+    int left, stripTop, topY, topH, n, tw, th;
+};
+void drawThumbs(cv::Mat& img, const SummaryInput& in, const Strip& st, const Axes& sur, std::span<const FrameRow> rows,
+                const std::vector<std::size_t>& peaks) {
+    const int left = st.left, stripTop = st.stripTop, topY = st.topY, topH = st.topH, nThumbs = st.n, tw = st.tw,
+              th = st.th;
+    const int y = stripTop + 36;
+    std::vector<int64_t> peakFrames;
+    for (std::size_t p : peaks) peakFrames.push_back(rows[p].frame);
+    for (int i = 0; i < nThumbs; ++i) {
+        const std::size_t idx = in.thumbs.size() == static_cast<std::size_t>(nThumbs)
+                                    ? static_cast<std::size_t>(i)
+                                    : static_cast<std::size_t>(std::lround(
+                                          static_cast<double>(i) * (in.thumbs.size() - 1) / std::max(1, nThumbs - 1)));
+        const int x = left + i * (tw + 8);
+        cv::Mat t;
+        cv::resize(in.thumbs[idx], t, cv::Size(tw, th), 0, 0, cv::INTER_AREA);
+        t.copyTo(img(cv::Rect(x, y, tw, th)));
+        const int64_t fr = in.thumb_frames[idx];
+        const bool isPeak = std::find(peakFrames.begin(), peakFrames.end(), fr) != peakFrames.end();
+        cv::rectangle(img, cv::Rect(x - 1, y - 1, tw + 2, th + 2), isPeak ? kPeak : kAxis, isPeak ? 3 : 1);
+        const int fx = sur.px(static_cast<double>(fr));
+        cv::line(img, {fx, topY + topH + 1}, {x + tw / 2, y - 3}, cv::Scalar(170, 170, 170), 1, cv::LINE_AA);
+        cv::circle(img, {fx, topY + topH + 1}, 3, isPeak ? kPeak : kAxis, -1, cv::LINE_AA);
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(fr));
+        text(img, buf, {x + tw / 2 - textWidth(buf, 0.45) / 2, y + th + 20}, 0.45, isPeak ? kPeak : kInk);
+    }
+    text(img, "frame", {left - 8 - textWidth("frame", 0.42), y + th + 20}, 0.42, kInk);
+}
+
 } // namespace
 
 cv::Mat drawSummary(const SummaryInput& in) {
@@ -307,90 +404,15 @@ cv::Mat drawSummary(const SummaryInput& in) {
     range(rows, {&FrameRow::surprise}, lo, hi, warm);
     Axes sur{cv::Rect(left, titleH + pplH + gap, plotW, surH), f0, f1, lo, hi};
     drawFrame(img, sur, "surprise", true);
-    {
-        std::vector<cv::Point> poly;
-        for (const auto& r : rows)
-            if (std::isfinite(r.surprise))
-                poly.emplace_back(sur.px(static_cast<double>(r.frame)), sur.py(std::clamp(r.surprise, lo, hi)));
-        if (poly.size() > 1) {
-            std::vector<cv::Point> fill = poly;
-            fill.emplace_back(poly.back().x, sur.py(lo));
-            fill.emplace_back(poly.front().x, sur.py(lo));
-            cv::Mat layer = img.clone();
-            cv::fillPoly(layer, std::vector<std::vector<cv::Point>>{fill}, cv::Scalar(190, 190, 240), cv::LINE_AA);
-            cv::addWeighted(layer, 0.55, img, 0.45, 0, img);
-            drawFrame(img, sur, "surprise", true);
-            cv::polylines(img, poly, false, kSurprise, 2, cv::LINE_AA);
-        }
-        if (!in.resumed && !rows.empty() && rows.size() > warm && rows.front().surprise > hi) {
-            char buf[64];
-            std::snprintf(buf, sizeof buf, "frame %lld: %.0f (empty model)", static_cast<long long>(rows.front().frame),
-                          rows.front().surprise);
-            text(img, buf, {sur.box.x + 14, sur.box.y + 16}, 0.42, cv::Scalar(110, 110, 110));
-        }
-    }
-    for (std::size_t p : peaks) {
-        const int x = sur.px(static_cast<double>(rows[p].frame));
-        for (int y = ppl.box.y; y < sur.box.y + sur.box.height; y += 8)
-            cv::line(img, {x, y}, {x, std::min(y + 4, sur.box.y + sur.box.height - 1)}, kPeak, 1, cv::LINE_AA);
-        char buf[64];
-        std::snprintf(buf, sizeof buf, "frame %lld", static_cast<long long>(rows[p].frame));
-        const int w = textWidth(buf, 0.45);
-        const int tx = std::clamp(x - w / 2, sur.box.x + 2, sur.box.x + sur.box.width - w - 2);
-        cv::rectangle(img, {tx - 3, sur.box.y + 4}, {tx + w + 3, sur.box.y + 22}, kWhite, -1);
-        text(img, buf, {tx, sur.box.y + 18}, 0.45, kPeak);
-    }
+    drawSurprise(img, sur, rows, in.resumed, warm, lo, hi);
+    drawPeaks(img, ppl, sur, rows, peaks);
 
     // Topic mix over time: a column per pixel, stacked topic shares.
     const int topY = titleH + pplH + gap + surH + 26;
-    {
-        cv::Rect box(left, topY, plotW, topH);
-        for (int x = 0; x < box.width; ++x) {
-            const double f = f0 + (f1 - f0) * x / std::max(1, box.width - 1);
-            auto it = std::lower_bound(rows.begin(), rows.end(), f,
-                                       [](const FrameRow& r, double v) { return static_cast<double>(r.frame) < v; });
-            if (it == rows.end()) it = rows.end() - (rows.empty() ? 0 : 1);
-            if (it == rows.end() || it->topic_share.empty()) continue;
-            double acc = 0.0;
-            for (int k = 0; k < static_cast<int>(it->topic_share.size()); ++k) {
-                const double s = it->topic_share[static_cast<std::size_t>(k)];
-                if (s <= 0) continue;
-                const int yA = box.y + static_cast<int>(std::lround(acc * box.height));
-                acc += s;
-                const int yB = box.y + static_cast<int>(std::lround(acc * box.height));
-                if (yB > yA) cv::line(img, {box.x + x, yA}, {box.x + x, yB - 1}, topicColour(k), 1);
-            }
-        }
-        cv::rectangle(img, box, kAxis, 1);
-        text(img, "topics", {left - 8 - textWidth("topics", 0.42), topY + topH / 2 + 5}, 0.42, kInk);
-    }
+    drawTopicMix(img, cv::Rect(left, topY, plotW, topH), rows, f0, f1);
 
     // Thumbnails, each tied to its frame on the time axis.
-    if (thumbs) {
-        const int y = stripTop + 36;
-        std::vector<int64_t> peakFrames;
-        for (std::size_t p : peaks) peakFrames.push_back(rows[p].frame);
-        for (int i = 0; i < nThumbs; ++i) {
-            const std::size_t idx = in.thumbs.size() == static_cast<std::size_t>(nThumbs)
-                                        ? static_cast<std::size_t>(i)
-                                        : static_cast<std::size_t>(std::lround(
-                                              static_cast<double>(i) * (in.thumbs.size() - 1) / std::max(1, nThumbs - 1)));
-            const int x = left + i * (tw + 8);
-            cv::Mat t;
-            cv::resize(in.thumbs[idx], t, cv::Size(tw, th), 0, 0, cv::INTER_AREA);
-            t.copyTo(img(cv::Rect(x, y, tw, th)));
-            const int64_t fr = in.thumb_frames[idx];
-            const bool isPeak = std::find(peakFrames.begin(), peakFrames.end(), fr) != peakFrames.end();
-            cv::rectangle(img, cv::Rect(x - 1, y - 1, tw + 2, th + 2), isPeak ? kPeak : kAxis, isPeak ? 3 : 1);
-            const int fx = sur.px(static_cast<double>(fr));
-            cv::line(img, {fx, topY + topH + 1}, {x + tw / 2, y - 3}, cv::Scalar(170, 170, 170), 1, cv::LINE_AA);
-            cv::circle(img, {fx, topY + topH + 1}, 3, isPeak ? kPeak : kAxis, -1, cv::LINE_AA);
-            char buf[32];
-            std::snprintf(buf, sizeof buf, "%lld", static_cast<long long>(fr));
-            text(img, buf, {x + tw / 2 - textWidth(buf, 0.45) / 2, y + th + 20}, 0.45, isPeak ? kPeak : kInk);
-        }
-        text(img, "frame", {left - 8 - textWidth("frame", 0.42), y + th + 20}, 0.42, kInk);
-    }
+    if (thumbs) drawThumbs(img, in, Strip{left, stripTop, topY, topH, nThumbs, tw, th}, sur, rows, peaks);
     return img;
 }
 
