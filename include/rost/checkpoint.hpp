@@ -144,9 +144,8 @@ struct CheckpointSlot {
 //
 // Wiring (the tool's --checkpoint FILE --checkpoint.every N):
 //   auto writer = CheckpointWriter::create(engine, path, status);
-//   engine.setObservationHook([&](const ObservationResult& r, const Model& m) {
-//       ...;  writer->captureEvery(N, r);
-//   });
+//   engine.captureCheckpoints(writer.get(), N);   // the refiner calls captureEvery(N, r)
+//   // (or, from an observation hook: writer->captureEvery(N, r))
 //   engine.start(); ...; engine.stop();
 //   writer->capture(); Status st = writer->flush();   // the final state
 class CheckpointWriter {
