@@ -172,10 +172,14 @@ TEST(ToolCli, EverySettingIsAnOptionWithTheSchemasDefault) {
         const std::string option = optionOf(s);
         EXPECT_NE(help.out.find(option), std::string::npos) << "run --help lacks " << option;
         if (s.type != rost::SettingType::Bool && !s.def.empty() && !s.has(rost::setting_flags::Derived)) {
-            std::string shown = "[";
+            // "  --alpha NUM=0.1   Dirichlet prior ...": the default on the option's line.
+            std::size_t at = help.out.find("  " + option + " ");
+            if (at == std::string::npos) at = help.out.find("  " + option + ",");
+            ASSERT_NE(at, std::string::npos) << option;
+            const std::string optionLine = help.out.substr(at, help.out.find('\n', at) - at);
+            std::string shown = "=";
             shown += s.def;
-            shown += ']';
-            EXPECT_NE(help.out.find(shown), std::string::npos) << s.key << " default " << s.def;
+            EXPECT_NE(optionLine.find(shown), std::string::npos) << s.key << " default " << s.def << " in: " << optionLine;
         }
     }
 }

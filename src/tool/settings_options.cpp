@@ -173,7 +173,13 @@ Status SettingsOptions::apply(RunOptions* run, RefineOptions* ref) {
             return Status::error(optionName(*e.spec) + ": " + withoutKey(st.message()));
         m.given.emplace_back(e.spec->key);
     }
-    if (Status st = s.validate(); !st.ok()) return st;
+    if (Status st = s.validate(); !st.ok()) {
+        // Name the option that set the value the message is about.
+        for (const Impl::Entry& e : d.entries)
+            if (e.option->count() > 0 && st.message().find(" " + std::string(e.spec->key) + " = ") != std::string::npos)
+                return Status::error(optionName(*e.spec) + ": " + st.message());
+        return st;
+    }
     m.settings = s;
     return {};
 }
