@@ -183,5 +183,48 @@ TEST(CheckpointGolden, AFileWrittenBeforeTheStateLayoutLoadsAndContinuesBitForBi
     EXPECT_TRUE(e->model().checkInvariants(&why)) << why;
 }
 
+// A section of another version (a later layout of its contents) is refused
+// naming the version found and the version this build reads; so is another
+// format version.
+TEST(CheckpointGolden, AnotherSectionOrFormatVersionIsRefusedNamingBothVersions) {
+    std::vector<uint8_t> b = readBytes(kFirst);
+    ASSERT_GT(b.size(), 32u);
+    auto put32 = [](std::vector<uint8_t>& f, std::size_t at, uint32_t v) {
+        for (int i = 0; i < 4; ++i) f[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
+    };
+    auto get = [&b](std::size_t at, int n) {
+        uint64_t v = 0;
+        for (int i = 0; i < n; ++i) v |= uint64_t{b[at + static_cast<std::size_t>(i)]} << (8 * i);
+        return v;
+    };
+    // Find "n_kv" and give it version 3, with a valid header checksum.
+    std::size_t at = 32, nkv = 0;
+    for (uint64_t i = 0; i < get(12, 4); ++i) {
+        if (std::string(reinterpret_cast<const char*>(&b[at])) == "n_kv") nkv = at;
+        at += 56 + get(at + 40, 8);
+    }
+    ASSERT_NE(nkv, 0u);
+    std::vector<uint8_t> v3 = b;
+    put32(v3, nkv + 36, 3);
+    put32(v3, nkv + 52, crc32c({&v3[nkv], 52}));
+    Status st;
+    auto e = resumeEngine(kFirst, st);
+    ASSERT_TRUE(e) << st.message();
+    std::vector<uint8_t> before;
+    ASSERT_TRUE(encodeCheckpoint(*e, before).ok());
+    st = loadCheckpoint(v3, "v3.ckpt", *e);
+    EXPECT_EQ(st.message(), "v3.ckpt: section 'n_kv' (header at byte " + std::to_string(nkv) +
+                                ") is version 3, this build reads version 0");
+    std::vector<uint8_t> after;
+    ASSERT_TRUE(encodeCheckpoint(*e, after).ok());
+    EXPECT_TRUE(before == after) << "a refused file changed the engine";
+
+    // Format version 2 in the file header.
+    put32(b, 8, 2);
+    put32(b, 28, crc32c({b.data(), 28}));
+    st = loadCheckpoint(b, "v2.ckpt", *e);
+    EXPECT_EQ(st.message(), "v2.ckpt: checkpoint format version 2 is not supported (this build reads version 1)");
+}
+
 } // namespace
 } // namespace rost

@@ -38,7 +38,7 @@ TEST(Settings, TheLibrarysDefaultsAreTheSchemas) {
     for (const SettingSpec& spec : settingSpecs())
         EXPECT_EQ(settingValue(s, spec.key), spec.def) << spec.key;
     // The sub-structs a user may make alone start from the same values.
-    EXPECT_EQ(settingValue(Settings{.engine = EngineConfig{.model = Config{}}}, "cell.capacity"), "256");
+    EXPECT_EQ(Config{}.cell_capacity, 256);
     EXPECT_EQ(StrategyConfig{}.kind, s.engine.strategy.kind);
     EXPECT_EQ(Budget{}.count, 40u);
     EXPECT_EQ(ThreadSettings{}.priority, 80);

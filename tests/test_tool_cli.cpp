@@ -148,6 +148,14 @@ TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {
                 "1 topic lines, expected K = 2", t / "o");
 }
 
+// The option that sets a setting: "--key" unless the schema names others ("-K,--topics").
+std::string optionOf(const rost::SettingSpec& s) {
+    if (!s.cli.empty()) return std::string(s.cli.substr(0, s.cli.find(',')));
+    std::string o = "--";
+    o += s.key;
+    return o;
+}
+
 // The settings schema is the tool's options: every setting a command takes
 // is an option with the schema's default in --help, and `rost config` writes
 // every key.
@@ -157,17 +165,21 @@ TEST(ToolCli, EverySettingIsAnOptionWithTheSchemasDefault) {
     const RunResult conf = runRost("config");
     ASSERT_EQ(conf.exit_code, 0) << conf.err;
     for (const rost::SettingSpec& s : rost::settingSpecs()) {
-        EXPECT_NE(conf.out.find(std::string(s.key) + " ="), std::string::npos) << "rost config lacks " << s.key;
+        std::string line(s.key);
+        line += " =";
+        EXPECT_NE(conf.out.find(line), std::string::npos) << "rost config lacks " << s.key;
         if (s.has(rost::setting_flags::Library) || s.key.starts_with("frame.")) continue;
-        const std::string option = s.cli.empty() ? "--" + std::string(s.key) : std::string(s.cli.substr(0, s.cli.find(',')));
+        const std::string option = optionOf(s);
         EXPECT_NE(help.out.find(option), std::string::npos) << "run --help lacks " << option;
         if (s.type != rost::SettingType::Bool && !s.def.empty() && !s.has(rost::setting_flags::Derived)) {
-            // CLI11 shows a default as "[16]" or, in newer versions, as "=16".
-            const std::string def(s.def);
-            const bool shown = help.out.find("[" + def + "]") != std::string::npos ||
-                               help.out.find("=" + def + " ") != std::string::npos ||
-                               help.out.find("=" + def + "\n") != std::string::npos;
-            EXPECT_TRUE(shown) << s.key << " default " << s.def;
+            // "  --alpha NUM=0.1   Dirichlet prior ...": the default on the option's line.
+            std::size_t at = help.out.find("  " + option + " ");
+            if (at == std::string::npos) at = help.out.find("  " + option + ",");
+            ASSERT_NE(at, std::string::npos) << option;
+            const std::string optionLine = help.out.substr(at, help.out.find('\n', at) - at);
+            std::string shown = "=";
+            shown += s.def;
+            EXPECT_NE(optionLine.find(shown), std::string::npos) << s.key << " default " << s.def << " in: " << optionLine;
         }
     }
 }
@@ -182,7 +194,6 @@ TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
         words += std::to_string(i);
         positions += std::to_string(i);
         for (int j = 0; j < 30; ++j) {
-            // Appended piece by piece (GCC 12's -Wrestrict misfires on "," + std::to_string(...)).
             words += ',';
             words += std::to_string((i < 12 ? 0 : 40) + (i * 5 + j * 7) % 40);
             positions += ',';
@@ -203,8 +214,11 @@ TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
         if (s.has(rost::setting_flags::Library) || s.has(rost::setting_flags::Derived) || s.def.empty()) continue;
         if (s.group == rost::SettingGroup::Words || s.group == rost::SettingGroup::Runtime) continue;
         if (s.type == rost::SettingType::Bool) continue;
-        const std::string option = s.cli.empty() ? "--" + std::string(s.key) : std::string(s.cli.substr(0, s.cli.find(',')));
-        explicitOptions += " " + option + " " + std::string(s.def);
+        const std::string option = optionOf(s);
+        explicitOptions += ' ';
+        explicitOptions += option;
+        explicitOptions += ' ';
+        explicitOptions += s.def;
     }
     const std::string in = "refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " -q --no-summary --out ";
     ASSERT_EQ(runRost(in + (t / "a")).exit_code, 0);

@@ -15,17 +15,12 @@
 #include "rost/aligned_buffer.hpp"
 #include "rost/config.hpp"
 #include "rost/kernel_types.hpp"
+#include "rost/position.hpp"
 #include "rost/random.hpp"
 #include "rost/state_layout.hpp"
 #include "rost/status.hpp"
 
 namespace rost {
-
-// A word's pixel position.
-struct Position {
-    int32_t x = 0;
-    int32_t y = 0;
-};
 
 enum class AddError : uint8_t {
     None,

@@ -344,6 +344,21 @@ std::string hex32(uint32_t v) {
     return s;
 }
 
+// A section header's name: 1..31 printable ASCII characters, NUL-padded.
+Status parseSectionName(const uint8_t* h, const std::string& where, std::string& name) {
+    std::size_t len = 0;
+    while (len < kNameBytes && h[len] != 0) ++len;
+    if (len == 0 || len == kNameBytes) return Status::error(where + ": name is empty or not NUL-terminated");
+    for (std::size_t j = 0; j < len; ++j)
+        if (h[j] < 0x21 || h[j] > 0x7e) return Status::error(where + ": name is not printable ASCII");
+    for (std::size_t j = len; j < kNameBytes; ++j)
+        if (h[j] != 0) return Status::error(where + ": name padding is not zero");
+    name.assign(reinterpret_cast<const char*>(h), len);
+    return {};
+}
+
+Status parseConfigSection(const uint8_t* b, std::string_view name, Parsed& out);
+
 Status parseImage(std::span<const uint8_t> bytes, std::string_view name, Parsed& out) {
     const std::string P = prefix(name);
     const std::size_t n = bytes.size();
@@ -388,20 +403,9 @@ Status parseImage(std::span<const uint8_t> bytes, std::string_view name, Parsed&
             return Status::error(P + "header of section " + std::to_string(i) + " (" + range(at, at + kSectionHeader) +
                                  ", after " + previous + ") is corrupt: checksum mismatch");
         ParsedSection s;
-        std::size_t len = 0;
-        while (len < kNameBytes && h[len] != 0) ++len;
-        if (len == 0 || len == kNameBytes)
-            return Status::error(P + "section " + std::to_string(i) + " at byte " + std::to_string(at) +
-                                 ": name is empty or not NUL-terminated");
-        for (std::size_t j = 0; j < len; ++j)
-            if (h[j] < 0x21 || h[j] > 0x7e)
-                return Status::error(P + "section " + std::to_string(i) + " at byte " + std::to_string(at) +
-                                     ": name is not printable ASCII");
-        for (std::size_t j = len; j < kNameBytes; ++j)
-            if (h[j] != 0)
-                return Status::error(P + "section " + std::to_string(i) + " at byte " + std::to_string(at) +
-                                     ": name padding is not zero");
-        s.name.assign(reinterpret_cast<const char*>(h), len);
+        if (Status st = parseSectionName(h, P + "section " + std::to_string(i) + " at byte " + std::to_string(at), s.name);
+            !st.ok())
+            return st;
         s.width = getU32(h + 32);
         const uint64_t payloadBytes = getU64(h + 40);
         const std::string S = P + "section '" + s.name + "' (header at byte " + std::to_string(at) + "): ";
@@ -433,6 +437,12 @@ Status parseImage(std::span<const uint8_t> bytes, std::string_view name, Parsed&
         return Status::error(P + std::to_string(n - at) + " unexpected bytes after the last section (from byte " +
                              std::to_string(at) + ")");
     out.size = n;
+    return parseConfigSection(b, name, out);
+}
+
+// Section 0: the configuration as config-file text.
+Status parseConfigSection(const uint8_t* b, std::string_view name, Parsed& out) {
+    const std::string P = prefix(name);
     const ParsedSection& c = out.sections[0];
     if (c.name != "config")
         return Status::error(P + "section 0 is '" + c.name + "', expected 'config'");

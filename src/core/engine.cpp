@@ -248,7 +248,7 @@ Status EngineConfig::validate() const {
     if (queue_slots < kQueue.lo || queue_slots > kQueue.hi)
         return Status::error("queue_slots = " + std::to_string(queue_slots) +
                              " is out of range (expected 1..65536)");
-    if (thread.fifo && (thread.priority < kPriority.lo || thread.priority > kPriority.hi))
+    if (thread.priority < kPriority.lo || thread.priority > kPriority.hi)
         return Status::error("thread.priority = " + std::to_string(thread.priority) +
                              " is out of range (expected 1..99 for SCHED_FIFO)");
     if (thread.cpu < kCpu.lo || thread.cpu > kCpu.hi)

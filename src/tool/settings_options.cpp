@@ -174,9 +174,9 @@ Status SettingsOptions::apply(RunOptions* run, RefineOptions* ref) {
         m.given.emplace_back(e.spec->key);
     }
     if (Status st = s.validate(); !st.ok()) {
-        // Out of range: name the option when the command line set it.
+        // Name the option that set the value the message is about.
         for (const Impl::Entry& e : d.entries)
-            if (e.option->count() > 0 && st.message().find(": " + std::string(e.spec->key) + " = ") != std::string::npos)
+            if (e.option->count() > 0 && st.message().find(" " + std::string(e.spec->key) + " = ") != std::string::npos)
                 return Status::error(optionName(*e.spec) + ": " + st.message());
         return st;
     }
