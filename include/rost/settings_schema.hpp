@@ -165,7 +165,7 @@ using namespace setting_flags;
 inline constexpr SettingSpec kSettingSpecs[] = {ROST_SETTINGS(ROST_SETTING_SPEC)};
 #undef ROST_SETTING_SPEC
 
-consteval const SettingSpec& specOf(std::string_view key) {
+constexpr const SettingSpec& specOf(std::string_view key) {
     for (const SettingSpec& s : kSettingSpecs)
         if (s.key == key) return s;
     throw "no such setting in ROST_SETTINGS";  // a compile error where it is evaluated
@@ -174,7 +174,7 @@ consteval const SettingSpec& specOf(std::string_view key) {
 // Decimal text ("16", "-1", "0.1", "1e6") to a number: the integer part and
 // fraction are exact integers, so the one division rounds correctly, as
 // std::from_chars does (a test checks every default against it).
-consteval double parseDecimal(std::string_view s) {
+constexpr double parseDecimal(std::string_view s) {
     bool neg = false;
     std::size_t i = 0;
     if (i < s.size() && s[i] == '-') neg = true, ++i;
@@ -201,7 +201,7 @@ consteval double parseDecimal(std::string_view s) {
     return neg ? -v : v;
 }
 
-consteval int choiceIndex(const SettingSpec& s) {
+constexpr int choiceIndex(const SettingSpec& s) {
     int index = 0;
     std::size_t at = 0;
     while (at <= s.choices.size()) {
