@@ -40,6 +40,13 @@ struct Config {
     int cell_capacity = settingDefault<int>("cell.capacity");       // words a cell holds; extra are subsampled
     int max_words_per_frame = settingDefault<int>("max.words");     // words one observation holds; extra are subsampled
 
+    // Refinement in windows of W cell refinements, coloured into rounds of
+    // cells that share no neighbourhood and refined by `threads` threads
+    // (docs/design.md, "Refinement on every core"). W = 1 is the exact
+    // serial sampler; the result never depends on the number of threads.
+    int refine_window = settingDefault<int>("refine.window");
+    int threads = settingDefault<int>("threads");
+
     EvictionPolicy eviction = settingDefault<EvictionPolicy>("eviction");
     uint64_t seed = settingDefault<uint64_t>("seed");
 

@@ -124,6 +124,7 @@ struct ObservationResult {
     double perplexity = std::numeric_limits<double>::quiet_NaN();  // of `step` after refinement
     uint64_t refinements = 0;  // time-step draws
     uint64_t tokens = 0;       // tokens refined
+    uint64_t rounds = 0;       // rounds of refinement (Model::refine; a time budget stops between two)
     int64_t elapsed_ns = 0;    // take-up to publish
     int64_t refine_ns = 0;     // spending the budget (refinement only)
     int64_t overrun_ns = 0;    // past the time-budget deadline (0 when met or not a time budget)
@@ -339,7 +340,8 @@ private:
                           std::chrono::steady_clock::time_point deadline) noexcept;
     void refinerMain() noexcept;
     uint64_t spend(const Budget& budget, std::chrono::steady_clock::time_point deadline, bool newest,
-                   uint64_t* tokens_out) noexcept;
+                   uint64_t* tokens_out, uint64_t* rounds_out = nullptr) noexcept;
+    class TimeControl;
     void publish(const ObservationResult& r) noexcept;
 
     EngineConfig cfg_;

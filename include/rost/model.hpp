@@ -22,6 +22,11 @@
 
 namespace rost {
 
+struct ThreadSettings;
+namespace detail {
+class WorkerPool;
+}
+
 enum class AddError : uint8_t {
     None,
     SizeMismatch,        // words and positions differ in length
@@ -81,6 +86,46 @@ struct LogLoss {
     }
 };
 
+// ---- refinement in windows (docs/design.md, "Refinement on every core") -----
+
+// The time steps to refine, one pick at a time: a strategy's draws, or the
+// window's steps in order for a batch sweep.
+class StepPicker {
+public:
+    virtual int64_t next() noexcept = 0;
+
+protected:
+    ~StepPicker() = default;
+};
+
+// Optional limits a caller checks between picks and rounds (a time budget,
+// stop on arrival). Called on the refining thread.
+class RefineControl {
+public:
+    // Before another step is drawn; false: draw no more.
+    virtual bool beforeStep() noexcept { return true; }
+    // Before a round of `tokens` token refinements; false: stop here.
+    virtual bool beforeRound(uint64_t /*tokens*/) noexcept { return true; }
+    // After a round of `tokens` token refinements.
+    virtual void afterRound(uint64_t /*tokens*/) noexcept {}
+
+protected:
+    ~RefineControl() = default;
+};
+
+struct RefineLimits {
+    uint64_t steps = UINT64_MAX;   // step picks drawn at most
+    uint64_t tokens = UINT64_MAX;  // no round starts once this many tokens are refined
+    RefineControl* control = nullptr;
+};
+
+struct RefineCount {
+    uint64_t steps = 0;    // step picks drawn
+    uint64_t started = 0;  // step picks of which at least one cell was refined
+    uint64_t tokens = 0;   // token refinements
+    uint64_t rounds = 0;   // rounds run (a round of a serial window is one cell)
+};
+
 class Model {
 public:
     // Throws std::invalid_argument with Config::validate()'s message on a bad configuration.
@@ -88,6 +133,7 @@ public:
     // Non-throwing factory: returns nullptr and sets status on a bad configuration.
     static std::unique_ptr<Model> create(const Config& config, Status& status);
 
+    ~Model();
     Model(const Model&) = delete;
     Model& operator=(const Model&) = delete;
 
@@ -124,8 +170,37 @@ public:
     // number of tokens refined (0 for a step outside the window).
     uint32_t refineCell(int64_t step, int cell) noexcept;
     uint32_t refineStep(int64_t step) noexcept;
-    // Batch Gibbs (paper Algorithm 1): `sweeps` passes over every cell of the window.
+    // Batch Gibbs (paper Algorithm 1): `sweeps` passes over every cell of the
+    // window, in windows of refine.window cell refinements (below).
     uint64_t refineAll(int sweeps = 1) noexcept;
+
+    // Refines the steps `picker` draws until a limit is reached. The steps'
+    // non-empty cells, in index order, form a sequence of cell picks that is
+    // cut into windows of refine.window (W) picks. W = 1: each pick is
+    // refined in turn against live counts, the exact serial sampler (and the
+    // model's generator draws every token's topic). W > 1: a window's key is
+    // drawn from the model's generator, its picks are grouped by cell and the
+    // cells by colour, so that no two cells of a colour are neighbours;
+    // colour by colour, a round refines its cells (a cell picked m times, m
+    // times in a row) on `threads` threads against the word-topic counts as
+    // they stood when the round began, and merges the changes after it.
+    // Every draw is keyed by (window key, pick, word), so the result does not
+    // depend on the number of threads. Limits are checked between rounds.
+    RefineCount refine(StepPicker& picker, const RefineLimits& limits) noexcept;
+
+    // Threads that refine (config().threads, the caller included).
+    int threads() const noexcept;
+    // Restarts the refinement workers with these scheduling settings (named,
+    // SCHED_FIFO, pinned to the CPUs below settings.cpu). Set-up code.
+    void applyWorkerSettings(const ThreadSettings& settings);
+    // Colours of the cell grid: (step + x + b y) mod colours() (b: colourStride()).
+    int colours() const noexcept { return colours_; }
+    int colourStride() const noexcept { return colour_b_; }
+    int colourOf(int64_t step, int cell) const noexcept {
+        return static_cast<int>((static_cast<uint64_t>(step) + static_cast<uint64_t>(cell % gw_) +
+                                 static_cast<uint64_t>(colour_b_) * static_cast<uint64_t>(cell / gw_)) %
+                                static_cast<uint64_t>(colours_));
+    }
     uint64_t tokensRefined() const noexcept { return tokens_refined_; }
     // Words currently in cells of a step.
     uint32_t wordsInStep(int64_t step) const noexcept;
@@ -221,6 +296,27 @@ private:
     template <int KP, kernel::Path P>
     uint32_t refineCells(const StepSlots& slots, int c0, int c1) noexcept;
     void evict(std::size_t slot) noexcept;
+    // Windows of cell picks (src/core/refine_windows.cpp).
+    struct Windows;
+    struct WindowJob;
+    bool fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept;
+    bool refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
+    bool refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
+    void groupWindow() noexcept;
+    uint64_t roundTokens(uint32_t begin, uint32_t end) const noexcept;
+    void runRound(uint32_t begin, uint32_t end) noexcept;
+    void mergeRound(uint32_t begin, uint32_t end) noexcept;
+    void countStarted(RefineCount& rc) noexcept;
+    void allocateWindows();
+    void chooseColours() noexcept;
+    template <int KP>
+    void sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept;
+    template <int KP, kernel::Path P>
+    void frozenTask(int worker, uint32_t task) noexcept;
+    template <int KP, kernel::Path P>
+    void liveTask(int worker, uint32_t task) noexcept;
+    template <int KP>
+    void setTaskKernels() noexcept;
     // The parts of addObservation, in order (ring slot `slot`, input row `obs`).
     void openStep(int64_t step, std::size_t slot) noexcept;
     uint32_t keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::size_t obs) noexcept;
@@ -293,6 +389,13 @@ private:
     using CellsKernel = uint32_t (Model::*)(const StepSlots&, int, int) noexcept;
     CellsKernel simd_kernel_;
     CellsKernel scalar_kernel_;
+    using TaskKernel = void (Model::*)(int, uint32_t) noexcept;
+    TaskKernel frozen_kernel_[2] = {};  // [Scalar, Simd]
+    TaskKernel live_kernel_[2] = {};
+    std::unique_ptr<Windows> win_;
+    std::unique_ptr<detail::WorkerPool> pool_;
+    int colours_ = 1;
+    int colour_b_ = 0;
     kernel::Tables tables_;
 
     uint64_t frames_ = 0;

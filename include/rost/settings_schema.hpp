@@ -78,8 +78,12 @@
       "count budget instead: tokens refined per observation (reproducible)") \
     X("budget.ms", BudgetMs, Refinement, "", 0, 3600000, "", "", LoOpen, engine.budget, \
       "time budget instead: milliseconds of refinement per observation (the paper's T_R; not reproducible)") \
+    X("refine.window", Integer, Refinement, "256", 1, 65536, "", "", 0, engine.model.refine_window, \
+      "cell refinements per parallel window (W): 1 is the exact serial Gibbs sampler; results never depend on threads") \
     X("final.sweeps", Integer, Refinement, "0", 0, 1000000, "", "", 0, final_sweeps, \
       "batch Gibbs sweeps over the window at the end of the stream") \
+    X("threads", Integer, Runtime, "1", 1, 1024, "", "", Derived, engine.model.threads, \
+      "refinement threads; the tool's default is the cores it may use (minus one for capture with --realtime)") \
     X("queue.slots", Integer, Runtime, "8", 1, 65536, "", "--queue.slots,--queue", 0, engine.queue_slots, \
       "observations the capture-to-refiner queue holds") \
     X("drop", Choice, Runtime, "oldest", 0, 0, "newest|oldest", "", 0, engine.drop, \

@@ -133,12 +133,31 @@ void putSectionHeader(uint8_t* h, std::string_view name, uint32_t version, uint3
     putU64(h + 40, bytes);
 }
 
+// The config section: the engine's settings as config-file text, without
+// `threads` (the machine's, not the state's: a mission may resume on another
+// board) and without `refine.window` when it is 1, which is what a
+// checkpoint without the key means (written before refinement in windows
+// existed: the serial sampler).
+std::string checkpointConfigText(const EngineConfig& cfg) {
+    const std::string all = formatConfig(cfg);
+    std::string out;
+    std::size_t at = 0;
+    while (at < all.size()) {
+        std::size_t end = all.find('\n', at);
+        end = end == std::string::npos ? all.size() : end + 1;
+        const std::string_view line(all.data() + at, end - at);
+        if (!line.starts_with("threads = ") && line != "refine.window = 1\n") out += line;
+        at = end;
+    }
+    return out;
+}
+
 // Lays out a file image: header, the config section (filled), then a
 // section per state section (headers filled, payloads left for fillImage).
 Status buildImage(Engine& engine, std::vector<uint8_t>& image, std::vector<detail::CheckpointSlot>& slots) {
     StateLayout layout;
     if (Status st = engineLayout(engine, layout); !st.ok()) return st;
-    const std::string config = formatConfig(engine.config());
+    const std::string config = checkpointConfigText(engine.config());
     auto slotAt = [](std::size_t at, std::size_t bytes, uint32_t width) {
         return detail::CheckpointSlot{at, at + kSectionHeader, bytes, width};
     };
@@ -451,6 +470,7 @@ Status parseConfigSection(const uint8_t* b, std::string_view name, Parsed& out) 
                              std::to_string(kConfigSectionVersion));
     const std::string_view text(reinterpret_cast<const char*>(b + c.payload), c.bytes);
     EngineConfig cfg;
+    cfg.model.refine_window = 1;  // absent: the serial sampler (checkpointConfigText)
     if (Status st = parseConfigText(text, std::string(name) + " [config section at byte " + std::to_string(c.payload) + "]", cfg);
         !st.ok())
         return st;

@@ -52,6 +52,8 @@ Status Config::validate() const {
         ROST_CHECK_INT("ring.steps", ring_steps),
         ROST_CHECK_INT("cell.capacity", cell_capacity),
         ROST_CHECK_INT("max.words", max_words_per_frame),
+        ROST_CHECK_INT("refine.window", refine_window),
+        ROST_CHECK_INT("threads", threads),
     };
 #undef ROST_CHECK_INT
 #undef ROST_CHECK_POSITIVE

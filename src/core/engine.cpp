@@ -513,69 +513,84 @@ EngineCounters Engine::counters() const noexcept {
     return c;
 }
 
+namespace {
+
+// The strategy's draws, P(t|T) over the window as it stands.
+class StrategyPicker final : public StepPicker {
+public:
+    StrategyPicker(const Strategy& s, const Model& m, Rng& rng) noexcept
+        : s_(s), T_(m.steps()), W_(m.steps() - m.oldestStep()), rng_(rng) {}
+    int64_t next() noexcept override { return s_.drawStep(T_, W_, rng_); }
+
+private:
+    const Strategy& s_;
+    int64_t T_, W_;
+    Rng& rng_;
+};
+
+} // namespace
+
+// A time budget: no round that is predicted to end after `end` starts (the
+// prediction learns the wall-clock cost of a token, all threads together),
+// and no step is drawn once a newer observation waits (stop on arrival).
+class Engine::TimeControl final : public RefineControl {
+public:
+    TimeControl(Engine& e, Clock::time_point end, bool arrival) noexcept : e_(e), end_(end), arrival_(arrival) {}
+    bool beforeStep() noexcept override {
+        now_ = Clock::now();
+        if (arrival_ && e_.queue_->pending()) return false;
+        return now_ < end_;
+    }
+    bool beforeRound(uint64_t tokens) noexcept override {
+        now_ = Clock::now();
+        const double ns = 1.5 * e_.refiner_->ns_per_token * static_cast<double>(tokens + 4);
+        return now_ + std::chrono::nanoseconds(static_cast<int64_t>(ns)) <= end_;
+    }
+    void afterRound(uint64_t tokens) noexcept override {
+        const auto after = Clock::now();
+        Refiner& R = *e_.refiner_;
+        R.ns_per_token = robustAverage(R.ns_per_token,
+                                       static_cast<double>((after - now_).count()) / static_cast<double>(tokens + 4),
+                                       0.05, R.token_samples);
+        now_ = after;
+    }
+
+private:
+    Engine& e_;
+    Clock::time_point end_;
+    bool arrival_;
+    Clock::time_point now_{};
+};
+
 // Refines time steps drawn by the strategy until the budget is spent (paper
-// Algorithm 2, inner loop). Returns the number of draws.
-uint64_t Engine::spend(const Budget& budget, Clock::time_point deadline, bool newest, uint64_t* tokens_out) noexcept {
+// Algorithm 2, inner loop), in the model's windows. Returns the number of
+// step draws (for a time budget: those of which a cell was refined).
+uint64_t Engine::spend(const Budget& budget, Clock::time_point deadline, bool newest, uint64_t* tokens_out,
+                       uint64_t* rounds_out) noexcept {
     Model& m = *model_;
     Refiner& R = *refiner_;
-    uint64_t draws = 0, tokens = 0;
-    const int64_t T = m.steps();
-    if (T == 0) {
-        if (tokens_out) *tokens_out = 0;
-        return 0;
-    }
-    const int64_t W = T - m.oldestStep();
-    const int cells = m.cellsPerStep();
-    Rng& rng = m.rng();
+    if (tokens_out) *tokens_out = 0;
+    if (m.steps() == 0) return 0;
+    StrategyPicker picker(strategy_, m, m.rng());
+    RefineLimits limits;
+    // Stop early enough that the publication also ends by the deadline.
+    TimeControl time(*this, deadline - std::chrono::nanoseconds(static_cast<int64_t>(R.publish_ns)),
+                     newest && cfg_.flags.stop_on_arrival);
     switch (budget.kind) {
-    case BudgetKind::Steps:
-        for (uint64_t i = 0; i < budget.count; ++i) {
-            tokens += m.refineStep(strategy_.drawStep(T, W, rng));
-            ++draws;
-        }
-        break;
+    case BudgetKind::Steps: limits.steps = budget.count; break;
     case BudgetKind::Tokens:
         // At most `count` draws, so a window of empty steps cannot loop forever.
-        while (tokens < budget.count && draws < budget.count) {
-            const int64_t s = strategy_.drawStep(T, W, rng);
-            ++draws;
-            for (int c = 0; c < cells && tokens < budget.count; ++c) tokens += m.refineCell(s, c);
-        }
+        limits.steps = budget.count;
+        limits.tokens = budget.count;
         break;
-    case BudgetKind::Time: {
-        // Stop early enough that the publication also ends by the deadline.
-        const auto end = deadline - std::chrono::nanoseconds(static_cast<int64_t>(R.publish_ns));
-        auto now = Clock::now();
-        bool out = false;
-        while (!out && now < end) {
-            if (newest && cfg_.flags.stop_on_arrival && queue_->pending()) break;
-            const int64_t s = strategy_.drawStep(T, W, rng);
-            bool started = false;
-            for (int c = 0; c < cells; ++c) {
-                const uint32_t n = m.cellWordCount(s, c);
-                if (n == 0) continue;
-                const auto predicted =
-                    std::chrono::nanoseconds(static_cast<int64_t>(1.5 * R.ns_per_token * (n + 4)));
-                if (now + predicted > end) {
-                    out = true;
-                    break;
-                }
-                tokens += m.refineCell(s, c);
-                started = true;
-                const auto after = Clock::now();
-                R.ns_per_token = robustAverage(R.ns_per_token, static_cast<double>((after - now).count()) / (n + 4),
-                                               0.05, R.token_samples);
-                now = after;
-            }
-            if (started) ++draws;
-            now = Clock::now();
-        }
-        break;
+    case BudgetKind::Time: limits.control = &time; break;
     }
-    }
+    const RefineCount rc = m.refine(picker, limits);
+    const uint64_t draws = budget.kind == BudgetKind::Time ? rc.started : rc.steps;
     bump(R.refinements, draws);
-    bump(R.tokens, tokens);
-    if (tokens_out) *tokens_out = tokens;
+    bump(R.tokens, rc.tokens);
+    if (tokens_out) *tokens_out = rc.tokens;
+    if (rounds_out) *rounds_out = rc.rounds;
     return draws;
 }
 
@@ -699,7 +714,7 @@ void Engine::beforeObservation(ObservationResult& r) noexcept {
 void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock::time_point deadline) noexcept {
     Refiner& R = *refiner_;
     const auto ts = Clock::now();
-    r.refinements = spend(cfg_.budget, deadline, true, &r.tokens);
+    r.refinements = spend(cfg_.budget, deadline, true, &r.tokens, &r.rounds);
     const auto tp = Clock::now();
     r.refine_ns = (tp - ts).count();
 
@@ -745,6 +760,13 @@ void Engine::refinerMain() noexcept {
 Status Engine::start() {
     if (running()) return Status::error("engine: start() called while already running");
     if (cfg_.thread.lock_memory) lockProcessMemory();
+    if (model_->threads() > 1) {
+        try {
+            model_->applyWorkerSettings(cfg_.thread);
+        } catch (const std::exception& e) {
+            return Status::error(std::string("engine: could not start the refinement workers: ") + e.what());
+        }
+    }
     stop_request_.store(0, std::memory_order_release);
     refiner_->ready.store(false, std::memory_order_release);
     running_.store(true, std::memory_order_release);

@@ -239,9 +239,9 @@ inline int selectSimd(const float* cum, int Kp, int K, float u) noexcept {
 // word's -1/+1 with lane masks, so no scalar store is ever followed by a
 // vector load of the same bytes (a store-forwarding stall on x86 and ARM).
 // It performs the same float operations in the same order as the reference.
-template <int KP>
+template <int KP, typename R>
 inline void refineCellScalar(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words, uint16_t* topics,
-                             uint32_t n, Rng& rng) noexcept {
+                             uint32_t n, R& rng) noexcept {
     const int Kp = KP > 0 ? KP : t.Kp;
     alignas(64) float cum[KP > 0 ? KP : 1024];
     for (uint32_t i = 0; i < n; ++i) {
@@ -274,9 +274,9 @@ inline void refineCellScalar(Tables& t, int32_t* nG, int32_t* nc, const uint32_t
 }
 
 #if defined(ROST_SIMD_SSE2) || defined(ROST_SIMD_NEON)
-template <int KP>
+template <int KP, typename R>
 inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words, uint16_t* topics,
-                           uint32_t n, Rng& rng) noexcept {
+                           uint32_t n, R& rng) noexcept {
     constexpr int kMaxBlocks = 256;
     const int Kp = KP > 0 ? KP : t.Kp;
     const int nb = Kp / kBlock;
@@ -361,9 +361,9 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
 }
 #endif
 
-template <int KP, Path P>
+template <int KP, Path P, typename R>
 inline void refineCell(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words, uint16_t* topics, uint32_t n,
-                       Rng& rng) noexcept {
+                       R& rng) noexcept {
 #if defined(ROST_SIMD_SSE2) || defined(ROST_SIMD_NEON)
     if constexpr (P == Path::Simd) {
         refineCellSimd<KP>(t, nG, nc, words, topics, n, rng);
@@ -371,6 +371,108 @@ inline void refineCell(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* word
     }
 #endif
     refineCellScalar<KP>(t, nG, nc, words, topics, n, rng);
+}
+
+// ---- one cell against frozen word-topic counts (a round of a parallel window) --
+
+// As refineCell, except that n_k^v, n_k and the reciprocals are only read:
+// during a round they hold every word at z0[i], its label when the round
+// began, so word i leaves topic z0[i] there, and leaves its current topic in
+// the cell's own counts (nG, nc), which the task owns and updates in place.
+// The new labels reach n_k^v and n_k when the round's changes are merged.
+// Same float operations, in the same order, as the live kernel.
+template <int KP, typename R>
+inline void refineCellFrozenScalar(const Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words,
+                                   uint16_t* topics, const uint16_t* z0, uint32_t n, R& rng) noexcept {
+    const int Kp = KP > 0 ? KP : t.Kp;
+    alignas(64) float cum[KP > 0 ? KP : 1024];
+    alignas(64) int32_t row[KP > 0 ? KP : 1024];
+    alignas(64) float inv[KP > 0 ? KP : 1024];
+    for (int k = 0; k < Kp; ++k) inv[k] = t.inv[k];
+    for (uint32_t i = 0; i < n; ++i) {
+        const int32_t* src = t.nkv + static_cast<std::size_t>(words[i]) * static_cast<std::size_t>(Kp);
+        const int a = z0[i], z = topics[i];
+        for (int k = 0; k < Kp; ++k) row[k] = src[k];
+        --row[a];
+        inv[a] = t.dec[a];
+        --nG[z];
+        const float total = weightsAndScanScalar(row, inv, nG, t.alpha, t.beta, Kp, cum);
+        inv[a] = t.inv[a];
+        const float u = rng.uniformFloat() * total;
+        const int k = selectScalar(cum, Kp, t.K, u);
+        ++nG[k];
+        if (k != z) {
+            --nc[z];
+            ++nc[k];
+            topics[i] = static_cast<uint16_t>(k);
+        }
+    }
+}
+
+#if defined(ROST_SIMD_SSE2) || defined(ROST_SIMD_NEON)
+template <int KP, typename R>
+inline void refineCellFrozenSimd(const Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words,
+                                 uint16_t* topics, const uint16_t* z0, uint32_t n, R& rng) noexcept {
+    constexpr int kMaxBlocks = 256;
+    const int Kp = KP > 0 ? KP : t.Kp;
+    const int nb = Kp / kBlock;
+    constexpr int kArr = KP > 0 ? KP / kBlock : kMaxBlocks;
+    v4::I g[kArr];
+    v4::F iv[kArr], cum[kArr];
+    for (int b = 0; b < nb; ++b) {
+        g[b] = v4::load(nG + kBlock * b);
+        iv[b] = v4::load(t.inv + kBlock * b);
+    }
+    const v4::F beta = v4::set(t.beta), alpha = v4::set(t.alpha);
+    for (uint32_t i = 0; i < n; ++i) {
+        const int32_t* row = t.nkv + static_cast<std::size_t>(words[i]) * static_cast<std::size_t>(Kp);
+        const int a = z0[i], z = topics[i];
+        const float u01 = rng.uniformFloat();
+        const v4::I aa = v4::seti(a), zz = v4::seti(z);
+        const v4::F va = v4::set(t.dec[a]);
+        v4::F carry = v4::set(0.f);
+        for (int b = 0; b < nb; ++b) {
+            const v4::I lanes = v4::iota(kBlock * b);
+            const v4::I ma = v4::eq(lanes, aa);
+            const v4::I r = v4::add(v4::load(row + kBlock * b), ma);
+            g[b] = v4::add(g[b], v4::eq(lanes, zz));
+            const v4::F ivb = v4::select(ma, va, iv[b]);
+            const v4::F p =
+                v4::scan(v4::mul(v4::mul(v4::add(v4::cvt(r), beta), ivb), v4::add(v4::cvt(g[b]), alpha)));
+            if (b == 0) {
+                cum[b] = p;
+                carry = v4::last(p);
+            } else {
+                cum[b] = v4::add(p, carry);
+                carry = v4::add(carry, v4::last(p));
+            }
+        }
+        const v4::F uu = v4::mul(v4::set(u01), carry);
+        v4::I count = v4::le(cum[0], uu);
+        for (int b = 1; b < nb; ++b) count = v4::add(count, v4::le(cum[b], uu));
+        count = v4::hbroadcast(count);
+        const int k = -v4::firsti(count);
+        for (int b = 0; b < nb; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
+        if (k != z) {
+            --nc[z];
+            ++nc[k];
+            topics[i] = static_cast<uint16_t>(k);
+        }
+    }
+    for (int b = 0; b < nb; ++b) v4::store(nG + kBlock * b, g[b]);
+}
+#endif
+
+template <int KP, Path P, typename R>
+inline void refineCellFrozen(const Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words, uint16_t* topics,
+                             const uint16_t* z0, uint32_t n, R& rng) noexcept {
+#if defined(ROST_SIMD_SSE2) || defined(ROST_SIMD_NEON)
+    if constexpr (P == Path::Simd) {
+        refineCellFrozenSimd<KP>(t, nG, nc, words, topics, z0, n, rng);
+        return;
+    }
+#endif
+    refineCellFrozenScalar<KP>(t, nG, nc, words, topics, z0, n, rng);
 }
 
 } // namespace rost::kernel

@@ -1,6 +1,7 @@
 #include "rost/model.hpp"
 
 #include "kernel.hpp"
+#include "refine_windows.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -77,6 +78,7 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
                     scratch_need_.bytes() + scratch_g_.bytes() + scratch_ll_.bytes() + scratch_wn_.bytes() +
                     out_g_.bytes() + out_g_epoch_.bytes() +
                     sizeof(Model);
+    allocateWindows();
 }
 
 void Model::allocateState() {
@@ -146,18 +148,22 @@ void Model::selectKernels() noexcept {
     case 16:
         simd_kernel_ = &Model::refineCells<16, kernel::Path::Simd>;
         scalar_kernel_ = &Model::refineCells<16, kernel::Path::Scalar>;
+        setTaskKernels<16>();
         break;
     case 32:
         simd_kernel_ = &Model::refineCells<32, kernel::Path::Simd>;
         scalar_kernel_ = &Model::refineCells<32, kernel::Path::Scalar>;
+        setTaskKernels<32>();
         break;
     case 64:
         simd_kernel_ = &Model::refineCells<64, kernel::Path::Simd>;
         scalar_kernel_ = &Model::refineCells<64, kernel::Path::Scalar>;
+        setTaskKernels<64>();
         break;
     default:
         simd_kernel_ = &Model::refineCells<0, kernel::Path::Simd>;
         scalar_kernel_ = &Model::refineCells<0, kernel::Path::Scalar>;
+        setTaskKernels<0>();
         break;
     }
 }
@@ -445,13 +451,6 @@ uint32_t Model::refineStep(int64_t step) noexcept {
     StepSlots slots;
     stepSlots(step, slots);
     return (this->*(path_ == kernel::Path::Simd ? simd_kernel_ : scalar_kernel_))(slots, 0, cells_);
-}
-
-uint64_t Model::refineAll(int sweeps) noexcept {
-    uint64_t total = 0;
-    for (int s = 0; s < sweeps; ++s)
-        for (int64_t t = oldestStep(); t < steps_; ++t) total += refineStep(t);
-    return total;
 }
 
 uint32_t Model::wordsInStep(int64_t step) const noexcept {

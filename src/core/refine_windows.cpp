@@ -1,0 +1,388 @@
+// Refinement in windows of cell picks, coloured into rounds and refined on
+// every core with the same result for any number of threads
+// (rost/model.hpp, Model::refine; docs/design.md, "Refinement on every core").
+
+#include <algorithm>
+#include <atomic>
+#include <cstring>
+
+#include "counter_rng.hpp"
+#include "kernel.hpp"
+#include "refine_windows.hpp"
+#include "rost/model.hpp"
+#include "rost/realtime.hpp"
+#include "worker_pool.hpp"
+
+namespace rost {
+
+// One round on the pool: workers take the round's tasks in turn.
+struct Model::WindowJob final : detail::WorkerPool::Job {
+    Model* model = nullptr;
+    const uint32_t* tasks = nullptr;
+    uint32_t count = 0;
+    std::atomic<uint32_t> next{0};
+    TaskKernel kernel = nullptr;
+
+    void work(int worker) noexcept override {
+        for (;;) {
+            const uint32_t i = next.fetch_add(1, std::memory_order_relaxed);
+            if (i >= count) return;
+            (model->*kernel)(worker, tasks[i]);
+        }
+    }
+};
+
+namespace {
+
+// A step picker over every step of a window in order, `sweeps` times.
+class SweepPicker final : public StepPicker {
+public:
+    SweepPicker(int64_t first, int64_t end) noexcept : first_(first), end_(end), t_(first) {}
+    int64_t next() noexcept override {
+        const int64_t t = t_;
+        t_ = t_ + 1 < end_ ? t_ + 1 : first_;
+        return t;
+    }
+
+private:
+    int64_t first_, end_, t_;
+};
+
+} // namespace
+
+Model::~Model() = default;
+
+int Model::threads() const noexcept { return pool_ ? pool_->workers() : 1; }
+
+void Model::applyWorkerSettings(const ThreadSettings& settings) {
+    if (pool_) pool_->applySettings(settings);
+}
+
+void Model::chooseColours() noexcept {
+    // The smallest M (and stride b) with (dt + dx + b dy) mod M != 0 for every
+    // neighbour offset: same cell at 0 < |dt| <= g.time, or same step at
+    // 0 < |dx| + |dy| <= g.space inside the grid. Radius 1 in space and time
+    // gives M = 2, b = 1: (t + x + y) mod 2.
+    const int gt = cfg_.g_time, gs = cfg_.g_space;
+    for (int m = std::max(1, gt + 1);; ++m)
+        for (int b = 0; b < m; ++b) {
+            bool ok = true;
+            for (int dy = -gs; dy <= gs && ok; ++dy)
+                for (int dx = -gs; dx <= gs && ok; ++dx) {
+                    if ((dx == 0 && dy == 0) || std::abs(dx) + std::abs(dy) > gs) continue;
+                    if (std::abs(dx) >= gw_ || std::abs(dy) >= gh_) continue;
+                    ok = ((dx + b * dy) % m + m) % m != 0;
+                }
+            if (ok) {
+                colours_ = m;
+                colour_b_ = b;
+                return;
+            }
+        }
+}
+
+void Model::allocateWindows() {
+    chooseColours();
+    win_ = std::make_unique<Windows>();
+    Windows& w = *win_;
+    const auto W = static_cast<std::size_t>(cfg_.refine_window);
+    w.W = static_cast<uint32_t>(W);
+    w.pick_step.reset(W);
+    w.pick_cell.reset(W);
+    w.pick_ord.reset(W);
+    w.pick_next.reset(W);
+    w.pick_done.reset(W);
+    w.task_step.reset(W);
+    w.task_cell.reset(W);
+    w.task_head.reset(W);
+    w.task_tail.reset(W);
+    w.task_mult.reset(W);
+    w.task_colour.reset(W);
+    w.task_z0.reset(W);
+    w.order.reset(W);
+    w.colour_begin.reset(static_cast<std::size_t>(colours_) + 1);
+    std::size_t h = 1;
+    while (h < 2 * W) h <<= 1;
+    w.hash_key.reset(h);
+    w.hash_task.reset(h);
+    w.hash_stamp.reset(h);
+    // A round holds distinct cells of the ring, each at most cell.capacity words.
+    const std::size_t cellsInRing = static_cast<std::size_t>(ring_) * static_cast<std::size_t>(cells_);
+    if (W > 1) w.z0.reset(std::min(W, cellsInRing) * static_cast<std::size_t>(cap_));
+    w.worker_g.reset(static_cast<std::size_t>(cfg_.threads) * static_cast<std::size_t>(Kp_));
+    if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
+    memory_bytes_ += w.bytes();
+}
+
+template <int KP>
+void Model::setTaskKernels() noexcept {
+    frozen_kernel_[0] = &Model::frozenTask<KP, kernel::Path::Scalar>;
+    frozen_kernel_[1] = &Model::frozenTask<KP, kernel::Path::Simd>;
+    live_kernel_[0] = &Model::liveTask<KP, kernel::Path::Scalar>;
+    live_kernel_[1] = &Model::liveTask<KP, kernel::Path::Simd>;
+}
+template void Model::setTaskKernels<0>() noexcept;
+template void Model::setTaskKernels<16>() noexcept;
+template void Model::setTaskKernels<32>() noexcept;
+template void Model::setTaskKernels<64>() noexcept;
+
+template <int KP>
+void Model::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept {
+    const int Kp = KP > 0 ? KP : Kp_;
+    const int32_t* h = nck(slots.self, static_cast<int>(nbr_cell_[nbr_begin_[cell]]));
+    for (int k = 0; k < Kp; ++k) g[k] = h[k];
+    for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
+        h = nck(slots.self, static_cast<int>(nbr_cell_[j]));
+        for (int k = 0; k < Kp; ++k) g[k] += h[k];
+    }
+    for (int j = 0; j < slots.count; ++j) {
+        h = nck(slots.temporal[j], cell);
+        for (int k = 0; k < Kp; ++k) g[k] += h[k];
+    }
+}
+
+template <int KP, kernel::Path P>
+void Model::frozenTask(int worker, uint32_t task) noexcept {
+    Windows& w = *win_;
+    const int64_t step = w.task_step[task];
+    const int cell = w.task_cell[task];
+    StepSlots slots;
+    stepSlots(step, slots);
+    const std::size_t slot = slots.self;
+    const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(cell)];
+    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    uint16_t* z = cell_z_.data() + base;
+    uint16_t* z0 = w.z0.data() + w.task_z0[task];
+    std::memcpy(z0, z, n * sizeof(uint16_t));
+    int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
+    sumNeighbourhood<KP>(slots, cell, g);
+    for (uint32_t p = w.task_head[task]; p != Windows::kNone; p = w.pick_next[p]) {
+        detail::CounterRng rng(w.key, p);
+        kernel::refineCellFrozen<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, z, z0, n, rng);
+    }
+}
+
+template <int KP, kernel::Path P>
+void Model::liveTask(int worker, uint32_t task) noexcept {
+    Windows& w = *win_;
+    const int64_t step = w.task_step[task];
+    const int cell = w.task_cell[task];
+    StepSlots slots;
+    stepSlots(step, slots);
+    const std::size_t slot = slots.self;
+    const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(cell)];
+    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
+    sumNeighbourhood<KP>(slots, cell, g);
+    for (uint32_t p = w.task_head[task]; p != Windows::kNone; p = w.pick_next[p]) {
+        detail::CounterRng rng(w.key, p);
+        kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
+                                  rng);
+    }
+}
+
+// Adds the step's next non-empty cells to the window until it is full,
+// drawing steps as needed. False when the window stays empty (no more picks).
+bool Model::fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept {
+    Windows& w = *win_;
+    w.picks = 0;
+    // A token budget also bounds the window, so the budget is passed by less
+    // than one cell, as by a serial sampler.
+    uint64_t tokens = rc.tokens;
+    while (w.picks < w.W && tokens < limits.tokens) {
+        if (w.cur_step < 0 || w.next_cell >= cells_) {
+            if (rc.steps >= limits.steps || rc.tokens >= limits.tokens ||
+                (limits.control && !limits.control->beforeStep()))
+                break;
+            w.cur_step = picker.next();
+            w.next_cell = 0;
+            w.cur_ord = ++rc.steps;
+            if (!inWindow(w.cur_step)) {
+                w.cur_step = -1;
+                continue;
+            }
+        }
+        const std::size_t row = slotOf(w.cur_step) * static_cast<std::size_t>(cells_);
+        while (w.next_cell < cells_ && cell_n_[row + static_cast<std::size_t>(w.next_cell)] == 0) ++w.next_cell;
+        if (w.next_cell >= cells_) continue;
+        w.pick_step[w.picks] = w.cur_step;
+        w.pick_cell[w.picks] = w.next_cell++;
+        w.pick_ord[w.picks] = w.cur_ord;
+        w.pick_done[w.picks] = 0;
+        tokens += cell_n_[row + static_cast<std::size_t>(w.pick_cell[w.picks])];
+        ++w.picks;
+    }
+    return w.picks > 0;
+}
+
+bool Model::refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
+    Windows& w = *win_;
+    const int64_t step = w.pick_step[0];
+    const int cell = w.pick_cell[0];
+    const uint32_t n = cellWordCount(step, cell);
+    if (rc.tokens >= limits.tokens || (limits.control && !limits.control->beforeRound(n))) return false;
+    rc.tokens += refineCell(step, cell);
+    ++rc.rounds;
+    w.pick_done[0] = 1;
+    countStarted(rc);
+    if (limits.control) limits.control->afterRound(n);
+    return true;
+}
+
+// Groups the window's picks into tasks (one per distinct cell) and the tasks
+// into rounds by colour.
+void Model::groupWindow() noexcept {
+    Windows& w = *win_;
+    if (++w.stamp == 0) {
+        std::fill_n(w.hash_stamp.data(), w.hash_stamp.size(), 0u);
+        w.stamp = 1;
+    }
+    const std::size_t mask = w.hash_key.size() - 1;
+    w.tasks = 0;
+    for (uint32_t p = 0; p < w.picks; ++p) {
+        const int64_t key = w.pick_step[p] * cells_ + w.pick_cell[p];
+        std::size_t h = detail::mix64(static_cast<uint64_t>(key)) & mask;
+        while (w.hash_stamp[h] == w.stamp && w.hash_key[h] != key) h = (h + 1) & mask;
+        w.pick_next[p] = Windows::kNone;
+        if (w.hash_stamp[h] != w.stamp) {
+            const uint32_t t = w.tasks++;
+            w.hash_stamp[h] = w.stamp;
+            w.hash_key[h] = key;
+            w.hash_task[h] = t;
+            w.task_step[t] = w.pick_step[p];
+            w.task_cell[t] = w.pick_cell[p];
+            w.task_head[t] = w.task_tail[t] = p;
+            w.task_mult[t] = 1;
+            w.task_colour[t] = static_cast<uint32_t>(colourOf(w.pick_step[p], w.pick_cell[p]));
+        } else {
+            const uint32_t t = w.hash_task[h];
+            w.pick_next[w.task_tail[t]] = p;
+            w.task_tail[t] = p;
+            ++w.task_mult[t];
+        }
+    }
+    // Counting sort of the tasks by colour (stable: first-pick order within a colour).
+    uint32_t* begin = w.colour_begin.data();
+    std::fill_n(begin, colours_ + 1, 0u);
+    for (uint32_t t = 0; t < w.tasks; ++t) ++begin[w.task_colour[t] + 1];
+    for (int c = 0; c < colours_; ++c) begin[c + 1] += begin[c];
+    for (uint32_t t = 0; t < w.tasks; ++t) w.order[begin[w.task_colour[t]]++] = t;
+    for (int c = colours_; c > 0; --c) begin[c] = begin[c - 1];
+    begin[0] = 0;
+}
+
+uint64_t Model::roundTokens(uint32_t b, uint32_t e) const noexcept {
+    const Windows& w = *win_;
+    uint64_t total = 0;
+    for (uint32_t i = b; i < e; ++i) {
+        const uint32_t t = w.order[i];
+        total += static_cast<uint64_t>(cellWordCount(w.task_step[t], w.task_cell[t])) * w.task_mult[t];
+    }
+    return total;
+}
+
+void Model::runRound(uint32_t b, uint32_t e) noexcept {
+    Windows& w = *win_;
+    const int path = path_ == kernel::Path::Simd ? 1 : 0;
+    if (e - b == 1) {  // one cell: refined against live counts, exactly as a serial sampler
+        (this->*live_kernel_[path])(0, w.order[b]);
+        return;
+    }
+    std::size_t off = 0;
+    for (uint32_t i = b; i < e; ++i) {
+        const uint32_t t = w.order[i];
+        w.task_z0[t] = off;
+        off += cellWordCount(w.task_step[t], w.task_cell[t]);
+    }
+    WindowJob job;
+    job.model = this;
+    job.tasks = w.order.data() + b;
+    job.count = e - b;
+    job.kernel = frozen_kernel_[path];
+    if (pool_)
+        pool_->run(job);
+    else
+        job.work(0);
+    mergeRound(b, e);
+}
+
+// Adds each changed label's move to n_k^v and n_k: integer adds, in any order the same.
+void Model::mergeRound(uint32_t b, uint32_t e) noexcept {
+    const Windows& w = *win_;
+    for (uint32_t i = b; i < e; ++i) {
+        const uint32_t t = w.order[i];
+        const std::size_t slot = slotOf(w.task_step[t]);
+        const std::size_t base = (slot * cells_ + static_cast<std::size_t>(w.task_cell[t])) * cap_;
+        const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(w.task_cell[t])];
+        const uint16_t* z = cell_z_.data() + base;
+        const uint16_t* z0 = w.z0.data() + w.task_z0[t];
+        const uint32_t* words = cell_words_.data() + base;
+        for (uint32_t j = 0; j < n; ++j) {
+            if (z[j] == z0[j]) continue;
+            int32_t* row = nkv_.data() + static_cast<std::size_t>(words[j]) * Kp_;
+            --row[z0[j]];
+            ++row[z[j]];
+            --nk_[z0[j]];
+            ++nk_[z[j]];
+        }
+    }
+    kernel::refreshReciprocals(tables_);
+}
+
+void Model::countStarted(RefineCount& rc) noexcept {
+    Windows& w = *win_;
+    for (uint32_t p = 0; p < w.picks; ++p)
+        if (w.pick_done[p] && w.pick_ord[p] != w.counted_ord) {
+            w.counted_ord = w.pick_ord[p];
+            ++rc.started;
+        }
+}
+
+bool Model::refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
+    Windows& w = *win_;
+    w.key = (static_cast<uint64_t>(rng_.next()) << 32) | rng_.next();
+    groupWindow();
+    bool go = true;
+    for (int c = 0; c < colours_ && go; ++c) {
+        const uint32_t b = w.colour_begin[c], e = w.colour_begin[c + 1];
+        if (b == e) continue;
+        const uint64_t tokens = roundTokens(b, e);
+        if (rc.tokens >= limits.tokens || (limits.control && !limits.control->beforeRound(tokens))) {
+            go = false;
+            break;
+        }
+        runRound(b, e);
+        rc.tokens += tokens;
+        tokens_refined_ += tokens;
+        ++rc.rounds;
+        for (uint32_t i = b; i < e; ++i)
+            for (uint32_t p = w.task_head[w.order[i]]; p != Windows::kNone; p = w.pick_next[p]) w.pick_done[p] = 1;
+        if (limits.control) limits.control->afterRound(tokens);
+    }
+    countStarted(rc);
+    return go;
+}
+
+RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
+    RefineCount rc;
+    if (steps_ == 0) return rc;
+    Windows& w = *win_;
+    w.cur_step = -1;
+    w.next_cell = 0;
+    w.counted_ord = 0;
+    while (fillWindow(picker, limits, rc)) {
+        const bool go = w.W == 1 ? refineSerialWindow(limits, rc) : refineParallelWindow(limits, rc);
+        if (!go) break;
+    }
+    return rc;
+}
+
+uint64_t Model::refineAll(int sweeps) noexcept {
+    if (sweeps <= 0 || steps_ == 0) return 0;
+    SweepPicker picker(oldestStep(), steps_);
+    RefineLimits limits;
+    limits.steps = static_cast<uint64_t>(sweeps) * static_cast<uint64_t>(steps_ - oldestStep());
+    return refine(picker, limits).tokens;
+}
+
+} // namespace rost

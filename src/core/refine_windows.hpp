@@ -1,0 +1,62 @@
+#pragma once
+
+// The state of Model::refine's windows (internal; src/core/refine_windows.cpp).
+
+#include <cstddef>
+#include <cstdint>
+
+#include "rost/aligned_buffer.hpp"
+#include "rost/model.hpp"
+#include "worker_pool.hpp"
+
+namespace rost {
+
+// The picks of the current window, their cells (tasks) and the rounds.
+// Sized at construction: nothing here allocates afterwards.
+struct Model::Windows {
+    uint32_t W = 1;
+    // Picks, in draw order.
+    uint32_t picks = 0;
+    AlignedBuffer<int64_t> pick_step;
+    AlignedBuffer<int32_t> pick_cell;
+    AlignedBuffer<uint64_t> pick_ord;    // which step pick it came from (1, 2, ...)
+    AlignedBuffer<uint32_t> pick_next;   // the task's next pick, or kNone
+    AlignedBuffer<uint8_t> pick_done;
+    // Tasks: one per distinct cell of the window, in order of first pick.
+    uint32_t tasks = 0;
+    AlignedBuffer<int64_t> task_step;
+    AlignedBuffer<int32_t> task_cell;
+    AlignedBuffer<uint32_t> task_head;   // first pick
+    AlignedBuffer<uint32_t> task_tail;   // last pick
+    AlignedBuffer<uint32_t> task_mult;   // picks
+    AlignedBuffer<uint32_t> task_colour;
+    AlignedBuffer<std::size_t> task_z0;  // offset of its labels at the round's start
+    // Tasks ordered by colour; round c is order[colour_begin[c], colour_begin[c + 1]).
+    AlignedBuffer<uint32_t> order;
+    AlignedBuffer<uint32_t> colour_begin;
+    // (step, cell) -> task, open addressing, cleared lazily by stamp.
+    AlignedBuffer<int64_t> hash_key;
+    AlignedBuffer<uint32_t> hash_task;
+    AlignedBuffer<uint32_t> hash_stamp;
+    uint32_t stamp = 0;
+    // Labels of a round's cells when it began (frozen view of n_k^v).
+    AlignedBuffer<uint16_t> z0;
+    // Per worker: neighbourhood sums.
+    AlignedBuffer<int32_t> worker_g;
+    uint64_t key = 0;
+    // The step being expanded into cell picks.
+    int64_t cur_step = -1;
+    int next_cell = 0;
+    uint64_t cur_ord = 0;
+    uint64_t counted_ord = 0;
+    static constexpr uint32_t kNone = 0xFFFFFFFFu;
+
+    std::size_t bytes() const noexcept {
+        return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
+               task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
+               task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() + hash_key.bytes() +
+               hash_task.bytes() + hash_stamp.bytes() + z0.bytes() + worker_g.bytes() + sizeof(Windows);
+    }
+};
+
+} // namespace rost
