@@ -3,3 +3,5 @@ rost_add_test(test_strategy SOURCES test_strategy.cpp)
 rost_add_test(test_engine SOURCES test_engine.cpp test_engine_threads.cpp)
 # Replaces operator new and the malloc family with counting versions: its own binary.
 rost_add_test(test_nomalloc SOURCES test_nomalloc.cpp)
+# Refinement in windows on every core (issue 13): results independent of the thread count.
+rost_add_test(test_parallel SOURCES test_parallel.cpp)

@@ -170,7 +170,7 @@ TEST(NoMalloc, TheCounterCatchesNewMallocAndAGrowingVector) {
     }
 }
 
-EngineConfig config(Budget b, DropPolicy drop);
+EngineConfig config(Budget b, DropPolicy drop, int threads = 1);
 
 // The counter also sees allocations made on the refiner thread: a hook that
 // allocates is caught.
@@ -196,9 +196,10 @@ TEST(NoMalloc, TheCounterCatchesAnAllocationOnTheRefinerThread) {
     EXPECT_GE(counted, frames.size());
 }
 
-EngineConfig config(Budget b, DropPolicy drop) {
+EngineConfig config(Budget b, DropPolicy drop, int threads) {
     EngineConfig e;
     e.model = smallConfig();
+    e.model.threads = threads;
     e.budget = b;
     e.drop = drop;
     e.queue_slots = 4;
@@ -208,8 +209,8 @@ EngineConfig config(Budget b, DropPolicy drop) {
 // Thousands of observations through tryPush, the refiner thread and
 // snapshot reads, under each budget kind and drop policy: nothing allocates
 // between start() returning and stop().
-void runThreaded(Budget b, DropPolicy drop) {
-    Engine e(config(b, drop));
+void runThreaded(Budget b, DropPolicy drop, int threads = 1) {
+    Engine e(config(b, drop, threads));
     const auto frames = makeStream(e.config().model, 64, 300, 31);
     Snapshot snap = e.makeSnapshot();
     ASSERT_TRUE(e.start().ok());
@@ -249,6 +250,13 @@ TEST(NoMalloc, ThreadedEngineMakesNoAllocationAfterStartWithATimeBudget) {
     runThreaded(Budget::time(0.2), DropPolicy::DropOldest);
 }
 
+// With refinement workers (refine.window 256, threads 3): the rounds, the
+// pool's barrier and parking between observations allocate nothing.
+TEST(NoMalloc, ThreadedEngineWithRefinementWorkersMakesNoAllocationAfterStart) {
+    runThreaded(Budget::steps(4), DropPolicy::DropOldest, 3);
+    runThreaded(Budget::time(0.2), DropPolicy::DropNewest, 3);
+}
+
 // The engine's publication of results (Engine::publishResults): the refiner
 // copies every observation's results and every leaving observation's final
 // labels into its rings, and this thread reads them, with nothing allocated
@@ -285,7 +293,8 @@ TEST(NoMalloc, ThreadedEngineWithPublishedResultsMakesNoAllocationAfterStart) {
 }
 
 TEST(NoMalloc, SynchronousProcessNowEvictionAndFinalPassMakeNoAllocation) {
-    Engine e(config(Budget::steps(2), DropPolicy::DropOldest));
+  for (const int threads : {1, 2}) {
+    Engine e(config(Budget::steps(2), DropPolicy::DropOldest, threads));
     const auto frames = makeStream(e.config().model, 64, 300, 32);
     Snapshot snap = e.makeSnapshot();
     uint64_t evicted = 0;
@@ -297,9 +306,10 @@ TEST(NoMalloc, SynchronousProcessNowEvictionAndFinalPassMakeNoAllocation) {
         e.refineExtra(Budget::steps(10));
         e.finalPass(1);
         e.flushWindowToEvictionHook();
-        EXPECT_EQ(c.count(), 0u);
+        EXPECT_EQ(c.count(), 0u) << threads << " threads";
     }
     EXPECT_EQ(evicted, 2000u);
+  }
 }
 
 } // namespace

@@ -2,6 +2,9 @@
 #include <filesystem>
 #include <cstdio>
 #include <sstream>
+#include <thread>
+
+#include <sched.h>
 
 #include "rost/config_file.hpp"
 #include "rost/settings.hpp"
@@ -22,6 +25,19 @@ EngineFlags toolFlags(bool realtime) {
     return f;
 }
 
+// --threads when given; else the CPUs this process may run on, less one
+// for the capture thread of a realtime run, at least 1. The result is the
+// same for any number of threads: this only sets how fast it comes.
+int toolThreads(const ModelOptions& m, bool realtime) {
+    if (m.isGiven("threads")) return m.settings.engine.model.threads;
+    int n = 0;
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) == 0) n = CPU_COUNT(&set);
+    if (n <= 0) n = static_cast<int>(std::thread::hardware_concurrency());
+    return std::clamp(n - (realtime ? 1 : 0), 1, static_cast<int>(settingSpec("threads").hi));
+}
+
 } // namespace
 
 int fail(const std::string& message) {
@@ -36,6 +52,7 @@ Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int
     c.V = V;
     c.frame_width = width;
     c.frame_height = height;
+    c.threads = toolThreads(m, realtime);
     if (!m.isGiven("ring.steps") && frames_hint > 0 && c.cell_time > 0) {
         // Keep a short input whole, so every observation stays refinable to the end.
         const int64_t steps = (frames_hint + c.cell_time - 1) / c.cell_time + 1;
@@ -102,6 +119,7 @@ Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool
     e.queue_slots = m.settings.engine.queue_slots;
     e.drop = m.settings.engine.drop;
     e.thread = m.settings.engine.thread;
+    e.model.threads = toolThreads(m, realtime);
     e.flags = toolFlags(realtime);
     if (Status st = e.validate(); !st.ok()) return st;
     out = e;

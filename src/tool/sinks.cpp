@@ -244,10 +244,12 @@ std::string RunReport::settingsText() const {
                   ec.model.g_time, ec.model.ring_steps, ec.model.cell_capacity, ec.model.max_words_per_frame,
                   toString(ec.model.eviction), static_cast<unsigned long long>(ec.model.seed));
     s += buf;
-    std::snprintf(buf, sizeof buf, "refinement: sampler %s, eta = %g, q = %g, budget %s, final sweeps %d, %s\n",
+    std::snprintf(buf, sizeof buf,
+                  "refinement: sampler %s, eta = %g, q = %g, budget %s, final sweeps %d, refine.window %d, "
+                  "threads %d, %s\n",
                   toString(ec.strategy.kind), ec.strategy.eta, ec.strategy.q,
                   budgetText(ec, "%g ms per observation", " refines per observation").c_str(),
-                  o.model.settings.final_sweeps,
+                  o.model.settings.final_sweeps, ec.model.refine_window, ec.model.threads,
                   realtime                             ? "realtime (capture and refiner threads)"
                   : ec.budget.kind == BudgetKind::Time ? "offline (time budget: not reproducible)"
                                                        : "offline (count budget, reproducible)");

@@ -1,0 +1,226 @@
+// Refinement in windows on every core (Model::refine, src/core/worker_pool):
+// the same labels, counts and perplexity for any number of threads; the
+// count invariants after every round; the colouring; W = 1 is the serial
+// sampler; the pool under more threads than cores.
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "rost/engine.hpp"
+#include "rost/model.hpp"
+#include "test_engine_support.hpp"
+#include "worker_pool.hpp"
+
+namespace rost {
+namespace {
+
+using testing::makeStream;
+using testing::smallConfig;
+
+// Everything a run exposes, to compare runs with.
+struct Outcome {
+    std::vector<uint16_t> labels, samples;
+    std::vector<int32_t> nkv;
+    std::vector<double> perplexity;
+    uint64_t tokens = 0;
+    bool operator==(const Outcome&) const = default;
+};
+
+Outcome outcomeOf(const Model& m) {
+    Outcome o;
+    for (uint64_t f = 0; f < m.observations(); ++f) {
+        if (!m.observationInWindow(f)) continue;
+        std::vector<uint16_t> l(m.observationSize(f)), s(m.observationSize(f));
+        m.observationLabels(f, l);
+        m.observationSamples(f, s);
+        o.labels.insert(o.labels.end(), l.begin(), l.end());
+        o.samples.insert(o.samples.end(), s.begin(), s.end());
+    }
+    for (int v = 0; v < m.V(); ++v)
+        for (int k = 0; k < m.K(); ++k) o.nkv.push_back(m.topicWordCount(k, v));
+    for (int64_t t = m.oldestStep(); t < m.steps(); ++t) o.perplexity.push_back(m.stepPerplexity(t));
+    o.tokens = m.tokensRefined();
+    return o;
+}
+
+// A video-like grid (12 cells a step) and a word stream (1 cell a step).
+Config gridConfig(int threads, int window) {
+    Config c = smallConfig();
+    c.threads = threads;
+    c.refine_window = window;
+    return c;
+}
+Config streamConfig(int threads, int window) {
+    Config c = gridConfig(threads, window);
+    c.frame_width = 1;
+    c.frame_height = 1;
+    c.cell_capacity = 256;
+    return c;
+}
+
+Outcome engineRun(const Config& model, Budget budget, int frames) {
+    EngineConfig ec;
+    ec.model = model;
+    ec.budget = budget;
+    Engine e(ec);
+    const auto stream = makeStream(model, frames, 200, 5);
+    for (const auto& f : stream) EXPECT_TRUE(e.processNow(f.view()).add.ok());
+    e.finalPass(3);
+    std::string why;
+    EXPECT_TRUE(e.model().checkInvariants(&why)) << why;
+    return outcomeOf(e.model());
+}
+
+TEST(ParallelRefine, OneToFourThreadsGiveIdenticalLabelsCountsAndPerplexity) {
+    for (const auto make : {&gridConfig, &streamConfig})
+        for (const Budget b : {Budget::steps(6), Budget::tokens(2000)}) {
+            const Outcome one = engineRun(make(1, 64), b, 40);
+            ASSERT_GT(one.tokens, 0u);
+            for (int threads = 2; threads <= 4; ++threads)
+                EXPECT_TRUE(engineRun(make(threads, 64), b, 40) == one)
+                    << threads << " threads differ from 1 (budget kind " << static_cast<int>(b.kind) << ")";
+        }
+}
+
+TEST(ParallelRefine, ATokenBudgetIsPassedByLessThanOneCell) {
+    for (const int threads : {1, 3}) {
+        EngineConfig ec;
+        ec.model = gridConfig(threads, 256);
+        ec.budget = Budget::tokens(100);
+        Engine e(ec);
+        for (const auto& f : makeStream(ec.model, 30, 200, 9)) {
+            const ObservationResult r = e.processNow(f.view());
+            EXPECT_GE(r.tokens, 100u);
+            EXPECT_LT(r.tokens, 100u + static_cast<uint64_t>(ec.model.cell_capacity));
+        }
+    }
+}
+
+// Checks the count tables after every round of every window.
+class InvariantCheck final : public RefineControl {
+public:
+    explicit InvariantCheck(const Model& m) : m_(m) {}
+    void afterRound(uint64_t) noexcept override {
+        ++rounds;
+        if (failure.empty() && !m_.checkInvariants(&failure) && failure.empty()) failure = "invariants failed";
+    }
+    const Model& m_;
+    uint64_t rounds = 0;
+    std::string failure;
+};
+
+class Sweep final : public StepPicker {
+public:
+    explicit Sweep(const Model& m) : m_(m), t_(m.oldestStep()) {}
+    int64_t next() noexcept override {
+        const int64_t t = t_;
+        t_ = t_ + 1 < m_.steps() ? t_ + 1 : m_.oldestStep();
+        return t;
+    }
+    const Model& m_;
+    int64_t t_;
+};
+
+TEST(ParallelRefine, CountsAreConsistentAfterEveryRound) {
+    for (const int window : {2, 16, 256}) {
+        Model m(gridConfig(3, window));
+        for (const auto& f : makeStream(m.config(), 20, 200, 3)) ASSERT_TRUE(m.addObservation(f.words, f.positions).ok());
+        InvariantCheck check(m);
+        Sweep sweep(m);
+        RefineLimits limits;
+        limits.steps = 60;
+        limits.control = &check;
+        const RefineCount rc = m.refine(sweep, limits);
+        EXPECT_EQ(rc.steps, 60u);
+        EXPECT_EQ(rc.rounds, check.rounds);
+        EXPECT_GT(check.rounds, 1u);
+        EXPECT_TRUE(check.failure.empty()) << "window " << window << ": " << check.failure;
+    }
+}
+
+TEST(ParallelRefine, WindowOfOneIsTheSerialSampler) {
+    Model a(gridConfig(2, 1)), b(gridConfig(1, 1));
+    const auto stream = makeStream(a.config(), 20, 200, 4);
+    for (const auto& f : stream) {
+        ASSERT_TRUE(a.addObservation(f.words, f.positions).ok());
+        ASSERT_TRUE(b.addObservation(f.words, f.positions).ok());
+    }
+    a.refineAll(3);
+    for (int s = 0; s < 3; ++s)
+        for (int64_t t = b.oldestStep(); t < b.steps(); ++t) b.refineStep(t);
+    EXPECT_TRUE(outcomeOf(a) == outcomeOf(b));
+}
+
+TEST(ParallelRefine, NoTwoCellsOfAColourAreNeighbours) {
+    for (int gs = 0; gs <= 3; ++gs)
+        for (int gt = 0; gt <= 3; ++gt) {
+            Config c = smallConfig();
+            c.frame_width = 640;
+            c.frame_height = 480;
+            c.cell_space = 40;  // 16 x 12
+            c.g_space = gs;
+            c.g_time = gt;
+            const Model m(c);
+            const int gw = c.gridWidth(), cells = c.cellsPerStep();
+            int conflicts = 0;
+            for (int64_t t = 0; t < 8; ++t)
+                for (int a = 0; a < cells; ++a) {
+                    for (int b = 0; b < cells; ++b) {  // same step, spatial neighbours
+                        const int d = std::abs(a % gw - b % gw) + std::abs(a / gw - b / gw);
+                        if (a != b && d <= gs && m.colourOf(t, a) == m.colourOf(t, b)) ++conflicts;
+                    }
+                    for (int dt = 1; dt <= gt; ++dt)  // same cell, temporal neighbours
+                        if (m.colourOf(t, a) == m.colourOf(t + dt, a)) ++conflicts;
+                }
+            EXPECT_EQ(conflicts, 0) << "g.space " << gs << ", g.time " << gt << ": " << m.colours() << " colours";
+            if (gs == 1 && gt == 1) {
+                EXPECT_EQ(m.colours(), 2) << "radius 1: (t + x + y) mod 2";
+            }
+        }
+}
+
+TEST(ParallelRefine, ATimeBudgetStopsBetweenRoundsAndCountsThem) {
+    EngineConfig ec;
+    ec.model = gridConfig(2, 64);
+    ec.budget = Budget::time(2.0);
+    Engine e(ec);
+    uint64_t rounds = 0;
+    for (const auto& f : makeStream(ec.model, 20, 200, 6)) {
+        const ObservationResult r = e.processNow(f.view());
+        rounds += r.rounds;
+    }
+    EXPECT_GT(rounds, 20u);
+}
+
+// The pool's barrier spins a bounded time and then parks: 8 workers on this
+// machine's cores finish thousands of jobs, each seeing every worker once.
+struct CountJob final : detail::WorkerPool::Job {
+    std::atomic<uint64_t> calls{0};
+    std::atomic<uint64_t> mask{0};
+    void work(int worker) noexcept override {
+        calls.fetch_add(1, std::memory_order_relaxed);
+        mask.fetch_or(uint64_t{1} << worker, std::memory_order_relaxed);
+    }
+};
+
+TEST(WorkerPool, EveryWorkerRunsEveryJobAlsoWithMoreThreadsThanCores) {
+    detail::WorkerPool pool(8);
+    CountJob job;
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < 3000; ++i) pool.run(job);
+    EXPECT_EQ(job.calls.load(), 3000u * 8u);
+    EXPECT_EQ(job.mask.load(), 0xFFu);
+    EXPECT_EQ(pool.jobs(), 3000u);
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(60)) << "the barrier should not livelock";
+    // Idle long enough to park, then wake for another job.
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    pool.run(job);
+    EXPECT_EQ(job.calls.load(), 3001u * 8u);
+}
+
+} // namespace
+} // namespace rost
