@@ -44,10 +44,10 @@ std::string typeName(const SettingSpec& s) {
 bool isFrameSize(const SettingSpec& s) { return s.key == "frame.width" || s.key == "frame.height"; }
 
 // Which settings a command takes as options: refine has no frames to extract
-// words from and no realtime threads.
+// words from and no realtime threads, but refines on `threads` threads.
 bool isOption(const SettingSpec& s, SettingsOptions::Command cmd) {
     if (s.has(setting_flags::Library) || isFrameSize(s)) return false;
-    return cmd != SettingsOptions::Command::Refine ||
+    return cmd != SettingsOptions::Command::Refine || s.key == "threads" ||
            (s.group != SettingGroup::Words && s.group != SettingGroup::Runtime);
 }
 
