@@ -44,6 +44,8 @@
 #include <tuple>
 #include <vector>
 
+#include "counter_rng.hpp"
+#include "kernel.hpp"
 #include "rost/model.hpp"
 
 namespace {
@@ -406,6 +408,77 @@ TEST(SamplerStatistics, ChiSquareTailMatchesTables) {
     EXPECT_NEAR(chi2Survival(124.3421, 100), 0.05, 1e-6);
     EXPECT_NEAR(chi2Survival(2.0, 2), std::exp(-1.0), 1e-12);
     EXPECT_NEAR(chi2Survival(0.5, 4), 0.9735009788, 1e-9);
+}
+
+// ---- a round of a parallel window: the frozen kernel's conditional -------------------
+
+// During a round n_k^v and n_k are frozen with every word at its label when
+// the round began (a), while its own cell's counts hold its current label
+// (c). Its draws must follow eq. 5 with the word left out of n_k^v and n_k at
+// a and out of n_G^k at c; the frozen tables must not change. Both paths.
+TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelPaths) {
+    constexpr int K = 7, Kp = 8, V = 3;
+    const float alpha = 0.1f, beta = 0.5f;
+    rost::Rng r(77);
+    std::vector<int32_t> nkv(V * Kp, 0), nk(Kp, 0);
+    for (int v = 0; v < V; ++v)
+        for (int k = 0; k < K; ++k) nkv[v * Kp + k] = static_cast<int32_t>(r.below(12));
+    const uint32_t word = 1;
+    const int a = 2, c = 5;
+    nkv[word * Kp + a] += 1;  // the word itself, at its round-start label
+    for (int k = 0; k < K; ++k) nk[k] = nkv[k] + nkv[Kp + k] + nkv[2 * Kp + k] + static_cast<int32_t>(r.below(30));
+    alignas(64) float inv[Kp], dec[Kp], inc[Kp];
+    rost::kernel::Tables t;
+    t.nkv = nkv.data();
+    t.nk = nk.data();
+    t.inv = inv;
+    t.dec = dec;
+    t.inc = inc;
+    t.K = K;
+    t.Kp = Kp;
+    t.alpha = alpha;
+    t.beta = beta;
+    t.vbeta = static_cast<float>(V) * beta;
+    rost::kernel::refreshReciprocals(t);
+    std::vector<int32_t> g0(Kp, 0), nc0(Kp, 0);
+    for (int k = 0; k < K; ++k) g0[k] = static_cast<int32_t>(r.below(9));
+    g0[c] += 1;
+    nc0[c] = 1;
+    std::vector<double> law(K);
+    double total = 0;
+    for (int k = 0; k < K; ++k) {
+        const double l = k == a ? 1.0 : 0.0, m = k == c ? 1.0 : 0.0;
+        law[k] = (nkv[word * Kp + k] - l + beta) / (nk[k] - l + V * static_cast<double>(beta)) * (g0[k] - m + alpha);
+        total += law[k];
+    }
+    for (double& p : law) p /= total;
+    const std::vector<int32_t> nkvBefore = nkv, nkBefore = nk;
+    for (const Path path : {Path::Simd, Path::Scalar}) {
+        std::vector<double> counts(K, 0.0);
+        for (int d = 0; d < kDraws; ++d) {
+            alignas(64) int32_t g[Kp], nc[Kp];
+            std::copy(g0.begin(), g0.end(), g);
+            std::copy(nc0.begin(), nc0.end(), nc);
+            uint16_t z = c;
+            const uint16_t z0 = a;
+            rost::detail::CounterRng rng(12345, static_cast<uint64_t>(d));
+            if (path == Path::Simd)
+                rost::kernel::refineCellFrozen<0, Path::Simd>(t, g, nc, &word, &z, &z0, 1, rng);
+            else
+                rost::kernel::refineCellFrozen<0, Path::Scalar>(t, g, nc, &word, &z, &z0, 1, rng);
+            counts[z] += 1;
+            ASSERT_EQ(g[z], g0[z] + (z == c ? 0 : 1)) << "the neighbourhood sums follow the new label";
+            ASSERT_EQ(nc[z], 1);
+        }
+        GoodnessOfFit gof;
+        for (int k = 0; k < K; ++k) {
+            const double e = law[k] * kDraws;
+            gof.stat += (counts[k] - e) * (counts[k] - e) / e;
+        }
+        gof.df = K - 1;
+        EXPECT_GT(gof.p(), kPass) << (path == Path::Simd ? "simd: " : "scalar: ") << gof;
+        EXPECT_TRUE(nkv == nkvBefore && nk == nkBefore) << "a round must not write the frozen tables";
+    }
 }
 
 // ---- paper eq. 5: the exact conditional -----------------------------------------------
