@@ -108,7 +108,11 @@ void Model::allocateWindows() {
     w.hash_stamp.reset(h);
     // A round holds distinct cells of the ring, each at most cell.capacity words.
     const std::size_t cellsInRing = static_cast<std::size_t>(ring_) * static_cast<std::size_t>(cells_);
-    if (W > 1) w.z0.reset(std::min(W, cellsInRing) * static_cast<std::size_t>(cap_));
+    if (W > 1) {
+        w.z0.reset(std::min(W, cellsInRing) * static_cast<std::size_t>(cap_));
+        w.changed.reset(w.z0.size());
+    }
+    w.task_changed.reset(W);
     w.worker_g.reset(static_cast<std::size_t>(cfg_.threads) * static_cast<std::size_t>(Kp_));
     if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
     memory_bytes_ += w.bytes();
@@ -160,6 +164,12 @@ void Model::frozenTask(int worker, uint32_t task) noexcept {
         detail::CounterRng rng(w.key, p);
         kernel::refineCellFrozen<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, z, z0, n, rng);
     }
+    // The merge after the round visits only the changed labels.
+    uint32_t* changed = w.changed.data() + w.task_z0[task];
+    uint32_t m = 0;
+    for (uint32_t j = 0; j < n; ++j)
+        if (z[j] != z0[j]) changed[m++] = j;
+    w.task_changed[task] = m;
 }
 
 template <int KP, kernel::Path P>
@@ -313,12 +323,12 @@ void Model::mergeRound(uint32_t b, uint32_t e) noexcept {
         const uint32_t t = w.order[i];
         const std::size_t slot = slotOf(w.task_step[t]);
         const std::size_t base = (slot * cells_ + static_cast<std::size_t>(w.task_cell[t])) * cap_;
-        const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(w.task_cell[t])];
         const uint16_t* z = cell_z_.data() + base;
         const uint16_t* z0 = w.z0.data() + w.task_z0[t];
+        const uint32_t* changed = w.changed.data() + w.task_z0[t];
         const uint32_t* words = cell_words_.data() + base;
-        for (uint32_t j = 0; j < n; ++j) {
-            if (z[j] == z0[j]) continue;
+        for (uint32_t c = 0; c < w.task_changed[t]; ++c) {
+            const uint32_t j = changed[c];
             int32_t* row = nkv_.data() + static_cast<std::size_t>(words[j]) * Kp_;
             --row[z0[j]];
             ++row[z[j]];

@@ -39,8 +39,11 @@ struct Model::Windows {
     AlignedBuffer<uint32_t> hash_task;
     AlignedBuffer<uint32_t> hash_stamp;
     uint32_t stamp = 0;
-    // Labels of a round's cells when it began (frozen view of n_k^v).
+    // Labels of a round's cells when it began (frozen view of n_k^v), and
+    // which of them a task changed (its slots, listed by the task itself).
     AlignedBuffer<uint16_t> z0;
+    AlignedBuffer<uint32_t> changed;
+    AlignedBuffer<uint32_t> task_changed;  // how many
     // Per worker: neighbourhood sums.
     AlignedBuffer<int32_t> worker_g;
     uint64_t key = 0;
@@ -55,7 +58,7 @@ struct Model::Windows {
         return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
                task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
                task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() + hash_key.bytes() +
-               hash_task.bytes() + hash_stamp.bytes() + z0.bytes() + worker_g.bytes() + sizeof(Windows);
+               hash_task.bytes() + hash_stamp.bytes() + z0.bytes() + changed.bytes() + task_changed.bytes() + worker_g.bytes() + sizeof(Windows);
     }
 };
 
