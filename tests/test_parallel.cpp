@@ -186,14 +186,13 @@ TEST(ParallelRefine, NoTwoCellsOfAColourAreNeighbours) {
 TEST(ParallelRefine, ATimeBudgetStopsBetweenRoundsAndCountsThem) {
     EngineConfig ec;
     ec.model = gridConfig(2, 64);
-    ec.budget = Budget::time(2.0);
+    ec.budget = Budget::time(50.0);
     Engine e(ec);
-    uint64_t rounds = 0;
-    for (const auto& f : makeStream(ec.model, 20, 200, 6)) {
+    for (const auto& f : makeStream(ec.model, 8, 200, 6)) {
         const ObservationResult r = e.processNow(f.view());
-        rounds += r.rounds;
+        EXPECT_GE(r.rounds, 1u) << "50 ms hold at least a round of one observation's cells";
+        EXPECT_GT(r.tokens, 0u);
     }
-    EXPECT_GT(rounds, 20u);
 }
 
 // The pool's barrier spins a bounded time and then parks: 8 workers on this
@@ -211,15 +210,15 @@ TEST(WorkerPool, EveryWorkerRunsEveryJobAlsoWithMoreThreadsThanCores) {
     detail::WorkerPool pool(8);
     CountJob job;
     const auto t0 = std::chrono::steady_clock::now();
-    for (int i = 0; i < 3000; ++i) pool.run(job);
-    EXPECT_EQ(job.calls.load(), 3000u * 8u);
+    for (int i = 0; i < 1000; ++i) pool.run(job);
+    EXPECT_EQ(job.calls.load(), 1000u * 8u);
     EXPECT_EQ(job.mask.load(), 0xFFu);
-    EXPECT_EQ(pool.jobs(), 3000u);
+    EXPECT_EQ(pool.jobs(), 1000u);
     EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(60)) << "the barrier should not livelock";
     // Idle long enough to park, then wake for another job.
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     pool.run(job);
-    EXPECT_EQ(job.calls.load(), 3001u * 8u);
+    EXPECT_EQ(job.calls.load(), 1001u * 8u);
 }
 
 } // namespace
