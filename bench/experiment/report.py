@@ -545,14 +545,15 @@ def cmd_budget(a):
     plt.close(fig)
     budgets = sorted({p[3] for pts in series.values() for p in pts})
     sweeps = {p[3]: p[6] for pts in series.values() for p in pts}
-    lines = [f"Dataset {dataset} ({rows[0]['frames']} frames, {wpf:.0f} words a frame), "
+    lines = [header(a.results),
+             f"Dataset {dataset} ({rows[0]['frames']} frames, {wpf:.0f} words a frame), "
              f"{len({r['seed'] for r in rows})} seeds. Cells: instantaneous / final ratio (mean over seeds), each "
              "against batch Gibbs with the same total refinement (its sweeps in the header). Budget in whole-step "
              "refinements per observation (tokens / words per frame) and its T_R on this "
              f"machine (tokens / {rate / 1e6:.1f} M tokens/s).", ""]
     for title, i, j in (("our perplexity (word left out)", 1, 2),
-                        ("plug-in perplexity (the 2013 ROST code's: word kept, the cell's own topic mix)", 4, 5)):
-        lines.append(f"Ratios of the {title}:")
+                        ("the plug-in perplexity (the 2013 ROST code's: word kept, the cell's own topic mix)", 4, 5)):
+        lines.append(f"Ratios of {title}:")
         lines.append("")
         lines.append("| strategy | " + " | ".join(f"{b / wpf:.0f} ({b / rate * 1e3:.2g} ms; batch {sweeps[b]:.0f} "
                                                    "sweeps)" for b in budgets) + " |")
