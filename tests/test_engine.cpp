@@ -241,6 +241,7 @@ TEST(EnginePerplexity, InstantaneousPerplexityIsThePreviousStepsJustBeforeTheNex
         const Model& m = e.model();
         const bool opensStep = m.observations() % 2 == 0 && m.steps() > 0;
         const double expected = opensStep ? m.stepPerplexity(m.steps() - 1) : std::nan("");
+        const double expectedPlugin = opensStep ? m.stepPluginPerplexity(m.steps() - 1) : std::nan("");
         const int64_t prev = opensStep ? m.steps() - 1 : -1;
         const ObservationResult r = e.processNow(f.view());
         EXPECT_EQ(r.previous_step, prev);
@@ -248,8 +249,14 @@ TEST(EnginePerplexity, InstantaneousPerplexityIsThePreviousStepsJustBeforeTheNex
             ++opened;
             EXPECT_TRUE(sameBits(r.previous_perplexity, expected));
             EXPECT_TRUE(std::isfinite(r.previous_perplexity) && r.previous_perplexity > 1.0);
+            // The plug-in perplexity of the same step at the same instant: the word
+            // counts itself, so it predicts better than the left-out one.
+            EXPECT_TRUE(sameBits(r.previous_plugin, expectedPlugin));
+            EXPECT_TRUE(std::isfinite(r.previous_plugin) && r.previous_plugin > 1.0);
+            EXPECT_LT(r.previous_plugin, r.previous_perplexity);
         } else {
             EXPECT_TRUE(std::isnan(r.previous_perplexity));
+            EXPECT_TRUE(std::isnan(r.previous_plugin));
         }
         EXPECT_TRUE(sameBits(r.perplexity, e.model().stepPerplexity(r.step)));
     }
@@ -302,6 +309,7 @@ TEST(EngineSnapshot, HoldsTheNewestObservationsLabelsHistogramsSurpriseAndCounte
         EXPECT_TRUE(sameBits(s.perplexity, r.perplexity));
         EXPECT_TRUE(sameBits(s.surprise, m.observationSurprise(i)));
         EXPECT_TRUE(sameBits(s.previous_perplexity, r.previous_perplexity));
+        EXPECT_TRUE(sameBits(s.previous_plugin, r.previous_plugin));
         EXPECT_EQ(s.counters.ingested, i + 1);
         EXPECT_EQ(s.counters.pushed, i + 1);
         EXPECT_EQ(s.counters.refinements, 2 * (i + 1));

@@ -204,6 +204,73 @@ TEST(ModelPerplexity, WordLogProbIsTheNormalisedLeftOutConditional) {
     EXPECT_LT(lp, 0.0);
 }
 
+// ---- plug-in perplexity (the 2013 ROST code's) ----------------------------------
+
+// One topic, one cell, words [0, 0, 1] of V = 4, beta = 0.5: theta is 1, so
+// the plug-in p(w) = (n_w + beta) / (N + V beta) with every word counted
+// (0: 2.5 / 5, 1: 1.5 / 5), where the left-out one takes the word out first
+// (0: 1.5 / 4, 1: 0.5 / 4).
+TEST(ModelPluginPerplexity, KeepsTheWordInItsCountsWhereOursLeavesItOut) {
+    rost::Config c;
+    c.K = 1;
+    c.V = 4;
+    c.beta = 0.5;
+    c.frame_width = c.frame_height = 1;
+    c.ring_steps = 2;
+    rost::Model m(c);
+    const std::vector<uint32_t> w = {0, 0, 1};
+    const std::vector<rost::Position> p(3, rost::Position{0, 0});
+    ASSERT_TRUE(m.addObservation(w, p).ok());
+    const double plugin = std::exp(-(2 * std::log(0.5) + std::log(0.3)) / 3);
+    const double leftOut = std::exp(-(2 * std::log(0.375) + std::log(0.125)) / 3);
+    EXPECT_NEAR(m.stepPluginPerplexity(0), plugin, 1e-12);
+    EXPECT_NEAR(m.stepPerplexity(0), leftOut, 1e-12);
+    const rost::LogLoss cell = m.cellPluginLogLoss(0, 0);
+    EXPECT_EQ(cell.words, 3u);
+    EXPECT_NEAR(cell.perplexity(), plugin, 1e-12);
+    // Nothing outside the window or the grid.
+    EXPECT_TRUE(std::isnan(m.stepPluginPerplexity(1)));
+    EXPECT_EQ(m.cellPluginLogLoss(0, 1).words, 0u);
+}
+
+// The definition, recomputed from the public counts: each word's cell from
+// its position, theta from that cell's own histogram, phi from n_k^v.
+TEST(ModelPluginPerplexity, IsTheCodesFormulaOverTheCellsOwnTopicMix) {
+    rost::Config c = smallConfig();
+    c.cell_time = 2;
+    rost::Model m(c);
+    rost::Rng r(17);
+    std::vector<std::vector<uint32_t>> words;
+    std::vector<std::vector<rost::Position>> positions;
+    for (int f = 0; f < 6; ++f) {
+        words.emplace_back();
+        positions.emplace_back();
+        randomFrame(r, c, 12, words.back(), positions.back());  // no cell fills up
+        ASSERT_EQ(m.addObservation(words.back(), positions.back()).kept, 12u);
+        m.refineAll(2);
+    }
+    const double vbeta = c.V * c.beta;
+    for (int64_t t = 0; t < m.steps(); ++t) {
+        double nll = 0.0;
+        uint64_t n = 0;
+        for (uint64_t f = static_cast<uint64_t>(t) * 2; f < static_cast<uint64_t>(t + 1) * 2; ++f)
+            for (std::size_t i = 0; i < words[f].size(); ++i) {
+                const int cell = positions[f][i].y / c.cell_space * c.gridWidth() + positions[f][i].x / c.cell_space;
+                const auto h = m.cellHistogram(t, cell);
+                const double nc = m.cellWordCount(t, cell);
+                double pw = 0.0;
+                for (int k = 0; k < c.K; ++k)
+                    pw += (m.topicWordCount(k, static_cast<int>(words[f][i])) + c.beta) / (m.topicCount(k) + vbeta) *
+                          (h[static_cast<std::size_t>(k)] + c.alpha) / (nc + c.K * c.alpha);
+                nll -= std::log(pw);
+                ++n;
+            }
+        const rost::LogLoss got = m.stepPluginLogLoss(t);
+        EXPECT_EQ(got.words, n) << t;
+        EXPECT_NEAR(got.nll, nll, 1e-9 * nll) << t;
+    }
+}
+
 TEST(ModelMemory, ReportedUpFrontAndCoversTheRing) {
     rost::Config c;
     rost::Model m(c);

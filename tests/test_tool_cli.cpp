@@ -3,10 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "rost/random.hpp"
 #include "rost/settings.hpp"
 #include "test_vision_support.hpp"
 
@@ -242,4 +244,102 @@ TEST(ToolCli, ASettingsValueOnTheCommandLineIsCheckedByTheSchema) {
     expectError(runRost("run " + in + " --thumb.cell 0"), "thumb.cell = 0, allowed [1, 256]", t / "o");
     expectError(runRost("run " + in + " --queue x"), "--queue.slots: expected an integer, found 'x'", t / "o");
     expectError(runRost("config --alpha 0"), "alpha = 0, allowed (0, 1e+06]");
+}
+
+// ---- words an observation holds ----------------------------------------------------
+
+namespace {
+
+// 1280 x 720 frames of 16 px blocks in saturated colours: every thumbnail
+// pixel gives an intensity and a hue word, and the block corners give ORB
+// plenty of keypoints: about 8,200 words a frame, twice the library's
+// default max.words.
+void writeBlockFrames(const TempDir& t, int frames) {
+    rost::Rng rng(11);
+    for (int f = 0; f < frames; ++f) {
+        cv::Mat img(720, 1280, CV_8UC3);
+        for (int y = 0; y < 720; y += 16)
+            for (int x = 0; x < 1280; x += 16) {
+                const uint32_t c = rng.below(6);
+                const cv::Scalar colour(c == 0 || c == 3 ? 255 : 0, c == 1 || c == 3 ? 255 : 40 * (c % 2),
+                                        c == 2 || c >= 4 ? 255 : 0);
+                img(cv::Rect(x, y, 16, 16)).setTo(colour);
+            }
+        char name[32];
+        std::snprintf(name, sizeof name, "f%02d.png", f);
+        cv::imwrite(t / name, img);
+    }
+}
+
+struct WordCounts {
+    long long words = 0, kept = 0;
+};
+WordCounts framesCsvCounts(const std::string& path) {
+    WordCounts w;
+    const auto ls = rost::testing::lines(rost::testing::readText(path));
+    for (std::size_t i = 1; i < ls.size(); ++i) {
+        const auto f = rost::testing::fields(ls[i]);
+        w.words += std::stoll(f[2]);
+        w.kept += std::stoll(f[7]);
+    }
+    return w;
+}
+
+std::string runTxtLine(const std::string& dir, const std::string& start) {
+    for (const auto& l : rost::testing::lines(rost::testing::readText(dir + "/run.txt")))
+        if (l.rfind(start, 0) == 0) return l;
+    return {};
+}
+
+} // namespace
+
+// By default an observation holds every word the extractors can give a frame
+// of the input's size; a smaller max.words or cell.capacity drops words, and
+// the run says how many, once on stderr (unless --quiet) and in run.txt.
+TEST(ToolWords, MaxWordsFollowsTheFrameSizeAndDroppedWordsAreReported) {
+    TempDir t;
+    writeBlockFrames(t, 3);
+    const std::string in = "'" + t.path() + "/*.png' --no-overlay --no-summary";
+    RunResult r = runRost("run " + in + " --cell.capacity 4096 --out " + (t / "all"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err.find("dropped"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("max.words 8200"), std::string::npos) << "1000 ORB + 2 x 80 x 45 thumbnail words: " << r.err;
+    const WordCounts all = framesCsvCounts(t / "all/frames.csv");
+    EXPECT_GT(all.words, 3 * 4096) << "more than the library's default max.words";
+    EXPECT_EQ(all.kept, all.words);
+    EXPECT_EQ(runTxtLine(t / "all", "words dropped:"), "words dropped: none of " + std::to_string(all.words) +
+                                                           " (max.words = 8200, cell.capacity = 4096)");
+
+    r = runRost("run " + in + " --cell.capacity 4096 --max.words 3000 --out " + (t / "obs"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const WordCounts obs = framesCsvCounts(t / "obs/frames.csv");
+    EXPECT_EQ(obs.words, all.words);
+    EXPECT_EQ(obs.kept, 3 * 3000);
+    const std::string dropped = std::to_string(obs.words - obs.kept);
+    char pct[32];
+    std::snprintf(pct, sizeof pct, "%.3g %%", 100.0 * static_cast<double>(obs.words - obs.kept) / obs.words);
+    const std::string note = std::string("rost: note: ") + pct + " of the words were dropped (" + dropped + " of " +
+                             std::to_string(obs.words) + ": " + dropped +
+                             " beyond max.words = 3000; uniformly subsampled); a larger --max.words keeps them\n";
+    EXPECT_NE(r.err.find(note), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("dropped"), r.err.rfind("dropped")) << "said once: " << r.err;
+    EXPECT_EQ(runTxtLine(t / "obs", "words dropped:"), "words dropped: " + dropped + " of " +
+                                                           std::to_string(obs.words) + " (" + pct + "): " + dropped +
+                                                           " beyond max.words = 3000; uniformly subsampled");
+
+    r = runRost("run " + in + " --cell.capacity 8 --out " + (t / "cell"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const WordCounts cell = framesCsvCounts(t / "cell/frames.csv");
+    EXPECT_LE(cell.kept, 3 * 8 * 20 * 12) << "240 cells of 8 words a frame";
+    const std::string cellDropped = std::to_string(cell.words - cell.kept);
+    EXPECT_NE(r.err.find("(" + cellDropped + " of " + std::to_string(cell.words) + ": " + cellDropped +
+                         " beyond cell.capacity = 8; uniformly subsampled); a larger --cell.capacity keeps them"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("beyond max.words"), std::string::npos) << r.err;
+
+    r = runRost("run " + in + " --cell.capacity 8 --quiet --out " + (t / "quiet"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err, "") << "--quiet: no notes";
+    EXPECT_EQ(runTxtLine(t / "quiet", "words dropped:"), runTxtLine(t / "cell", "words dropped:"));
 }

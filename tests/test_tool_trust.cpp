@@ -440,7 +440,14 @@ TEST(ToolTrust, HostileWordStreamsAndVideosGetOneLineErrorsWithExitCode2) {
                 (t / "p.csv") + ":1:7: position (5000, 5) outside the frame 640x480", t / "o");
     std::string enormous = "0";
     for (int i = 0; i < 5000; ++i) enormous += ",1";
-    expectError(refineIt(enormous + "\n", "", ""), (t / "w.csv") + ":1:1: 5000 words in one observation, at most 4096", t / "o");
+    // max.words given: a longer observation is an error naming the line; not given, it is the
+    // stream's longest observation (nothing subsampled).
+    expectError(refineIt(enormous + "\n", "", "--max.words 4096"),
+                (t / "w.csv") + ":1:1: 5000 words in one observation, at most 4096", t / "o");
+    ASSERT_EQ(refineIt(enormous + "\n1,2\n", "", "").exit_code, 0);
+    EXPECT_EQ(lines(t / "o/topics.csv"), 2);
+    EXPECT_EQ(rost::testing::fields(rost::testing::lines(rost::testing::readText(t / "o/topics.csv"))[0]).size(), 5001u);
+    std::filesystem::remove_all(t / "o");
     expectError(refineIt("0,1,-2\n", "", ""), (t / "w.csv") + ":1:5", t / "o");
     expectError(refineIt("# nothing\n\n", "", ""), (t / "w.csv") + ": no observations", t / "o");
     // An empty frame (no words: a dark or featureless image) is an observation, not an error.

@@ -217,3 +217,58 @@ TEST(VisionWords, ExtractionNeverWritesIntoTheCallersImages) {
     EXPECT_EQ(cv::norm(grey, greyCopy, cv::NORM_INF), 0.0);
     EXPECT_EQ(cv::norm(colour, colourCopy, cv::NORM_INF), 0.0);
 }
+
+// ---- the most words a frame gives (the tool's max.words) ------------------------
+
+namespace {
+// Blocks of `cell` px in saturated colours: every thumbnail pixel has a hue,
+// and the block corners give ORB many keypoints.
+cv::Mat saturatedBlocks(int w, int h, int cell, uint64_t seed) {
+    Rng rng(seed);
+    cv::Mat img(h, w, CV_8UC3);
+    for (int y = 0; y < h; y += cell)
+        for (int x = 0; x < w; x += cell) {
+            const cv::Scalar colours[] = {{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {255, 255, 0}, {0, 255, 255}, {255, 0, 255}};
+            img(cv::Rect(x, y, std::min(cell, w - x), std::min(cell, h - y))).setTo(colours[rng.below(6)]);
+        }
+    return img;
+}
+} // namespace
+
+TEST(VisionWords, MaxWordsPerFrameIsTheMostExtractionGivesAndIsReached) {
+    ExtractorConfig c;
+    // The default extractors on 1280 x 720: 1000 ORB + 80 x 45 intensity + 80 x 45 hue.
+    EXPECT_EQ(maxWordsPerFrame(c, 1280, 720), 8200u);
+    EXPECT_EQ(maxWordsPerFrame(c, 640, 480), 1000u + 2u * 40u * 30u);
+    EXPECT_EQ(maxWordsPerFrame(c, 8, 8), 1000u + 2u) << "a frame smaller than a block still has one thumbnail pixel";
+    c.hue = false;
+    c.thumb_cell = 8;
+    c.orb_features = 300;
+    EXPECT_EQ(maxWordsPerFrame(c, 383, 287), 300u + 47u * 35u) << "thumbnail pixels: whole blocks";
+    c.orb = false;
+    c.intensity = false;
+    EXPECT_EQ(maxWordsPerFrame(c, 1280, 720), 0u);
+
+    // Extraction never gives more; the thumbnail words reach their part when every block has a hue.
+    Status st;
+    ExtractorConfig d;
+    d.orb_features = 50;
+    auto e = WordExtractor::create(d, vocabulary(), st);
+    ASSERT_TRUE(e) << st.message();
+    FrameWords w;
+    for (cv::Size size : {cv::Size(640, 480), cv::Size(1280, 720), cv::Size(383, 287)}) {
+        for (uint64_t seed : {1u, 2u}) {
+            ASSERT_TRUE(e->extract(texturedImage(size.width, size.height, seed), w));
+            EXPECT_LE(w.size(), maxWordsPerFrame(d, size.width, size.height)) << size;
+            EXPECT_LE(w.orb, 50u) << "orb.features is a maximum";
+        }
+        if (size.width % 16 == 0 && size.height % 16 == 0) {
+            // Every block has a hue: the thumbnail words reach their part of the bound.
+            ASSERT_TRUE(e->extract(saturatedBlocks(size.width, size.height, 16, 3), w));
+            ExtractorConfig thumbOnly = d;
+            thumbOnly.orb = false;
+            EXPECT_EQ(w.intensity + w.hue, maxWordsPerFrame(thumbOnly, size.width, size.height)) << size;
+            EXPECT_LE(w.orb, 50u) << size;
+        }
+    }
+}

@@ -66,6 +66,8 @@ OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConf
     const auto T = static_cast<std::size_t>(d.steps());
     res.instantaneous.assign(T, std::numeric_limits<double>::quiet_NaN());
     res.final_ppx.assign(T, std::numeric_limits<double>::quiet_NaN());
+    res.instantaneous_plugin.assign(T, std::numeric_limits<double>::quiet_NaN());
+    res.final_plugin.assign(T, std::numeric_limits<double>::quiet_NaN());
     res.tokens.assign(T, 0);
 
     EngineConfig ec;
@@ -91,8 +93,10 @@ OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConf
             firstProblem.compare_exchange_strong(expected, r.observation, std::memory_order_relaxed);
             return;
         }
-        if (r.previous_step >= 0 && static_cast<std::size_t>(r.previous_step) < T)
+        if (r.previous_step >= 0 && static_cast<std::size_t>(r.previous_step) < T) {
             res.instantaneous[static_cast<std::size_t>(r.previous_step)] = r.previous_perplexity;
+            res.instantaneous_plugin[static_cast<std::size_t>(r.previous_step)] = r.previous_plugin;
+        }
         if (r.observation < T) res.tokens[r.observation] = r.tokens;
     });
 
@@ -133,8 +137,14 @@ OnlineResult runOnline(const Dataset& d, const Config& model, const StrategyConf
     }
     // The last step's instantaneous perplexity: one step after its arrival is
     // now, after its budget (no later observation exists).
-    if (T > 0) res.instantaneous[T - 1] = m.stepPerplexity(static_cast<int64_t>(T) - 1);
-    for (std::size_t t = 0; t < T; ++t) res.final_ppx[t] = m.stepPerplexity(static_cast<int64_t>(t));
+    if (T > 0) {
+        res.instantaneous[T - 1] = m.stepPerplexity(static_cast<int64_t>(T) - 1);
+        res.instantaneous_plugin[T - 1] = m.stepPluginPerplexity(static_cast<int64_t>(T) - 1);
+    }
+    for (std::size_t t = 0; t < T; ++t) {
+        res.final_ppx[t] = m.stepPerplexity(static_cast<int64_t>(t));
+        res.final_plugin[t] = m.stepPluginPerplexity(static_cast<int64_t>(t));
+    }
     return res;
 }
 
@@ -169,7 +179,11 @@ BatchResult runBatch(const Dataset& d, const Config& model, int sweeps) {
     res.seconds = secondsSince(t0);
     res.sweeps = sweeps;
     res.ppx.resize(static_cast<std::size_t>(m.steps()));
-    for (int64_t t = 0; t < m.steps(); ++t) res.ppx[static_cast<std::size_t>(t)] = m.stepPerplexity(t);
+    res.plugin.resize(static_cast<std::size_t>(m.steps()));
+    for (int64_t t = 0; t < m.steps(); ++t) {
+        res.ppx[static_cast<std::size_t>(t)] = m.stepPerplexity(t);
+        res.plugin[static_cast<std::size_t>(t)] = m.stepPluginPerplexity(t);
+    }
     return res;
 }
 

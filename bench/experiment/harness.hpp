@@ -16,7 +16,10 @@
 //    the same total refinement as the online run it is compared with, in
 //    whole sweeps: sweeps = round(online tokens / words in the stream).
 //  * every perplexity is Model::stepPerplexity (word left out of its own
-//    counts, docs/design.md), so the three compare like with like.
+//    counts, docs/design.md), so the three compare like with like; each is
+//    also taken as the plug-in perplexity of the 2013 ROST code
+//    (Model::stepPluginPerplexity: word kept, the cell's own topic mix) at
+//    the same instant, so the paper's definition stands beside ours.
 
 #include <cstdint>
 #include <functional>
@@ -38,6 +41,8 @@ const std::vector<StrategyKind>& paperOrder();
 struct OnlineResult {
     std::vector<double> instantaneous;  // per step
     std::vector<double> final_ppx;      // per step
+    std::vector<double> instantaneous_plugin;  // per step, plug-in (Model::stepPluginPerplexity)
+    std::vector<double> final_plugin;          // per step, plug-in
     std::vector<uint64_t> tokens;       // refined in each observation's budget
     uint64_t total_tokens = 0;          // all refinement of the run
     double seconds = 0.0;               // wall time of the run
@@ -47,7 +52,8 @@ struct OnlineResult {
 };
 
 struct BatchResult {
-    std::vector<double> ppx;  // per step
+    std::vector<double> ppx;     // per step
+    std::vector<double> plugin;  // per step, plug-in
     uint64_t tokens = 0;
     int sweeps = 0;
     double seconds = 0.0;

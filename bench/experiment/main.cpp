@@ -365,8 +365,11 @@ int doRun(const RunArgs& a, const std::string& command) {
     std::string runs =
         "dataset,frames,words,strategy,eta,q,tr_ms,budget_kind,budget_tokens,seed,inst_ratio,final_ratio,inst_ppx,"
         "final_ppx,batch_ppx,online_tokens,tokens_per_obs_mean,tokens_per_obs_min,tokens_per_obs_max,batch_sweeps,"
-        "batch_tokens,online_s,batch_s,overruns,max_overrun_ms,refiner\n";
-    std::string steps = "dataset,strategy,eta,q,tr_ms,budget_kind,seed,step,words,inst_ppx,final_ppx,batch_ppx\n";
+        "batch_tokens,online_s,batch_s,overruns,max_overrun_ms,refiner,inst_ratio_plugin,final_ratio_plugin,"
+        "inst_plugin,final_plugin,batch_plugin\n";
+    std::string steps =
+        "dataset,strategy,eta,q,tr_ms,budget_kind,seed,step,words,inst_ppx,final_ppx,batch_ppx,inst_plugin,"
+        "final_plugin,batch_plugin\n";
     for (const auto& t : online) {
         const BudgetSpec& b = budgets[t.budget];
         const BatchResult& br = batches[static_cast<std::size_t>(t.batch)].result;
@@ -389,13 +392,17 @@ int doRun(const RunArgs& a, const std::string& command) {
                 std::to_string(tmin) + "," + std::to_string(tmax) + "," + std::to_string(br.sweeps) + "," +
                 std::to_string(br.tokens) + "," + fmt(r.seconds, "%.3f") + "," + fmt(br.seconds, "%.3f") + "," +
                 std::to_string(r.overruns) + "," + fmt(static_cast<double>(r.max_overrun_ns) * 1e-6, "%.3f") + "," +
-                (b.budget.kind == BudgetKind::Time ? sched : std::string("synchronous")) + "\n";
+                (b.budget.kind == BudgetKind::Time ? sched : std::string("synchronous")) + "," +
+                fmt(meanRatio(r.instantaneous_plugin, br.plugin)) + "," + fmt(meanRatio(r.final_plugin, br.plugin)) +
+                "," + fmt(meanFinite(r.instantaneous_plugin)) + "," + fmt(meanFinite(r.final_plugin)) + "," +
+                fmt(meanFinite(br.plugin)) + "\n";
         if (!a.steps_csv) continue;
         for (std::size_t s = 0; s < r.final_ppx.size(); ++s)
             steps += d.name + "," + toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," +
                      kind + "," + std::to_string(t.seed) + "," + std::to_string(s) + "," +
                      std::to_string(d.frames[s].words.size()) + "," + fmt(r.instantaneous[s]) + "," +
-                     fmt(r.final_ppx[s]) + "," + fmt(br.ppx[s]) + "\n";
+                     fmt(r.final_ppx[s]) + "," + fmt(br.ppx[s]) + "," + fmt(r.instantaneous_plugin[s]) + "," +
+                     fmt(r.final_plugin[s]) + "," + fmt(br.plugin[s]) + "\n";
     }
     const std::string prefix = a.out + "/" + tag;
     if (Status s = writeFileAtomic(prefix + ".runs.csv", runs); !s.ok()) fail(s.message());

@@ -57,6 +57,10 @@ PAPER_INST = {
 }
 
 
+# The plug-in perplexity of the 2013 ROST code (Model::stepPluginPerplexity), beside ours.
+PLUGIN_FIELDS = ("inst_ratio_plugin", "final_ratio_plugin", "inst_plugin", "final_plugin", "batch_plugin")
+
+
 def num(x):
     try:
         return float(x)
@@ -103,8 +107,8 @@ def aggregate(rows):
     for k, rs in groups.items():
         a = {"n": len(rs), "frames": rs[0]["frames"]}
         for f in ("inst_ratio", "final_ratio", "inst_ppx", "final_ppx", "batch_ppx", "tokens_per_obs_mean",
-                  "online_s", "batch_sweeps", "overruns"):
-            a[f], a[f + "_sd"] = mean_sd([num(r[f]) for r in rs])
+                  "online_s", "batch_sweeps", "overruns") + PLUGIN_FIELDS:
+            a[f], a[f + "_sd"] = mean_sd([num(r.get(f)) for r in rs])
         a["tokens_per_obs_min"] = min(num(r["tokens_per_obs_min"]) for r in rs)
         a["tokens_per_obs_max"] = max(num(r["tokens_per_obs_max"]) for r in rs)
         a["budget_tokens"] = rs[0]["budget_tokens"]
@@ -117,7 +121,8 @@ def write_summary(agg, path):
     cols = ["dataset", "frames", "strategy", "eta", "q", "tr_ms", "budget_kind", "budget_tokens", "seeds",
             "inst_ratio", "inst_ratio_sd", "final_ratio", "final_ratio_sd", "inst_ppx", "final_ppx", "batch_ppx",
             "tokens_per_obs_mean", "tokens_per_obs_min", "tokens_per_obs_max", "batch_sweeps", "online_s",
-            "overruns"]
+            "overruns", "inst_ratio_plugin", "inst_ratio_plugin_sd", "final_ratio_plugin", "final_ratio_plugin_sd",
+            "inst_plugin", "final_plugin", "batch_plugin"]
     tmp = path + ".tmp"
     with open(tmp, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
@@ -181,15 +186,19 @@ def fmt3(x):
 
 
 def paper_table(agg, datasets, trs, metric, paper, title):
-    cols = [(d, t) for d in datasets for t in trs]
+    # Each (dataset, T_R) twice: our perplexity (word left out), then the plug-in one (the 2013 code's).
+    cols = [(d, t, m) for d in datasets for t in trs for m in (metric, metric + "_plugin")]
     best = {}
     for c in cols:
-        vals = [agg[k][metric] for k in agg if k[0] == c[0] and k[4] == c[1] and k[5] == "tokens"]
+        vals = [agg[k][c[2]] for k in agg if k[0] == c[0] and k[4] == c[1] and k[5] == "tokens"]
         best[c] = min((v for v in vals if math.isfinite(v)), default=float("nan"))
     pbest = [min(paper[s][i] for s in ORDER) for i in range(6)]
-    lines = [f"**{title}** (mean over time steps of online / batch perplexity, mean over seeds; "
-             "bold: best in the column; paper's Table values on the right)", ""]
-    head = ["Alg. ↓, T_R (ms) →"] + [f"{d} {t:g}" for d, t in cols] + \
+    lines = [f"**{title}** (mean over time steps of online / batch perplexity, mean over seeds; each dataset and "
+             "T_R twice: our perplexity, the word left out of its own counts, then the plug-in perplexity of the "
+             "2013 ROST code, the word kept and the cell's own topic mix; bold: best in the column; paper's Table "
+             "values on the right)", ""]
+    head = ["Alg. ↓, T_R (ms) →"] + [f"{d} {t:g}" + (" plug-in" if m.endswith("_plugin") else "")
+                                     for d, t, m in cols] + \
            [f"paper {d} {t}" for d in PAPER_DATASETS for t in (40, 160)]
     lines.append("| " + " | ".join(head) + " |")
     lines.append("|---|" + "---:|" * (len(head) - 1))
@@ -197,7 +206,7 @@ def paper_table(agg, datasets, trs, metric, paper, title):
         cells = [LABEL[s]]
         for c in cols:
             ks = [k for k in agg if k[0] == c[0] and k[1] == s and k[4] == c[1] and k[5] == "tokens"]
-            v = agg[ks[0]][metric] if ks else float("nan")
+            v = agg[ks[0]][c[2]] if ks else float("nan")
             cells.append(f"**{fmt3(v)}**" if math.isfinite(v) and abs(v - best[c]) < 5e-4 else fmt3(v))
         for i, v in enumerate(paper[s]):
             cells.append(f"**{v:.3f}**" if v == pbest[i] else f"{v:.3f}")
@@ -511,7 +520,8 @@ def cmd_budget(a):
     series = defaultdict(list)
     for k, v in agg.items():
         series[k[1]].append((float(v["budget_tokens"]) / wpf, v["inst_ratio"], v["final_ratio"],
-                             float(v["budget_tokens"])))
+                             float(v["budget_tokens"]), v["inst_ratio_plugin"], v["final_ratio_plugin"],
+                             v["batch_sweeps"]))
     os.makedirs(a.figures, exist_ok=True)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4), dpi=80)
     for s in ORDER:
@@ -534,17 +544,25 @@ def cmd_budget(a):
     fig.savefig(os.path.join(a.figures, name))
     plt.close(fig)
     budgets = sorted({p[3] for pts in series.values() for p in pts})
-    lines = [f"Dataset {dataset} ({rows[0]['frames']} frames, {wpf:.0f} words a frame), "
-             f"{len({r['seed'] for r in rows})} seeds. Cells: instantaneous / final ratio (mean over seeds). "
-             "Budget in whole-step refinements per observation (tokens / words per frame) and its T_R on this "
+    sweeps = {p[3]: p[6] for pts in series.values() for p in pts}
+    lines = [header(a.results),
+             f"Dataset {dataset} ({rows[0]['frames']} frames, {wpf:.0f} words a frame), "
+             f"{len({r['seed'] for r in rows})} seeds. Cells: instantaneous / final ratio (mean over seeds), each "
+             "against batch Gibbs with the same total refinement (its sweeps in the header). Budget in whole-step "
+             "refinements per observation (tokens / words per frame) and its T_R on this "
              f"machine (tokens / {rate / 1e6:.1f} M tokens/s).", ""]
-    lines.append("| strategy | " + " | ".join(f"{b / wpf:.0f} ({b / rate * 1e3:.2g} ms)" for b in budgets) + " |")
-    lines.append("|---|" + "---|" * len(budgets))
-    for s in ORDER:
-        by = {p[3]: p for p in series.get(s, [])}
-        lines.append(f"| {LABEL[s]} | " + " | ".join(
-            f"{by[b][1]:.3f} / {by[b][2]:.3f}" if b in by else "–" for b in budgets) + " |")
-    lines.append("")
+    for title, i, j in (("our perplexity (word left out)", 1, 2),
+                        ("the plug-in perplexity (the 2013 ROST code's: word kept, the cell's own topic mix)", 4, 5)):
+        lines.append(f"Ratios of {title}:")
+        lines.append("")
+        lines.append("| strategy | " + " | ".join(f"{b / wpf:.0f} ({b / rate * 1e3:.2g} ms; batch {sweeps[b]:.0f} "
+                                                   "sweeps)" for b in budgets) + " |")
+        lines.append("|---|" + "---|" * len(budgets))
+        for s in ORDER:
+            by = {p[3]: p for p in series.get(s, [])}
+            lines.append(f"| {LABEL[s]} | " + " | ".join(
+                f"{by[b][i]:.3f} / {by[b][j]:.3f}" if b in by else "–" for b in budgets) + " |")
+        lines.append("")
     lines.append(f"![ratio against budget]({a.fig_link}{name})")
     with open(a.markdown, "w", encoding="utf-8") as f:
         f.write("\n".join(lines) + "\n")

@@ -135,13 +135,20 @@ TEST(Experiment, InstantaneousPerplexityIsTakenJustBeforeTheNextStepArrives) {
     ec.flags.snapshot_perplexity = false;
     ec.flags.snapshot_labels = false;
     Engine e(ec);
-    std::vector<double> byHand;
+    std::vector<double> byHand, pluginByHand;
     for (const auto& f : d.frames) {
-        if (e.model().steps() > 0) byHand.push_back(e.model().stepPerplexity(e.model().steps() - 1));
+        if (e.model().steps() > 0) {
+            byHand.push_back(e.model().stepPerplexity(e.model().steps() - 1));
+            pluginByHand.push_back(e.model().stepPluginPerplexity(e.model().steps() - 1));
+        }
         e.processNow(ObservationView{f.timestamp, f.words, f.positions});
     }
     byHand.push_back(e.model().stepPerplexity(e.model().steps() - 1));
+    pluginByHand.push_back(e.model().stepPluginPerplexity(e.model().steps() - 1));
     expectBitEqual(r.instantaneous, byHand);
+    // The plug-in perplexity (the 2013 code's) at the same instants.
+    expectBitEqual(r.instantaneous_plugin, pluginByHand);
+    EXPECT_EQ(r.instantaneous_plugin.back(), r.final_plugin.back());
     // The last step: one step after its arrival is the end of the stream.
     EXPECT_EQ(r.instantaneous.back(), r.final_ppx.back());
     // Earlier steps changed after their instant (neighbours and n_k^v moved on).
@@ -163,7 +170,12 @@ TEST(Experiment, BatchReferenceGetsTheSameTotalRefinementInWholeSweeps) {
     EXPECT_LE(std::fabs(static_cast<double>(b.tokens) - static_cast<double>(r.total_tokens)),
               0.5 * static_cast<double>(d.words));
     ASSERT_EQ(b.ppx.size(), d.frames.size());
-    for (double p : b.ppx) EXPECT_TRUE(std::isfinite(p) && p > 1.0);
+    ASSERT_EQ(b.plugin.size(), d.frames.size());
+    for (std::size_t t = 0; t < b.ppx.size(); ++t) {
+        EXPECT_TRUE(std::isfinite(b.ppx[t]) && b.ppx[t] > 1.0);
+        EXPECT_TRUE(std::isfinite(b.plugin[t]) && b.plugin[t] > 1.0);
+        EXPECT_LT(b.plugin[t], b.ppx[t]) << "the word in its own counts predicts itself better";
+    }
 }
 
 TEST(Experiment, MeanRatioAveragesPerStepRatiosAndSkipsStepsWithoutPerplexity) {

@@ -121,6 +121,9 @@ struct ObservationResult {
     // observation did not open a step, for the first step, or when disabled.
     int64_t previous_step = -1;
     double previous_perplexity = std::numeric_limits<double>::quiet_NaN();
+    // The same step's plug-in perplexity at the same instant (Model::stepPluginPerplexity,
+    // the 2013 ROST code's definition); NaN whenever previous_perplexity is.
+    double previous_plugin = std::numeric_limits<double>::quiet_NaN();
     double perplexity = std::numeric_limits<double>::quiet_NaN();  // of `step` after refinement
     uint64_t refinements = 0;  // time-step draws
     uint64_t tokens = 0;       // tokens refined

@@ -221,6 +221,19 @@ public:
     // log p(w_i) of one stored word (slot within its cell).
     double wordLogProb(int64_t step, int cell, uint32_t slot) const noexcept;
 
+    // ---- plug-in perplexity (the 2013 ROST code's) -----------------------
+    // p(w_i) = sum_k phi_k(w_i) theta_c(k), phi_k(v) = (n_k^v + beta) /
+    // (n_k + V beta), theta_c(k) = (n_c^k + alpha) / (n_c + K alpha): every
+    // count as it stands, word i included (not left out), and the topic mix
+    // of the word's own cell alone (not its neighbourhood). This is what the
+    // public ROST code of the paper computed (ROST::estimate with update_ppx,
+    // yogeshgirdhar/rost-ros, rost_topics/include/rost.hpp; docs/design.md);
+    // it rewards a word for its own label, so it lies below the left-out
+    // perplexity above. src/core/plugin_perplexity.cpp; never allocates.
+    LogLoss cellPluginLogLoss(int64_t step, int cell) const noexcept;
+    LogLoss stepPluginLogLoss(int64_t step) const noexcept;
+    double stepPluginPerplexity(int64_t step) const noexcept { return stepPluginLogLoss(step).perplexity(); }
+
     // ---- curiosity ------------------------------------------------------
     // Surprise of an observation, computed when it is added, before its own
     // words touch any count: the perplexity of its words under the model as

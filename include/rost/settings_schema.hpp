@@ -59,8 +59,8 @@
       "time steps kept refinable (the tool: the whole input when its length is known, up to 2048)") \
     X("cell.capacity", Integer, Model, "256", 1, 1048576, "", "", 0, engine.model.cell_capacity, \
       "words a cell holds; more are uniformly subsampled") \
-    X("max.words", Integer, Model, "4096", 1, 4194304, "", "", 0, engine.model.max_words_per_frame, \
-      "words an observation holds; more are uniformly subsampled") \
+    X("max.words", Integer, Model, "4096", 1, 4194304, "", "", Derived, engine.model.max_words_per_frame, \
+      "words an observation holds; more are uniformly subsampled (the tool: as many as the extractors can give a frame of the input's size, or a word stream's longest observation, unless set)") \
     X("eviction", Choice, Model, "keep", 0, 0, "keep|subtract", "", 0, engine.model.eviction, \
       "what a time step leaving the window does to the topic model: keep its counts or subtract them") \
     X("seed", Integer, Model, "1", 0, 18446744073709551615.0, "", "", 0, engine.model.seed, \

@@ -63,6 +63,7 @@ public:
     // before the first observation of `step` was added (paper section VII).
     int64_t previous_step = -1;
     double previous_perplexity = std::numeric_limits<double>::quiet_NaN();
+    double previous_plugin = std::numeric_limits<double>::quiet_NaN();  // plug-in, same step and instant
     EngineCounters counters;
 
     int K() const noexcept { return K_; }

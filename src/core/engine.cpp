@@ -72,7 +72,7 @@ constexpr std::size_t wordsFor(std::size_t bytes) noexcept { return (bytes + 7) 
 
 // Header of a snapshot buffer, in 64-bit words.
 enum Header : std::size_t {
-    kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kWords,
+    kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kPrevPlugin, kWords,
     kPushed, kDroppedNewest, kDroppedOldest, kWordsTruncated, kIngested, kRejected, kWordsDroppedCell,
     kRefinements, kTokens, kOverruns, kMaxOverrun, kPublished,
     kHeaderWords
@@ -136,6 +136,7 @@ void SnapshotPublisher::publish(const Snapshot& s) noexcept {
     put(kSurprise, bitsOf(s.surprise));
     put(kPrevStep, static_cast<uint64_t>(s.previous_step));
     put(kPrevPerplexity, bitsOf(s.previous_perplexity));
+    put(kPrevPlugin, bitsOf(s.previous_plugin));
     put(kWords, nw);
     const EngineCounters& c = s.counters;
     put(kPushed, c.pushed);
@@ -187,6 +188,7 @@ bool SnapshotPublisher::read(Snapshot& out, int max_retries) const noexcept {
         out.surprise = doubleOf(get(kSurprise));
         out.previous_step = static_cast<int64_t>(get(kPrevStep));
         out.previous_perplexity = doubleOf(get(kPrevPerplexity));
+        out.previous_plugin = doubleOf(get(kPrevPlugin));
         const auto nw = static_cast<uint32_t>(std::min<uint64_t>(get(kWords), capacity_));
         out.n_words_ = nw;
         EngineCounters& c = out.counters;
@@ -606,6 +608,7 @@ void Engine::publish(const ObservationResult& r) noexcept {
     s.surprise = r.surprise;
     s.previous_step = r.previous_step;
     s.previous_perplexity = r.previous_perplexity;
+    s.previous_plugin = r.previous_plugin;
     if (cfg_.flags.snapshot_labels) {
         const uint32_t n = std::min<uint32_t>(m.observationSize(r.observation), static_cast<uint32_t>(s.labels_.size()));
         s.n_words_ = n;
@@ -698,6 +701,7 @@ void Engine::beforeObservation(ObservationResult& r) noexcept {
     if (cfg_.flags.instantaneous_perplexity) {
         r.previous_step = newStep - 1;
         r.previous_perplexity = m.stepPerplexity(newStep - 1);
+        r.previous_plugin = m.stepPluginPerplexity(newStep - 1);
     }
     const int64_t ring = m.config().ring_steps;
     if ((!on_evict_ && !pub_) || newStep < ring) return;

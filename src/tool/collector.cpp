@@ -29,9 +29,11 @@ void Collector::fromPublished() {
     o.error = r.add.error;
     o.error_index = r.add.index;
     o.kept = r.add.kept;
+    o.dropped_cell = r.add.dropped_cell;
     o.surprise = r.surprise;
     o.previous_step = r.previous_step;
     o.previous_perplexity = r.previous_perplexity;
+    o.previous_plugin = r.previous_plugin;
     o.refinements = r.refinements;
     o.elapsed_ns = r.elapsed_ns;
     if (o.rejected) return;
@@ -121,6 +123,8 @@ void Collector::takeObservation(const ObservationRecord& o) {
                          toString(o.error) + " at word " + std::to_string(o.error_index) + ")";
         return;
     }
+    kept_ += o.kept;
+    dropped_cell_ += o.dropped_cell;
     FrameRow row;
     row.frame = o.frame;
     row.ingested = true;
@@ -137,7 +141,10 @@ void Collector::takeObservation(const ObservationRecord& o) {
     if (o.previous_step >= 0)
         for (auto it = rows_.rbegin(); it != rows_.rend(); ++it) {
             if (it->step < o.previous_step) break;
-            if (it->step == o.previous_step) it->instantaneous = o.previous_perplexity;
+            if (it->step == o.previous_step) {
+                it->instantaneous = o.previous_perplexity;
+                it->plugin = o.previous_plugin;
+            }
         }
 }
 
@@ -158,8 +165,11 @@ void Collector::finish(int sweeps) {
         // The last step has no successor: its instantaneous perplexity is
         // taken now, at the end of its budget, before any final sweeps.
         const int64_t last = m.steps() - 1;
-        const double p = m.stepPerplexity(last);
-        for (auto it = rows_.rbegin(); it != rows_.rend() && it->step == last; ++it) it->instantaneous = p;
+        const double p = m.stepPerplexity(last), plugin = m.stepPluginPerplexity(last);
+        for (auto it = rows_.rbegin(); it != rows_.rend() && it->step == last; ++it) {
+            it->instantaneous = p;
+            it->plugin = plugin;
+        }
     }
     if (sweeps > 0) engine_.finalPass(sweeps);
     engine_.visitWindow([&](const WindowObservation& w, const Model& model) {
@@ -169,13 +179,15 @@ void Collector::finish(int sweeps) {
 }
 
 std::string Collector::perplexityCsv() const {
-    std::string s = "frame,instantaneous,final\n";
+    std::string s = "frame,instantaneous,final,plugin\n";
     for (const auto& r : rows_) {
         s += std::to_string(r.frame);
         s += ',';
         appendNumber(s, r.instantaneous);
         s += ',';
         appendNumber(s, r.final);
+        s += ',';
+        appendNumber(s, r.plugin);
         s += '\n';
     }
     return s;

@@ -29,9 +29,11 @@ struct ObservationRecord {
     AddError error = AddError::None;
     uint32_t error_index = 0;
     uint32_t kept = 0;
+    uint32_t dropped_cell = 0;  // words beyond a cell's capacity
     double surprise = 0.0;
     int64_t previous_step = -1;
     double previous_perplexity = 0.0;
+    double previous_plugin = 0.0;
     uint64_t refinements = 0;
     int64_t elapsed_ns = 0;
     std::vector<uint16_t> dominant;      // per cell: topic with the most labels, kNoTopic when empty
@@ -66,6 +68,10 @@ public:
     uint64_t lost() const noexcept { return engine_.resultsLost(); }
     // First observation the model rejected, if any ("" when none).
     const std::string& rejection() const noexcept { return rejection_; }
+    // Over the observations of this run: words that entered cells, and words
+    // a cell had no room for (cell.capacity).
+    uint64_t wordsKept() const noexcept { return kept_; }
+    uint64_t wordsDroppedCell() const noexcept { return dropped_cell_; }
 
     const std::vector<FrameRow>& rows() const noexcept { return rows_; }
     std::vector<FrameRow>& rows() noexcept { return rows_; }
@@ -102,6 +108,7 @@ private:
     std::string rejection_;
     uint64_t finals_ = 0;
     uint64_t first_ = 0;
+    uint64_t kept_ = 0, dropped_cell_ = 0;
 };
 
 } // namespace rost::tool

@@ -45,8 +45,8 @@ int fail(const std::string& message) {
     return kExitError;
 }
 
-Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, bool realtime,
-                        EngineConfig& out) {
+Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, uint64_t max_words,
+                        bool realtime, EngineConfig& out) {
     EngineConfig e = m.settings.engine;
     Config& c = e.model;
     c.V = V;
@@ -57,6 +57,11 @@ Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int
         // Keep a short input whole, so every observation stays refinable to the end.
         const int64_t steps = (frames_hint + c.cell_time - 1) / c.cell_time + 1;
         c.ring_steps = static_cast<int>(std::clamp<int64_t>(steps, 2, 2048));
+    }
+    if (!m.isGiven("max.words") && max_words > 0) {
+        // Room for every word the input can give an observation (no silent subsampling).
+        const auto hi = static_cast<uint64_t>(settingSpec("max.words").hi);
+        c.max_words_per_frame = static_cast<int>(std::min(max_words, hi));
     }
     e.flags = toolFlags(realtime);
     if (Status st = e.validate(); !st.ok()) return st;  // messages use the keys (cell.space, g.time, ...)

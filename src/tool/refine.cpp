@@ -78,6 +78,9 @@ int refineCommand(const RefineOptions& o) {
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) {
+        uint64_t offered = 0;
+        for (const auto& ob : in.todo()) offered += ob.words.size();
+        std::fputs(WordDrops::of(offered, collector).note(in.ec.model).c_str(), stderr);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         std::fprintf(stderr, "rost: %zu observations in %.1f s; outputs in %s\n", in.todo().size(), s, o.out.c_str());
     }

@@ -157,7 +157,9 @@ int runCommand(const RunOptions& o) {
     sinks.frames.drainFrames();
     sinks.overlay.close();
     const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
-    const RunReport report{o, words, engine, sinks.frames, sinks.collector.rows().size(), capture.dropped(), realtime, seconds};
+    const WordDrops drops = WordDrops::of(sinks.frames.ingestedWords(), sinks.collector);
+    const RunReport report{o,        words,  engine, sinks.frames, sinks.collector.rows().size(), capture.dropped(),
+                           realtime, seconds, drops};
     Status st = writeResultFiles(out, sinks.collector, *engine.engine,
                                  {{"frames.csv", [&] { return sinks.frames.framesCsv(); }},
                                   {"run.txt", [&] { return report.text(); }}});
@@ -165,6 +167,7 @@ int runCommand(const RunOptions& o) {
         st = writeRunSummary(out, o, words, engine, sinks.frames, sinks.thumbs, sinks.collector.rows());
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
+    if (!o.quiet) std::fputs(drops.note(engine.ec.model).c_str(), stderr);
     if (!o.quiet)
         std::fprintf(stderr, "rost: %zu frames in %.1f s (%.1f frames/s); outputs in %s\n", sinks.frames.rows().size(),
                      seconds, static_cast<double>(sinks.frames.rows().size()) / std::max(1e-9, seconds), o.out.c_str());

@@ -212,6 +212,13 @@ uint64_t FrameSink::totalWords() const noexcept {
     return n;
 }
 
+uint64_t FrameSink::ingestedWords() const noexcept {
+    uint64_t n = 0;
+    for (const auto& r : capture_)
+        if (r.ingested) n += r.words;
+    return n;
+}
+
 double FrameSink::wordsPerFrame() const noexcept {
     return capture_.empty() ? 0.0 : static_cast<double>(totalWords()) / static_cast<double>(capture_.size());
 }
@@ -222,6 +229,54 @@ std::string FrameSink::framesCsv() const {
         s += std::to_string(r.frame) + ',' + std::to_string(r.timestamp_us) + ',' + std::to_string(r.words) + ',' +
              std::to_string(r.orb) + ',' + std::to_string(r.intensity) + ',' + std::to_string(r.hue) + ',' +
              (r.ingested ? "1" : "0") + ',' + std::to_string(r.kept) + '\n';
+    return s;
+}
+
+// ---- dropped words ---------------------------------------------------------------
+
+WordDrops WordDrops::of(uint64_t offered, const Collector& c) noexcept {
+    WordDrops d;
+    d.offered = offered;
+    d.cell = c.wordsDroppedCell();
+    const uint64_t inModel = c.wordsKept() + d.cell;
+    d.observation = offered > inModel ? offered - inModel : 0;
+    return d;
+}
+
+namespace {
+std::string dropDetail(const WordDrops& d, const Config& c) {
+    std::string s;
+    if (d.observation) s += std::to_string(d.observation) + " beyond max.words = " + std::to_string(c.max_words_per_frame);
+    if (d.cell) {
+        if (!s.empty()) s += ", ";
+        s += std::to_string(d.cell) + " beyond cell.capacity = " + std::to_string(c.cell_capacity);
+    }
+    return s;
+}
+std::string percent(uint64_t part, uint64_t whole) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g %%", whole ? 100.0 * static_cast<double>(part) / static_cast<double>(whole) : 0.0);
+    return buf;
+}
+} // namespace
+
+std::string WordDrops::line(const Config& c) const {
+    if (dropped() == 0)
+        return "words dropped: none of " + std::to_string(offered) + " (max.words = " +
+               std::to_string(c.max_words_per_frame) + ", cell.capacity = " + std::to_string(c.cell_capacity) + ")\n";
+    return "words dropped: " + std::to_string(dropped()) + " of " + std::to_string(offered) + " (" +
+           percent(dropped(), offered) + "): " + dropDetail(*this, c) + "; uniformly subsampled\n";
+}
+
+std::string WordDrops::note(const Config& c) const {
+    if (dropped() == 0) return {};
+    std::string s = "rost: note: " + percent(dropped(), offered) + " of the words were dropped (" +
+                    std::to_string(dropped()) + " of " + std::to_string(offered) + ": " + dropDetail(*this, c) +
+                    "; uniformly subsampled); ";
+    s += observation ? "a larger --max.words" : "";
+    s += observation && cell ? " and " : "";
+    s += cell ? "a larger --cell.capacity" : "";
+    s += " keeps them\n";
     return s;
 }
 
@@ -280,6 +335,7 @@ std::string RunReport::text() const {
                   static_cast<unsigned long long>(writerSkipped), static_cast<unsigned long long>(frames.missing()),
                   frames.wordsPerFrame());
     s += buf;
+    s += drops.line(e.ec.model);
     std::snprintf(buf, sizeof buf, "time: %.2f s, %.1f frames/s; %llu refinements, %llu token updates; memory %zu bytes\n",
                   seconds, static_cast<double>(captured) / std::max(1e-9, seconds),
                   static_cast<unsigned long long>(counters.refinements), static_cast<unsigned long long>(counters.tokens),

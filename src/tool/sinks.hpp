@@ -78,6 +78,7 @@ public:
     const std::vector<CaptureRow>& rows() const noexcept { return capture_; }
     uint64_t missing() const noexcept { return missing_; }
     uint64_t totalWords() const noexcept;
+    uint64_t ingestedWords() const noexcept;  // words of the frames the engine took up
     double wordsPerFrame() const noexcept;
     std::string framesCsv() const;
 
@@ -91,6 +92,22 @@ private:
     uint64_t missing_ = 0;
 };
 
+// Words of the observations taken up that the model had no room for:
+// beyond an observation's capacity (max.words: uniformly subsampled when
+// pushed) or a cell's (cell.capacity: uniformly subsampled when added).
+struct WordDrops {
+    uint64_t offered = 0;      // words of the observations taken up
+    uint64_t observation = 0;  // beyond max.words
+    uint64_t cell = 0;         // beyond cell.capacity
+    uint64_t dropped() const noexcept { return observation + cell; }
+    // `offered` words, of which the collector's observations kept and dropped at cells what they did.
+    static WordDrops of(uint64_t offered, const Collector& c) noexcept;
+    // run.txt's line ("words dropped: none ..." when none).
+    std::string line(const Config& c) const;
+    // The note on stderr (once, at the end), "" when nothing was dropped.
+    std::string note(const Config& c) const;
+};
+
 // run.txt: the command, the input, the settings and what the run did.
 struct RunReport {
     const RunOptions& o;
@@ -101,6 +118,7 @@ struct RunReport {
     uint64_t writerSkipped = 0;
     bool realtime = false;
     double seconds = 0.0;
+    WordDrops drops;
     std::string text() const;
 
 private:

@@ -96,7 +96,8 @@ Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) 
     if (st = checkV(o, w); !st.ok()) return st;
     if (st = countFrames(o, w); !st.ok()) return st;
     if (!resuming) {
-        st = makeEngineConfig(o.model, w.info.width, w.info.height, V, frames, realtime, ec);
+        const uint64_t maxWords = vision::maxWordsPerFrame(w.extractors, w.info.width, w.info.height);
+        st = makeEngineConfig(o.model, w.info.width, w.info.height, V, frames, maxWords, realtime, ec);
         if (!st.ok()) return st;
     }
     engine = Engine::create(ec, st);
@@ -114,9 +115,11 @@ Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) 
 
 void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime) const {
     const double mib = static_cast<double>(engine->memoryBytes()) / (1024.0 * 1024.0);
-    std::fprintf(stderr, "rost: %s\nrost: V = %d, K = %d, %d cells of %d px, ring of %d steps, %s budget %s, model memory %.1f MiB%s\n",
+    std::fprintf(stderr,
+                 "rost: %s\nrost: V = %d, K = %d, %d cells of %d px, ring of %d steps, max.words %d, %s budget %s, "
+                 "model memory %.1f MiB%s\n",
                  w.info.description.c_str(), V, ec.model.K, ec.model.cellsPerStep(), ec.model.cell_space,
-                 ec.model.ring_steps, toString(ec.strategy.kind),
+                 ec.model.ring_steps, ec.model.max_words_per_frame, toString(ec.strategy.kind),
                  ec.budget.kind == BudgetKind::Time ? fmtMs(ec.budget.ms).c_str()
                                                     : (std::to_string(ec.budget.count) + " refines").c_str(),
                  mib, realtime ? ", realtime" : "");
@@ -185,7 +188,12 @@ Status StreamStage::read(const RefineOptions& o) {
     limits.vocabulary = resuming ? static_cast<uint32_t>(ec.model.V) : o.model.isGiven("V") ? static_cast<uint32_t>(given.V) : 0;
     limits.width = resuming ? ec.model.frame_width : o.width;
     limits.height = resuming ? ec.model.frame_height : o.height;
-    limits.max_words = static_cast<uint32_t>(std::max(1, resuming ? ec.model.max_words_per_frame : given.max_words_per_frame));
+    // max.words (the checkpoint's, or set): longer observations are an error
+    // here; otherwise max.words is the longest observation's size (configFromData).
+    if (resuming || o.model.isGiven("max.words"))
+        limits.max_words = static_cast<uint32_t>(std::max(1, resuming ? ec.model.max_words_per_frame : given.max_words_per_frame));
+    else
+        limits.max_words = static_cast<uint32_t>(settingSpec("max.words").hi);
     if (Status st = readWordStream(o.words, o.positions, limits, ws); !st.ok()) return st;
     if (ws.observations.empty()) return Status::error(o.words + ": no observations (the file has no data lines)");
     if (!ws.has_positions)  // no positions: every word at (0, 0)
@@ -230,7 +238,9 @@ Status StreamStage::resumeSkip(const RefineOptions& o) {
 Status StreamStage::configFromData(const RefineOptions& o) {
     uint32_t maxWord = 0;
     int32_t maxX = 0, maxY = 0;
+    uint64_t longest = 0;
     for (const auto& ob : ws.observations) {
+        longest = std::max<uint64_t>(longest, ob.words.size());
         for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
         for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
     }
@@ -238,7 +248,8 @@ Status StreamStage::configFromData(const RefineOptions& o) {
     int width = o.width > 0 ? o.width : maxX + 1;
     int height = o.height > 0 ? o.height : maxY + 1;
     if (!ws.has_positions) width = height = 1;  // one cell per time step (a temporal topic model)
-    return makeEngineConfig(o.model, width, height, V, static_cast<int64_t>(ws.observations.size()), false, ec);
+    return makeEngineConfig(o.model, width, height, V, static_cast<int64_t>(ws.observations.size()), longest, false,
+                            ec);
 }
 
 Status StreamStage::makeEngine(const RefineOptions& o) {

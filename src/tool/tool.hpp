@@ -53,9 +53,11 @@ std::string optionName(const SettingSpec& spec);
 
 // Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
 // `V` is the caller's (what the words need, unless -V); ring.steps is the
-// input's length + 1 (up to 2048) when it is known and not set.
-Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, bool realtime,
-                        EngineConfig& out);
+// input's length + 1 (up to 2048) when it is known and not set; max.words
+// is `max_words` (the most words the input gives an observation, up to the
+// setting's maximum) when that is known (> 0) and max.words is not set.
+Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, uint64_t max_words,
+                        bool realtime, EngineConfig& out);
 
 // --resume FILE: the configuration to carry on with. The checkpoint fixes
 // the model (K, V, alpha, beta, cells, neighbourhood, ring, capacities,

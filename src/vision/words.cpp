@@ -85,10 +85,24 @@ std::unique_ptr<WordExtractor> WordExtractor::create(const ExtractorConfig& conf
     return std::unique_ptr<WordExtractor>(new WordExtractor(config, config.orb ? std::move(vocabulary) : nullptr));
 }
 
+namespace {
+// Thumbnail size of a frame: one pixel per thumb_cell x thumb_cell block (at least 1 x 1).
+int thumbSize(int frameSize, int cell) noexcept { return std::max(1, frameSize / cell); }
+} // namespace
+
+uint64_t maxWordsPerFrame(const ExtractorConfig& c, int width, int height) noexcept {
+    const uint64_t thumb = c.thumb_cell > 0 && width > 0 && height > 0
+                               ? static_cast<uint64_t>(thumbSize(width, c.thumb_cell)) *
+                                     static_cast<uint64_t>(thumbSize(height, c.thumb_cell))
+                               : 0;
+    return (c.orb ? static_cast<uint64_t>(std::max(0, c.orb_features)) : 0) + (c.intensity ? thumb : 0) +
+           (c.hue ? thumb : 0);
+}
+
 void WordExtractor::thumbnailWords(const cv::Mat& bgr, FrameWords& out) {
     if (!cfg_.intensity && !cfg_.hue) return;
     const int s = cfg_.thumb_cell;
-    const int tw = std::max(1, bgr.cols / s), th = std::max(1, bgr.rows / s);
+    const int tw = thumbSize(bgr.cols, s), th = thumbSize(bgr.rows, s);
     // Area averaging: each thumbnail pixel is the mean of its block, so the
     // words describe the block rather than one aliased pixel.
     // Scratch members only hold our own results; a caller's image is only
@@ -146,7 +160,10 @@ bool WordExtractor::extract(const cv::Mat& image, FrameWords& out) {
         if (!keypoints_.empty() && (descriptors_.cols != static_cast<int>(Descriptor::kBytes) ||
                                     descriptors_.type() != CV_8U))
             return false;
-        const std::size_t n = keypoints_.size();
+        // OpenCV's ORB keeps keypoints tied with the last one it retains, so
+        // it may give a few more than asked: keep orb_features (the bound
+        // maxWordsPerFrame promises).
+        const std::size_t n = std::min(keypoints_.size(), static_cast<std::size_t>(cfg_.orb_features));
         const std::size_t base = out.words.size();
         out.words.resize(base + n);
         vocabulary_->quantizeRows(descriptors_.data, descriptors_.step[0], n, out.words.data() + base, cfg_.search);

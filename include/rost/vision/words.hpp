@@ -123,6 +123,12 @@ private:
 // Layout of the word ids for a configuration and an ORB vocabulary size.
 WordLayout makeLayout(const ExtractorConfig& config, uint32_t orb_vocabulary_size) noexcept;
 
+// The most words WordExtractor::extract gives a width x height frame under
+// `config`: orb_features ORB words (extract keeps no more), one intensity
+// word and at most one hue word per thumbnail pixel. The rost tool sizes an
+// observation's capacity (max.words) with it, so no word is dropped.
+uint64_t maxWordsPerFrame(const ExtractorConfig& config, int width, int height) noexcept;
+
 // The vocabulary shipped with rost (share/rost/default.rostvoc, compiled into
 // the library). Loaded and checked on first use; its note says what footage
 // it was trained on.
