@@ -34,6 +34,10 @@ std::string pythonMessage(std::string msg) {
         if (key == param) continue;
         for (std::size_t at = msg.find(key); at != std::string::npos; at = msg.find(key, at + param.size()))
             msg.replace(at, key.size(), param);
+        // Range messages: "budget.ms = 0 is out of range ..."
+        const std::string bare = std::string(s.key) + " = ", bareParam = paramName(s) + " = ";
+        for (std::size_t at = msg.find(bare); at != std::string::npos; at = msg.find(bare, at + bareParam.size()))
+            if (at == 0 || msg[at - 1] == ' ') msg.replace(at, bare.size(), bareParam);
     }
     return msg;
 }
