@@ -73,7 +73,7 @@ def test_reads_what_rost_refine_writes_from_what_it_wrote(tmp_path):
     out = tmp_path / "out"
     subprocess.run([tool, "refine", str(tmp_path / "words.csv"), "--positions", str(tmp_path / "positions.csv"),
                     "--width", "128", "--height", "128", "-V", "40", "-K", "4", "--cell.space", "32",
-                    "--out", str(out)], check=True, capture_output=True)
+                    "--out", str(out), "--checkpoint", str(tmp_path / "r.ckpt")], check=True, capture_output=True)
     tts, topics = rost.io.read_topics(out / "topics.csv")
     assert list(tts) == list(ts)
     assert [len(z) for z in topics] == [len(w) for w, _ in data]
@@ -92,3 +92,8 @@ def test_reads_what_rost_refine_writes_from_what_it_wrote(tmp_path):
         model.add_observation(int(t), w, p)
         model.refine()
     assert (model.topic_model() == tm).all()
+    # Its checkpoint is a Model.
+    loaded = rost.Model.load(str(tmp_path / "r.ckpt"))
+    assert (loaded.topic_model() == tm).all()
+    assert list(loaded.timestamps()) == list(ts)
+    assert loaded.config.K == 4 and loaded.config.budget_refines == 40

@@ -16,6 +16,7 @@ ANYTHING = st.one_of(st.none(), ARRAYS, st.integers(), st.text(max_size=3), st.l
 
 MODEL = rost.Model(small_config(ring_steps=8))
 ENGINE = rost.Engine(small_config(queue_slots=4))
+TOPICS = rost.Model(small_config())
 
 
 def accepted(words, positions):
@@ -72,10 +73,11 @@ def test_config_raises_value_error_or_accepts(name, value):
 @settings(max_examples=100, deadline=None)
 @given(counts=ARRAYS)
 def test_set_topic_model_raises_or_adds(counts):
-    model = rost.Model(small_config())
+    before = TOPICS.topic_model().astype(np.int64)
     try:
-        model.set_topic_model(counts)
+        TOPICS.set_topic_model(counts)
     except (TypeError, ValueError):
-        assert (model.topic_model() == 0).all()
+        assert (TOPICS.topic_model() == before).all()
         return
     assert counts.shape == (4, 40)
+    assert (TOPICS.topic_model() == before + counts).all()
