@@ -14,6 +14,8 @@ FRAMES = 30
 
 
 def test_curiosity_example_plots_the_surprise_rost_run_computes(tmp_path):
+    pytest.importorskip("cv2", reason="python3-opencv (scripts/install-deps.sh)")
+    pytest.importorskip("matplotlib", reason="python3-matplotlib (scripts/install-deps.sh)")
     video = footage_or_skip()
     png, csv = tmp_path / "surprise.png", tmp_path / "surprise.csv"
     r = subprocess.run([sys.executable, str(SOURCE_DIR / "examples/python/curiosity.py"), str(video),
