@@ -67,6 +67,7 @@ def plot(surprise, marked, title, path):
     ax.plot(np.arange(len(surprise)), surprise, color="tab:red", lw=1.2, label="surprise")
     if marked:
         ax.scatter(marked, surprise[marked], color="black", zorder=3, s=18, label="jump (>= 2x median of 10 before)")
+    ax.set_yscale("log")  # the first frame, seen by an empty model, has surprise V
     ax.set_xlabel("frame")
     ax.set_ylabel("surprise (perplexity of new words)")
     ax.set_title(title)
