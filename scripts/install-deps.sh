@@ -11,6 +11,7 @@ packages=(
   libgtest-dev googletest libgmock-dev libbenchmark-dev
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   clang libclang-rt-14-dev valgrind ffmpeg
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-hypothesis python3-opencv python3-matplotlib
 )
 missing=()
 for p in "${packages[@]}"; do

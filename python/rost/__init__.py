@@ -1,0 +1,26 @@
+"""rost: realtime online spatiotemporal topic models (docs/python.md).
+
+    import numpy as np, rost
+    model = rost.Model(rost.Config(V=100, K=8, frame_width=640, frame_height=480))
+    model.add_observation(0, words, positions)   # int32 (N,) and int32 (N, 2), taken without a copy
+    model.refine(steps=40)                        # releases the interpreter lock
+    model.topics(0), model.perplexity(0), model.surprise(0)
+
+rost.Engine is the realtime engine (a refiner thread, push() that never blocks,
+snapshot()); rost.vision turns cv2 frames into words; rost.io reads and writes the
+rost tool's files.
+"""
+
+from ._rost import Config, Engine, Model, Snapshot, __version__, version_string
+from . import io
+
+__all__ = ["Config", "Engine", "Model", "Snapshot", "io", "vision", "__version__", "version_string"]
+
+
+def __getattr__(name):
+    # rost.vision on first use (it needs the library built with OpenCV).
+    if name == "vision":
+        import importlib
+
+        return importlib.import_module(".vision", __name__)
+    raise AttributeError(f"module 'rost' has no attribute '{name}'")

@@ -1,0 +1,83 @@
+#pragma once
+
+// Shared parts of the Python bindings (`import rost`, docs/python.md): the
+// settings a Config holds, numpy views of word and position arrays taken
+// without a copy, and the guard that keeps one object from being used by
+// two Python threads at once while the interpreter lock is released.
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "rost/position.hpp"
+#include "rost/settings.hpp"
+#include "rost/status.hpp"
+
+namespace rost::python {
+
+namespace py = pybind11;
+
+// rost.Config: every setting of the schema (rost/settings_schema.hpp).
+struct PyConfig {
+    Settings settings;
+};
+
+// Applies Python keyword arguments (parameter names such as cell_space, or
+// keys such as "cell.space") to `s`. `allowed` (when set) limits the groups;
+// `what` names the caller in messages. Raises ValueError naming the key.
+void applySettings(Settings& s, const py::kwargs& kwargs, const char* what, bool wordsOnly = false);
+// A setting's current value as a Python object (int, float, bool, str), or None
+// for a budget key not in force.
+py::object settingObject(const Settings& s, const SettingSpec& spec);
+
+// Raises RuntimeError with the status's message when it is an error.
+void check(const Status& st);
+
+// Words (numpy int32, shape (N,)) and positions (numpy int32, shape (N, 2),
+// or None: every word at (0, 0)) of one observation, viewed in place.
+struct ObservationArrays {
+    std::span<const uint32_t> words;
+    std::span<const Position> positions;
+    py::array words_ref, positions_ref;  // keep the arrays alive while viewed
+    std::vector<Position> zeros;         // positions=None
+};
+// Checks dtype and shape (TypeError / ValueError naming the argument and
+// what was found), word ids in [0, V) and positions inside the frame
+// (ValueError naming the index and value). Never copies the arrays.
+ObservationArrays viewObservation(const py::handle& words, const py::handle& positions, uint32_t V, int width,
+                                  int height);
+
+// Numpy arrays made from C++ data (these copy: outputs are owned by Python).
+py::array_t<int32_t> toArray(std::span<const uint16_t> v);
+py::array_t<int32_t> toArray(std::span<const uint32_t> v);
+py::array_t<int32_t> toArray(std::span<const int32_t> v);
+py::array_t<int32_t> toArray(std::span<const Position> v);  // shape (N, 2)
+py::array_t<float> toGrid(std::span<const float> cells, int rows, int cols);
+
+// One user at a time: a call that finds the object busy (another Python
+// thread is inside a call that released the interpreter lock) raises
+// RuntimeError instead of racing.
+class BusyGuard {
+public:
+    BusyGuard(std::atomic<bool>& flag, const char* what);
+    ~BusyGuard() { flag_.store(false, std::memory_order_release); }
+    BusyGuard(const BusyGuard&) = delete;
+    BusyGuard& operator=(const BusyGuard&) = delete;
+
+private:
+    std::atomic<bool>& flag_;
+};
+
+void bindConfig(py::module_& m);
+void bindModel(py::module_& m);
+void bindEngine(py::module_& m);
+#ifdef ROST_PYTHON_VISION
+void bindVision(py::module_& m);
+#endif
+
+} // namespace rost::python

@@ -1,0 +1,309 @@
+// rost.Model: the topic model driven from Python, one call at a time (rostpy's
+// add_observation / refine / topics). Backed by a rost::Engine in its
+// synchronous mode, so observations enter exactly as they do in the tool and
+// in the realtime engine, and save()/load() are the checkpoint format.
+
+#include <climits>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <unordered_map>
+
+#include "bindings.hpp"
+#include "rost/checkpoint.hpp"
+#include "rost/engine.hpp"
+
+namespace rost::python {
+
+namespace {
+
+// The engine behind a Model adds observations without refining them
+// (budget 0: Model.refine() refines) and publishes nothing it would not read.
+EngineConfig internalConfig(const EngineConfig& user) {
+    EngineConfig c = user;
+    c.budget = Budget::steps(0);
+    c.queue_slots = 1;
+    c.flags.instantaneous_perplexity = false;
+    c.flags.snapshot_perplexity = false;
+    c.flags.snapshot_labels = false;
+    return c;
+}
+
+// Copies every state section of `from` into `to` (same model keys) and puts
+// the engine's counters in use.
+Status copyState(Engine& from, Engine& to) {
+    StateLayout a, b;
+    from.describeState(a);
+    to.describeState(b);
+    if (a.size() != b.size()) return Status::error("internal: state layouts differ");
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        if (a[i].name != b[i].name || a[i].bytes != b[i].bytes)
+            return Status::error("internal: state section '" + std::string(a[i].name) + "' differs");
+        std::memcpy(b[i].data, a[i].data, a[i].bytes);
+    }
+    return to.applyState();
+}
+
+void fileMustExist(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::exists(path, ec)) {
+        PyErr_SetString(PyExc_FileNotFoundError, ("no such file: '" + path + "'").c_str());
+        throw py::error_already_set();
+    }
+}
+
+} // namespace
+
+class PyModel {
+public:
+    explicit PyModel(const Settings& s) : settings_(s), engine_(std::make_unique<Engine>(internalConfig(s.engine))) {}
+
+    const Settings& settings() const { return settings_; }
+    Engine& engine() { return *engine_; }
+    const Model& model() const { return engine_->model(); }
+    std::atomic<bool>& busy() { return busy_; }
+    const void* lastInput() const { return last_input_; }
+
+    void add(int64_t t, const py::handle& words, const py::handle& positions) {
+        BusyGuard guard(busy_, "rost.Model");
+        const Config& c = model().config();
+        const ObservationArrays obs = viewObservation(words, positions, static_cast<uint32_t>(c.V), c.frame_width,
+                                                      c.frame_height);
+        last_input_ = obs.words.data();
+        ObservationResult r;
+        {
+            py::gil_scoped_release nogil;
+            r = engine_->processNow(ObservationView{t, obs.words, obs.positions});
+        }
+        if (!r.add.ok() || r.step < 0)  // checked above: not reached
+            throw py::value_error(std::string("rost.Model.add_observation: the model refused the observation (") +
+                                  toString(r.add.error) + " at word " + std::to_string(r.add.index) + ")");
+        by_time_[t] = r.observation;
+        const std::size_t window = static_cast<std::size_t>(c.ring_steps) * static_cast<std::size_t>(c.cell_time);
+        if (by_time_.size() > 2 * window + 64) reindex();
+    }
+
+    uint64_t refine(std::optional<int64_t> steps, std::optional<int64_t> sweeps) {
+        if (steps && sweeps) throw py::value_error("rost.Model.refine: give steps or sweeps, not both");
+        if ((steps && *steps < 0) || (sweeps && *sweeps < 0))
+            throw py::value_error("rost.Model.refine: steps and sweeps are not negative");
+        if (sweeps && *sweeps > INT_MAX) throw py::value_error("rost.Model.refine: sweeps beyond 2^31 - 1");
+        BusyGuard guard(busy_, "rost.Model");
+        const uint64_t before = model().tokensRefined();
+        py::gil_scoped_release nogil;
+        if (sweeps)
+            engine_->finalPass(static_cast<int>(*sweeps));
+        else
+            engine_->refineExtra(steps ? Budget::steps(static_cast<uint64_t>(*steps)) : settings_.engine.budget);
+        return model().tokensRefined() - before;
+    }
+
+    // The observation with time stamp t (the latest one when several share it).
+    uint64_t frameOf(int64_t t) const {
+        const auto it = by_time_.find(t);
+        if (it == by_time_.end() || !model().observationInWindow(it->second))
+            throw py::key_error("rost.Model: no observation with time stamp t = " + std::to_string(t) +
+                                (it == by_time_.end() ? std::string() : " in the window (it has left the ring)"));
+        return it->second;
+    }
+    int64_t stepOf(int64_t t) const { return model().stepOfObservation(frameOf(t)); }
+
+    void reindex() {
+        by_time_.clear();
+        engine_->visitWindow([&](const WindowObservation& w, const Model&) { by_time_[w.timestamp] = w.observation; });
+    }
+
+    void save(const std::string& path) {
+        BusyGuard guard(busy_, "rost.Model");
+        // The file holds the Config the user gave (its budget included), so the
+        // tool's --resume carries on as configured.
+        Engine out(settings_.engine);
+        check(copyState(*engine_, out));
+        py::gil_scoped_release nogil;
+        check(saveCheckpoint(out, path));
+    }
+
+    static std::unique_ptr<PyModel> load(const std::string& path) {
+        fileMustExist(path);
+        CheckpointInfo info;
+        if (Status st = readCheckpointInfo(path, info); !st.ok()) throw py::value_error(st.message());
+        Settings s;
+        s.engine = info.config;
+        auto m = std::make_unique<PyModel>(s);
+        CheckpointLoadOptions options;
+        options.allow_refinement_change = true;  // the internal budget is 0
+        if (Status st = loadCheckpoint(path, *m->engine_, options); !st.ok()) throw py::value_error(st.message());
+        m->reindex();
+        return m;
+    }
+
+private:
+    Settings settings_;
+    std::unique_ptr<Engine> engine_;
+    std::unordered_map<int64_t, uint64_t> by_time_;
+    std::atomic<bool> busy_{false};
+    const void* last_input_ = nullptr;
+};
+
+namespace {
+
+// Read access under the busy guard (a refine() on another thread may be running).
+template <typename F>
+auto reading(PyModel& m, F&& f) {
+    BusyGuard guard(m.busy(), "rost.Model");
+    return f(m.model());
+}
+
+py::array_t<int32_t> labels(PyModel& m, int64_t t, bool ml) {
+    return reading(m, [&](const Model& model) {
+        const uint64_t f = m.frameOf(t);
+        std::vector<uint16_t> z(model.observationSize(f));
+        if (ml)
+            model.observationLabels(f, z);
+        else
+            model.observationSamples(f, z);
+        return toArray(std::span<const uint16_t>(z));
+    });
+}
+
+double perplexity(PyModel& m, std::optional<int64_t> t) {
+    return reading(m, [&](const Model& model) {
+        if (t) return model.stepPerplexity(m.stepOf(*t));
+        LogLoss all;
+        for (int64_t s = model.oldestStep(); s < model.steps(); ++s) all += model.stepLogLoss(s);
+        return all.words ? all.perplexity() : std::numeric_limits<double>::quiet_NaN();
+    });
+}
+
+py::array_t<int32_t> topicModel(PyModel& m) {
+    return reading(m, [&](const Model& model) {
+        py::array_t<int32_t> a({static_cast<py::ssize_t>(model.K()), static_cast<py::ssize_t>(model.V())});
+        auto r = a.mutable_unchecked<2>();
+        for (int k = 0; k < model.K(); ++k)
+            for (int v = 0; v < model.V(); ++v) r(k, v) = model.topicWordCount(k, v);
+        return a;
+    });
+}
+
+void setTopicModel(PyModel& m, const py::handle& counts) {
+    if (!py::isinstance<py::array>(counts))
+        throw py::type_error("counts: expected a numpy.ndarray of integers (K x V)");
+    auto a = py::reinterpret_borrow<py::array>(counts);
+    if (a.dtype().kind() != 'i' && a.dtype().kind() != 'u')
+        throw py::type_error("counts: expected an integer dtype, found " + py::str(a.dtype()).cast<std::string>());
+    BusyGuard guard(m.busy(), "rost.Model");
+    Model& model = m.engine().model();
+    if (a.ndim() != 2 || a.shape(0) != model.K() || a.shape(1) != model.V())
+        throw py::value_error("counts: expected shape (K, V) = (" + std::to_string(model.K()) + ", " +
+                              std::to_string(model.V()) + "), found " + py::str(a.attr("shape")).cast<std::string>());
+    auto c = py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+    auto r = c.unchecked<2>();
+    std::vector<int32_t> flat(static_cast<std::size_t>(model.K()) * static_cast<std::size_t>(model.V()));
+    for (int k = 0; k < model.K(); ++k) {
+        int64_t total = model.topicCount(k);
+        for (int v = 0; v < model.V(); ++v) {
+            const int64_t x = r(k, v);
+            if (x < 0) throw py::value_error("counts[" + std::to_string(k) + ", " + std::to_string(v) + "] = " +
+                                             std::to_string(x) + " is negative");
+            total += x;
+            if (total > INT32_MAX)
+                throw py::value_error("counts: topic " + std::to_string(k) +
+                                      " would hold more than 2^31 - 1 words (n_k is 32-bit)");
+            flat[static_cast<std::size_t>(k) * model.V() + v] = static_cast<int32_t>(x);
+        }
+    }
+    check(model.addTopicCounts(flat));
+}
+
+void bindModelOutputs(py::class_<PyModel>& c) {
+    c.def("topics", [](PyModel& m, int64_t t) { return labels(m, t, false); }, py::arg("t"),
+          "The current Gibbs sample of each kept word of observation t (int32).")
+        .def("ml_topics", [](PyModel& m, int64_t t) { return labels(m, t, true); }, py::arg("t"),
+             "The maximum-likelihood topic of each kept word of observation t (int32).")
+        .def("words", [](PyModel& m, int64_t t) {
+                 return reading(m, [&](const Model& model) {
+                     const uint64_t f = m.frameOf(t);
+                     std::vector<uint32_t> w(model.observationSize(f));
+                     model.observationWords(f, w);
+                     return toArray(std::span<const uint32_t>(w));
+                 });
+             }, py::arg("t"), "The kept words of observation t (int32).")
+        .def("positions", [](PyModel& m, int64_t t) {
+                 return reading(m, [&](const Model& model) {
+                     const uint64_t f = m.frameOf(t);
+                     std::vector<Position> p(model.observationSize(f));
+                     model.observationPositions(f, p);
+                     return toArray(std::span<const Position>(p));
+                 });
+             }, py::arg("t"), "Their positions, shape (N, 2) (int32).")
+        .def("perplexity", &perplexity, py::arg("t") = py::none(),
+             "Perplexity of observation t's time step (None: of the whole window).")
+        .def("surprise", [](PyModel& m, int64_t t) {
+                 return reading(m, [&](const Model& model) { return model.observationSurprise(m.frameOf(t)); });
+             }, py::arg("t"), "Surprise of observation t, computed when it was added.")
+        .def("cell_surprise", [](PyModel& m, int64_t t) {
+                 return reading(m, [&](const Model& model) {
+                     const Config& cfg = model.config();
+                     return toGrid(model.cellSurprise(m.stepOf(t)), cfg.gridHeight(), cfg.gridWidth());
+                 });
+             }, py::arg("t"), "Surprise per cell of observation t's step, shape (grid rows, grid columns).")
+        .def("topic_model", &topicModel, "n_k^v: K x V word counts per topic (int32).")
+        .def("topic_weights", [](PyModel& m) {
+                 return reading(m, [&](const Model& model) {
+                     std::vector<int32_t> w(static_cast<std::size_t>(model.K()));
+                     for (int k = 0; k < model.K(); ++k) w[static_cast<std::size_t>(k)] = model.topicCount(k);
+                     return toArray(std::span<const int32_t>(w));
+                 });
+             }, "n_k: words per topic (int32).")
+        .def("set_topic_model", &setTopicModel, py::arg("counts"),
+             "Adds K x V counts learned elsewhere to n_k^v (a prior refinement never removes).");
+}
+
+void bindModelState(py::class_<PyModel>& c) {
+    c.def_property_readonly("config", [](PyModel& m) { return PyConfig{m.settings()}; })
+        .def_property_readonly("K", [](PyModel& m) { return m.model().K(); })
+        .def_property_readonly("V", [](PyModel& m) { return m.model().V(); })
+        .def_property_readonly("observations", [](PyModel& m) { return reading(m, [](const Model& x) { return x.observations(); }); })
+        .def_property_readonly("steps", [](PyModel& m) { return reading(m, [](const Model& x) { return x.steps(); }); })
+        .def_property_readonly("memory_bytes", [](PyModel& m) { return m.engine().memoryBytes(); })
+        .def("timestamps", [](PyModel& m) {
+                 BusyGuard guard(m.busy(), "rost.Model");
+                 std::vector<int64_t> ts;
+                 m.engine().visitWindow([&](const WindowObservation& w, const Model&) { ts.push_back(w.timestamp); });
+                 return py::array_t<int64_t>(static_cast<py::ssize_t>(ts.size()), ts.data());
+             }, "Time stamps of the observations in the window, oldest first.")
+        .def_property_readonly("_last_input_address", [](PyModel& m) { return reinterpret_cast<uintptr_t>(m.lastInput()); },
+                               "Address of the last words buffer handed to the library (tests: no copy).")
+        .def("save", &PyModel::save, py::arg("path"), "Writes a checkpoint (atomically); rost run --resume reads it.")
+        .def_static("load", &PyModel::load, py::arg("path"), "A Model from a checkpoint (Model.save, rost run --checkpoint).")
+        .def("__repr__", [](PyModel& m) {
+            return "rost.Model(K=" + std::to_string(m.model().K()) + ", V=" + std::to_string(m.model().V()) +
+                   ", observations=" + std::to_string(m.model().observations()) + ")";
+        });
+}
+
+} // namespace
+
+void bindModel(py::module_& m) {
+    py::class_<PyModel> c(m, "Model", R"doc(The topic model of rost, driven one call at a time:
+add_observation(t, words, positions), refine(steps=N) or refine(sweeps=N), then
+topics(t), perplexity(t), surprise(t), ... The interpreter lock is released while
+it refines; one Python thread at a time may use a Model (another gets RuntimeError).)doc");
+    c.def(py::init([](const std::optional<PyConfig>& config) {
+              return std::make_unique<PyModel>(config ? config->settings : Settings{});
+          }),
+          py::arg("config") = py::none())
+        .def("add_observation", &PyModel::add, py::arg("t"), py::arg("words"), py::arg("positions") = py::none(),
+             "Adds observation t: words (int32, shape (N,)) at positions (int32, shape (N, 2); None: all at (0, 0)). "
+             "Taken without a copy; it is not refined (see refine).")
+        .def("refine", &PyModel::refine, py::kw_only(), py::arg("steps") = py::none(), py::arg("sweeps") = py::none(),
+             "Refines `steps` time steps drawn by the Config's sampler (as budget.refines), or `sweeps` batch sweeps "
+             "over the window, or (neither) the Config's budget. Releases the interpreter lock. Returns the tokens refined.");
+    bindModelOutputs(c);
+    bindModelState(c);
+}
+
+} // namespace rost::python

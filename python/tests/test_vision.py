@@ -1,0 +1,98 @@
+"""rost.vision: words of cv2 frames, vocabularies; on real footage (diver.mov)."""
+
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import rost
+import rost.vision
+from conftest import footage_or_skip, read_frames
+
+
+@pytest.fixture(scope="module")
+def diver_frames():
+    return read_frames(footage_or_skip(), 6)
+
+
+def test_words_of_a_frame(diver_frames):
+    ex = rost.vision.WordExtractor()
+    frame = diver_frames[0]
+    words, positions = ex(frame)
+    assert words.dtype == np.int32 and positions.dtype == np.int32
+    assert words.ndim == 1 and positions.shape == (len(words), 2)
+    assert len(words) > 500
+    assert words.min() >= 0 and words.max() < ex.vocabulary_size == 5436
+    h, w = frame.shape[:2]
+    assert (positions[:, 0] < w).all() and (positions[:, 1] < h).all() and (positions >= 0).all()
+    assert ex._last_input_address == frame.ctypes.data  # the frame was not copied
+    again, _ = ex(frame)
+    assert (again == words).all()  # deterministic
+    layout = ex.layout
+    orb = words < layout["intensity"][0]
+    assert orb.sum() > 100 and (~orb).sum() > 100
+
+
+def test_words_match_the_rost_tool(diver_frames, tmp_path):
+    tool = os.environ.get("ROST_TOOL")
+    if not tool or not os.path.exists(tool):
+        pytest.skip("the rost tool was not built (ROST_VISION)")
+    out = tmp_path / "run"
+    subprocess.run([tool, "run", str(footage_or_skip()), "--max-frames", "3", "--out", str(out)], check=True,
+                   capture_output=True)
+    ts, words = rost.io.read_words(out / "words.csv")
+    _, positions = rost.io.read_positions(out / "positions.csv")
+    ex = rost.vision.WordExtractor()
+    for t, w, p in zip(ts, words, positions):
+        mine_w, mine_p = ex(diver_frames[t])
+        assert (mine_w == w).all() and (mine_p == p).all()
+
+
+def test_settings_and_grey_and_strided_frames(diver_frames):
+    frame = diver_frames[1]
+    thumbs_only = rost.vision.WordExtractor(words_orb=False, thumb_cell=32)
+    words, _ = thumbs_only(frame)
+    assert thumbs_only.vocabulary_size == 256 + 180
+    assert len(words) <= 2 * (frame.shape[0] // 32 + 1) * (frame.shape[1] // 32 + 1)
+    grey = frame[:, :, 1].copy()
+    w, p = rost.vision.WordExtractor(words_hue=False)(grey)
+    assert len(w) > 0
+    rows = frame[::2]  # every other row: rows strided, pixels packed: still viewed in place
+    w, p = thumbs_only(rows)
+    assert p[:, 1].max() < rows.shape[0]
+    with pytest.raises(ValueError, match="not contiguous"):
+        thumbs_only(frame[:, ::2])
+    with pytest.raises(TypeError, match="uint8"):
+        thumbs_only(frame.astype(np.float32))
+    with pytest.raises(ValueError, match="shape"):
+        thumbs_only(frame[:, :, :2].copy())
+    with pytest.raises(ValueError, match="empty"):
+        thumbs_only(frame[:0])
+    with pytest.raises(TypeError, match="list"):
+        thumbs_only([[1, 2]])
+    with pytest.raises(ValueError, match="'K' is not a word setting"):
+        rost.vision.WordExtractor(K=3)
+    with pytest.raises(ValueError, match="orb_features"):
+        rost.vision.WordExtractor(orb_features=0)
+
+
+def test_vocabulary_train_save_load(diver_frames, tmp_path):
+    v = rost.vision.Vocabulary.train(diver_frames, words=64, features=200, iterations=5, seed=3)
+    assert len(v) == 64 and "6 frames" in v.note
+    path = tmp_path / "v.rostvoc"
+    v.save(str(path))
+    loaded = rost.vision.Vocabulary.load(path)
+    assert len(loaded) == 64
+    ex = rost.vision.WordExtractor(loaded)
+    assert ex.vocabulary_size == 64 + 256 + 180
+    words, _ = ex(diver_frames[0])
+    assert (words < 64).sum() > 50  # ORB words from the new vocabulary
+    assert len(rost.vision.Vocabulary.default()) == 5000
+    with pytest.raises(FileNotFoundError):
+        rost.vision.Vocabulary.load(tmp_path / "none.rostvoc")
+    (tmp_path / "bad.rostvoc").write_bytes(b"ROSTVOC\0" + b"\1" * 40)
+    with pytest.raises(ValueError, match="bad.rostvoc"):
+        rost.vision.Vocabulary.load(tmp_path / "bad.rostvoc")
+    with pytest.raises(ValueError, match="10 descriptors cannot make 100000 words"):
+        rost.vision.Vocabulary.train(diver_frames[:1], words=100000, features=10)
