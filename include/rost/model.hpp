@@ -190,6 +190,9 @@ public:
 
     // Threads that refine (config().threads, the caller included).
     int threads() const noexcept;
+    // Refines on n threads from now on (1..1024; the results do not change).
+    // Set-up code: starts or stops workers, may throw std::system_error.
+    void setThreads(int n);
     // Restarts the refinement workers with these scheduling settings (named,
     // SCHED_FIFO, pinned to the CPUs below settings.cpu). Set-up code.
     void applyWorkerSettings(const ThreadSettings& settings);

@@ -14,7 +14,17 @@ rost tool's files.
 from ._rost import Config, Engine, Model, Snapshot, __version__, version_string
 from . import io
 
-__all__ = ["Config", "Engine", "Model", "Snapshot", "io", "vision", "__version__", "version_string"]
+__all__ = ["Config", "Engine", "Model", "Snapshot", "io", "parallel_refine", "vision", "__version__",
+           "version_string"]
+
+
+def parallel_refine(model, threads, sweeps=1):
+    """rostpy's name: `sweeps` batch sweeps of `model` on `threads` threads.
+
+    Deterministic: the same seed, input and sweeps give the same model for any
+    number of threads (refinement in windows of `refine_window` cell picks).
+    Returns the tokens refined."""
+    return model.parallel_refine(threads, sweeps)
 
 
 def __getattr__(name):

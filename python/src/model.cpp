@@ -101,6 +101,20 @@ public:
         return model().tokensRefined() - before;
     }
 
+    // rostpy's parallel_refine: `sweeps` batch sweeps on `threads` threads
+    // (the model keeps refining on that many). The result is the same for
+    // any number of threads (windows of refine_window cell picks).
+    uint64_t parallelRefine(int64_t threads, int64_t sweeps) {
+        if (threads < 1 || threads > 1024) throw py::value_error("rost.parallel_refine: threads must be in [1, 1024]");
+        if (sweeps < 0 || sweeps > INT_MAX) throw py::value_error("rost.parallel_refine: sweeps must be in [0, 2^31 - 1]");
+        BusyGuard guard(busy_, "rost.Model");
+        engine_->model().setThreads(static_cast<int>(threads));
+        const uint64_t before = model().tokensRefined();
+        py::gil_scoped_release nogil;
+        engine_->finalPass(static_cast<int>(sweeps));
+        return model().tokensRefined() - before;
+    }
+
     // The observation with time stamp t (the latest one when several share it).
     uint64_t frameOf(int64_t t) const {
         const auto it = by_time_.find(t);
@@ -299,6 +313,9 @@ it refines; one Python thread at a time may use a Model (another gets RuntimeErr
         .def("add_observation", &PyModel::add, py::arg("t"), py::arg("words"), py::arg("positions") = py::none(),
              "Adds observation t: words (int32, shape (N,)) at positions (int32, shape (N, 2); None: all at (0, 0)). "
              "Taken without a copy; it is not refined (see refine).")
+        .def("parallel_refine", &PyModel::parallelRefine, py::arg("threads"), py::arg("sweeps") = 1,
+             "rostpy's parallel_refine: `sweeps` batch sweeps on `threads` threads (kept for later refinement); "
+             "releases the interpreter lock; the result does not depend on `threads`. Returns the tokens refined.")
         .def("refine", &PyModel::refine, py::kw_only(), py::arg("steps") = py::none(), py::arg("sweeps") = py::none(),
              "Refines `steps` time steps drawn by the Config's sampler (as budget.refines), or `sweeps` batch sweeps "
              "over the window, or (neither) the Config's budget. Releases the interpreter lock. Returns the tokens refined.");

@@ -244,3 +244,21 @@ def test_set_topic_model_adds_a_prior():
     with pytest.raises(TypeError, match="integer dtype"):
         model.set_topic_model(np.zeros((4, 40)))
     assert (model.topic_model() == counts).all()  # refused calls changed nothing
+
+
+def test_parallel_refine_gives_the_same_model_for_any_number_of_threads():
+    def run(threads):
+        rng = np.random.default_rng(11)
+        model = rost.Model(small_config(refine_window=64))
+        fill(model, rng, 12)
+        tokens = rost.parallel_refine(model, threads, sweeps=3)
+        return tokens, model.topic_model(), np.concatenate([model.topics(t) for t in range(12)])
+
+    one = run(1)
+    assert one[0] > 0
+    for threads in (2, 3):
+        other = run(threads)
+        assert other[0] == one[0]
+        assert (other[1] == one[1]).all() and (other[2] == one[2]).all()
+    with pytest.raises(ValueError, match="threads"):
+        rost.parallel_refine(rost.Model(small_config()), 0)

@@ -15,21 +15,13 @@
 
 namespace rost {
 
-// One round on the pool: workers take the round's tasks in turn.
+// One round on the pool: a task per cell of the round.
 struct Model::WindowJob final : detail::WorkerPool::Job {
     Model* model = nullptr;
     const uint32_t* tasks = nullptr;
-    uint32_t count = 0;
-    std::atomic<uint32_t> next{0};
     TaskKernel kernel = nullptr;
 
-    void work(int worker) noexcept override {
-        for (;;) {
-            const uint32_t i = next.fetch_add(1, std::memory_order_relaxed);
-            if (i >= count) return;
-            (model->*kernel)(worker, tasks[i]);
-        }
-    }
+    void task(int worker, uint32_t index) noexcept override { (model->*kernel)(worker, tasks[index]); }
 };
 
 namespace {
@@ -53,6 +45,18 @@ private:
 Model::~Model() = default;
 
 int Model::threads() const noexcept { return pool_ ? pool_->workers() : 1; }
+
+void Model::setThreads(int n) {
+    n = std::clamp(n, 1, static_cast<int>(settingSpec("threads").hi));
+    if (n == threads() && n == cfg_.threads) return;
+    Windows& w = *win_;
+    pool_.reset();
+    memory_bytes_ -= w.worker_g.bytes();
+    w.worker_g.reset(static_cast<std::size_t>(n) * static_cast<std::size_t>(Kp_));
+    memory_bytes_ += w.worker_g.bytes();
+    cfg_.threads = n;
+    if (n > 1 && w.W > 1) pool_ = std::make_unique<detail::WorkerPool>(n);
+}
 
 void Model::applyWorkerSettings(const ThreadSettings& settings) {
     if (pool_) pool_->applySettings(settings);
@@ -307,12 +311,11 @@ void Model::runRound(uint32_t b, uint32_t e) noexcept {
     WindowJob job;
     job.model = this;
     job.tasks = w.order.data() + b;
-    job.count = e - b;
     job.kernel = frozen_kernel_[path];
     if (pool_)
-        pool_->run(job);
+        pool_->run(job, e - b);
     else
-        job.work(0);
+        for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
     mergeRound(b, e);
 }
 

@@ -12,7 +12,8 @@ namespace {
 // About 50-200 microseconds of spinning before a worker parks: longer than
 // the gap between two rounds of a window, far shorter than the gap between
 // two observations.
-constexpr int kSpinIterations = 4096;
+constexpr int kSpinIterations = 2048;
+constexpr uint64_t kField = (uint64_t{1} << 20) - 1;
 
 inline void cpuRelax() noexcept {
 #if defined(__x86_64__) || defined(__i386__)
@@ -81,27 +82,46 @@ void WorkerPool::workerMain(int index, const ThreadSettings* settings, uint32_t 
         waitChange(generation_, seen);
         seen = generation_.load(std::memory_order_acquire);
         if (stop_.load(std::memory_order_relaxed)) return;
-        job_->work(index);
-        if (remaining_.fetch_sub(1, std::memory_order_acq_rel) == 1) remaining_.notify_one();
+        runTasks(index, seen);
     }
 }
 
-void WorkerPool::run(Job& job) noexcept {
+void WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
+    const uint64_t gen = generation & 0xFFFFFFu;
+    uint64_t c = claim_.load(std::memory_order_acquire);
+    for (;;) {
+        if ((c >> 40) != gen) return;  // a later job's word: this one is over
+        const uint64_t count = (c >> 20) & kField, next = c & kField;
+        if (next >= count) return;
+        // A successful claim of a task not yet done pins the job: the caller
+        // cannot start another before this task is counted done.
+        if (!claim_.compare_exchange_weak(c, c + 1, std::memory_order_acquire, std::memory_order_acquire)) continue;
+        job_->task(worker, static_cast<uint32_t>(next));
+        if (done_.fetch_add(1, std::memory_order_acq_rel) + 1 == count) done_.notify_one();
+        c = claim_.load(std::memory_order_acquire);
+    }
+}
+
+void WorkerPool::run(Job& job, uint32_t count) noexcept {
     ++jobs_;
+    if (count == 0) return;
     if (workers_ == 1) {
-        job.work(0);
+        for (uint32_t i = 0; i < count; ++i) job.task(0, i);
         return;
     }
     job_ = &job;
-    remaining_.store(static_cast<uint32_t>(workers_ - 1), std::memory_order_relaxed);
-    generation_.fetch_add(1, std::memory_order_release);
+    done_.store(0, std::memory_order_relaxed);
+    const uint32_t g = generation_.load(std::memory_order_relaxed) + 1;
+    claim_.store((static_cast<uint64_t>(g & 0xFFFFFFu) << 40) | (static_cast<uint64_t>(count) << 20),
+                 std::memory_order_release);
+    generation_.store(g, std::memory_order_release);
     generation_.notify_all();
-    job.work(0);
+    runTasks(0, g);
     for (int i = 0; i < kSpinIterations; ++i) {
-        if (remaining_.load(std::memory_order_acquire) == 0) return;
+        if (done_.load(std::memory_order_acquire) == count) return;
         cpuRelax();
     }
-    for (uint32_t r; (r = remaining_.load(std::memory_order_acquire)) != 0;) remaining_.wait(r, std::memory_order_acquire);
+    for (uint32_t d; (d = done_.load(std::memory_order_acquire)) != count;) done_.wait(d, std::memory_order_acquire);
 }
 
 } // namespace rost::detail

@@ -10,9 +10,13 @@
 // steps. run() allocates nothing, takes no lock and makes no blocking call
 // while the workers are busy; waking a parked worker is a futex wake.
 //
-// The job decides what a worker does; the pool only guarantees that every
-// worker's writes before it finishes are visible to the caller when run()
-// returns, and the caller's writes before run() to every worker.
+// A job is `count` independent tasks. Every thread, the caller included,
+// claims tasks one at a time from a shared word that also holds the job's
+// generation and task count, so a worker that wakes late (descheduled on a
+// loaded machine) finds the job over and claims nothing: run() returns as
+// soon as every task is done, whoever did them, and never waits for a
+// worker that is not running. Every task's writes are visible to the caller
+// when run() returns, and the caller's writes before run() to every task.
 
 #include <atomic>
 #include <cstdint>
@@ -26,10 +30,11 @@ namespace rost::detail {
 
 class WorkerPool {
 public:
-    // What every worker runs for one job: work(worker) with worker in [0, workers()).
+    // One task of a job, run by worker `worker` (in [0, workers()); its
+    // scratch may be indexed by it).
     class Job {
     public:
-        virtual void work(int worker) noexcept = 0;
+        virtual void task(int worker, uint32_t index) noexcept = 0;
 
     protected:
         ~Job() = default;
@@ -50,9 +55,9 @@ public:
     // refiner keeps `cpu`). Set-up code.
     void applySettings(const ThreadSettings& settings);
 
-    // Runs the job on every worker, the caller as worker 0, and returns when
-    // all have finished.
-    void run(Job& job) noexcept;
+    // Runs tasks 0..count-1 of the job (count < 2^20) on the workers and the
+    // caller (worker 0); returns when all are done.
+    void run(Job& job, uint32_t count) noexcept;
 
     // Jobs run so far (for tests).
     uint64_t jobs() const noexcept { return jobs_; }
@@ -62,10 +67,14 @@ private:
     void stopThreads() noexcept;
     void workerMain(int index, const ThreadSettings* settings, uint32_t seen) noexcept;
     static void waitChange(std::atomic<uint32_t>& a, uint32_t old) noexcept;
+    // Claims and runs tasks of the job of `generation` until none is left.
+    void runTasks(int worker, uint32_t generation) noexcept;
 
     int workers_;
-    alignas(64) std::atomic<uint32_t> generation_{0};
-    alignas(64) std::atomic<uint32_t> remaining_{0};
+    alignas(64) std::atomic<uint32_t> generation_{0};  // bumped per job (workers park on it)
+    // generation (24 bits) | count (20 bits) | next task (20 bits)
+    alignas(64) std::atomic<uint64_t> claim_{0};
+    alignas(64) std::atomic<uint32_t> done_{0};
     std::atomic<bool> stop_{false};
     Job* job_ = nullptr;
     uint64_t jobs_ = 0;
