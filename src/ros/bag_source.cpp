@@ -22,11 +22,16 @@ bool isImageType(const std::string& type) {
     return type == "sensor_msgs/Image" || type == "sensor_msgs/CompressedImage";
 }
 
-Status openBag(const std::string& path, rosbag::Bag& bag) {
+// `topic` (when given) is named in the message.
+Status openBag(const std::string& path, rosbag::Bag& bag, const std::string& topic = {}) {
     try {
         bag.open(path, rosbag::bagmode::Read);
     } catch (const rosbag::BagException& e) {
-        return Status::error(path + ": cannot read the bag: " + e.what());
+        std::string m = path;
+        if (!topic.empty()) m += ": topic " + topic;
+        m += ": cannot read the bag (truncated? `rosbag reindex` rebuilds a lost index): ";
+        m += e.what();
+        return Status::error(m);
     }
     return {};
 }
@@ -71,7 +76,7 @@ bool Source::decode(const rosbag::MessageInstance& m, cv::Mat& bgr, std::string&
 Status Source::open(const std::string& path, const std::string& topic, const vision::SourceOptions& options) {
     path_ = path;
     topic_ = topic;
-    if (Status st = openBag(path, bag_); !st.ok()) return st;
+    if (Status st = openBag(path, bag_, topic); !st.ok()) return st;
     try {
         view_.emplace(bag_, rosbag::TopicQuery(topic));
         const auto conns = view_->getConnections();

@@ -74,6 +74,7 @@ bool NodeSettings::given(const std::string& key) const {
 
 struct Pipeline::Impl {
     Settings settings;
+    NodeSettings givenSettings;
     EngineConfig ec;
     Options options;
     std::shared_ptr<const vision::Vocabulary> vocabulary;
@@ -165,16 +166,25 @@ Pipeline::~Pipeline() {
     if (impl_ && impl_->engine) impl_->engine->stop(Engine::StopMode::Discard);
 }
 
-std::unique_ptr<Pipeline> Pipeline::create(const NodeSettings& settings, int width, int height,
-                                           const Options& options, std::string& error) {
+std::unique_ptr<Pipeline> Pipeline::create(const NodeSettings& settings, const Options& options,
+                                           std::string& error) {
     auto impl = std::make_unique<Impl>();
     impl->settings = settings.impl().settings;
+    impl->givenSettings = settings;
     impl->options = options;
     if (Status st = impl->settings.validate(); !st.ok()) return error = st.message(), nullptr;
     if (error = impl->makeExtractor(); !error.empty()) return nullptr;
-    if (error = impl->makeEngine(settings, width, height); !error.empty()) return nullptr;
     return std::unique_ptr<Pipeline>(new Pipeline(std::move(impl)));
 }
+
+std::string Pipeline::open(int width, int height) {
+    if (impl_->engine) return "the engine is already made";
+    std::string e = impl_->makeEngine(impl_->givenSettings, width, height);
+    if (!e.empty()) impl_->engine.reset();
+    return e;
+}
+bool Pipeline::opened() const { return impl_->engine != nullptr; }
+bool Pipeline::sizeGiven() const { return impl_->givenSettings.given("frame.width") && impl_->givenSettings.given("frame.height"); }
 
 std::string Pipeline::start() { return impl_->engine->start().message(); }
 void Pipeline::stop() { impl_->engine->stop(Engine::StopMode::Drain); }

@@ -82,12 +82,19 @@ public:
         std::string resume;      // "" : a new model; else carry on this checkpoint's
         std::size_t result_slots = 64;
     };
-    // Set-up: the extractors, the engine for frames of width x height (unless
-    // the settings give frame.width / frame.height: frames are then resized),
-    // V from the extractors unless set, the checkpoint writer. nullptr and
-    // `error` set on failure.
-    static std::unique_ptr<Pipeline> create(const NodeSettings& settings, int width, int height,
-                                            const Options& options, std::string& error);
+    // Set-up: the settings checked, the word extractors and their
+    // vocabulary. nullptr and `error` set on failure.
+    static std::unique_ptr<Pipeline> create(const NodeSettings& settings, const Options& options,
+                                            std::string& error);
+    // Set-up: the engine for frames of width x height (unless the settings
+    // give frame.width / frame.height: frames are then resized), V from the
+    // extractors unless set, ~resume's state, the checkpoint writer. "" on
+    // success, else the error. Before any other call but sizeGiven().
+    std::string open(int width, int height);
+    bool opened() const;
+    // Whether the settings fix the frame size (frame.width and frame.height
+    // given): open() can be called before the first image.
+    bool sizeGiven() const;
     ~Pipeline();
     Pipeline(const Pipeline&) = delete;
     Pipeline& operator=(const Pipeline&) = delete;

@@ -71,15 +71,24 @@ void Node::advertise() {
     pause_srv_ = pnh_.advertiseService("pause", &Node::onPause, this);
     get_srv_ = pnh_.advertiseService("get_topic_model", &Node::onGetModel, this);
     set_srv_ = pnh_.advertiseService("set_topic_model", &Node::onSetModel, this);
-    // A camera's rate: a short queue, the newest images kept.
+    // Images waiting for the callback: as many as the engine's queue holds
+    // (the oldest go first when it is full, as with drop = oldest).
+    const uint32_t queue = static_cast<uint32_t>(std::stoul(settings_.value("queue.slots")));
     if (compressed_)
-        image_sub_ = nh_.subscribe("image", 4, &Node::onCompressed, this);
+        image_sub_ = nh_.subscribe("image", queue, &Node::onCompressed, this);
     else
-        image_sub_ = nh_.subscribe("image", 4, &Node::onImage, this);
+        image_sub_ = nh_.subscribe("image", queue, &Node::onImage, this);
 }
 
 bool Node::init() {
     if (!readSettings()) return false;
+    std::string err;
+    pipeline_ = rost::bridge::Pipeline::create(settings_, options_, err);
+    if (!pipeline_) {
+        ROS_FATAL("rost: %s", err.c_str());
+        return false;
+    }
+    if (pipeline_->sizeGiven() && !ensureEngine(0, 0)) return false;
     advertise();
     ROS_INFO("rost: listening on %s (%s); K = %s, cell.space = %s", image_sub_.getTopic().c_str(),
              compressed_ ? "sensor_msgs/CompressedImage" : "sensor_msgs/Image", settings_.value("K").c_str(),
@@ -89,12 +98,12 @@ bool Node::init() {
 
 void Node::shutdown() {
     image_sub_.shutdown();
-    if (pipeline_) pipeline_->stop();  // the queued frames' results are still published
+    if (pipeline_ && pipeline_->opened()) pipeline_->stop();  // the queued frames' results are still published
     if (publisher_.joinable()) {
         publishing_.store(false, std::memory_order_release);
         publisher_.join();
     }
-    if (pipeline_ && !options_.checkpoint.empty()) {
+    if (pipeline_ && pipeline_->opened() && !options_.checkpoint.empty()) {
         if (const std::string err = pipeline_->saveCheckpoint(); !err.empty())
             ROS_ERROR("rost: final checkpoint: %s", err.c_str());
     }
@@ -122,13 +131,13 @@ void Node::onCompressed(const sensor_msgs::CompressedImageConstPtr& msg) {
     handle(bgr, msg->header);
 }
 
-// The first image fixes the frame size (unless ~frame_width / ~frame_height).
-bool Node::ensurePipeline(const cv::Mat& bgr) {
-    if (pipeline_) return true;
+// The first image fixes the frame size (unless ~frame_width and ~frame_height).
+bool Node::ensureEngine(int width, int height) {
+    if (pipeline_->opened()) return true;
     if (failed_) return false;
-    std::string err;
-    pipeline_ = rost::bridge::Pipeline::create(settings_, bgr.cols, bgr.rows, options_, err);
-    if (pipeline_ && (err = pipeline_->start()).empty()) {
+    std::string err = pipeline_->open(width, height);
+    if (err.empty()) err = pipeline_->start();
+    if (err.empty()) {
         ROS_INFO("rost: frames of %dx%d, %dx%d cells, K = %d, V = %d%s%s", pipeline_->width(), pipeline_->height(),
                  pipeline_->cellsX(), pipeline_->cellsY(), pipeline_->K(), pipeline_->V(),
                  options_.resume.empty() ? "" : ", resumed from ", options_.resume.c_str());
@@ -138,13 +147,12 @@ bool Node::ensurePipeline(const cv::Mat& bgr) {
     }
     failed_ = true;
     ROS_FATAL("rost: %s", err.c_str());
-    pipeline_.reset();
     ros::shutdown();
     return false;
 }
 
 void Node::handle(const cv::Mat& bgr, const std_msgs::Header& header) {
-    if (paused_.load(std::memory_order_acquire) || !ensurePipeline(bgr)) return;
+    if (paused_.load(std::memory_order_acquire) || !ensureEngine(bgr.cols, bgr.rows)) return;
     rememberStamp(header);
     const int64_t stamp = static_cast<int64_t>(header.stamp.toNSec());
     if (!pipeline_->push(bgr, stamp))
@@ -224,7 +232,7 @@ void Node::publish(const rost::bridge::FrameResult& r) {
 }
 
 bool Node::onSave(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-    if (!pipeline_) {
+    if (!pipeline_->opened()) {
         res.success = false;
         res.message = "no image yet: nothing to save";
         return true;
@@ -243,7 +251,7 @@ bool Node::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response&
 }
 
 bool Node::onGetModel(rost_msgs::GetTopicModel::Request&, rost_msgs::GetTopicModel::Response& res) {
-    if (!pipeline_) return false;  // no model before the first image
+    if (!pipeline_->opened()) return false;  // no model before the first image
     std::vector<int32_t> counts;
     if (const std::string err = pipeline_->getTopicModel(counts); !err.empty()) {
         ROS_ERROR("rost: get_topic_model: %s", err.c_str());
@@ -256,7 +264,7 @@ bool Node::onGetModel(rost_msgs::GetTopicModel::Request&, rost_msgs::GetTopicMod
 }
 
 bool Node::onSetModel(rost_msgs::SetTopicModel::Request& req, rost_msgs::SetTopicModel::Response& res) {
-    if (!pipeline_) {
+    if (!pipeline_->opened()) {
         res.success = false;
         res.message = "no image yet: the model is made on the first image";
         return true;

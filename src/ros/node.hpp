@@ -51,7 +51,7 @@ private:
     void onImage(const sensor_msgs::ImageConstPtr& msg);
     void onCompressed(const sensor_msgs::CompressedImageConstPtr& msg);
     void handle(const cv::Mat& bgr, const std_msgs::Header& header);
-    bool ensurePipeline(const cv::Mat& bgr);
+    bool ensureEngine(int width, int height);
     void badImage(const std::string& why, const std_msgs::Header& header);
     void publisherMain();
     void publish(const rost::bridge::FrameResult& r);
@@ -67,8 +67,8 @@ private:
     rost::bridge::NodeSettings settings_;
     rost::bridge::Pipeline::Options options_;
     bool compressed_ = false;
-    std::unique_ptr<rost::bridge::Pipeline> pipeline_;  // made on the first image
-    bool failed_ = false;                               // the pipeline could not be made
+    std::unique_ptr<rost::bridge::Pipeline> pipeline_;  // made by init(); its engine on the first image
+    bool failed_ = false;                               // the engine could not be made
     bool warned_bad_image_ = false;
     std::atomic<bool> paused_{false};
     std::atomic<bool> publishing_{false};
