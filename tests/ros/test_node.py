@@ -171,6 +171,14 @@ def run():
     check(log.count("bayer_rggb8") == 1 and "/camera/image_raw" in log,
           "an image rost cannot read is logged once for its topic, and the next ones are read")
 
+    listed = subprocess.run([os.path.join(build, "rost_node"), "--params"], stdout=subprocess.PIPE,
+                            check=True).stdout.decode()
+    conf = subprocess.run([os.path.join(build, "rost"), "config"], stdout=subprocess.PIPE, check=True).stdout.decode()
+    keys = [line.lstrip("# ").split(" = ")[0] for line in conf.splitlines() if " = " in line]
+    params = [line.split()[0] for line in listed.splitlines() if line.startswith("~")]
+    check(len(keys) > 30 and all("~" + k.replace(".", "_").replace("-", "_") in params for k in keys),
+          "rost_node --params: a parameter for each of the %d settings of `rost config`" % len(keys))
+
     badnode = subprocess.run([os.path.join(build, "rost_node"), "__name:=rost_bad", "_cell_space:=0"],
                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ, timeout=30)
     out = badnode.stdout.decode(errors="replace")
