@@ -8,6 +8,6 @@ if(NOT ROST_HAVE_ROS)
 endif()
 foreach(_t IN ITEMS node bag)
   add_test(NAME ros_${_t}
-           COMMAND sh -c "set -u; . '${PROJECT_BINARY_DIR}/ros/setup.sh' && exec /usr/bin/python3 '${CMAKE_CURRENT_SOURCE_DIR}/ros/test_${_t}.py' '${PROJECT_BINARY_DIR}' '${PROJECT_SOURCE_DIR}/data'")
+           COMMAND env -u PYTHONPATH -u ROS_PACKAGE_PATH sh -c "set -u; . '${PROJECT_BINARY_DIR}/ros/setup.sh' && exec /usr/bin/python3 '${CMAKE_CURRENT_SOURCE_DIR}/ros/test_${_t}.py' '${PROJECT_BINARY_DIR}' '${PROJECT_SOURCE_DIR}/data'")
   set_tests_properties(ros_${_t} PROPERTIES FIXTURES_REQUIRED rost_footage TIMEOUT 300 SKIP_RETURN_CODE 77)
 endforeach()

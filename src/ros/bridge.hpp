@@ -4,8 +4,9 @@
 // compile as C++20 (their allocators use std::allocator<T>::rebind), so the
 // node (rost_node) and the tool's bag reader and writer are C++17
 // translation units; this header is all of rost they include. It compiles as
-// C++17 (ctest RosBridgeHeaderCxx17 checks) and hides the C++20 library
-// behind plain structs and an opaque pipeline (bridge.cpp, compiled as C++20).
+// C++17 (the node's translation units include it as C++17, so the build
+// checks) and hides the C++20 library behind plain structs and an opaque
+// pipeline (bridge.cpp, compiled as C++20).
 
 #include <cstddef>
 #include <cstdint>

@@ -14,17 +14,18 @@ namespace rost_node {
 
 namespace {
 // A parameter's value as the text a rost configuration file would hold.
-bool paramText(const XmlRpc::XmlRpcValue& v, std::string& text) {
+// (XmlRpcValue's conversions are not const.)
+bool paramText(XmlRpc::XmlRpcValue& v, std::string& text) {
     switch (v.getType()) {
-    case XmlRpc::XmlRpcValue::TypeBoolean: text = static_cast<bool>(const_cast<XmlRpc::XmlRpcValue&>(v)) ? "true" : "false"; return true;
-    case XmlRpc::XmlRpcValue::TypeInt: text = std::to_string(static_cast<int>(const_cast<XmlRpc::XmlRpcValue&>(v))); return true;
+    case XmlRpc::XmlRpcValue::TypeBoolean: text = static_cast<bool>(v) ? "true" : "false"; return true;
+    case XmlRpc::XmlRpcValue::TypeInt: text = std::to_string(static_cast<int>(v)); return true;
     case XmlRpc::XmlRpcValue::TypeDouble: {
         char buf[64];
-        std::snprintf(buf, sizeof buf, "%.17g", static_cast<double>(const_cast<XmlRpc::XmlRpcValue&>(v)));
+        std::snprintf(buf, sizeof buf, "%.17g", static_cast<double>(v));
         text = buf;
         return true;
     }
-    case XmlRpc::XmlRpcValue::TypeString: text = static_cast<std::string>(const_cast<XmlRpc::XmlRpcValue&>(v)); return true;
+    case XmlRpc::XmlRpcValue::TypeString: text = static_cast<std::string>(v); return true;
     default: return false;
     }
 }

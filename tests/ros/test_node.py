@@ -171,6 +171,19 @@ def run():
     check(log.count("bayer_rggb8") == 1 and "/camera/image_raw" in log,
           "an image rost cannot read is logged once for its topic, and the next ones are read")
 
+    # ~resume: the model as it was saved (the node was paused: no frame since get_topic_model).
+    sized = ["_frame_width:=%d" % W, "_frame_height:=%d" % H]
+    node2 = start([os.path.join(build, "rost_node"), "__name:=rost2", "_resume:=" + ckpt] + sized, "rost_node2.log")
+    rospy.wait_for_service("/rost2/get_topic_model", timeout=30)
+    again = rospy.ServiceProxy("/rost2/get_topic_model", GetTopicModel)()
+    check(list(again.counts) == list(model.counts), "~resume: the topic model the checkpoint holds")
+    stop(node2)
+    clash = subprocess.run([os.path.join(build, "rost_node"), "__name:=rost3", "_resume:=" + ckpt, "_K:=8"] + sized,
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ, timeout=60)
+    out = clash.stdout.decode(errors="replace")
+    check(clash.returncode == 2 and "~K = 8" in out and "K = 16" in out,
+          "~resume with another ~K: exit %d, %s" % (clash.returncode, out.strip().splitlines()[-1] if out else ""))
+
     listed = subprocess.run([os.path.join(build, "rost_node"), "--params"], stdout=subprocess.PIPE,
                             check=True).stdout.decode()
     conf = subprocess.run([os.path.join(build, "rost"), "config"], stdout=subprocess.PIPE, check=True).stdout.decode()
