@@ -16,8 +16,11 @@
 
 namespace rost::bag {
 
-// Whether INPUT names a bag file (ends in ".bag").
-bool isBagInput(const std::string& input);
+// Whether INPUT names a bag file (ends in ".bag"). Inline: the tool asks
+// also when built without ROS (to say so).
+inline bool isBagInput(const std::string& input) {
+    return input.size() > 4 && input.compare(input.size() - 4, 4, ".bag") == 0;
+}
 
 // The image topics of a bag (sensor_msgs/Image and CompressedImage), one
 // line each: "/camera/image_raw (sensor_msgs/Image, 351 messages)".

@@ -12,10 +12,6 @@
 
 namespace rost::bag {
 
-bool isBagInput(const std::string& input) {
-    return input.size() > 4 && input.compare(input.size() - 4, 4, ".bag") == 0;
-}
-
 namespace {
 
 bool isImageType(const std::string& type) {
