@@ -115,7 +115,7 @@ fi
 t3=$(date +%s)
 echo "=== cross-build-tool: configure $build"
 ROST_SYSROOT=$sysroot cmake -G Ninja -S "$here" -B "$build" \
-  -DCMAKE_TOOLCHAIN_FILE="$here/toolchains/aarch64-linux-gnu.cmake" -DROST_SYSROOT="$sysroot" \
+  -DCMAKE_TOOLCHAIN_FILE="$here/toolchains/aarch64-linux-gnu.cmake" -DROST_SYSROOT="$sysroot" -DROST_ROS=OFF \
   -DCMAKE_BUILD_TYPE=Release -DROST_WERROR=ON -DROST_GTEST_FROM_SOURCE=ON \
   -DROST_VISION=ON -DROST_LIBCAMERA=ON -DROST_BUILD_TESTS=ON -DROST_BUILD_BENCH=ON -DROST_BUILD_EXAMPLES=ON \
   -DROST_PYTHON=OFF  # the host's python3 headers are not the board's (docs/python.md, "On a board")

@@ -95,7 +95,7 @@ run_target() {
       -DCMAKE_BUILD_TYPE=Release -DROST_WERROR=ON \
       -DROST_GTEST_FROM_SOURCE=ON -DROST_BUILD_TESTS=ON \
       -DROST_BUILD_BENCH=ON -DROST_BUILD_EXAMPLES=OFF \
-      -DROST_VISION=OFF -DROST_LIBCAMERA=OFF -DROST_PYTHON=OFF "${extra[@]}" >"$dir/rost-configure.log" 2>&1; then
+      -DROST_VISION=OFF -DROST_LIBCAMERA=OFF -DROST_PYTHON=OFF -DROST_ROS=OFF "${extra[@]}" >"$dir/rost-configure.log" 2>&1; then
     cat "$dir/rost-configure.log" >&2
     summary+=("$t: configure FAILED")
     status=1

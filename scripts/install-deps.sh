@@ -12,6 +12,12 @@ packages=(
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   clang libclang-rt-14-dev valgrind ffmpeg
   pybind11-dev python3-dev python3-numpy python3-pytest python3-hypothesis python3-opencv python3-matplotlib
+  # ROS 1 (1.15): rost_node, rost_msgs generation (gencpp, genpy; std_msgs' .msg
+  # files), bags; the node and bag tests (rosmaster, rospy, rosbag, rosservice).
+  libroscpp-dev libsensor-msgs-dev libstd-msgs-dev libstd-srvs-dev librosbag-dev librosbag-storage-dev
+  ros-std-msgs python3-genpy python3-gencpp
+  python3-rosmaster python3-rosbag python3-rostopic python3-rospy python3-rosservice
+  python3-sensor-msgs python3-std-srvs
 )
 missing=()
 for p in "${packages[@]}"; do

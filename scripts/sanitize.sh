@@ -36,7 +36,7 @@ case "$mode" in
 esac
 jobs=${ROST_JOBS:-2}
 cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DROST_WERROR=ON \
-  -DROST_BUILD_BENCH=OFF -DROST_BUILD_EXAMPLES=OFF -DROST_PYTHON=OFF \
+  -DROST_BUILD_BENCH=OFF -DROST_BUILD_EXAMPLES=OFF -DROST_PYTHON=OFF -DROST_ROS=OFF \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" -DCMAKE_SHARED_LINKER_FLAGS="$flags" >/dev/null
 cmake --build "$dir" -j "$jobs"
 # Sanitized runs are several times slower: one test at a time keeps the

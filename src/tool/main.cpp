@@ -49,7 +49,8 @@ void addRun(CLI::App& app, RunCli& r) {
     CLI::App* runCmd = app.add_subcommand("run", "model a video, image sequence or camera; write labels, perplexity, "
                                                  "surprise, the topic model, an overlay video and a summary plot");
     runCmd->add_option("input", run.inputs,
-                       "INPUT...: a video file, a directory of images, a glob ('frames/*.png', quoted), or camera:N. "
+                       "INPUT...: a video file, a directory of images, a glob ('frames/*.png', quoted), camera:N, or a "
+                       "bag (FILE.bag with --topic). "
                        "Several inputs play one after the other at the first one's size")
         ->required();
     runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required();
@@ -68,6 +69,17 @@ void addRun(CLI::App& app, RunCli& r) {
                        "camera:N pixel format (RGB888, BGR888, XRGB8888, XBGR8888, YUYV, UYVY, NV12, NV21, YUV420, "
                        "R8); default: the first of these the camera offers")
         ->group(f);
+    const char* bags = "Bags";
+    runCmd->add_option("--topic", run.topic,
+                       "INPUT.bag: the image topic to read (sensor_msgs/Image or CompressedImage); without it the "
+                       "bag's image topics are listed")
+        ->type_name("TOPIC")
+        ->group(bags);
+    runCmd->add_option("--out.bag", run.out_bag,
+                       "also write each frame's results as rost_msgs/FrameTopics on /rost/frame into this bag, "
+                       "stamped like the images")
+        ->type_name("FILE")
+        ->group(bags);
     const char* rt = "Realtime";
     runCmd->add_flag("--realtime", run.realtime,
                      "run as onboard: a capture thread (a file paced at its frame rate) and the refiner thread; "

@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "bag_sink.hpp"
 #include "collector.hpp"
 #include "outputs.hpp"
 #include "progress.hpp"
@@ -41,6 +42,7 @@ struct RunSinks {
     OverlaySink overlay;
     ThumbnailSink thumbs;
     FrameSink frames;
+    BagSink bag;
     std::unique_ptr<CheckpointWriter> checkpoints;
 
     RunSinks(const RunOptions& o, const WordsStage& w, RunEngine& e, bool realtime)
@@ -55,10 +57,14 @@ struct RunSinks {
             if (Status st = overlay.open(out, w.info, o.overlay_format); !st.ok()) return st;
         collector.setFirstObservation(e.resumed.observations);
         if (Status st = collector.streamTo(out, true); !st.ok()) return st;
+        if (Status st = bag.open(o.out_bag, w.bag, e.ec.model); !st.ok()) return st;
         return attachCheckpoints(*e.engine, o.model, checkpoints);
     }
     void drain() {
-        collector.drain([this](const ObservationRecord& r) { frames.onObservation(r); });
+        collector.drain([this](const ObservationRecord& r) {
+            frames.onObservation(r);
+            bag.onObservation(r);
+        });
     }
 };
 
@@ -165,6 +171,7 @@ int runCommand(const RunOptions& o) {
                                   {"run.txt", [&] { return report.text(); }}});
     if (st.ok() && o.summary)
         st = writeRunSummary(out, o, words, engine, sinks.frames, sinks.thumbs, sinks.collector.rows());
+    if (st.ok()) st = sinks.bag.finish(sinks.collector.rows());
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) std::fputs(drops.note(engine.ec.model).c_str(), stderr);

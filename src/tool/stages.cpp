@@ -24,10 +24,9 @@ Status WordsStage::open(const RunOptions& o) {
     so.camera_height = o.camera_height;
     so.camera_format = o.camera_format;
     for (const auto& in : o.inputs) live = live || vision::isCameraInput(in);
-    Status st;
-    source = vision::openFrameSources(o.inputs, so, st);
-    if (!source) return st;
+    if (Status st = openSource(o, so); !st.ok()) return st;
     info = source->info();
+    Status st;
 
     extractors = vision::ExtractorConfig::from(o.model.settings.words);
     if (extractors.orb) {
@@ -43,6 +42,37 @@ Status WordsStage::open(const RunOptions& o) {
     extractor = vision::WordExtractor::create(extractors, vocabulary, st);
     if (!extractor) return st;
     return {};
+}
+
+// A bag (its image topic, read with rosbag) or the vision library's sources.
+Status WordsStage::openSource(const RunOptions& o, const vision::SourceOptions& so) {
+    const bool anyBag = std::any_of(o.inputs.begin(), o.inputs.end(), bag::isBagInput);
+    if (!anyBag && !o.out_bag.empty()) return Status::error("--out.bag needs a bag as the input");
+    if (!anyBag && !o.topic.empty()) return Status::error("--topic needs a bag as the input");
+    Status st;
+    if (!anyBag) {
+        source = vision::openFrameSources(o.inputs, so, st);
+        return source ? Status() : st;
+    }
+    if (o.inputs.size() != 1) return Status::error("a bag is read alone: give one INPUT.bag");
+#if ROST_HAVE_ROS
+    const std::string& path = o.inputs.front();
+    if (o.topic.empty()) {
+        std::vector<std::string> topics;
+        if (st = bag::listImageTopics(path, topics); !st.ok()) return st;
+        std::string m = path;
+        m += topics.empty() ? ": no image topics in the bag" : ": which image topic? give --topic TOPIC, one of:";
+        for (const std::string& t : topics) m += "\n  " + t;
+        return Status::error(m);
+    }
+    auto b = bag::openBagSource(path, o.topic, so, st);
+    if (!b) return st;
+    bag = b.get();
+    source = std::move(b);
+    return {};
+#else
+    return Status::error(o.inputs.front() + ": this rost was built without ROS (ROST_ROS): bags cannot be read");
+#endif
 }
 
 Status RunEngine::checkV(const RunOptions& o, const WordsStage& w) const {

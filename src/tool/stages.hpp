@@ -20,6 +20,7 @@
 #include "rost/word_stream.hpp"
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/words.hpp"
+#include "bag.hpp"
 #include "spsc_ring.hpp"
 #include "tool.hpp"
 
@@ -43,9 +44,13 @@ struct WordsStage {
     vision::ExtractorConfig extractors;
     std::shared_ptr<const vision::Vocabulary> vocabulary;
     std::unique_ptr<vision::WordExtractor> extractor;
+    const bag::BagFrameSource* bag = nullptr;  // the source, when the input is a bag
 
     Status open(const RunOptions& o);
     int wordsV() const { return static_cast<int>(extractor->vocabularySize()); }
+
+private:
+    Status openSource(const RunOptions& o, const vision::SourceOptions& so);
 };
 
 // The engine, made for the input or resumed from a checkpoint, and where

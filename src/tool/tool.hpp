@@ -94,6 +94,9 @@ struct RunOptions {
     int64_t max_frames = 0;  // 0: all
     int camera_width = 640, camera_height = 480;
     std::string camera_format;
+    // Bags (built with ROS): the image topic to read, and a bag to write the results into.
+    std::string topic;
+    std::string out_bag;
     // Realtime (queue, drop and thread settings are in model.settings).
     bool realtime = false;
     // Outputs.

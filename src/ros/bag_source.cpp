@@ -1,0 +1,172 @@
+// C++17: rosbag's headers. A bag's image topic as a rost frame source.
+
+#include <algorithm>
+#include <optional>
+
+#include <opencv2/imgproc.hpp>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+
+#include "bag.hpp"
+#include "image_convert.hpp"
+
+namespace rost::bag {
+
+namespace {
+
+bool isImageType(const std::string& type) {
+    return type == "sensor_msgs/Image" || type == "sensor_msgs/CompressedImage";
+}
+
+// `topic` (when given) is named in the message.
+Status openBag(const std::string& path, rosbag::Bag& bag, const std::string& topic = {}) {
+    try {
+        bag.open(path, rosbag::bagmode::Read);
+    } catch (const rosbag::BagException& e) {
+        std::string m = path;
+        if (!topic.empty()) m += ": topic " + topic;
+        m += ": cannot read the bag (truncated? `rosbag reindex` rebuilds a lost index): ";
+        m += e.what();
+        return Status::error(m);
+    }
+    return {};
+}
+
+class Source final : public BagFrameSource {
+public:
+    Status open(const std::string& path, const std::string& topic, const vision::SourceOptions& options);
+    vision::ReadStatus read(vision::Frame& out) override;
+    const std::vector<ImageStamp>& stamps() const noexcept override { return stamps_; }
+
+private:
+    bool decode(const rosbag::MessageInstance& m, cv::Mat& bgr, std::string& why, ImageStamp& stamp) const;
+    vision::ReadStatus fail(const std::string& why);
+
+    std::string path_, topic_;
+    rosbag::Bag bag_;
+    std::optional<rosbag::View> view_;
+    rosbag::View::iterator it_;
+    cv::Mat bgr_;
+    int64_t index_ = 0;
+    std::vector<ImageStamp> stamps_;
+};
+
+bool Source::decode(const rosbag::MessageInstance& m, cv::Mat& bgr, std::string& why, ImageStamp& stamp) const {
+    ros::Time t = m.getTime();
+    if (auto im = m.instantiate<sensor_msgs::Image>()) {
+        if (!bridge::toBgr(*im, bgr, why)) return false;
+        if (!im->header.stamp.isZero()) t = im->header.stamp;
+        stamp.frame_id = im->header.frame_id;
+    } else if (auto ci = m.instantiate<sensor_msgs::CompressedImage>()) {
+        if (!bridge::toBgr(*ci, bgr, why)) return false;
+        if (!ci->header.stamp.isZero()) t = ci->header.stamp;
+        stamp.frame_id = ci->header.frame_id;
+    } else {
+        why = "a " + m.getDataType() + ", not an image";
+        return false;
+    }
+    stamp.stamp_ns = static_cast<int64_t>(t.toNSec());
+    return true;
+}
+
+Status Source::open(const std::string& path, const std::string& topic, const vision::SourceOptions& options) {
+    path_ = path;
+    topic_ = topic;
+    if (Status st = openBag(path, bag_, topic); !st.ok()) return st;
+    try {
+        view_.emplace(bag_, rosbag::TopicQuery(topic));
+        const auto conns = view_->getConnections();
+        if (conns.empty()) return Status::error(path + ": no topic " + topic + " in the bag");
+        for (const rosbag::ConnectionInfo* c : conns)
+            if (!isImageType(c->datatype))
+                return Status::error(path + ": topic " + topic + " carries " + c->datatype +
+                                     ", not sensor_msgs/Image or sensor_msgs/CompressedImage");
+        info_.frames = static_cast<int64_t>(view_->size());
+        const double span = (view_->getEndTime() - view_->getBeginTime()).toSec();
+        info_.fps = info_.frames > 1 && span > 0 ? static_cast<double>(info_.frames - 1) / span : 0.0;
+        it_ = view_->begin();
+        if (it_ == view_->end()) return Status::error(path + ": topic " + topic + " has no messages");
+        std::string why;
+        ImageStamp first;
+        if (!decode(*it_, bgr_, why, first))
+            return Status::error(path + ": topic " + topic + ", message 0: " + why);
+    } catch (const rosbag::BagException& e) {
+        return Status::error(path + ": topic " + topic + ", message 0: cannot read the bag: " + e.what());
+    }
+    int w = options.width, h = options.height;
+    if (w <= 0 && h <= 0) w = bgr_.cols, h = bgr_.rows;
+    else if (w <= 0) w = std::max(1, static_cast<int>(static_cast<int64_t>(h) * bgr_.cols / bgr_.rows));
+    else if (h <= 0) h = std::max(1, static_cast<int>(static_cast<int64_t>(w) * bgr_.rows / bgr_.cols));
+    info_.width = w;
+    info_.height = h;
+    info_.description = "bag " + path + " topic " + topic + " (" + std::to_string(w) + "x" + std::to_string(h) +
+                        ", " + std::to_string(info_.frames) + " frames)";
+    return {};
+}
+
+vision::ReadStatus Source::fail(const std::string& why) {
+    error_ = path_ + ": topic " + topic_ + ", message " + std::to_string(index_) + ": " + why;
+    return vision::ReadStatus::Error;
+}
+
+vision::ReadStatus Source::read(vision::Frame& out) {
+    ImageStamp stamp;
+    try {
+        if (it_ == view_->end()) return vision::ReadStatus::End;
+        std::string why;
+        if (!decode(*it_, bgr_, why, stamp)) return fail(why);
+        ++it_;
+    } catch (const rosbag::BagException& e) {
+        return fail(std::string("cannot read the bag: ") + e.what());
+    } catch (const ros::Exception& e) {
+        return fail(std::string("cannot read the message: ") + e.what());
+    }
+    const cv::Mat* img = &bgr_;
+    cv::Mat colour;
+    if (bgr_.channels() == 1) {
+        cv::cvtColor(bgr_, colour, cv::COLOR_GRAY2BGR);
+        img = &colour;
+    }
+    if (img->cols != info_.width || img->rows != info_.height)
+        cv::resize(*img, out.image, cv::Size(info_.width, info_.height), 0, 0, cv::INTER_AREA);
+    else
+        img->copyTo(out.image);
+    out.index = index_++;
+    out.timestamp_us = stamp.stamp_ns / 1000;
+    stamps_.push_back(std::move(stamp));
+    return vision::ReadStatus::Ok;
+}
+
+} // namespace
+
+BagFrameSource::~BagFrameSource() = default;
+
+Status listImageTopics(const std::string& path, std::vector<std::string>& lines) {
+    lines.clear();
+    rosbag::Bag bag;
+    if (Status st = openBag(path, bag); !st.ok()) return st;
+    try {
+        rosbag::View all(bag);
+        std::vector<std::string> seen;
+        for (const rosbag::ConnectionInfo* c : all.getConnections()) {
+            if (!isImageType(c->datatype) || std::find(seen.begin(), seen.end(), c->topic) != seen.end()) continue;
+            seen.push_back(c->topic);
+            rosbag::View one(bag, rosbag::TopicQuery(c->topic));
+            lines.push_back(c->topic + " (" + c->datatype + ", " + std::to_string(one.size()) + " messages)");
+        }
+    } catch (const rosbag::BagException& e) {
+        return Status::error(path + ": cannot read the bag: " + e.what());
+    }
+    std::sort(lines.begin(), lines.end());
+    return {};
+}
+
+std::unique_ptr<BagFrameSource> openBagSource(const std::string& path, const std::string& topic,
+                                              const vision::SourceOptions& options, Status& status) {
+    auto s = std::make_unique<Source>();
+    status = s->open(path, topic, options);
+    if (!status.ok()) return nullptr;
+    return s;
+}
+
+} // namespace rost::bag

@@ -1,0 +1,68 @@
+// C++17: rosbag's headers. Per-frame results as rost_msgs/FrameTopics into a bag.
+
+#include <cstdio>
+#include <filesystem>
+
+#include <rosbag/bag.h>
+
+#include "bag.hpp"
+#include "frame_msg.hpp"
+
+namespace rost::bag {
+
+struct ResultBagWriter::Impl {
+    std::string path, tmp, topic;
+    rosbag::Bag bag;
+    bool open = false;
+};
+
+ResultBagWriter::ResultBagWriter() : impl_(std::make_unique<Impl>()) {}
+ResultBagWriter::~ResultBagWriter() {
+    if (impl_->open) {
+        impl_->bag.close();
+        std::error_code ec;
+        std::filesystem::remove(impl_->tmp, ec);
+    }
+}
+
+Status ResultBagWriter::open(const std::string& path, const std::string& topic) {
+    impl_->path = path;
+    impl_->topic = topic;
+    impl_->tmp = path + ".tmp";
+    try {
+        impl_->bag.open(impl_->tmp, rosbag::bagmode::Write);
+    } catch (const rosbag::BagException& e) {
+        return Status::error("--out.bag " + path + ": " + e.what());
+    }
+    impl_->open = true;
+    return {};
+}
+
+Status ResultBagWriter::write(const bridge::FrameResult& r, const ImageStamp& stamp) {
+    rost_msgs::FrameTopics msg;
+    bridge::fillFrameTopics(r, msg);
+    msg.header.stamp.fromNSec(static_cast<uint64_t>(stamp.stamp_ns));
+    msg.header.frame_id = stamp.frame_id;
+    try {
+        impl_->bag.write(impl_->topic, msg.header.stamp, msg);
+    } catch (const rosbag::BagException& e) {
+        return Status::error("--out.bag " + impl_->path + ": " + e.what());
+    }
+    return {};
+}
+
+Status ResultBagWriter::commit() {
+    if (!impl_->open) return {};
+    try {
+        impl_->bag.close();
+    } catch (const rosbag::BagException& e) {
+        return Status::error("--out.bag " + impl_->path + ": " + e.what());
+    }
+    impl_->open = false;
+    std::error_code ec;
+    std::filesystem::rename(impl_->tmp, impl_->path, ec);
+    if (ec) return Status::error("--out.bag " + impl_->path + ": " + ec.message());
+    return {};
+}
+
+} // namespace rost::bag

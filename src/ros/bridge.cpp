@@ -1,0 +1,293 @@
+// The C++20 side of rost::bridge (bridge.hpp): settings, word extraction and
+// the engine for the ROS node, behind a header that compiles as C++17.
+
+#include "bridge.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+#include <opencv2/imgproc.hpp>
+
+#include "rost/checkpoint.hpp"
+#include "rost/engine.hpp"
+#include "rost/settings.hpp"
+#include "rost/vision/words.hpp"
+
+namespace rost::bridge {
+
+std::vector<ParamSpec> settingParams() {
+    std::vector<ParamSpec> out;
+    for (const SettingSpec& s : settingSpecs()) {
+        ParamSpec p;
+        p.key = std::string(s.key);
+        p.param = paramName(s);
+        p.def = std::string(s.def);
+        p.range = settingRange(s);
+        p.doc = std::string(s.doc);
+        p.model = s.group == SettingGroup::Model;
+        out.push_back(std::move(p));
+    }
+    return out;
+}
+
+std::string paramNamedIn(const std::string& message) {
+    // The longest key the message names as a word ("g.time" and not "time").
+    const SettingSpec* best = nullptr;
+    for (const SettingSpec& s : settingSpecs()) {
+        const std::string key(s.key);
+        for (std::size_t at = message.find(key); at != std::string::npos; at = message.find(key, at + 1)) {
+            const auto isName = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_'; };
+            const bool before = at == 0 || !isName(message[at - 1]);
+            const std::size_t end = at + key.size();
+            const bool after = end >= message.size() || !isName(message[end]) ||
+                               (message[end] == '.' && (end + 1 >= message.size() || message[end + 1] == ' '));
+            if (before && after && (!best || s.key.size() > best->key.size())) best = &s;
+        }
+    }
+    return best ? paramName(*best) : std::string();
+}
+
+struct NodeSettings::Impl {
+    Settings settings;
+    std::vector<std::string> given;
+};
+
+NodeSettings::NodeSettings() : impl_(std::make_unique<Impl>()) {}
+NodeSettings::~NodeSettings() = default;
+NodeSettings::NodeSettings(const NodeSettings& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
+NodeSettings& NodeSettings::operator=(const NodeSettings& other) {
+    *impl_ = *other.impl_;
+    return *this;
+}
+
+std::string NodeSettings::set(const std::string& name, const std::string& value) {
+    const Status st = setSetting(impl_->settings, name, value);
+    if (!st.ok()) return st.message();
+    if (const SettingSpec* spec = findSetting(name)) impl_->given.emplace_back(spec->key);
+    return {};
+}
+std::string NodeSettings::validate() const { return impl_->settings.validate().message(); }
+std::string NodeSettings::value(const std::string& name) const { return settingValue(impl_->settings, name); }
+bool NodeSettings::given(const std::string& key) const {
+    return std::find(impl_->given.begin(), impl_->given.end(), key) != impl_->given.end();
+}
+
+struct Pipeline::Impl {
+    Settings settings;
+    NodeSettings givenSettings;
+    EngineConfig ec;
+    Options options;
+    std::shared_ptr<const vision::Vocabulary> vocabulary;
+    std::unique_ptr<vision::WordExtractor> extractor;
+    std::unique_ptr<Engine> engine;
+    std::unique_ptr<CheckpointWriter> checkpoints;
+    vision::FrameWords words;
+    cv::Mat resized;
+    PublishedResult record;
+
+    std::string makeExtractor();
+    std::string makeEngine(const NodeSettings& given, int width, int height);
+    std::string resumeInto(const NodeSettings& given, EngineConfig& ec);
+};
+
+std::string Pipeline::Impl::makeExtractor() {
+    Status st;
+    const vision::ExtractorConfig xc = vision::ExtractorConfig::from(settings.words);
+    if (xc.orb) {
+        if (options.vocabulary.empty()) {
+            vocabulary = vision::defaultVocabulary(st);
+        } else {
+            auto v = std::make_shared<vision::Vocabulary>();
+            st = vision::Vocabulary::load(options.vocabulary, *v);
+            vocabulary = std::move(v);
+        }
+        if (!st.ok()) return st.message();
+    }
+    extractor = vision::WordExtractor::create(xc, vocabulary, st);
+    return extractor ? std::string() : st.message();
+}
+
+// ~resume: the checkpoint fixes the model; a model parameter given with
+// another value is an error naming it. Refinement and runtime settings are
+// the node's.
+std::string Pipeline::Impl::resumeInto(const NodeSettings& given, EngineConfig& out) {
+    CheckpointInfo info;
+    if (Status st = readCheckpointInfo(options.resume, info); !st.ok()) return "~resume: " + st.message();
+    Settings fromFile = settings;
+    fromFile.engine.model = info.config.model;
+    for (const SettingSpec& s : settingSpecs()) {
+        if (s.group != SettingGroup::Model || !given.given(std::string(s.key))) continue;
+        const std::string mine = settingValue(settings, s.key), theirs = settingValue(fromFile, s.key);
+        if (mine != theirs) {
+            std::string e = "~";
+            e += paramName(s);
+            e += " = " + mine + " but ~resume " + options.resume + " has " + std::string(s.key) + " = " + theirs;
+            return e;
+        }
+    }
+    out.model = info.config.model;
+    return {};
+}
+
+std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int height) {
+    ec = settings.engine;
+    const int wordsV = static_cast<int>(extractor->vocabularySize());
+    if (!given.given("V")) ec.model.V = wordsV;
+    if (!given.given("frame.width")) ec.model.frame_width = width;
+    if (!given.given("frame.height")) ec.model.frame_height = height;
+    if (!options.resume.empty())
+        if (std::string e = resumeInto(given, ec); !e.empty()) return e;
+    if (ec.model.V < wordsV) {
+        std::string e = "~V = ";
+        e += std::to_string(ec.model.V) + " is smaller than the " + std::to_string(wordsV) +
+             " words the extractors produce";
+        return e;
+    }
+    Status st;
+    engine = Engine::create(ec, st);
+    if (!engine) return st.message();
+    if (!options.resume.empty()) {
+        CheckpointLoadOptions lo;
+        lo.allow_refinement_change = true;
+        if (Status ls = loadCheckpoint(options.resume, *engine, lo); !ls.ok()) return "~resume: " + ls.message();
+    }
+    if (Status ps = engine->publishResults(options.result_slots); !ps.ok()) return ps.message();
+    record = engine->makeResult();
+    if (!options.checkpoint.empty()) {
+        checkpoints = CheckpointWriter::create(*engine, options.checkpoint, st);
+        if (!checkpoints) return "~checkpoint: " + st.message();
+        engine->captureCheckpoints(checkpoints.get(), settings.checkpoint_every);
+    }
+    return {};
+}
+
+Pipeline::Pipeline(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Pipeline::~Pipeline() {
+    if (impl_ && impl_->engine) impl_->engine->stop(Engine::StopMode::Discard);
+}
+
+std::unique_ptr<Pipeline> Pipeline::create(const NodeSettings& settings, const Options& options,
+                                           std::string& error) {
+    auto impl = std::make_unique<Impl>();
+    impl->settings = settings.impl().settings;
+    impl->givenSettings = settings;
+    impl->options = options;
+    if (Status st = impl->settings.validate(); !st.ok()) return error = st.message(), nullptr;
+    if (error = impl->makeExtractor(); !error.empty()) return nullptr;
+    return std::unique_ptr<Pipeline>(new Pipeline(std::move(impl)));
+}
+
+std::string Pipeline::open(int width, int height) {
+    if (impl_->engine) return "the engine is already made";
+    std::string e = impl_->makeEngine(impl_->givenSettings, width, height);
+    if (!e.empty()) impl_->engine.reset();
+    return e;
+}
+bool Pipeline::opened() const { return impl_->engine != nullptr; }
+bool Pipeline::sizeGiven() const { return impl_->givenSettings.given("frame.width") && impl_->givenSettings.given("frame.height"); }
+
+std::string Pipeline::start() { return impl_->engine->start().message(); }
+void Pipeline::stop() { impl_->engine->stop(Engine::StopMode::Drain); }
+
+int Pipeline::K() const { return impl_->ec.model.K; }
+int Pipeline::V() const { return impl_->ec.model.V; }
+int Pipeline::width() const { return impl_->ec.model.frame_width; }
+int Pipeline::height() const { return impl_->ec.model.frame_height; }
+int Pipeline::cellsX() const { return impl_->ec.model.gridWidth(); }
+int Pipeline::cellsY() const { return impl_->ec.model.gridHeight(); }
+int Pipeline::cellSpace() const { return impl_->ec.model.cell_space; }
+
+bool Pipeline::push(const cv::Mat& image, int64_t timestamp) {
+    Impl& m = *impl_;
+    const cv::Mat* in = &image;
+    if (image.cols != width() || image.rows != height()) {
+        cv::resize(image, m.resized, cv::Size(width(), height()), 0, 0, cv::INTER_AREA);
+        in = &m.resized;
+    }
+    if (!m.extractor->extract(*in, m.words)) return false;
+    ObservationView view;
+    view.timestamp = timestamp;
+    view.words = m.words.words;
+    view.positions = m.words.positions;
+    return m.engine->tryPush(view);
+}
+
+bool Pipeline::next(FrameResult& out) {
+    Impl& m = *impl_;
+    if (!m.engine->readResult(m.record)) return false;
+    const ObservationResult& r = m.record.result;
+    const int K = this->K(), cells = cellsX() * cellsY();
+    out.frame = r.sequence;
+    out.timestamp = r.timestamp;
+    out.perplexity = static_cast<float>(r.perplexity);
+    out.surprise = static_cast<float>(r.surprise);
+    out.active_topics = K;  // until topics grow, every topic is active
+    out.cells_x = cellsX();
+    out.cells_y = cellsY();
+    out.topic_weights.assign(static_cast<std::size_t>(K), 0.0f);
+    out.cell_topics.assign(static_cast<std::size_t>(cells), -1);
+    out.cell_surprise.assign(static_cast<std::size_t>(cells), 0.0f);
+    const bool have = m.record.histograms.size() >= static_cast<std::size_t>(cells) * K;
+    double total = 0.0;
+    for (int c = 0; have && c < cells; ++c) {
+        int32_t best = 0;
+        for (int k = 0; k < K; ++k) {
+            const int32_t n = m.record.histograms[static_cast<std::size_t>(c) * K + k];
+            out.topic_weights[k] += static_cast<float>(n);
+            total += n;
+            if (n > best) best = n, out.cell_topics[c] = static_cast<int16_t>(k);
+        }
+    }
+    if (total > 0)
+        for (float& w : out.topic_weights) w = static_cast<float>(w / total);
+    const std::size_t ns = std::min(m.record.cell_surprise.size(), out.cell_surprise.size());
+    std::copy_n(m.record.cell_surprise.begin(), ns, out.cell_surprise.begin());
+    return true;
+}
+
+uint64_t Pipeline::dropped() const { return impl_->engine->counters().dropped() + impl_->engine->resultsLost(); }
+
+std::string Pipeline::saveCheckpoint() {
+    Impl& m = *impl_;
+    if (!m.checkpoints) return "no ~checkpoint parameter: nowhere to save";
+    const bool was = m.engine->running();
+    m.engine->stop(Engine::StopMode::Drain);
+    (void)m.checkpoints->flush();  // a periodic save in progress: its status is superseded by this one
+    m.checkpoints->capture();
+    const Status st = m.checkpoints->flush();
+    if (was)
+        if (Status s2 = m.engine->start(); !s2.ok()) return s2.message();
+    return st.ok() ? std::string() : st.message() + " (" + m.options.checkpoint + ")";
+}
+
+std::string Pipeline::getTopicModel(std::vector<int32_t>& counts) const {
+    Impl& m = *impl_;
+    const bool was = m.engine->running();
+    m.engine->stop(Engine::StopMode::Drain);
+    const Model& model = m.engine->model();
+    counts.resize(static_cast<std::size_t>(model.K()) * static_cast<std::size_t>(model.V()));
+    for (int k = 0; k < model.K(); ++k)
+        for (int v = 0; v < model.V(); ++v)
+            counts[static_cast<std::size_t>(k) * model.V() + v] = model.topicWordCount(k, v);
+    return was ? m.engine->start().message() : std::string();
+}
+
+std::string Pipeline::addTopicModel(int K, int V, const std::vector<int32_t>& counts) {
+    Impl& m = *impl_;
+    if (K != this->K() || V != this->V())
+    {
+        std::string e = "the model has K = ";
+        e += std::to_string(this->K()) + ", V = " + std::to_string(this->V()) + "; the request has K = " +
+             std::to_string(K) + ", V = " + std::to_string(V);
+        return e;
+    }
+    const bool was = m.engine->running();
+    m.engine->stop(Engine::StopMode::Drain);
+    Status st = m.engine->model().addTopicCounts(counts);
+    if (m.checkpoints) m.checkpoints->invalidate();
+    if (was)
+        if (Status s2 = m.engine->start(); !s2.ok() && st.ok()) st = s2;
+    return st.message();
+}
+
+} // namespace rost::bridge

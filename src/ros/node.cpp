@@ -1,0 +1,279 @@
+#include "node.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+
+#include <opencv2/core.hpp>
+#include <std_msgs/Float32.h>
+
+#include "frame_msg.hpp"
+#include "image_convert.hpp"
+
+namespace rost_node {
+
+namespace {
+// A parameter's value as the text a rost configuration file would hold.
+// (XmlRpcValue's conversions are not const.)
+bool paramText(XmlRpc::XmlRpcValue& v, std::string& text) {
+    switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean: text = static_cast<bool>(v) ? "true" : "false"; return true;
+    case XmlRpc::XmlRpcValue::TypeInt: text = std::to_string(static_cast<int>(v)); return true;
+    case XmlRpc::XmlRpcValue::TypeDouble: {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%.17g", static_cast<double>(v));
+        text = buf;
+        return true;
+    }
+    case XmlRpc::XmlRpcValue::TypeString: text = static_cast<std::string>(v); return true;
+    default: return false;
+    }
+}
+} // namespace
+
+Node::Node(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(std::move(nh)), pnh_(std::move(pnh)) {}
+
+Node::~Node() { shutdown(); }
+
+// Every setting of the schema as a private parameter (dots as underscores).
+bool Node::readSettings() {
+    for (const rost::bridge::ParamSpec& p : rost::bridge::settingParams()) {
+        XmlRpc::XmlRpcValue v;
+        if (!pnh_.getParam(p.param, v)) continue;
+        std::string text;
+        if (!paramText(v, text)) {
+            ROS_FATAL("parameter ~%s: expected a number, a boolean or a string (%s)", p.param.c_str(), p.range.c_str());
+            return false;
+        }
+        if (const std::string err = settings_.set(p.key, text); !err.empty()) {
+            ROS_FATAL("parameter ~%s: %s", p.param.c_str(), err.c_str());
+            return false;
+        }
+    }
+    if (const std::string err = settings_.validate(); !err.empty()) {
+        const std::string param = rost::bridge::paramNamedIn(err);
+        ROS_FATAL("parameter ~%s: %s", param.empty() ? "?" : param.c_str(), err.c_str());
+        return false;
+    }
+    pnh_.param("compressed", compressed_, false);
+    pnh_.param("checkpoint", options_.checkpoint, std::string());
+    pnh_.param("resume", options_.resume, std::string());
+    pnh_.param("vocabulary", options_.vocabulary, std::string());
+    return true;
+}
+
+void Node::advertise() {
+    frame_pub_ = pnh_.advertise<rost_msgs::FrameTopics>("frame", 16);
+    topic_map_pub_ = pnh_.advertise<sensor_msgs::Image>("topic_map", 4);
+    surprise_map_pub_ = pnh_.advertise<sensor_msgs::Image>("surprise_map", 4);
+    perplexity_pub_ = pnh_.advertise<std_msgs::Float32>("perplexity", 16);
+    surprise_pub_ = pnh_.advertise<std_msgs::Float32>("surprise", 16);
+    save_srv_ = pnh_.advertiseService("save_checkpoint", &Node::onSave, this);
+    pause_srv_ = pnh_.advertiseService("pause", &Node::onPause, this);
+    get_srv_ = pnh_.advertiseService("get_topic_model", &Node::onGetModel, this);
+    set_srv_ = pnh_.advertiseService("set_topic_model", &Node::onSetModel, this);
+    // Images waiting for the callback: as many as the engine's queue holds
+    // (the oldest go first when it is full, as with drop = oldest).
+    const uint32_t queue = static_cast<uint32_t>(std::stoul(settings_.value("queue.slots")));
+    if (compressed_)
+        image_sub_ = nh_.subscribe("image", queue, &Node::onCompressed, this);
+    else
+        image_sub_ = nh_.subscribe("image", queue, &Node::onImage, this);
+}
+
+bool Node::init() {
+    if (!readSettings()) return false;
+    std::string err;
+    pipeline_ = rost::bridge::Pipeline::create(settings_, options_, err);
+    if (!pipeline_) {
+        ROS_FATAL("rost: %s", err.c_str());
+        return false;
+    }
+    if (pipeline_->sizeGiven() && !ensureEngine(0, 0)) return false;
+    advertise();
+    ROS_INFO("rost: listening on %s (%s); K = %s, cell.space = %s", image_sub_.getTopic().c_str(),
+             compressed_ ? "sensor_msgs/CompressedImage" : "sensor_msgs/Image", settings_.value("K").c_str(),
+             settings_.value("cell.space").c_str());
+    return true;
+}
+
+void Node::shutdown() {
+    image_sub_.shutdown();
+    if (pipeline_ && pipeline_->opened()) pipeline_->stop();  // the queued frames' results are still published
+    if (publisher_.joinable()) {
+        publishing_.store(false, std::memory_order_release);
+        publisher_.join();
+    }
+    if (pipeline_ && pipeline_->opened() && !options_.checkpoint.empty()) {
+        if (const std::string err = pipeline_->saveCheckpoint(); !err.empty())
+            ROS_ERROR("rost: final checkpoint: %s", err.c_str());
+    }
+    pipeline_.reset();
+}
+
+void Node::badImage(const std::string& why, const std_msgs::Header& header) {
+    if (warned_bad_image_) return;  // once per topic
+    warned_bad_image_ = true;
+    ROS_ERROR("rost: topic %s, message seq %u (stamp %u.%09u): %s; skipping such messages", image_sub_.getTopic().c_str(),
+              header.seq, header.stamp.sec, header.stamp.nsec, why.c_str());
+}
+
+void Node::onImage(const sensor_msgs::ImageConstPtr& msg) {
+    cv::Mat bgr;
+    std::string why;
+    if (!rost::bridge::toBgr(*msg, bgr, why)) return badImage(why, msg->header);
+    handle(bgr, msg->header);
+}
+
+void Node::onCompressed(const sensor_msgs::CompressedImageConstPtr& msg) {
+    cv::Mat bgr;
+    std::string why;
+    if (!rost::bridge::toBgr(*msg, bgr, why)) return badImage(why, msg->header);
+    handle(bgr, msg->header);
+}
+
+// The first image fixes the frame size (unless ~frame_width and ~frame_height).
+bool Node::ensureEngine(int width, int height) {
+    if (pipeline_->opened()) return true;
+    if (failed_) return false;
+    std::string err = pipeline_->open(width, height);
+    if (err.empty()) err = pipeline_->start();
+    if (err.empty()) {
+        ROS_INFO("rost: frames of %dx%d, %dx%d cells, K = %d, V = %d%s%s", pipeline_->width(), pipeline_->height(),
+                 pipeline_->cellsX(), pipeline_->cellsY(), pipeline_->K(), pipeline_->V(),
+                 options_.resume.empty() ? "" : ", resumed from ", options_.resume.c_str());
+        publishing_.store(true, std::memory_order_release);
+        publisher_ = std::thread([this] { publisherMain(); });
+        return true;
+    }
+    failed_ = true;
+    ROS_FATAL("rost: %s", err.c_str());
+    ros::shutdown();
+    return false;
+}
+
+void Node::handle(const cv::Mat& bgr, const std_msgs::Header& header) {
+    if (paused_.load(std::memory_order_acquire) || !ensureEngine(bgr.cols, bgr.rows)) return;
+    rememberStamp(header);
+    const int64_t stamp = static_cast<int64_t>(header.stamp.toNSec());
+    if (!pipeline_->push(bgr, stamp))
+        ROS_WARN_THROTTLE(5.0, "rost: frames dropped (the refiner is behind, or images without words): %llu so far",
+                          static_cast<unsigned long long>(pipeline_->dropped()));
+}
+
+void Node::rememberStamp(const std_msgs::Header& header) {
+    StampSlot& s = stamps_[stamp_next_++ % kStampSlots];
+    s.stamp_ns.store(-1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    char buf[kFrameIdWords * 8] = {};
+    std::strncpy(buf, header.frame_id.c_str(), sizeof buf - 1);
+    for (std::size_t i = 0; i < kFrameIdWords; ++i) {
+        uint64_t w;
+        std::memcpy(&w, buf + 8 * i, 8);
+        s.frame_id[i].store(w, std::memory_order_relaxed);
+    }
+    s.stamp_ns.store(static_cast<int64_t>(header.stamp.toNSec()), std::memory_order_release);
+}
+
+std::string Node::frameIdOf(int64_t stamp_ns) const {
+    for (const StampSlot& s : stamps_) {
+        if (s.stamp_ns.load(std::memory_order_acquire) != stamp_ns) continue;
+        char buf[kFrameIdWords * 8];
+        for (std::size_t i = 0; i < kFrameIdWords; ++i) {
+            const uint64_t w = s.frame_id[i].load(std::memory_order_relaxed);
+            std::memcpy(buf + 8 * i, &w, 8);
+        }
+        std::atomic_thread_fence(std::memory_order_acquire);
+        if (s.stamp_ns.load(std::memory_order_relaxed) != stamp_ns) continue;  // rewritten meanwhile
+        buf[sizeof buf - 1] = '\0';
+        return buf;
+    }
+    return {};
+}
+
+void Node::publisherMain() {
+    rost::bridge::FrameResult r;
+    for (;;) {
+        const bool more = publishing_.load(std::memory_order_acquire);
+        if (pipeline_->next(r)) {
+            publish(r);
+        } else if (!more) {
+            return;  // stopped and drained
+        } else {
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        }
+    }
+}
+
+void Node::publish(const rost::bridge::FrameResult& r) {
+    std_msgs::Header header;
+    header.stamp.fromNSec(static_cast<uint64_t>(r.timestamp));
+    header.frame_id = frameIdOf(r.timestamp);
+    rost_msgs::FrameTopics frame;
+    rost::bridge::fillFrameTopics(r, frame);
+    frame.header = header;
+    frame_pub_.publish(frame);
+    if (topic_map_pub_.getNumSubscribers() > 0) {
+        sensor_msgs::Image map;
+        rost::bridge::fillTopicMap(r, pipeline_->cellSpace(), map);
+        map.header = header;
+        topic_map_pub_.publish(map);
+    }
+    if (surprise_map_pub_.getNumSubscribers() > 0) {
+        sensor_msgs::Image map;
+        rost::bridge::fillSurpriseMap(r, map);
+        map.header = header;
+        surprise_map_pub_.publish(map);
+    }
+    std_msgs::Float32 v;
+    v.data = r.perplexity;
+    perplexity_pub_.publish(v);
+    v.data = r.surprise;
+    surprise_pub_.publish(v);
+}
+
+bool Node::onSave(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+    if (!pipeline_->opened()) {
+        res.success = false;
+        res.message = "no image yet: nothing to save";
+        return true;
+    }
+    const std::string err = pipeline_->saveCheckpoint();
+    res.success = err.empty();
+    res.message = err.empty() ? options_.checkpoint : err;
+    return true;
+}
+
+bool Node::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
+    paused_.store(req.data, std::memory_order_release);
+    res.success = true;
+    res.message = req.data ? "paused: images are ignored" : "running";
+    return true;
+}
+
+bool Node::onGetModel(rost_msgs::GetTopicModel::Request&, rost_msgs::GetTopicModel::Response& res) {
+    if (!pipeline_->opened()) return false;  // no model before the first image
+    std::vector<int32_t> counts;
+    if (const std::string err = pipeline_->getTopicModel(counts); !err.empty()) {
+        ROS_ERROR("rost: get_topic_model: %s", err.c_str());
+        return false;
+    }
+    res.K = pipeline_->K();
+    res.V = pipeline_->V();
+    res.counts = std::move(counts);
+    return true;
+}
+
+bool Node::onSetModel(rost_msgs::SetTopicModel::Request& req, rost_msgs::SetTopicModel::Response& res) {
+    if (!pipeline_->opened()) {
+        res.success = false;
+        res.message = "no image yet: the model is made on the first image";
+        return true;
+    }
+    const std::string err = pipeline_->addTopicModel(req.K, req.V, req.counts);
+    res.success = err.empty();
+    res.message = err.empty() ? "added" : err;
+    return true;
+}
+
+} // namespace rost_node

@@ -1,0 +1,130 @@
+#!/usr/bin/python3
+"""`rost run FILE.bag`: images from a bag, results into a bag.
+
+Writes a bag of real footage (diver.mov) with the same frames as raw
+sensor_msgs/Image (bgr8), as CompressedImage (jpeg), and one topic whose
+encoding rost cannot read; then checks: without --topic the image topics are
+listed and the exit is 2 (also with -q); frames.csv has the messages' stamps;
+the compressed topic gives as many frames; --out.bag holds a FrameTopics per
+image, stamped like it; the unreadable encoding and a truncated bag give one
+line naming the bag, the topic (and message) with exit 2.
+
+Usage: test_bag.py BUILD_DIR FOOTAGE_DIR
+"""
+import csv
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+N = 8
+W, H = 320, 240
+STAMP0_NS = 1700000000 * 10**9 + 5
+
+build, footage = sys.argv[1], sys.argv[2]
+diver = os.path.join(footage, "pd-extendedview/usr/share/doc/pd-extendedview/media/diver.mov")
+if not os.path.exists(diver):
+    if os.environ.get("CI") == "true":
+        sys.exit("no footage at %s" % diver)
+    print("skipped: no footage (scripts/fetch-footage.sh pd-extendedview)")
+    sys.exit(77)
+work = tempfile.mkdtemp(prefix="rost-bag-", dir=build)
+rost = os.path.join(build, "rost")
+
+
+def check(cond, what):
+    if not cond:
+        raise AssertionError(what)
+    print("ok:", what)
+
+
+def ffmpeg(args):
+    return subprocess.run(["ffmpeg", "-loglevel", "error", "-i", diver, "-frames:v", str(N), "-vf",
+                           "scale=%d:%d" % (W, H)] + args, check=True, stdout=subprocess.PIPE).stdout
+
+
+def write_bag(path):
+    import rosbag
+    import rospy
+    from sensor_msgs.msg import CompressedImage, Image
+    raw = ffmpeg(["-f", "rawvideo", "-pix_fmt", "bgr24", "-"])
+    jpegs = os.path.join(work, "jpeg")
+    os.makedirs(jpegs)
+    ffmpeg(["-q:v", "3", os.path.join(jpegs, "%03d.jpg")])
+    stamps = []
+    with rosbag.Bag(path, "w") as bag:
+        for i in range(N):
+            ns = STAMP0_NS + i * 66666667
+            t = rospy.Time(ns // 10**9, ns % 10**9)
+            img = Image(height=H, width=W, encoding="bgr8", step=W * 3, data=raw[i * W * H * 3:(i + 1) * W * H * 3])
+            img.header.stamp, img.header.frame_id = t, "cam"
+            bag.write("/cam/image_raw", img, t)
+            jpg = CompressedImage(format="jpeg", data=open(os.path.join(jpegs, "%03d.jpg" % (i + 1)), "rb").read())
+            jpg.header.stamp, jpg.header.frame_id = t, "cam"
+            bag.write("/cam/image_raw/compressed", jpg, t)
+            bayer = Image(height=H, width=W, encoding="bayer_rggb8", step=W, data=bytes(W * H))
+            bayer.header.stamp = t
+            bag.write("/cam/bayer", bayer, t)
+            stamps.append(ns)
+    return stamps
+
+
+def rost_run(*args):
+    p = subprocess.run([rost, "run"] + list(args), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    return p.returncode, p.stderr.decode()
+
+
+def main():
+    bag = os.path.join(work, "in.bag")
+    stamps = write_bag(bag)
+
+    for quiet in ([], ["-q"]):
+        code, err = rost_run(bag, "--out", os.path.join(work, "none"), *quiet)
+        check(code == 2 and "/cam/image_raw (sensor_msgs/Image, %d messages)" % N in err and
+              "/cam/image_raw/compressed (sensor_msgs/CompressedImage, %d messages)" % N in err,
+              "without --topic%s: exit 2 and the image topics listed" % (" (-q)" if quiet else ""))
+    check(not os.path.exists(os.path.join(work, "none")), "no outputs without --topic")
+
+    out, outbag = os.path.join(work, "raw"), os.path.join(work, "results.bag")
+    code, err = rost_run(bag, "--topic", "/cam/image_raw", "--out", out, "--out.bag", outbag, "-q", "--no-overlay")
+    check(code == 0, "raw images: exit 0 " + err.strip())
+    rows = list(csv.DictReader(open(os.path.join(out, "frames.csv"))))
+    check([int(r["timestamp_us"]) for r in rows] == [s // 1000 for s in stamps],
+          "frames.csv has the messages' stamps")
+
+    import rosbag
+    with rosbag.Bag(outbag) as b:
+        msgs = [(topic, m) for topic, m, _ in b.read_messages()]
+    check([t for t, _ in msgs] == ["/rost/frame"] * N, "--out.bag: a FrameTopics on /rost/frame per image")
+    check([m.header.stamp.to_nsec() for _, m in msgs] == stamps and all(m.header.frame_id == "cam" for _, m in msgs),
+          "--out.bag: stamped like the images, with their frame_id")
+    m = msgs[0][1]
+    check(m.cells_x == (W + 63) // 64 and m.cells_y == (H + 63) // 64 and len(m.cell_topics) == m.cells_x * m.cells_y
+          and abs(sum(m.topic_weights) - 1) < 1e-3, "--out.bag: cells and topic weights")
+    sur = [float(r["surprise"]) for r in csv.DictReader(open(os.path.join(out, "surprise.csv")))]
+    check(all(abs(a - mm.surprise) <= 1e-3 * abs(a) for a, (_, mm) in zip(sur, msgs)),
+          "--out.bag: the surprise of surprise.csv")
+
+    code, err = rost_run(bag, "--topic", "/cam/image_raw/compressed", "--out", os.path.join(work, "jpeg"), "-q",
+                         "--no-overlay", "--no-summary")
+    rows = list(csv.DictReader(open(os.path.join(work, "jpeg", "frames.csv")))) if code == 0 else []
+    check(code == 0 and len(rows) == N, "compressed images: %d frames" % len(rows))
+
+    code, err = rost_run(bag, "--topic", "/cam/bayer", "--out", os.path.join(work, "bayer"), "-q")
+    check(code == 2 and len(err.strip().splitlines()) == 1 and "topic /cam/bayer, message 0" in err and
+          "bayer_rggb8" in err, "an encoding rost cannot read: exit 2, " + err.strip())
+
+    trunc = os.path.join(work, "truncated.bag")
+    data = open(bag, "rb").read()
+    open(trunc, "wb").write(data[:len(data) * 2 // 3])
+    code, err = rost_run(trunc, "--topic", "/cam/image_raw", "--out", os.path.join(work, "trunc"), "-q")
+    check(code == 2 and len(err.strip().splitlines()) == 1 and "topic /cam/image_raw" in err,
+          "a truncated bag: exit 2, " + err.strip())
+
+
+try:
+    main()
+    print("1 passed, 0 failed")
+finally:
+    shutil.rmtree(work, ignore_errors=True)

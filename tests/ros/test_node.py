@@ -1,0 +1,207 @@
+#!/usr/bin/python3
+"""rost_node end to end, on a private ROS master.
+
+Starts `rosmaster --core` on a free loopback port (ROS_MASTER_URI on
+127.0.0.1, ROS_IP=127.0.0.1, ROS_HOME in the build tree), writes a bag of real
+footage with a hard cut (mire-2, then diver.mov: the scene change of
+tests/test_vision_curiosity.cpp), starts rost_node, plays the bag with
+`rosbag play --wait-for-subscribers`, and checks with a rospy subscriber that
+~frame arrives for every image with the image's stamp and frame_id, and that
+surprise peaks at the cut. Then the services: pause, get_topic_model,
+set_topic_model (a mismatched K is refused), save_checkpoint. Then a bad
+parameter: rost_node exits non-zero naming it. Every process started here
+is stopped by its PID.
+
+Usage: test_node.py BUILD_DIR FOOTAGE_DIR
+"""
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+PER_SCENE = 16
+WARM_UP = 6
+W, H = 384, 288
+STAMP0 = 1700000000  # seconds; the bag's images are stamped 0.1 s apart from here
+FRAME_ID = "camera_optical"
+
+build, footage = sys.argv[1], sys.argv[2]
+if not os.path.isdir(os.path.join(footage, "pd-extendedview")) or not os.path.isdir(
+        os.path.join(footage, "visp-images-data")):
+    if os.environ.get("CI") == "true":
+        sys.exit("no footage in %s" % footage)
+    print("skipped: no footage (scripts/fetch-footage.sh visp-images-data pd-extendedview)")
+    sys.exit(77)
+work = os.path.join(build, "ros-test")
+os.makedirs(work, exist_ok=True)
+procs = []
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start(cmd, log):
+    p = subprocess.Popen(cmd, stdout=open(os.path.join(work, log), "w"), stderr=subprocess.STDOUT,
+                         env=os.environ, start_new_session=True)
+    procs.append(p)
+    return p
+
+
+def stop(p):
+    if p.poll() is None:
+        os.kill(p.pid, signal.SIGINT)
+        try:
+            p.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            os.kill(p.pid, signal.SIGKILL)
+            p.wait()
+
+
+def frames(source, n):
+    """n frames of W x H, BGR bytes, decoded by ffmpeg."""
+    raw = subprocess.run(["ffmpeg", "-loglevel", "error", "-i", source, "-frames:v", str(n), "-vf",
+                          "scale=%d:%d" % (W, H), "-f", "rawvideo", "-pix_fmt", "bgr24", "-"],
+                         check=True, stdout=subprocess.PIPE).stdout
+    size = W * H * 3
+    out = [raw[i:i + size] for i in range(0, len(raw), size)]
+    assert len(out) == n, "%s: %d frames, expected %d" % (source, len(out), n)
+    return out
+
+
+def write_bag(path):
+    import rosbag
+    import rospy
+    from sensor_msgs.msg import Image
+    mire = os.path.join(footage, "visp-images-data/usr/share/visp-images-data/ViSP-images/mire-2/image.%04d.pgm")
+    diver = os.path.join(footage, "pd-extendedview/usr/share/doc/pd-extendedview/media/diver.mov")
+    images = frames(mire, PER_SCENE) + frames(diver, PER_SCENE)
+    stamps = []
+    with rosbag.Bag(path, "w") as bag:
+        for i, data in enumerate(images):
+            m = Image(height=H, width=W, encoding="bgr8", step=W * 3, data=data)
+            m.header.seq = i
+            m.header.stamp = rospy.Time(STAMP0 + i // 10, (i % 10) * 100000000 + 1234)
+            m.header.frame_id = FRAME_ID
+            bag.write("/camera/image_raw", m, m.header.stamp)
+            stamps.append(m.header.stamp.to_nsec())
+            if i in (3, 5):  # an image rost cannot read: logged once, then skipped
+                bad = Image(height=H, width=W, encoding="bayer_rggb8", step=W, data=bytes(W * H))
+                bad.header.stamp = rospy.Time(STAMP0 + 100 + i, 0)
+                bag.write("/camera/image_raw", bad, m.header.stamp)
+    return stamps
+
+
+def check(cond, what):
+    if not cond:
+        raise AssertionError(what)
+    print("ok:", what)
+
+
+def run():
+    port = free_port()
+    os.environ.update(ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1",
+                      ROS_HOME=os.path.join(work, "ros_home"), ROS_LOG_DIR=os.path.join(work, "ros_log"))
+    os.environ.pop("ROS_HOSTNAME", None)
+    bag = os.path.join(work, "cut.bag")
+    stamps = write_bag(bag)
+    start(["rosmaster", "--core", "-p", str(port)], "rosmaster.log")
+
+    import rospy
+    import rosgraph
+    for _ in range(100):
+        if rosgraph.is_master_online():
+            break
+        time.sleep(0.1)
+    check(rosgraph.is_master_online(), "rosmaster answers on 127.0.0.1:%d" % port)
+
+    from rost_msgs.msg import FrameTopics
+    rospy.init_node("rost_test", anonymous=True, disable_signals=True)
+    got = []
+    rospy.Subscriber("/rost/frame", FrameTopics, lambda m: got.append(m), queue_size=1000)
+
+    ckpt = os.path.join(work, "node.ckpt")
+    if os.path.exists(ckpt):
+        os.remove(ckpt)
+    node = start([os.path.join(build, "rost_node"), "__name:=rost", "image:=/camera/image_raw",
+                  "_budget_refines:=8", "_queue_slots:=64", "_checkpoint:=" + ckpt], "rost_node.log")
+    player = start(["rosbag", "play", "--wait-for-subscribers", "-q", bag], "rosbag.log")
+    player.wait(timeout=60)
+    quiet_since, seen = time.time(), -1
+    while len(got) < len(stamps) and time.time() < quiet_since + 5 and node.poll() is None:
+        if len(got) != seen:
+            quiet_since, seen = time.time(), len(got)
+        time.sleep(0.1)
+    check(node.poll() is None, "rost_node runs")
+    check(len(got) == len(stamps), "~frame for every image (%d of %d)" % (len(got), len(stamps)))
+    check([m.header.stamp.to_nsec() for m in got] == stamps, "~frame stamped with the images' stamps, in order")
+    check(all(m.header.frame_id == FRAME_ID for m in got), "~frame has the images' frame_id")
+    m0 = got[0]
+    check(m0.cells_x == (W + 63) // 64 and m0.cells_y == (H + 63) // 64 and len(m0.cell_topics) == m0.cells_x * m0.cells_y,
+          "a grid of %dx%d cells" % (m0.cells_x, m0.cells_y))
+    check(all(abs(sum(m.topic_weights) - 1) < 1e-3 and len(m.topic_weights) == m.active_topics for m in got),
+          "topic weights: K of them, summing to 1")
+    sur = [m.surprise for m in got]
+    after_warm_up = range(WARM_UP, len(sur))
+    peak = max(after_warm_up, key=lambda i: sur[i])
+    check(peak == PER_SCENE, "surprise peaks at the cut (frame %d: %.1f; before it at most %.1f)" %
+          (peak, sur[peak], max(sur[WARM_UP:PER_SCENE])))
+
+    from std_srvs.srv import SetBool, Trigger
+    from rost_msgs.srv import GetTopicModel, SetTopicModel
+    for s in ("/rost/pause", "/rost/get_topic_model", "/rost/set_topic_model", "/rost/save_checkpoint"):
+        rospy.wait_for_service(s, timeout=10)
+    check(rospy.ServiceProxy("/rost/pause", SetBool)(True).success, "~pause answers")
+    model = rospy.ServiceProxy("/rost/get_topic_model", GetTopicModel)()
+    check(model.K == m0.active_topics and len(model.counts) == model.K * model.V and sum(model.counts) > 0,
+          "~get_topic_model: K = %d, V = %d, %d words counted" % (model.K, model.V, sum(model.counts)))
+    bad = rospy.ServiceProxy("/rost/set_topic_model", SetTopicModel)(model.K + 1, model.V, [])
+    check(not bad.success and "K = %d" % model.K in bad.message, "~set_topic_model refuses another K: " + bad.message)
+    ok = rospy.ServiceProxy("/rost/set_topic_model", SetTopicModel)(model.K, model.V, [0] * (model.K * model.V))
+    check(ok.success, "~set_topic_model adds counts of the node's K x V")
+    saved = rospy.ServiceProxy("/rost/save_checkpoint", Trigger)()
+    check(saved.success and open(ckpt, "rb").read(8) == b"ROSTCKPT", "~save_checkpoint writes " + ckpt)
+    stop(node)
+    check(node.returncode == 0, "rost_node stops on SIGINT with exit 0")
+    log = open(os.path.join(work, "rost_node.log")).read()
+    check(log.count("bayer_rggb8") == 1 and "/camera/image_raw" in log,
+          "an image rost cannot read is logged once for its topic, and the next ones are read")
+
+    # ~resume: the model as it was saved (the node was paused: no frame since get_topic_model).
+    sized = ["_frame_width:=%d" % W, "_frame_height:=%d" % H]
+    node2 = start([os.path.join(build, "rost_node"), "__name:=rost2", "_resume:=" + ckpt] + sized, "rost_node2.log")
+    rospy.wait_for_service("/rost2/get_topic_model", timeout=30)
+    again = rospy.ServiceProxy("/rost2/get_topic_model", GetTopicModel)()
+    check(list(again.counts) == list(model.counts), "~resume: the topic model the checkpoint holds")
+    stop(node2)
+    clash = subprocess.run([os.path.join(build, "rost_node"), "__name:=rost3", "_resume:=" + ckpt, "_K:=8"] + sized,
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ, timeout=60)
+    out = clash.stdout.decode(errors="replace")
+    check(clash.returncode == 2 and "~K = 8" in out and "K = 16" in out,
+          "~resume with another ~K: exit %d, %s" % (clash.returncode, out.strip().splitlines()[-1] if out else ""))
+
+    listed = subprocess.run([os.path.join(build, "rost_node"), "--params"], stdout=subprocess.PIPE,
+                            check=True).stdout.decode()
+    conf = subprocess.run([os.path.join(build, "rost"), "config"], stdout=subprocess.PIPE, check=True).stdout.decode()
+    keys = [line.lstrip("# ").split(" = ")[0] for line in conf.splitlines() if " = " in line]
+    params = [line.split()[0] for line in listed.splitlines() if line.startswith("~")]
+    check(len(keys) > 30 and all("~" + k.replace(".", "_").replace("-", "_") in params for k in keys),
+          "rost_node --params: a parameter for each of the %d settings of `rost config`" % len(keys))
+
+    badnode = subprocess.run([os.path.join(build, "rost_node"), "__name:=rost_bad", "_cell_space:=0"],
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ, timeout=30)
+    out = badnode.stdout.decode(errors="replace")
+    check(badnode.returncode != 0 and "~cell_space" in out, "a bad parameter: exit %d, %s" %
+          (badnode.returncode, out.strip().splitlines()[-1] if out.strip() else "(nothing)"))
+
+
+try:
+    run()
+    print("1 passed, 0 failed")
+finally:
+    for p in reversed(procs):
+        stop(p)
