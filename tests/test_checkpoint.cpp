@@ -412,13 +412,17 @@ TEST(CheckpointFormat, IsTheDocumentedLittleEndianLayout) {
     EXPECT_EQ(secs.back().payload + secs.back().bytes, b.size());
     // Section 0 is the configuration as config-file text.
     const std::string text(reinterpret_cast<const char*>(&b[secs[0].payload]), secs[0].bytes);
-    // Section 0 leaves out `threads` (the machine's) and refine.window = 1 (what its absence means).
+    // Section 0 leaves out `threads` (the machine's), refine.window = 1 and,
+    // without growth, topics.grow and gamma (what their absence means).
     std::string expectedText;
     std::istringstream lines(formatConfig(cfg));
     for (std::string line; std::getline(lines, line);)
-        if (!line.starts_with("threads = ") && line != "refine.window = 1") expectedText += line + "\n";
+        if (!line.starts_with("threads = ") && line != "refine.window = 1" && line != "topics.grow = false" &&
+            !line.starts_with("gamma = "))
+            expectedText += line + "\n";
     EXPECT_NE(text.find("refine.window = "), std::string::npos);
     EXPECT_EQ(text.find("threads = "), std::string::npos);
+    EXPECT_EQ(text.find("gamma = "), std::string::npos);
     EXPECT_EQ(text, expectedText);
     // counters.frames is a little-endian uint64.
     EXPECT_EQ(le64(b, secs[1].payload), 10u);

@@ -24,6 +24,10 @@ struct Config {
     int V = settingDefault<int>("V");                // vocabulary size
     double alpha = settingDefault<double>("alpha");  // Dirichlet prior on a neighbourhood's topics
     double beta = settingDefault<double>("beta");    // Dirichlet prior on a topic's words
+    // Topic growth (docs/design.md, "Topics that grow"): K is the cap, topics
+    // 0..A-1 are active, and a word opens topic A with weight gamma / V.
+    bool grow = settingDefault<bool>("topics.grow");
+    double gamma = settingDefault<double>("gamma");
 
     // Cells (paper: 64x64 px, one time step).
     int cell_space = settingDefault<int>("cell.space");  // cell width and height in pixels

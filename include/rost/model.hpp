@@ -108,6 +108,11 @@ public:
     virtual bool beforeRound(uint64_t /*tokens*/) noexcept { return true; }
     // After a round of `tokens` token refinements.
     virtual void afterRound(uint64_t /*tokens*/) noexcept {}
+    // Before a window is filled: the token refinements still affordable (a
+    // time budget's estimate of what fits before its deadline). The window
+    // takes cells until it holds this many tokens, so the rounds shrink as the
+    // deadline nears instead of one large round being refused early.
+    virtual uint64_t tokenAllowance() noexcept { return UINT64_MAX; }
 
 protected:
     ~RefineControl() = default;
@@ -139,6 +144,9 @@ public:
 
     const Config& config() const noexcept { return cfg_; }
     int K() const noexcept { return K_; }
+    // Active topics A: labels are 0..A-1. K without topic growth; with
+    // topics.grow, the topics opened so far (1 at the start, at most K).
+    int activeTopics() const noexcept { return active_; }
     int V() const noexcept { return V_; }
     int cellsPerStep() const noexcept { return cells_; }
 
@@ -359,6 +367,7 @@ private:
 
     Config cfg_;
     int K_, Kp_, V_, gw_, gh_, cells_, cap_, maxw_, ct_;
+    int active_ = 0;  // A: active topics (K without growth)
     int64_t ring_;
     float alpha_f_, beta_f_, vbeta_f_;
 

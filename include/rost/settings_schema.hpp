@@ -43,6 +43,10 @@
       "Dirichlet prior on a neighbourhood's topic mix (paper: 0.1)") \
     X("beta", Real, Model, "0.5", 0, 1e6, "", "", LoOpen, engine.model.beta, \
       "Dirichlet prior on a topic's words (paper: 0.5)") \
+    X("topics.grow", Bool, Model, "false", 0, 0, "", "", 0, engine.model.grow, \
+      "let topics grow: K is then the cap, and a word may open a new topic with weight gamma/V (rost-cli: --grow.topics.size)") \
+    X("gamma", Real, Model, "0.1", 0, 1e6, "", "", LoOpen, engine.model.gamma, \
+      "with topics.grow: the weight of opening a new topic (a Chinese-restaurant-process concentration)") \
     X("cell.space", Integer, Model, "64", 1, 65536, "", "", 0, engine.model.cell_space, \
       "cell width and height in pixels (paper: 64)") \
     X("cell.time", Integer, Model, "1", 1, 1024, "", "", 0, engine.model.cell_time, \

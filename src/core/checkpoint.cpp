@@ -146,7 +146,11 @@ std::string checkpointConfigText(const EngineConfig& cfg) {
         std::size_t end = all.find('\n', at);
         end = end == std::string::npos ? all.size() : end + 1;
         const std::string_view line(all.data() + at, end - at);
-        if (!line.starts_with("threads = ") && line != "refine.window = 1\n") out += line;
+        // Left out: what does not change the state, and the defaults of
+        // settings newer than format 1, so such checkpoints stay as they were.
+        const bool skip = line.starts_with("threads = ") || line == "refine.window = 1\n" ||
+                          (!cfg.model.grow && (line == "topics.grow = false\n" || line.starts_with("gamma = ")));
+        if (!skip) out += line;
         at = end;
     }
     return out;

@@ -43,6 +43,7 @@ Status Config::validate() const {
         ROST_CHECK_INT("V", V),
         ROST_CHECK_POSITIVE("alpha", alpha),
         ROST_CHECK_POSITIVE("beta", beta),
+        ROST_CHECK_POSITIVE("gamma", gamma),
         ROST_CHECK_INT("cell.space", cell_space),
         ROST_CHECK_INT("cell.time", cell_time),
         ROST_CHECK_INT("g.space", g_space),

@@ -548,6 +548,14 @@ public:
         const double ns = 1.5 * e_.refiner_->ns_per_token * static_cast<double>(tokens + 4);
         return now_ + std::chrono::nanoseconds(static_cast<int64_t>(ns)) <= end_;
     }
+    uint64_t tokenAllowance() noexcept override {
+        const auto left = (end_ - Clock::now()).count();
+        if (left <= 0) return 0;
+        const double per = 1.5 * e_.refiner_->ns_per_token;
+        if (!(per > 0.0)) return UINT64_MAX;
+        const double n = static_cast<double>(left) / per;
+        return n >= 1e18 ? UINT64_MAX : static_cast<uint64_t>(n);
+    }
     void afterRound(uint64_t tokens) noexcept override {
         const auto after = Clock::now();
         Refiner& R = *e_.refiner_;

@@ -43,6 +43,7 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     const Status st = cfg_.validate();
     if (!st.ok()) throw std::invalid_argument(st.message());
     K_ = cfg_.K;
+    active_ = cfg_.grow ? 1 : K_;
     Kp_ = kernel::paddedK(K_);
     V_ = cfg_.V;
     gw_ = cfg_.gridWidth();

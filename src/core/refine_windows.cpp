@@ -201,9 +201,14 @@ bool Model::fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCou
     Windows& w = *win_;
     w.picks = 0;
     // A token budget also bounds the window, so the budget is passed by less
-    // than one cell, as by a serial sampler.
+    // than one cell, as by a serial sampler; so does the control's allowance.
+    uint64_t bound = limits.tokens;
+    if (limits.control) {
+        const uint64_t allowance = limits.control->tokenAllowance();
+        bound = std::min(bound, allowance > UINT64_MAX - rc.tokens ? UINT64_MAX : rc.tokens + allowance);
+    }
     uint64_t tokens = rc.tokens;
-    while (w.picks < w.W && tokens < limits.tokens) {
+    while (w.picks < w.W && tokens < bound) {
         if (w.cur_step < 0 || w.next_cell >= cells_) {
             if (rc.steps >= limits.steps || rc.tokens >= limits.tokens ||
                 (limits.control && !limits.control->beforeStep()))
