@@ -245,8 +245,8 @@ Status EngineConfig::validate() const {
         return Status::error("budget.ms = " + std::to_string(budget.ms) +
                              " is out of range (expected 0 < ms <= 3600000)");
     if (budget.kind != BudgetKind::Time && static_cast<double>(budget.count) > kMaxCount)
-        return Status::error("budget.count = " + std::to_string(budget.count) +
-                             " is out of range (expected at most 2^40)");
+        return Status::error(std::string(budget.kind == BudgetKind::Steps ? "budget.refines" : "budget.tokens") +
+                             " = " + std::to_string(budget.count) + " is out of range (expected at most 2^40)");
     if (queue_slots < kQueue.lo || queue_slots > kQueue.hi)
         return Status::error("queue_slots = " + std::to_string(queue_slots) +
                              " is out of range (expected 1..65536)");
@@ -390,10 +390,17 @@ void Engine::publishResult(const ObservationResult& r) noexcept {
         const auto K = static_cast<std::size_t>(m.K());
         const auto cells = o->cell_surprise.size();
         const std::span<const float> cs = m.cellSurprise(r.step);
+        // Histograms in the output numbering (growth: open topics 0..A-1; a
+        // closed topic holds no word, so nothing is lost).
+        uint16_t map[1024];
+        m.outputNumbering({map, K});
         for (std::size_t c = 0; c < cells; ++c) {
             o->cell_surprise[c] = c < cs.size() ? cs[c] : 0.f;
             const std::span<const int32_t> h = m.cellHistogram(r.step, static_cast<int>(c));
-            std::copy_n(h.begin(), K, o->histograms.begin() + static_cast<std::ptrdiff_t>(c * K));
+            int32_t* out = o->histograms.data() + c * K;
+            std::fill_n(out, K, 0);
+            for (std::size_t k = 0; k < K; ++k)
+                if (map[k] != 0xFFFF) out[map[k]] = h[k];
         }
     }
     pub_->results.commitPush();
@@ -731,6 +738,7 @@ void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock:
     r.refine_ns = (tp - ts).count();
 
     if (cfg_.flags.snapshot_perplexity) r.perplexity = model_->stepPerplexity(r.step);
+    r.active_topics = model_->activeTopics();
     publish(r);
     const auto t1 = Clock::now();
     if (cfg_.budget.kind == BudgetKind::Time) {
