@@ -72,7 +72,7 @@ constexpr std::size_t wordsFor(std::size_t bytes) noexcept { return (bytes + 7) 
 
 // Header of a snapshot buffer, in 64-bit words.
 enum Header : std::size_t {
-    kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kPrevPlugin, kWords,
+    kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kPrevPlugin, kActiveTopics, kWords,
     kPushed, kDroppedNewest, kDroppedOldest, kWordsTruncated, kIngested, kRejected, kWordsDroppedCell,
     kRefinements, kTokens, kOverruns, kMaxOverrun, kPublished,
     kHeaderWords
@@ -137,6 +137,7 @@ void SnapshotPublisher::publish(const Snapshot& s) noexcept {
     put(kPrevStep, static_cast<uint64_t>(s.previous_step));
     put(kPrevPerplexity, bitsOf(s.previous_perplexity));
     put(kPrevPlugin, bitsOf(s.previous_plugin));
+    put(kActiveTopics, static_cast<uint64_t>(s.active_topics));
     put(kWords, nw);
     const EngineCounters& c = s.counters;
     put(kPushed, c.pushed);
@@ -189,6 +190,7 @@ bool SnapshotPublisher::read(Snapshot& out, int max_retries) const noexcept {
         out.previous_step = static_cast<int64_t>(get(kPrevStep));
         out.previous_perplexity = doubleOf(get(kPrevPerplexity));
         out.previous_plugin = doubleOf(get(kPrevPlugin));
+        out.active_topics = static_cast<int>(get(kActiveTopics));
         const auto nw = static_cast<uint32_t>(std::min<uint64_t>(get(kWords), capacity_));
         out.n_words_ = nw;
         EngineCounters& c = out.counters;
@@ -624,6 +626,7 @@ void Engine::publish(const ObservationResult& r) noexcept {
     s.previous_step = r.previous_step;
     s.previous_perplexity = r.previous_perplexity;
     s.previous_plugin = r.previous_plugin;
+    s.active_topics = r.active_topics;
     if (cfg_.flags.snapshot_labels) {
         const uint32_t n = std::min<uint32_t>(m.observationSize(r.observation), static_cast<uint32_t>(s.labels_.size()));
         s.n_words_ = n;
