@@ -78,7 +78,7 @@ py::object settingObject(const Settings& s, const SettingSpec& spec) {
         return py::int_(py::str(text));  // seed may exceed int64
     case SettingType::Real:
     case SettingType::BudgetMs:
-        return py::float_(std::stod(text));
+        return py::float_(py::str(text));  // Python parses subnormals (std::stod throws on them)
     case SettingType::Bool:
         return py::bool_(text == "true");
     case SettingType::Choice:
