@@ -249,7 +249,7 @@ TEST_F(RostCli, PipelineRecoversPlantedTopicsAndIsReproducible) {
 TEST_F(RostCli, OnlineWritesEachDocumentAsItArrivedAndTheFinalFiles) {
     Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv" + kRefineFlags +
                          " --online --out.topics.online=topics.online.csv --out.ppx.online=perplexity.online.csv"
-                         " --online.mint 2");
+                         " --online.mint 5");
     ASSERT_EQ(r.status, 0) << r.err;
     const auto online = labels(dir + "/topics.online.csv", planted, 4);
     checkPerplexity(dir + "/perplexity.online.csv", planted);

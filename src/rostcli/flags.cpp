@@ -39,6 +39,7 @@ constexpr SettingFlag kSettingFlags[] = {
     {"-n,--iter", "final.sweeps", "100"},
     {"--online.mint", "budget.ms", "50"},
     {"--seed", "seed", nullptr},
+    {"--refine.window", "refine.window", nullptr},  // rost's own: part of what a seed reproduces
 };
 // clang-format on
 
