@@ -4,6 +4,8 @@
 // rost-cli's default as text): its range, documentation and error messages
 // come from the settings schema. docs/rost-cli.md has the whole table.
 
+#include <sched.h>
+
 #include <cstdio>
 #include <deque>
 #include <thread>
@@ -59,6 +61,14 @@ constexpr LimitedFlag kLimitedFlags[] = {
     {"--in.topicmask", "", "rost has no topic masks"},
     {"--g.sigma", "", "rost's neighbourhood counts every cell of G(c) alike (no decay)"},
 };
+
+// The CPUs this process may run on (its affinity mask), at least 1.
+unsigned usableCores() {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return static_cast<unsigned>(CPU_COUNT(&set));
+    return std::max(1u, std::thread::hardware_concurrency());
+}
 
 bool parseBool(const std::string& s, bool& out) {
     if (s.empty() || s == "true" || s == "1" || s == "yes" || s == "on") return out = true, true;
@@ -150,7 +160,7 @@ Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
         if (f.spatial && cmd == Command::RefineT) continue;
         std::string value = given ? p.setting_text[i] : (f.rostcli_default ? f.rostcli_default : "");
         if (std::string(f.key) == "threads" && !given)
-            value = std::to_string(std::max(1u, std::thread::hardware_concurrency()));
+            value = std::to_string(usableCores());
         if (std::string(f.key) == "budget.ms" && !p.run.online) continue;
         if (findSetting(f.key)->type == SettingType::Bool && given && value.empty()) value = "true";
         if (value.empty()) continue;
