@@ -436,6 +436,7 @@ TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelP
     t.inc = inc;
     t.K = K;
     t.Kp = Kp;
+    t.active = K;
     t.alpha = alpha;
     t.beta = beta;
     t.vbeta = static_cast<float>(V) * beta;

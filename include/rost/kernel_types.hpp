@@ -14,6 +14,8 @@ inline constexpr int kBlock = 4;
 
 // Topics padded to a whole number of 4-lane blocks; padding lanes carry zero weight.
 constexpr int paddedK(int K) noexcept { return (K + kBlock - 1) / kBlock * kBlock; }
+// The kernels' KP for a model whose topics grow (runtime K, active topics only).
+constexpr int kGrow = -1;
 
 enum class Path : uint8_t { Scalar, Simd };
 
@@ -30,6 +32,12 @@ struct Tables {
     float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
     int K = 0;
     int Kp = 0;
+    // Topic growth (docs/design.md, "Topics that grow"). Topics 0..active-1
+    // are active (K without growth) and inv is 0 from `active` on; with
+    // growth a word may open topic `active` with weight `fresh` (gamma / V)
+    // while active < K. The growth kernels are the KP = kGrow instances.
+    int active = 0;
+    float fresh = 0.f;
     float alpha = 0.f;
     float beta = 0.f;
     float vbeta = 0.f;

@@ -146,7 +146,9 @@ public:
     int K() const noexcept { return K_; }
     // Active topics A: labels are 0..A-1. K without topic growth; with
     // topics.grow, the topics opened so far (1 at the start, at most K).
-    int activeTopics() const noexcept { return active_; }
+    int activeTopics() const noexcept { return tables_.active; }
+    // True when topics grow and active topics have reached the cap K.
+    bool topicCapReached() const noexcept { return cfg_.grow && tables_.active >= K_; }
     int V() const noexcept { return V_; }
     int cellsPerStep() const noexcept { return cells_; }
 
@@ -300,6 +302,9 @@ public:
 
 private:
     std::size_t slotOf(int64_t step) const noexcept { return static_cast<std::size_t>(step % ring_); }
+    // The prior mass of opening a new topic: gamma while topics grow and
+    // there is room, else 0 (docs/design.md, "Topics that grow").
+    double freshMass() const noexcept { return cfg_.grow && tables_.active < K_ ? cfg_.gamma : 0.0; }
     int32_t* nck(std::size_t slot, int cell) noexcept {
         return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
     }
@@ -367,7 +372,6 @@ private:
 
     Config cfg_;
     int K_, Kp_, V_, gw_, gh_, cells_, cap_, maxw_, ct_;
-    int active_ = 0;  // A: active topics (K without growth)
     int64_t ring_;
     float alpha_f_, beta_f_, vbeta_f_;
 

@@ -46,6 +46,40 @@ inline void refreshReciprocals(Tables& t) noexcept {
         t.inc[k] = reciprocal(t.nk[k] + 1, t.vbeta);
     }
     for (int k = t.K; k < t.Kp; ++k) t.inv[k] = t.dec[k] = t.inc[k] = 0.f;
+    for (int k = t.active; k < t.K; ++k) t.inv[k] = 0.f;  // topics not yet opened weigh nothing
+}
+
+// ---- topic growth -----------------------------------------------------------
+
+// Lanes a word's draw looks at: all Kp without growth; with growth the active
+// topics and the one a word may open, in whole blocks.
+template <int KP>
+inline int liveLanes(const Tables& t, int Kp) noexcept {
+    if constexpr (KP != kGrow) {
+        return Kp;
+    } else {
+        const int n = t.active < t.K ? t.active + 1 : t.active;
+        return (n + kBlock - 1) / kBlock * kBlock;
+    }
+}
+
+// Weight of opening a new topic for this word (0 without growth or at the cap).
+template <int KP>
+inline float freshWeight(const Tables& t) noexcept {
+    if constexpr (KP != kGrow) return 0.f;
+    return t.active < t.K ? t.fresh : 0.f;
+}
+
+// The drawn topic from the number of prefix sums <= u: with growth, all of
+// the active topics' sums <= u means the new topic (while there is room).
+template <int KP>
+inline int drawnTopic(const Tables& t, int count) noexcept {
+    if constexpr (KP != kGrow) {
+        return count < t.K ? count : t.K - 1;
+    } else {
+        const int A = t.active;
+        return count < A ? count : (A < t.K ? A : A - 1);
+    }
 }
 
 // ---- scalar reference -------------------------------------------------------
@@ -252,9 +286,16 @@ inline void refineCellScalar(Tables& t, int32_t* nG, int32_t* nc, const uint32_t
         --nG[z];
         --t.nk[z];
         t.inv[z] = reciprocal(t.nk[z], t.vbeta);
-        const float total = weightsAndScanScalar(row, t.inv, nG, t.alpha, t.beta, Kp, cum);
+        const int L = liveLanes<KP>(t, Kp);
+        float total = weightsAndScanScalar(row, t.inv, nG, t.alpha, t.beta, L, cum);
+        if constexpr (KP == kGrow) total += freshWeight<KP>(t);
         const float u = rng.uniformFloat() * total;
-        const int k = selectScalar(cum, Kp, t.K, u);
+        int count = 0;
+        for (int j = 0; j < L; ++j) count += cum[j] <= u ? 1 : 0;
+        const int k = drawnTopic<KP>(t, count);
+        if constexpr (KP == kGrow) {
+            if (k == t.active) ++t.active;  // a new topic opens (its reciprocals follow below)
+        }
         ++row[k];
         ++nG[k];
         ++t.nk[k];
@@ -305,7 +346,8 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
         const v4::I zz = v4::seti(z);
         const v4::F vz = v4::set(invZ);
         v4::F carry = v4::set(0.f);
-        for (int b = 0; b < nb; ++b) {
+        const int nbL = liveLanes<KP>(t, Kp) / kBlock;
+        for (int b = 0; b < nbL; ++b) {
             const v4::I m = v4::eq(v4::iota(kBlock * b), zz);
             r[b] = v4::add(v4::load(row + kBlock * b), m);
             g[b] = v4::add(g[b], m);
@@ -323,13 +365,22 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
                 carry = v4::add(carry, v4::last(p));
             }
         }
-        const v4::F uu = v4::mul(v4::set(u01), carry);
-        // -(number of prefix sums <= u) in every lane. u < total = cum[K-1],
-        // so the count never exceeds K - 1 and needs no clamp.
+        v4::F total = carry;
+        if constexpr (KP == kGrow) total = v4::add(carry, v4::set(freshWeight<KP>(t)));
+        const v4::F uu = v4::mul(v4::set(u01), total);
+        // -(number of prefix sums <= u) in every lane. Without growth u <
+        // total = cum[K-1], so the count never exceeds K - 1 and needs no clamp.
         v4::I count = v4::le(cum[0], uu);
-        for (int b = 1; b < nb; ++b) count = v4::add(count, v4::le(cum[b], uu));
+        for (int b = 1; b < nbL; ++b) count = v4::add(count, v4::le(cum[b], uu));
         count = v4::hbroadcast(count);
-        const int k = -v4::firsti(count);
+        int k = -v4::firsti(count);
+        bool opened = false;
+        if constexpr (KP == kGrow) {
+            k = drawnTopic<KP>(t, k);
+            count = v4::seti(-k);
+            opened = k == t.active;
+            if (opened) ++t.active;
+        }
         // Word i joins topic k. When k == z (common once converged) every
         // value is restored and nothing else is written.
         float invK;
@@ -345,12 +396,13 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
             dec[k] = inv[k];
             inv[k] = invK;
             inc[k] = reciprocal(nk + 1, t.vbeta);
+            if (opened) dec[k] = reciprocal(nk - 1, t.vbeta);  // its inv was 0 while closed
             --nc[z];
             ++nc[k];
             topics[i] = static_cast<uint16_t>(k);
         }
         const v4::F vk = v4::set(invK);
-        for (int b = 0; b < nb; ++b) {
+        for (int b = 0; b < nbL; ++b) {
             const v4::I m = v4::eq(v4::niota(kBlock * b), count);  // lane j is topic k <=> -j == count
             v4::store(row + kBlock * b, v4::sub(r[b], m));
             g[b] = v4::sub(g[b], m);
@@ -392,14 +444,20 @@ inline void refineCellFrozenScalar(const Tables& t, int32_t* nG, int32_t* nc, co
     for (uint32_t i = 0; i < n; ++i) {
         const int32_t* src = t.nkv + static_cast<std::size_t>(words[i]) * static_cast<std::size_t>(Kp);
         const int a = z0[i], z = topics[i];
-        for (int k = 0; k < Kp; ++k) row[k] = src[k];
+        const int L = liveLanes<KP>(t, Kp);
+        for (int k = 0; k < L; ++k) row[k] = src[k];
         --row[a];
         inv[a] = t.dec[a];
         --nG[z];
-        const float total = weightsAndScanScalar(row, inv, nG, t.alpha, t.beta, Kp, cum);
+        float total = weightsAndScanScalar(row, inv, nG, t.alpha, t.beta, L, cum);
+        if constexpr (KP == kGrow) total += freshWeight<KP>(t);
         inv[a] = t.inv[a];
         const float u = rng.uniformFloat() * total;
-        const int k = selectScalar(cum, Kp, t.K, u);
+        int count = 0;
+        for (int j = 0; j < L; ++j) count += cum[j] <= u ? 1 : 0;
+        // With growth, a word that opens a topic takes label `active`: every
+        // task of the round that opens one opens the same, merged after it.
+        const int k = drawnTopic<KP>(t, count);
         ++nG[k];
         if (k != z) {
             --nc[z];
@@ -431,7 +489,8 @@ inline void refineCellFrozenSimd(const Tables& t, int32_t* nG, int32_t* nc, cons
         const v4::I aa = v4::seti(a), zz = v4::seti(z);
         const v4::F va = v4::set(t.dec[a]);
         v4::F carry = v4::set(0.f);
-        for (int b = 0; b < nb; ++b) {
+        const int nbL = liveLanes<KP>(t, Kp) / kBlock;
+        for (int b = 0; b < nbL; ++b) {
             const v4::I lanes = v4::iota(kBlock * b);
             const v4::I ma = v4::eq(lanes, aa);
             const v4::I r = v4::add(v4::load(row + kBlock * b), ma);
@@ -447,12 +506,18 @@ inline void refineCellFrozenSimd(const Tables& t, int32_t* nG, int32_t* nc, cons
                 carry = v4::add(carry, v4::last(p));
             }
         }
-        const v4::F uu = v4::mul(v4::set(u01), carry);
+        v4::F total = carry;
+        if constexpr (KP == kGrow) total = v4::add(carry, v4::set(freshWeight<KP>(t)));
+        const v4::F uu = v4::mul(v4::set(u01), total);
         v4::I count = v4::le(cum[0], uu);
-        for (int b = 1; b < nb; ++b) count = v4::add(count, v4::le(cum[b], uu));
+        for (int b = 1; b < nbL; ++b) count = v4::add(count, v4::le(cum[b], uu));
         count = v4::hbroadcast(count);
-        const int k = -v4::firsti(count);
-        for (int b = 0; b < nb; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
+        int k = -v4::firsti(count);
+        if constexpr (KP == kGrow) {
+            k = drawnTopic<KP>(t, k);
+            count = v4::seti(-k);
+        }
+        for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
         if (k != z) {
             --nc[z];
             ++nc[k];

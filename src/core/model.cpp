@@ -43,7 +43,6 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     const Status st = cfg_.validate();
     if (!st.ok()) throw std::invalid_argument(st.message());
     K_ = cfg_.K;
-    active_ = cfg_.grow ? 1 : K_;
     Kp_ = kernel::paddedK(K_);
     V_ = cfg_.V;
     gw_ = cfg_.gridWidth();
@@ -66,6 +65,8 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     tables_.dec = inv_dec_.data();
     tables_.inc = inv_inc_.data();
     tables_.K = K_;
+    tables_.active = cfg_.grow ? 1 : K_;
+    tables_.fresh = cfg_.grow ? static_cast<float>(cfg_.gamma / V_) : 0.f;
     tables_.Kp = Kp_;
     tables_.alpha = alpha_f_;
     tables_.beta = beta_f_;
@@ -144,7 +145,14 @@ void Model::buildNeighbourhoods() {
 }
 
 void Model::selectKernels() noexcept {
-    // Compile-time K for the common sizes (unrolled blocks, registers).
+    // Compile-time K for the common sizes (unrolled blocks, registers);
+    // growing topics take the runtime kernels that look at active topics only.
+    if (cfg_.grow) {
+        simd_kernel_ = &Model::refineCells<kernel::kGrow, kernel::Path::Simd>;
+        scalar_kernel_ = &Model::refineCells<kernel::kGrow, kernel::Path::Scalar>;
+        setTaskKernels<kernel::kGrow>();
+        return;
+    }
     switch (Kp_) {
     case 16:
         simd_kernel_ = &Model::refineCells<16, kernel::Path::Simd>;
@@ -178,6 +186,7 @@ void Model::describeState(StateLayout& out) noexcept {
     out.add("counters.words_in_model", 0, &words_in_model_, 1);
     out.add("counters.nkv_is_window", 0, &nkv_is_window_, 1);
     out.add("rng", 0, std::span<uint32_t>(rng_.stateWords()));
+    if (cfg_.grow) out.add("counters.topics_active", 0, &tables_.active, 1);  // only models whose topics grow
     auto buf = [&out](std::string_view name, auto& b) { out.add(name, 0, b.data(), b.size()); };
     buf("n_kv", nkv_);
     buf("n_k", nk_);
@@ -369,13 +378,16 @@ void Model::observeSurprise(int64_t step, std::size_t slot, std::size_t obs, con
             prior = nk_.data();
             gsum = globalSum;
         }
-        const double thetaNorm = 1.0 / (gsum + K_ * cfg_.alpha);
+        const int A = tables_.active;
+        const double fresh = freshMass();
+        const double thetaNorm = 1.0 / (gsum + A * cfg_.alpha + fresh);
         double nll = 0.0;
         const uint32_t* w = cell_words_.data() + (slot * cells_ + c) * cap_;
         for (uint32_t s = s0; s < s1; ++s) {
             const int32_t* row = nkv_.data() + static_cast<std::size_t>(w[s]) * Kp_;
             double p = 0.0;
-            for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
+            for (int k = 0; k < A; ++k) p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
+            p += fresh / V_;
             nll -= std::log(p * thetaNorm);
         }
         cs[c] = static_cast<float>(std::exp(nll / (s1 - s0)));
@@ -386,13 +398,14 @@ void Model::observeSurprise(int64_t step, std::size_t slot, std::size_t obs, con
 }
 
 void Model::drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexcept {
-    // Initial labels z ~ Uniform(K) (paper Algorithm 2) and their counts.
+    // Initial labels z ~ Uniform(K) (paper Algorithm 2; with growth, uniform
+    // over the active topics) and their counts.
     const uint32_t* cellN = cell_n_.data() + slot * cells_;
     for (int c = 0; c < cells_; ++c) {
         const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
         int32_t* h = nck(slot, c);
         for (uint32_t s = firstNew[c]; s < cellN[c]; ++s) {
-            const int z = static_cast<int>(rng_.below(static_cast<uint32_t>(K_)));
+            const int z = static_cast<int>(rng_.below(static_cast<uint32_t>(tables_.active)));
             cell_z_[base + s] = static_cast<uint16_t>(z);
             ++nkv_[static_cast<std::size_t>(cell_words_[base + s]) * Kp_ + z];
             ++nk_[z];
@@ -473,13 +486,16 @@ void Model::reciprocals(Reciprocals& r) const noexcept {
 double Model::logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum, const Reciprocals& r) const noexcept {
     const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
     double p = 0.0;
-    for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
+    const int A = tables_.active;
+    const double fresh = freshMass();
+    for (int k = 0; k < A; ++k) p += (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
+    p += fresh / V_;  // a new topic: its words are uniform (beta / (V beta))
     if (z >= 0) {
         // Word i leaves its own topic: replace topic z's term.
         p -= (row[z] + cfg_.beta) * r.inv[z] * (nG[z] + cfg_.alpha);
         p += (row[z] - 1 + cfg_.beta) * r.invLeftOut[z] * (nG[z] - 1 + cfg_.alpha);
     }
-    const double norm = (nGsum - (z >= 0 ? 1 : 0)) + K_ * cfg_.alpha;
+    const double norm = (nGsum - (z >= 0 ? 1 : 0)) + A * cfg_.alpha + fresh;
     return std::log(p / norm);
 }
 
@@ -487,7 +503,7 @@ int Model::mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& r) c
     const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
     int best = 0;
     double bestP = -1.0;
-    for (int k = 0; k < K_; ++k) {
+    for (int k = 0; k < tables_.active; ++k) {
         const double p = k == z ? (row[k] - 1 + cfg_.beta) * r.invLeftOut[k] * (nG[k] - 1 + cfg_.alpha)
                                 : (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
         if (p > bestP) {
@@ -664,6 +680,12 @@ Status Model::addTopicCounts(std::span<const int32_t> counts) {
             nk_[k] += c;
             added += static_cast<uint64_t>(c);
         }
+    if (cfg_.grow)  // topics with counts are open
+        for (int k = K_ - 1; k >= tables_.active; --k)
+            if (nk_[k] > 0) {
+                tables_.active = k + 1;
+                break;
+            }
     kernel::refreshReciprocals(tables_);
     words_in_model_ += added;
     if (added) nkv_is_window_ = false;
@@ -689,7 +711,11 @@ bool Model::checkInvariants(std::string* why) const {
         if (nk[k] != nk_[k])
             return fail("n_k[" + std::to_string(k) + "] = " + std::to_string(nk_[k]) + " but sum_v n_k^v = " +
                         std::to_string(nk[k]));
-        if (k < K_ && (inv_[k] != kernel::reciprocal(nk_[k], vbeta_f_) ||
+        if (k >= tables_.active && nk_[k] != 0)
+            return fail("topic " + std::to_string(k) + " holds words but only " + std::to_string(tables_.active) +
+                        " topics are active");
+        if (k >= tables_.active && inv_[k] != 0.f) return fail("topic " + std::to_string(k) + " is closed but weighs");
+        if (k < K_ && ((k < tables_.active && inv_[k] != kernel::reciprocal(nk_[k], vbeta_f_)) ||
                        inv_dec_[k] != kernel::reciprocal(nk_[k] - 1, vbeta_f_) ||
                        inv_inc_[k] != kernel::reciprocal(nk_[k] + 1, vbeta_f_)))
             return fail("cached reciprocal stale for topic " + std::to_string(k));
@@ -710,7 +736,7 @@ bool Model::checkInvariants(std::string* why) const {
             if (n > static_cast<uint32_t>(cap_)) return fail("cell over capacity");
             for (uint32_t i = 0; i < n; ++i) {
                 const int z = cell_z_[base + i];
-                if (z >= K_) return fail("label out of range in step " + std::to_string(t));
+                if (z >= tables_.active) return fail("label out of range in step " + std::to_string(t));
                 ++h[z];
                 if (nkv_is_window_) ++hist[static_cast<std::size_t>(cell_words_[base + i]) * Kp_ + z];
             }

@@ -129,6 +129,7 @@ void Model::setTaskKernels() noexcept {
     live_kernel_[0] = &Model::liveTask<KP, kernel::Path::Scalar>;
     live_kernel_[1] = &Model::liveTask<KP, kernel::Path::Simd>;
 }
+template void Model::setTaskKernels<kernel::kGrow>() noexcept;
 template void Model::setTaskKernels<0>() noexcept;
 template void Model::setTaskKernels<16>() noexcept;
 template void Model::setTaskKernels<32>() noexcept;
@@ -344,6 +345,8 @@ void Model::mergeRound(uint32_t b, uint32_t e) noexcept {
             ++nk_[z[j]];
         }
     }
+    // Every task that opened a topic in this round opened the same one.
+    if (cfg_.grow && tables_.active < K_ && nk_[tables_.active] > 0) ++tables_.active;
     kernel::refreshReciprocals(tables_);
 }
 
