@@ -268,6 +268,32 @@ TEST_F(RostCli, OnlineWritesEachDocumentAsItArrivedAndTheFinalFiles) {
     EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, 4), planted.topic), 0.9);
 }
 
+// With growth (--grow.topics.size=true --gamma): K is the cap, topicmodel.csv
+// holds the A active topics, every label is below A, and the planted topics
+// are recovered.
+TEST_F(RostCli, GrowthWritesTheActiveTopicsAndRecoversThePlantedOnes) {
+    const std::string flags =
+        " -i words.csv -V 40 -K 16 -n 60 --g.time 1 --cell.space 0 --seed 3 --grow.topics.size=true --gamma=0.01";
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + flags);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::size_t A = csv(dir + "/topicmodel.csv").size();
+    EXPECT_GE(A, static_cast<std::size_t>(kTopics)) << "fewer topics than planted";
+    EXPECT_LT(A, 16u) << "growth ran to the cap";
+    checkTopicModel(dir + "/topicmodel.csv", A, static_cast<long long>(kDocs) * kDocWords);
+    labels(dir + "/topics.csv", planted, static_cast<int>(A));
+    labels(dir + "/topics.maxlikelihood.csv", planted, static_cast<int>(A));
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o hist.csv -V " + std::to_string(A));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, static_cast<int>(A)), planted.topic), 0.9);
+    // Without growth the same run has K topics; --grow.topics.size alone means true.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 16 -n 2 --gamma=0.01 --out.topicmodel=k.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(csv(dir + "/k.csv").size(), 16u);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + flags + " --grow.topics.size --out.topicmodel=g.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/g.csv"), readText(dir + "/topicmodel.csv"));
+}
+
 // topics.refine.txy: each document holds words at positions in a 64 x 32
 // frame; the left half speaks one planted topic, the right half another,
 // and the pair changes every kSegment documents.

@@ -131,10 +131,13 @@ void addFileFlags(CLI::App& app, Parsed& p) {
 void addSettingFlags(CLI::App& app, Parsed& p, Command cmd) {
     for (const SettingFlag& f : kSettingFlags) {
         std::string& text = p.setting_text.emplace_back();
-        CLI::Option* opt = app.add_option(f.names, text, helpOf(f, cmd))->default_str(defaultOf(f));
         const SettingType type = findSetting(f.key)->type;
+        CLI::Option* opt = app.add_option(f.names, text, helpOf(f, cmd));
         opt->type_name(type == SettingType::Bool ? "[BOOL]" : type == SettingType::Integer ? "INT" : "NUM");
-        if (type == SettingType::Bool) opt->expected(0, 1);  // --grow.topics.size[=true]
+        // --grow.topics.size alone means true: no default string, which CLI11
+        // would take as the value of the bare flag.
+        if (type == SettingType::Bool) opt->expected(0, 1)->description(opt->get_description() + " (default " + defaultOf(f) + ")");
+        else opt->default_str(defaultOf(f));
         opt->group("Model (the settings schema's ranges)");
         p.setting_opts.push_back(opt);
     }
