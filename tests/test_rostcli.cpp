@@ -344,6 +344,39 @@ TEST_F(RostCli, TxyRecoversPlantedSpatialTopics) {
     checkTopicModel(dir + "/topicmodel.csv", 4, 120 * 30);
 }
 
+// A topic model carried from one run to the next (--out.topicmodel ->
+// --in.topicmodel) is a prior the new run keeps and adds its own words to;
+// another delimiter (--in.words.delim) reads the same documents.
+TEST_F(RostCli, TopicModelCarriesOverAndDelimiterIsHonoured) {
+    const long long total = static_cast<long long>(kDocs) * kDocWords;
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 30 --out.topicmodel=first.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    checkTopicModel(dir + "/first.csv", 4, total);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 30 --in.topicmodel=first.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    checkTopicModel(dir + "/topicmodel.csv", 4, 2 * total);
+    const auto prior = csv(dir + "/first.csv"), both = csv(dir + "/topicmodel.csv");
+    for (std::size_t k = 0; k < 4; ++k)
+        for (std::size_t v = 0; v < static_cast<std::size_t>(kV); ++v)
+            EXPECT_GE(std::stoll(both[k][v]), std::stoll(prior[k][v])) << "topic " << k << " word " << v;
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o hist.csv -V 4");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, 4), planted.topic), 0.95);
+    // A model of another shape is an error naming the file.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 5 --in.topicmodel=first.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("first.csv"), std::string::npos) << r.err;
+
+    std::string semi = readText(dir + "/words.csv");
+    std::replace(semi.begin(), semi.end(), ',', ';');
+    writeText(dir + "/semi.csv", semi);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 5 --out.topics=comma.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i semi.csv --in.words.delim ';' -V 40 -K 4 -n 5 --out.topics=semi-topics.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/semi-topics.csv"), readText(dir + "/comma.csv"));
+}
+
 // Bad input: one line naming the file, line and column; exit 2; no outputs.
 TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     writeText(dir + "/bad.csv", "0,1,2\n1,3,x4,5\n");
