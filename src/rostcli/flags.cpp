@@ -164,12 +164,15 @@ Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
         std::string value = given ? p.setting_text[i] : (f.rostcli_default ? f.rostcli_default : "");
         if (std::string(f.key) == "threads" && !given)
             value = std::to_string(usableCores());
-        if (std::string(f.key) == "budget.ms" && !p.run.online) continue;
         if (findSetting(f.key)->type == SettingType::Bool && given && value.empty()) value = "true";
         if (value.empty()) continue;
-        if (Status st = setSetting(s, f.key, value); !st.ok())
+        // --online.mint is checked without --online too, but is the budget only with it.
+        Settings checked = s;
+        Settings& into = std::string(f.key) == "budget.ms" && !p.run.online ? checked : s;
+        if (Status st = setSetting(into, f.key, value); !st.ok())
             return Status::error(p.setting_opts[i]->get_name(false, true) + ": " + st.message());
-        if (Status st = s.validate(); !st.ok()) return Status::error(p.setting_opts[i]->get_name(false, true) + ": " + st.message());
+        if (Status st = into.validate(); !st.ok())
+            return Status::error(p.setting_opts[i]->get_name(false, true) + ": " + st.message());
     }
     for (std::size_t i = 0; i < std::size(kLimitedFlags); ++i) {
         const LimitedFlag& f = kLimitedFlags[i];
