@@ -482,6 +482,158 @@ TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelP
     }
 }
 
+// ---- topic growth: the conditional with a new topic -------------------------------------
+
+// With topics.grow, a word draws an open topic k (n_k > 0 without it) with
+// eq. 5's weight and a new topic with weight gamma / V; the new topic takes
+// the lowest closed label, the slot (docs/design.md, "Topics that grow").
+// One word in a cell, both kernel paths, live and frozen (a parallel round's):
+// open topics 0..A-1 (A at a block boundary, inside a block, at the cap K = 7:
+// no new topic), a closed topic among them (the slot is below the open ones),
+// and a word that is its topic's only word (its topic closes while it draws:
+// weight 0, and live, its label becomes the slot). The tables are restored
+// between draws.
+struct GrowthScene {
+    static constexpr int K = 7, Kp = 8, V = 5;
+    const float alpha = 0.1f, beta = 0.5f, gamma = 0.8f;
+    std::vector<int32_t> nkv, nk;
+    std::vector<int32_t> g0, nc0;
+    alignas(64) float inv[Kp], dec[Kp], inc[Kp];
+    rost::kernel::Tables t;
+    uint32_t word = 2;
+    int z = 0;
+    bool singleton = false;
+
+    GrowthScene(int A, int hole, bool single) : nkv(V * Kp, 0), nk(Kp, 0), g0(Kp, 0), nc0(Kp, 0), singleton(single) {
+        rost::Rng r(static_cast<uint64_t>(90 + A * 7 + hole + (single ? 50 : 0)));
+        z = A - 1;
+        for (int v = 0; v < V; ++v)
+            for (int k = 0; k < A; ++k)
+                if (k != hole && !(single && k == z)) nkv[v * Kp + k] = static_cast<int32_t>(1 + r.below(10));
+        nkv[word * Kp + z] += 1;  // the word itself
+        for (int k = 0; k < A; ++k) {
+            for (int v = 0; v < V; ++v) nk[k] += nkv[v * Kp + k];
+            if (nk[k] > 0) g0[k] = static_cast<int32_t>(r.below(6));
+        }
+        g0[z] += 1;
+        nc0[z] = 1;
+        t.nkv = nkv.data();
+        t.nk = nk.data();
+        t.inv = inv;
+        t.dec = dec;
+        t.inc = inc;
+        t.K = K;
+        t.Kp = Kp;
+        t.grow = true;
+        t.fresh = gamma / static_cast<float>(V);
+        t.alpha = alpha;
+        t.beta = beta;
+        t.vbeta = static_cast<float>(V) * beta;
+        rost::kernel::refreshReciprocals(t);
+        rost::kernel::updateTopics(t);
+    }
+    // The label a new topic takes: the slot, which live includes the word's
+    // own topic when it closes; frozen, the round's slot.
+    int newLabel(bool frozen) const { return !frozen && singleton ? std::min(t.slot, z) : t.slot; }
+    // The law of the word's new label.
+    std::vector<double> law(bool frozen) const {
+        std::vector<double> p(K, 0.0);
+        double total = 0;
+        for (int k = 0; k < K; ++k) {
+            const double l = k == z ? 1.0 : 0.0;
+            if (nk[k] - l <= 0) continue;  // closed without the word
+            p[k] = (nkv[word * Kp + k] - l + beta) / (nk[k] - l + V * static_cast<double>(beta)) * (g0[k] - l + alpha);
+            total += p[k];
+        }
+        const int n = newLabel(frozen);
+        if (n < K) {
+            p[n] += static_cast<double>(gamma) / V;
+            total += static_cast<double>(gamma) / V;
+        }
+        for (double& x : p) x /= total;
+        return p;
+    }
+};
+
+// One draw of the word on kernel `variant` (0 live simd, 1 live scalar, 2 frozen simd, 3 frozen scalar).
+uint16_t growthDraw(GrowthScene& sc, int variant, int d, int32_t* nc) {
+    using rost::kernel::kGrow;
+    alignas(64) int32_t g[GrowthScene::Kp];
+    std::copy(sc.g0.begin(), sc.g0.end(), g);
+    std::copy(sc.nc0.begin(), sc.nc0.end(), nc);
+    uint16_t z = static_cast<uint16_t>(sc.z);
+    const uint16_t z0 = z;
+    rost::detail::CounterRng rng(777, static_cast<uint64_t>(d));
+    if (variant == 0) rost::kernel::refineCell<kGrow, Path::Simd>(sc.t, g, nc, &sc.word, &z, 1, rng);
+    if (variant == 1) rost::kernel::refineCell<kGrow, Path::Scalar>(sc.t, g, nc, &sc.word, &z, 1, rng);
+    if (variant == 2) rost::kernel::refineCellFrozen<kGrow, Path::Simd>(sc.t, g, nc, &sc.word, &z, &z0, 1, rng);
+    if (variant == 3) rost::kernel::refineCellFrozen<kGrow, Path::Scalar>(sc.t, g, nc, &sc.word, &z, &z0, 1, rng);
+    return z;
+}
+
+TEST(GrowthConditional, NewTopicDrawsWithWeightGammaOverVOnEveryKernelPath) {
+    struct Case {
+        int A, hole;
+        bool single;
+    };
+    for (const Case c : {Case{4, -1, false}, Case{5, -1, false}, Case{6, -1, false}, Case{7, -1, false},
+                         Case{6, 1, false}, Case{5, -1, true}, Case{6, 2, true}}) {
+        GrowthScene sc(c.A, c.hole, c.single);
+        const GrowthScene ref(c.A, c.hole, c.single);
+        for (int variant = 0; variant < 4; ++variant) {
+            const bool frozen = variant >= 2;
+            const std::vector<double> law = sc.law(frozen);
+            const int fresh = sc.newLabel(frozen);
+            std::vector<double> counts(GrowthScene::K, 0.0);
+            for (int d = 0; d < kDraws; ++d) {
+                alignas(64) int32_t nc[GrowthScene::Kp];
+                const uint16_t z = growthDraw(sc, variant, d, nc);
+                ASSERT_LT(z, GrowthScene::K);
+                counts[z] += 1;
+                ASSERT_EQ(nc[z], 1);
+                if (frozen) {
+                    ASSERT_TRUE(sc.nkv == ref.nkv && sc.nk == ref.nk) << "a round must not write the frozen tables";
+                    continue;
+                }
+                std::string why;
+                rost::kernel::Tables check = sc.t;
+                rost::kernel::updateTopics(check);
+                ASSERT_TRUE(check.active == sc.t.active && check.hi == sc.t.hi && check.slot == sc.t.slot)
+                    << "case A=" << c.A << ": open topics kept up to date";
+                ASSERT_EQ(sc.inv[z], rost::kernel::reciprocal(sc.nk[z], sc.t.vbeta));
+                ASSERT_EQ(sc.dec[z], rost::kernel::reciprocal(sc.nk[z] - 1, sc.t.vbeta));
+                ASSERT_EQ(sc.inc[z], rost::kernel::reciprocal(sc.nk[z] + 1, sc.t.vbeta));
+                if (c.single && z != sc.z) {
+                    ASSERT_EQ(sc.inv[sc.z], 0.f) << "the word's old topic closed";
+                }
+                std::copy(ref.nkv.begin(), ref.nkv.end(), sc.nkv.begin());
+                std::copy(ref.nk.begin(), ref.nk.end(), sc.nk.begin());
+                std::copy(ref.inv, ref.inv + GrowthScene::Kp, sc.inv);
+                std::copy(ref.dec, ref.dec + GrowthScene::Kp, sc.dec);
+                std::copy(ref.inc, ref.inc + GrowthScene::Kp, sc.inc);
+                rost::kernel::updateTopics(sc.t);
+            }
+            GoodnessOfFit gof;
+            int cells = 0;
+            for (int k = 0; k < GrowthScene::K; ++k) {
+                if (law[k] == 0.0) {
+                    EXPECT_EQ(counts[k], 0.0) << "A=" << c.A << ": topic " << k << " is closed";
+                    continue;
+                }
+                const double e = law[k] * kDraws;
+                gof.stat += (counts[k] - e) * (counts[k] - e) / e;
+                ++cells;
+            }
+            gof.df = cells - 1;
+            EXPECT_GT(gof.p(), kPass) << "A=" << c.A << " hole " << c.hole << " single " << c.single << " variant "
+                                      << variant << ": " << gof;
+            if (fresh < GrowthScene::K) {
+                EXPECT_GT(counts[fresh], 0.0) << "the new topic is drawn";
+            }
+        }
+    }
+}
+
 // ---- paper eq. 5: the exact conditional -----------------------------------------------
 
 class ExactConditional : public ::testing::TestWithParam<SceneSpec> {};

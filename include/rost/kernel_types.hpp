@@ -32,11 +32,16 @@ struct Tables {
     float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
     int K = 0;
     int Kp = 0;
-    // Topic growth (docs/design.md, "Topics that grow"). Topics 0..active-1
-    // are active (K without growth) and inv is 0 from `active` on; with
-    // growth a word may open topic `active` with weight `fresh` (gamma / V)
-    // while active < K. The growth kernels are the KP = kGrow instances.
+    // Topic growth (docs/design.md, "Topics that grow"). Without growth all
+    // K topics are open. With growth a topic is open while it holds a word
+    // (n_k > 0; inv is 0 for a closed one), `active` counts the open ones,
+    // `hi` is 1 + the highest open label, and a word opens topic `slot` (the
+    // lowest closed label; K when none is left) with weight `fresh` = gamma / V.
+    // The growth kernels are the KP = kGrow instances.
+    bool grow = false;
     int active = 0;
+    int hi = 0;
+    int slot = 0;
     float fresh = 0.f;
     float alpha = 0.f;
     float beta = 0.f;

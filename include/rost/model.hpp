@@ -147,8 +147,18 @@ public:
     // Active topics A: labels are 0..A-1. K without topic growth; with
     // topics.grow, the topics opened so far (1 at the start, at most K).
     int activeTopics() const noexcept { return tables_.active; }
-    // True when topics grow and active topics have reached the cap K.
+    // True when topics grow and every one of the K topics is open.
     bool topicCapReached() const noexcept { return cfg_.grow && tables_.active >= K_; }
+    // Whether topic k is open (holds a word; always, without growth).
+    bool topicOpen(int k) const noexcept { return !cfg_.grow || (k >= 0 && k < K_ && nk_[k] > 0); }
+    // Output numbering of the topics (docs/design.md, "Topics that grow"):
+    // map[k] = the number of open topics below k, so open topics are numbered
+    // 0..A-1 in label order (0xFFFF for a closed one). Without growth the
+    // identity. observationLabels and observationSamples are numbered this
+    // way; cellHistogram, topicWordCount and topicCount take labels. map.size() >= K.
+    void outputNumbering(std::span<uint16_t> map) const noexcept;
+    // Call after the state sections (describeState) were written back.
+    void stateRestored() noexcept;
     int V() const noexcept { return V_; }
     int cellsPerStep() const noexcept { return cells_; }
 
@@ -312,6 +322,7 @@ private:
         return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
     }
     void neighbourhood(int64_t step, int cell, int32_t* out, bool pastOnly) const noexcept;
+    void renumber(uint64_t frame, std::span<uint16_t> out) const noexcept;
     // Ring slots of a step and of its temporal neighbours in the window,
     // computed once per step so a cell's refinement does no division.
     struct StepSlots {

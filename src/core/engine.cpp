@@ -895,6 +895,7 @@ Status Engine::applyState() {
     R.ns_per_token = R.saved_predictors.ns_per_token;
     R.publish_ns = R.saved_predictors.publish_ns;
     R.token_samples = R.publish_samples = 1;  // restored averages, not first samples
+    model_->stateRestored();
     return {};
 }
 

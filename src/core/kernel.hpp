@@ -46,7 +46,45 @@ inline void refreshReciprocals(Tables& t) noexcept {
         t.inc[k] = reciprocal(t.nk[k] + 1, t.vbeta);
     }
     for (int k = t.K; k < t.Kp; ++k) t.inv[k] = t.dec[k] = t.inc[k] = 0.f;
-    for (int k = t.active; k < t.K; ++k) t.inv[k] = 0.f;  // topics not yet opened weigh nothing
+    if (t.grow)
+        for (int k = 0; k < t.K; ++k)
+            if (t.nk[k] == 0) t.inv[k] = 0.f;  // a closed topic weighs nothing
+}
+
+// Recomputes which topics are open (growth) from n_k.
+inline void updateTopics(Tables& t) noexcept {
+    if (!t.grow) {
+        t.active = t.hi = t.slot = t.K;
+        return;
+    }
+    t.active = 0;
+    t.hi = 0;
+    t.slot = t.K;
+    for (int k = 0; k < t.K; ++k) {
+        if (t.nk[k] > 0) {
+            ++t.active;
+            t.hi = k + 1;
+        } else if (t.slot == t.K) {
+            t.slot = k;
+        }
+    }
+}
+
+// A word left topic z, which held only it: z closes (growth).
+inline void closeTopic(Tables& t, int z) noexcept {
+    --t.active;
+    if (z < t.slot) t.slot = z;
+    if (z + 1 == t.hi)
+        while (t.hi > 0 && t.nk[t.hi - 1] == 0) --t.hi;
+}
+
+// A word joined closed topic k (always the slot): k opens (growth).
+inline void openTopic(Tables& t, int k) noexcept {
+    ++t.active;
+    if (k + 1 > t.hi) t.hi = k + 1;
+    int s = k + 1;
+    while (s < t.K && t.nk[s] != 0) ++s;
+    t.slot = s;
 }
 
 // ---- topic growth -----------------------------------------------------------
@@ -58,7 +96,7 @@ inline int liveLanes(const Tables& t, int Kp) noexcept {
     if constexpr (KP != kGrow) {
         return Kp;
     } else {
-        const int n = t.active < t.K ? t.active + 1 : t.active;
+        const int n = t.hi < t.K ? t.hi + 1 : t.K;  // the open topics and the slot (<= hi)
         return (n + kBlock - 1) / kBlock * kBlock;
     }
 }
@@ -67,18 +105,18 @@ inline int liveLanes(const Tables& t, int Kp) noexcept {
 template <int KP>
 inline float freshWeight(const Tables& t) noexcept {
     if constexpr (KP != kGrow) return 0.f;
-    return t.active < t.K ? t.fresh : 0.f;
+    return t.slot < t.K ? t.fresh : 0.f;
 }
 
-// The drawn topic from the number of prefix sums <= u: with growth, all of
-// the active topics' sums <= u means the new topic (while there is room).
+// The drawn topic from the number of prefix sums <= u (closed topics weigh 0,
+// so they are never drawn this way): with growth, all of the open topics'
+// sums <= u means a new topic, the slot (while there is room).
 template <int KP>
 inline int drawnTopic(const Tables& t, int count) noexcept {
     if constexpr (KP != kGrow) {
         return count < t.K ? count : t.K - 1;
     } else {
-        const int A = t.active;
-        return count < A ? count : (A < t.K ? A : A - 1);
+        return count < t.hi ? count : (t.slot < t.K ? t.slot : t.hi - 1);
     }
 }
 
@@ -286,6 +324,12 @@ inline void refineCellScalar(Tables& t, int32_t* nG, int32_t* nc, const uint32_t
         --nG[z];
         --t.nk[z];
         t.inv[z] = reciprocal(t.nk[z], t.vbeta);
+        if constexpr (KP == kGrow) {
+            if (t.nk[z] == 0) {  // the word was its topic's last: the topic closes
+                t.inv[z] = 0.f;
+                closeTopic(t, z);
+            }
+        }
         const int L = liveLanes<KP>(t, Kp);
         float total = weightsAndScanScalar(row, t.inv, nG, t.alpha, t.beta, L, cum);
         if constexpr (KP == kGrow) total += freshWeight<KP>(t);
@@ -293,12 +337,12 @@ inline void refineCellScalar(Tables& t, int32_t* nG, int32_t* nc, const uint32_t
         int count = 0;
         for (int j = 0; j < L; ++j) count += cum[j] <= u ? 1 : 0;
         const int k = drawnTopic<KP>(t, count);
-        if constexpr (KP == kGrow) {
-            if (k == t.active) ++t.active;  // a new topic opens (its reciprocals follow below)
-        }
         ++row[k];
         ++nG[k];
         ++t.nk[k];
+        if constexpr (KP == kGrow) {
+            if (t.nk[k] == 1) openTopic(t, k);  // a new topic (its reciprocals follow below)
+        }
         if (k == z) {
             t.inv[z] = invOld;
         } else {
@@ -342,11 +386,18 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
         // Word i leaves topic z (eq. 5's -i): n_k^v and n_G^k in registers by
         // lane mask; n_k and the reciprocals in memory.
         const int32_t nz = --t.nk[z];
-        const float invZ = dec[z];
+        float invZ = dec[z];
+        if constexpr (KP == kGrow) {
+            if (nz == 0) {  // the word was its topic's last: the topic closes
+                invZ = 0.f;
+                closeTopic(t, z);
+            }
+        }
         const v4::I zz = v4::seti(z);
         const v4::F vz = v4::set(invZ);
         v4::F carry = v4::set(0.f);
         const int nbL = liveLanes<KP>(t, Kp) / kBlock;
+        if (nbL < 1) __builtin_unreachable();  // at least one topic is active
         for (int b = 0; b < nbL; ++b) {
             const v4::I m = v4::eq(v4::iota(kBlock * b), zz);
             r[b] = v4::add(v4::load(row + kBlock * b), m);
@@ -378,8 +429,7 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
         if constexpr (KP == kGrow) {
             k = drawnTopic<KP>(t, k);
             count = v4::seti(-k);
-            opened = k == t.active;
-            if (opened) ++t.active;
+            opened = t.nk[k] == 0;
         }
         // Word i joins topic k. When k == z (common once converged) every
         // value is restored and nothing else is written.
@@ -400,6 +450,9 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
             --nc[z];
             ++nc[k];
             topics[i] = static_cast<uint16_t>(k);
+        }
+        if constexpr (KP == kGrow) {
+            if (opened) openTopic(t, k);
         }
         const v4::F vk = v4::set(invK);
         for (int b = 0; b < nbL; ++b) {
@@ -447,7 +500,8 @@ inline void refineCellFrozenScalar(const Tables& t, int32_t* nG, int32_t* nc, co
         const int L = liveLanes<KP>(t, Kp);
         for (int k = 0; k < L; ++k) row[k] = src[k];
         --row[a];
-        inv[a] = t.dec[a];
+        // (With growth, a word that was its topic's last leaves it closed.)
+        inv[a] = KP == kGrow && t.nk[a] == 1 ? 0.f : t.dec[a];
         --nG[z];
         float total = weightsAndScanScalar(row, inv, nG, t.alpha, t.beta, L, cum);
         if constexpr (KP == kGrow) total += freshWeight<KP>(t);
@@ -455,7 +509,7 @@ inline void refineCellFrozenScalar(const Tables& t, int32_t* nG, int32_t* nc, co
         const float u = rng.uniformFloat() * total;
         int count = 0;
         for (int j = 0; j < L; ++j) count += cum[j] <= u ? 1 : 0;
-        // With growth, a word that opens a topic takes label `active`: every
+        // With growth, a word that opens a topic takes label `slot`: every
         // task of the round that opens one opens the same, merged after it.
         const int k = drawnTopic<KP>(t, count);
         ++nG[k];
@@ -487,9 +541,10 @@ inline void refineCellFrozenSimd(const Tables& t, int32_t* nG, int32_t* nc, cons
         const int a = z0[i], z = topics[i];
         const float u01 = rng.uniformFloat();
         const v4::I aa = v4::seti(a), zz = v4::seti(z);
-        const v4::F va = v4::set(t.dec[a]);
+        const v4::F va = v4::set(KP == kGrow && t.nk[a] == 1 ? 0.f : t.dec[a]);
         v4::F carry = v4::set(0.f);
         const int nbL = liveLanes<KP>(t, Kp) / kBlock;
+        if (nbL < 1) __builtin_unreachable();  // at least one topic is active
         for (int b = 0; b < nbL; ++b) {
             const v4::I lanes = v4::iota(kBlock * b);
             const v4::I ma = v4::eq(lanes, aa);

@@ -65,13 +65,14 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     tables_.dec = inv_dec_.data();
     tables_.inc = inv_inc_.data();
     tables_.K = K_;
-    tables_.active = cfg_.grow ? 1 : K_;
+    tables_.grow = cfg_.grow;
     tables_.fresh = cfg_.grow ? static_cast<float>(cfg_.gamma / V_) : 0.f;
     tables_.Kp = Kp_;
     tables_.alpha = alpha_f_;
     tables_.beta = beta_f_;
     tables_.vbeta = vbeta_f_;
     kernel::refreshReciprocals(tables_);
+    kernel::updateTopics(tables_);
 
     memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
                     cell_words_.bytes() + cell_z_.bytes() + nck_.bytes() + cell_surprise_.bytes() +
@@ -186,7 +187,6 @@ void Model::describeState(StateLayout& out) noexcept {
     out.add("counters.words_in_model", 0, &words_in_model_, 1);
     out.add("counters.nkv_is_window", 0, &nkv_is_window_, 1);
     out.add("rng", 0, std::span<uint32_t>(rng_.stateWords()));
-    if (cfg_.grow) out.add("counters.topics_active", 0, &tables_.active, 1);  // only models whose topics grow
     auto buf = [&out](std::string_view name, auto& b) { out.add(name, 0, b.data(), b.size()); };
     buf("n_kv", nkv_);
     buf("n_k", nk_);
@@ -220,6 +220,7 @@ void Model::evict(std::size_t slot) noexcept {
             words_in_model_ -= n;
         }
         kernel::refreshReciprocals(tables_);
+        kernel::updateTopics(tables_);
     } else {
         nkv_is_window_ = false;
     }
@@ -378,15 +379,15 @@ void Model::observeSurprise(int64_t step, std::size_t slot, std::size_t obs, con
             prior = nk_.data();
             gsum = globalSum;
         }
-        const int A = tables_.active;
         const double fresh = freshMass();
-        const double thetaNorm = 1.0 / (gsum + A * cfg_.alpha + fresh);
+        const double thetaNorm = 1.0 / (gsum + tables_.active * cfg_.alpha + fresh);
         double nll = 0.0;
         const uint32_t* w = cell_words_.data() + (slot * cells_ + c) * cap_;
         for (uint32_t s = s0; s < s1; ++s) {
             const int32_t* row = nkv_.data() + static_cast<std::size_t>(w[s]) * Kp_;
             double p = 0.0;
-            for (int k = 0; k < A; ++k) p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
+            for (int k = 0; k < K_; ++k)
+                if (topicOpen(k)) p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
             p += fresh / V_;
             nll -= std::log(p * thetaNorm);
         }
@@ -401,11 +402,17 @@ void Model::drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexce
     // Initial labels z ~ Uniform(K) (paper Algorithm 2; with growth, uniform
     // over the active topics) and their counts.
     const uint32_t* cellN = cell_n_.data() + slot * cells_;
+    // With growth: uniform over the open topics (the slot when none is open).
+    uint16_t open[kMaxKp];
+    uint32_t nopen = 0;
+    for (int k = 0; k < K_; ++k)
+        if (topicOpen(k)) open[nopen++] = static_cast<uint16_t>(k);
+    if (nopen == 0) open[nopen++] = static_cast<uint16_t>(tables_.slot);
     for (int c = 0; c < cells_; ++c) {
         const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
         int32_t* h = nck(slot, c);
         for (uint32_t s = firstNew[c]; s < cellN[c]; ++s) {
-            const int z = static_cast<int>(rng_.below(static_cast<uint32_t>(tables_.active)));
+            const int z = open[rng_.below(nopen)];
             cell_z_[base + s] = static_cast<uint16_t>(z);
             ++nkv_[static_cast<std::size_t>(cell_words_[base + s]) * Kp_ + z];
             ++nk_[z];
@@ -413,6 +420,7 @@ void Model::drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexce
         }
     }
     kernel::refreshReciprocals(tables_);
+    kernel::updateTopics(tables_);
 }
 
 void Model::stepSlots(int64_t step, StepSlots& out) const noexcept {
@@ -478,18 +486,26 @@ uint32_t Model::wordsInStep(int64_t step) const noexcept {
 void Model::reciprocals(Reciprocals& r) const noexcept {
     const double vb = V_ * cfg_.beta;
     for (int k = 0; k < K_; ++k) {
-        r.inv[k] = 1.0 / (nk_[k] + vb);
-        r.invLeftOut[k] = 1.0 / (nk_[k] - 1 + vb);
+        const bool open = topicOpen(k);
+        r.inv[k] = open ? 1.0 / (nk_[k] + vb) : 0.0;
+        // A word that is its topic's last leaves it closed (growth).
+        r.invLeftOut[k] = open && !(cfg_.grow && nk_[k] == 1) ? 1.0 / (nk_[k] - 1 + vb) : 0.0;
     }
 }
 
 double Model::logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum, const Reciprocals& r) const noexcept {
     const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
     double p = 0.0;
-    const int A = tables_.active;
-    const double fresh = freshMass();
-    for (int k = 0; k < A; ++k) p += (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
-    p += fresh / V_;  // a new topic: its words are uniform (beta / (V beta))
+    // Open topics A (growth: a word that was its topic's last closes it, and
+    // frees a slot for a new topic, whose words are uniform: beta / (V beta)).
+    int A = tables_.active;
+    double fresh = freshMass();
+    if (cfg_.grow && z >= 0 && nk_[z] == 1) {
+        --A;
+        fresh = cfg_.gamma;
+    }
+    for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
+    p += fresh / V_;
     if (z >= 0) {
         // Word i leaves its own topic: replace topic z's term.
         p -= (row[z] + cfg_.beta) * r.inv[z] * (nG[z] + cfg_.alpha);
@@ -503,7 +519,8 @@ int Model::mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& r) c
     const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
     int best = 0;
     double bestP = -1.0;
-    for (int k = 0; k < tables_.active; ++k) {
+    for (int k = 0; k < K_; ++k) {
+        if (!topicOpen(k)) continue;
         const double p = k == z ? (row[k] - 1 + cfg_.beta) * r.invLeftOut[k] * (nG[k] - 1 + cfg_.alpha)
                                 : (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
         if (p > bestP) {
@@ -625,6 +642,16 @@ void Model::observationLabels(uint64_t frame, std::span<uint16_t> out) const noe
         const int z = dropped ? -1 : cell_z_[slot * cells_ * cap_ + s];
         out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], z, cachedNeighbourhood(step, static_cast<int>(cell)), r));
     });
+    renumber(frame, out);
+}
+
+// Output numbering of labels (growth): open topics 0..A-1.
+void Model::renumber(uint64_t frame, std::span<uint16_t> out) const noexcept {
+    if (!cfg_.grow) return;
+    uint16_t map[kMaxKp];
+    outputNumbering({map, static_cast<std::size_t>(K_)});
+    const std::size_t n = std::min<std::size_t>(out.size(), observationSize(frame));
+    for (std::size_t i = 0; i < n; ++i) out[i] = map[out[i]];
 }
 
 void Model::observationSamples(uint64_t frame, std::span<uint16_t> out) const noexcept {
@@ -643,6 +670,7 @@ void Model::observationSamples(uint64_t frame, std::span<uint16_t> out) const no
             out[i] = cell_z_[slot * cells_ * cap_ + s];
         }
     });
+    renumber(frame, out);
 }
 
 std::span<const int32_t> Model::cellHistogram(int64_t step, int cell) const noexcept {
@@ -680,16 +708,21 @@ Status Model::addTopicCounts(std::span<const int32_t> counts) {
             nk_[k] += c;
             added += static_cast<uint64_t>(c);
         }
-    if (cfg_.grow)  // topics with counts are open
-        for (int k = K_ - 1; k >= tables_.active; --k)
-            if (nk_[k] > 0) {
-                tables_.active = k + 1;
-                break;
-            }
     kernel::refreshReciprocals(tables_);
+    kernel::updateTopics(tables_);  // topics with counts are open
     words_in_model_ += added;
     if (added) nkv_is_window_ = false;
     return {};
+}
+
+void Model::outputNumbering(std::span<uint16_t> map) const noexcept {
+    uint16_t next = 0;
+    for (int k = 0; k < K_ && static_cast<std::size_t>(k) < map.size(); ++k)
+        map[k] = topicOpen(k) ? next++ : uint16_t{0xFFFF};
+}
+
+void Model::stateRestored() noexcept {
+    kernel::updateTopics(tables_);
 }
 
 bool Model::checkInvariants(std::string* why) const {
@@ -706,16 +739,19 @@ bool Model::checkInvariants(std::string* why) const {
             if (k >= K_ && c != 0) return fail("padding count non-zero at word " + std::to_string(v));
             nk[k] += c;
         }
+    kernel::Tables topics = tables_;
+    kernel::updateTopics(topics);
+    if (topics.active != tables_.active || topics.hi != tables_.hi || topics.slot != tables_.slot)
+        return fail("open topics stale: " + std::to_string(tables_.active) + " active, " +
+                    std::to_string(topics.active) + " hold words");
     int64_t total = 0;
     for (int k = 0; k < Kp_; ++k) {
         if (nk[k] != nk_[k])
             return fail("n_k[" + std::to_string(k) + "] = " + std::to_string(nk_[k]) + " but sum_v n_k^v = " +
                         std::to_string(nk[k]));
-        if (k >= tables_.active && nk_[k] != 0)
-            return fail("topic " + std::to_string(k) + " holds words but only " + std::to_string(tables_.active) +
-                        " topics are active");
-        if (k >= tables_.active && inv_[k] != 0.f) return fail("topic " + std::to_string(k) + " is closed but weighs");
-        if (k < K_ && ((k < tables_.active && inv_[k] != kernel::reciprocal(nk_[k], vbeta_f_)) ||
+        if (k < K_ && !topicOpen(k) && inv_[k] != 0.f)
+            return fail("topic " + std::to_string(k) + " is closed but weighs");
+        if (k < K_ && ((topicOpen(k) && inv_[k] != kernel::reciprocal(nk_[k], vbeta_f_)) ||
                        inv_dec_[k] != kernel::reciprocal(nk_[k] - 1, vbeta_f_) ||
                        inv_inc_[k] != kernel::reciprocal(nk_[k] + 1, vbeta_f_)))
             return fail("cached reciprocal stale for topic " + std::to_string(k));
@@ -736,7 +772,7 @@ bool Model::checkInvariants(std::string* why) const {
             if (n > static_cast<uint32_t>(cap_)) return fail("cell over capacity");
             for (uint32_t i = 0; i < n; ++i) {
                 const int z = cell_z_[base + i];
-                if (z >= tables_.active) return fail("label out of range in step " + std::to_string(t));
+                if (z >= K_) return fail("label out of range in step " + std::to_string(t));
                 ++h[z];
                 if (nkv_is_window_) ++hist[static_cast<std::size_t>(cell_words_[base + i]) * Kp_ + z];
             }

@@ -33,13 +33,13 @@ LogLoss Model::cellPluginLogLoss(int64_t step, int cell) const noexcept {
     const int A = tables_.active;
     const double fresh = freshMass();
     const double thetaNorm = 1.0 / (static_cast<double>(n) + A * cfg_.alpha + fresh);
-    for (int k = 0; k < A; ++k) weight[k] = (h[k] + cfg_.alpha) * thetaNorm / (nk_[k] + vbeta);
+    for (int k = 0; k < K_; ++k) weight[k] = topicOpen(k) ? (h[k] + cfg_.alpha) * thetaNorm / (nk_[k] + vbeta) : 0.0;
     const double freshP = fresh * thetaNorm / V_;  // a new topic, its words uniform
     const uint32_t* words = cell_words_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
     for (uint32_t i = 0; i < n; ++i) {
         const int32_t* row = nkv_.data() + static_cast<std::size_t>(words[i]) * Kp_;
         double p = 0.0;
-        for (int k = 0; k < A; ++k) p += (row[k] + cfg_.beta) * weight[k];
+        for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * weight[k];
         p += freshP;
         out.nll -= std::log(p);
     }

@@ -345,9 +345,9 @@ void Model::mergeRound(uint32_t b, uint32_t e) noexcept {
             ++nk_[z[j]];
         }
     }
-    // Every task that opened a topic in this round opened the same one.
-    if (cfg_.grow && tables_.active < K_ && nk_[tables_.active] > 0) ++tables_.active;
     kernel::refreshReciprocals(tables_);
+    // Topics closed and opened (every task that opened one opened the same).
+    kernel::updateTopics(tables_);
 }
 
 void Model::countStarted(RefineCount& rc) noexcept {

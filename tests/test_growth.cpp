@@ -1,0 +1,137 @@
+// Topics that grow (settings topics.grow, gamma; docs/design.md, "Topics that
+// grow"): growth from one topic on planted data finds about the planted
+// number, the cap is respected, labels stay compact (0..A-1), the result is
+// the same on any number of threads, and the counts stay consistent.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "rost/model.hpp"
+#include "synthetic.hpp"
+
+namespace {
+
+namespace syn = rost::synthetic;
+
+// Four planted topics on disjoint word blocks, as vertical stripes drifting
+// over a 32 x 8 grid of 16 px cells, 10 steps, 8-12 words per cell (~25 k words).
+syn::Spec plantedSpec(uint64_t seed) {
+    syn::Spec s;
+    s.K = 4;
+    s.words_per_topic = 16;
+    s.noise_words = 8;
+    s.noise_mass = 0.05;
+    s.topic_noise = 0.02;
+    s.layout = syn::Layout::Stripes;
+    s.regions = 4;
+    s.speed = 0.2;
+    s.grid_width = 32;
+    s.grid_height = 8;
+    s.cell_space = 16;
+    s.steps = 10;
+    s.min_words = 8;
+    s.max_words = 12;
+    s.seed = seed;
+    return s;
+}
+
+rost::Config growthConfig(const syn::Data& d, int cap, double gamma, uint64_t seed) {
+    rost::Config c = d.config();
+    c.K = cap;
+    c.grow = true;
+    c.gamma = gamma;
+    c.seed = seed;
+    return c;
+}
+
+struct Grown {
+    int active = 0;
+    double purity = 0.0;  // sum over learned topics of their largest planted share / words
+    std::vector<uint16_t> labels;
+};
+
+Grown grow(const syn::Data& d, const rost::Config& c, int sweeps, int threads = 1) {
+    rost::Model m(c);
+    if (threads > 1) m.setThreads(threads);
+    EXPECT_EQ(m.activeTopics(), 0) << "no topic is open before the first word";
+    for (int t = 0; t < d.spec.steps; ++t) EXPECT_TRUE(m.addObservation(d.words[t], d.positions[t]).ok());
+    m.refineAll(sweeps);
+    std::string why;
+    EXPECT_TRUE(m.checkInvariants(&why)) << why;
+    Grown g;
+    g.active = m.activeTopics();
+    for (int t = 0; t < d.spec.steps; ++t) {
+        std::vector<uint16_t> z(d.words[t].size());
+        m.observationLabels(static_cast<uint64_t>(t), z);
+        g.labels.insert(g.labels.end(), z.begin(), z.end());
+    }
+    std::vector<uint16_t> truth;
+    for (const auto& step : d.topics) truth.insert(truth.end(), step.begin(), step.end());
+    const auto n = syn::contingency(g.labels, truth, c.K, d.spec.K);
+    double agree = 0.0;
+    for (const auto& row : n) agree += *std::max_element(row.begin(), row.end());
+    g.purity = agree / static_cast<double>(truth.size());
+    return g;
+}
+
+// Words a topic holds under the ML labels, by output label.
+std::vector<int> sizes(const Grown& g, int cap) {
+    std::vector<int> n(static_cast<std::size_t>(cap), 0);
+    for (uint16_t z : g.labels) ++n[z];
+    return n;
+}
+
+// From one topic, growth opens the four planted topics, each holding a
+// quarter of the words, and only a few small ones besides (the shared noise
+// words): measured on seeds 1-2, 100 sweeps, gamma 1e-4: A = 5-6, four topics
+// of 6300-6400 words, purity 0.992.
+TEST(TopicGrowth, FromOneTopicFindsThePlantedTopics) {
+    const syn::Data d = syn::generate(plantedSpec(7));
+    for (uint64_t seed : {1, 2}) {
+        const Grown g = grow(d, growthConfig(d, 16, 1e-4, seed), 100);
+        const std::vector<int> n = sizes(g, 16);
+        int big = 0, maxLabel = -1;
+        for (int k = 0; k < 16; ++k) {
+            big += n[k] >= static_cast<int>(g.labels.size() / 50) ? 1 : 0;
+            if (n[k] > 0) maxLabel = k;
+        }
+        std::printf("[ growth ] seed %d: A %d, topics with >= 2%% of the words %d, purity %.3f\n",
+                    static_cast<int>(seed), g.active, big, g.purity);
+        EXPECT_EQ(big, d.spec.K) << "seed " << seed;
+        EXPECT_LE(g.active, 8) << "seed " << seed;
+        EXPECT_GE(g.purity, 0.95) << "seed " << seed;
+        EXPECT_LT(maxLabel, g.active) << "labels are numbered 0..A-1";
+    }
+}
+
+// With the cap below the planted number, growth stops at the cap.
+TEST(TopicGrowth, StopsAtTheCap) {
+    const syn::Data d = syn::generate(plantedSpec(8));
+    rost::Model m(growthConfig(d, 2, 0.01, 3));
+    for (int t = 0; t < d.spec.steps; ++t) ASSERT_TRUE(m.addObservation(d.words[t], d.positions[t]).ok());
+    m.refineAll(40);
+    EXPECT_EQ(m.activeTopics(), 2);
+    EXPECT_TRUE(m.topicCapReached());
+    std::string why;
+    EXPECT_TRUE(m.checkInvariants(&why)) << why;
+}
+
+// Growth in parallel windows: the same topics and labels on 1, 2 and 3 threads.
+TEST(TopicGrowth, SameResultOnAnyNumberOfThreads) {
+    const syn::Data d = syn::generate(plantedSpec(9));
+    rost::Config c = growthConfig(d, 16, 1e-3, 4);
+    c.refine_window = 64;
+    const Grown one = grow(d, c, 15, 1);
+    EXPECT_GT(one.active, 1);
+    for (int threads : {2, 3}) {
+        const Grown many = grow(d, c, 15, threads);
+        EXPECT_EQ(many.active, one.active) << threads << " threads";
+        EXPECT_TRUE(many.labels == one.labels) << threads << " threads";
+    }
+}
+
+} // namespace
