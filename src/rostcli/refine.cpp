@@ -139,11 +139,14 @@ void finalOutputs(const RunOptions& o, const Corpus& c, const Model& model, Outp
     }
 }
 
-// topicmodel.csv: one row of V counts per active topic (K without growth).
+// topicmodel.csv: one row of V counts per open topic, in label order, so row
+// a is the topic the outputs number a (Model::outputNumbering); K rows
+// without growth.
 std::string topicModelText(const Model& model) {
     std::string out;
     char buf[16];
-    for (int k = 0; k < model.activeTopics(); ++k) {
+    for (int k = 0; k < model.K(); ++k) {
+        if (!model.topicOpen(k)) continue;
         for (int v = 0; v < model.V(); ++v) {
             if (v) out.push_back(',');
             const auto r = std::to_chars(buf, buf + sizeof buf, model.topicWordCount(k, v));
