@@ -10,6 +10,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <random>
 #include <sched.h>
 #include <vector>
@@ -155,8 +156,134 @@ void BM_RefineNaive(benchmark::State& state) {
     state.SetItemsProcessed(static_cast<int64_t>(tokens));
 }
 
+// The plain dense scalar loop, the yardstick for large K: per token, K
+// products (n_wk + beta) * inv_k * (n_G^k + alpha) with inv_k = 1 / (n_k + V
+// beta) cached and updated on change, a running sum, a linear search; int32
+// counts, word-major n_k^v, the cell's neighbourhood sums kept per cell as the
+// kernel keeps them. Same stream, cells and neighbourhood as BM_Refine.
+class DenseModel {
+public:
+    DenseModel(int K, const Stream& s)
+        : K_(K), nkv_(static_cast<std::size_t>(K) * kV, 0), nk_(K, 0), inv_(K), cum_(K), g_(K) {
+        rost::Rng init(1);
+        for (int f = 0; f < kFrames; ++f) {
+            std::vector<Cell> cells(80);
+            for (auto& c : cells) c.nck.assign(K, 0);
+            for (std::size_t i = 0; i < s.words[f].size(); ++i) {
+                const int c = s.pos[f][i].y / 64 * 10 + s.pos[f][i].x / 64;
+                const int z = static_cast<int>(init.below(static_cast<uint32_t>(K)));
+                cells[c].words.push_back(s.words[f][i]);
+                cells[c].z.push_back(z);
+                ++cells[c].nck[z];
+                ++nkv_[static_cast<std::size_t>(s.words[f][i]) * K + z];
+                ++nk_[z];
+            }
+            steps_.push_back(std::move(cells));
+        }
+        for (int k = 0; k < K; ++k) inv_[k] = 1.0f / (static_cast<float>(nk_[k]) + kV * 0.5f);
+    }
+    uint64_t refineStep(int t) {
+        uint64_t n = 0;
+        for (int c = 0; c < 80; ++c) {
+            Cell& cell = steps_[t][c];
+            neighbourhood(t, c);
+            for (std::size_t i = 0; i < cell.words.size(); ++i) {
+                int32_t* row = nkv_.data() + static_cast<std::size_t>(cell.words[i]) * K_;
+                const int z = cell.z[i];
+                --row[z];
+                --nk_[z];
+                --g_[z];
+                --cell.nck[z];
+                inv_[z] = 1.0f / (static_cast<float>(nk_[z]) + kV * 0.5f);
+                float sum = 0.f;
+                for (int k = 0; k < K_; ++k) {
+                    sum += (static_cast<float>(row[k]) + 0.5f) * inv_[k] * (static_cast<float>(g_[k]) + 0.1f);
+                    cum_[k] = sum;
+                }
+                const float u = rng_.uniformFloat() * sum;
+                int k = 0;
+                while (k < K_ - 1 && cum_[k] <= u) ++k;
+                ++row[k];
+                ++nk_[k];
+                ++g_[k];
+                ++cell.nck[k];
+                inv_[k] = 1.0f / (static_cast<float>(nk_[k]) + kV * 0.5f);
+                cell.z[i] = k;
+                ++n;
+            }
+        }
+        return n;
+    }
+
+private:
+    struct Cell {
+        std::vector<uint32_t> words;
+        std::vector<int> z;
+        std::vector<int32_t> nck;
+    };
+    void neighbourhood(int t, int c) {
+        const int cx = c % 10, cy = c / 10;
+        auto add = [&](const Cell& o) {
+            for (int k = 0; k < K_; ++k) g_[k] += o.nck[k];
+        };
+        std::fill(g_.begin(), g_.end(), 0);
+        add(steps_[t][c]);
+        if (cx > 0) add(steps_[t][c - 1]);
+        if (cx < 9) add(steps_[t][c + 1]);
+        if (cy > 0) add(steps_[t][c - 10]);
+        if (cy < 7) add(steps_[t][c + 10]);
+        if (t > 0) add(steps_[t - 1][c]);
+        if (t + 1 < kFrames) add(steps_[t + 1][c]);
+    }
+    int K_;
+    std::vector<int32_t> nkv_, nk_;
+    std::vector<float> inv_, cum_;
+    std::vector<int32_t> g_;
+    std::vector<std::vector<Cell>> steps_;
+    rost::Rng rng_{7};
+};
+
+void BM_RefineDenseScalar(benchmark::State& state) {
+    const int K = static_cast<int>(state.range(0));
+    static const Stream stream(42);
+    DenseModel m(K, stream);
+    for (int s = 0; s < 5; ++s)
+        for (int t = 0; t < kFrames; ++t) m.refineStep(t);  // past the random start, as BM_Refine
+    uint64_t tokens = 0;
+    int t = 0;
+    for (auto _ : state) {
+        tokens += m.refineStep(t);
+        t = (t + 1) % kFrames;
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(tokens));
+}
+
+// Growing topics under a cap of K: the cost follows the open topics
+// (counter "open"), not the cap.
+void BM_RefineGrow(benchmark::State& state) {
+    const int K = static_cast<int>(state.range(0));
+    static const Stream stream(42);
+    rost::Config c = benchConfig(K);
+    c.grow = true;
+    c.gamma = std::pow(10.0, -static_cast<double>(state.range(1)));
+    rost::Model m(c);
+    for (int f = 0; f < kFrames; ++f) m.addObservation(stream.words[f], stream.pos[f]);
+    m.refineAll(5);
+    const uint64_t before = m.tokensRefined();
+    int64_t t = 0;
+    for (auto _ : state) {
+        m.refineStep(t);
+        t = (t + 1) % kFrames;
+    }
+    state.SetItemsProcessed(static_cast<int64_t>(m.tokensRefined() - before));
+    state.counters["open"] = m.activeTopics();
+}
+
 } // namespace
 
+BENCHMARK(BM_RefineDenseScalar)->ArgNames({"K"})->Arg(16)->Arg(64)->Arg(100);
+BENCHMARK(BM_RefineGrow)->ArgNames({"K", "gamma10"})->ArgsProduct({{100}, {3, 4, 5}});
+BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{8}, {0}});
 BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{16, 32, 64, 100}, {0}});
 BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{16, 64}, {1}});
 BENCHMARK(BM_RefineNaive)->ArgNames({"K"})->Arg(16)->Arg(64);

@@ -267,6 +267,14 @@ TEST(CheckpointResume, CountBudgetRunContinuesBitForBitAsIfNeverStopped) {
     expectResumeBitForBit(sub, &prior, 29, 50, "subtract with a prior");
 
     expectResumeBitForBit(base, nullptr, 1, 20, "stopped after the first observation");
+
+    // Growing topics: the open set is derived from n_k on resume; with
+    // subtract eviction topics also close as steps leave.
+    EngineConfig grow = sub;
+    grow.model.grow = true;
+    grow.model.gamma = 0.5;
+    grow.model.threads = 2;
+    expectResumeBitForBit(grow, nullptr, 27, 60, "growing topics, subtract, 2 threads");
 }
 
 TEST(CheckpointResume, ResumingTwiceFromTheSameFileGivesTheSameRun) {

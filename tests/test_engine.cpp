@@ -313,7 +313,46 @@ TEST(EngineSnapshot, HoldsTheNewestObservationsLabelsHistogramsSurpriseAndCounte
         EXPECT_EQ(s.counters.ingested, i + 1);
         EXPECT_EQ(s.counters.pushed, i + 1);
         EXPECT_EQ(s.counters.refinements, 2 * (i + 1));
+        EXPECT_EQ(s.active_topics, c.model.K);
     }
+}
+
+// With growth, the snapshot's labels and histograms number the open topics
+// 0..A-1 and it reports A.
+TEST(EngineSnapshot, WithGrowingTopicsNumbersOpenTopicsFromZeroAndReportsTheirCount) {
+    EngineConfig c = engineConfig(Budget::steps(3));
+    c.model.grow = true;
+    c.model.gamma = 0.5;
+    Engine e(c);
+    Snapshot s = e.makeSnapshot();
+    const auto frames = makeStream(c.model, 25, 180, 9);
+    int most = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        const ObservationResult r = e.processNow(frames[i].view());
+        ASSERT_TRUE(e.readSnapshot(s));
+        const Model& m = e.model();
+        ASSERT_EQ(s.active_topics, m.activeTopics());
+        ASSERT_EQ(r.active_topics, m.activeTopics());
+        most = std::max(most, s.active_topics);
+        for (uint16_t z : s.labels()) ASSERT_LT(z, s.active_topics);
+        std::vector<uint16_t> map(static_cast<std::size_t>(m.K()));
+        m.outputNumbering(map);
+        for (int cell = 0; cell < m.cellsPerStep(); ++cell) {
+            const auto h = m.cellHistogram(r.step, cell);
+            const auto out = s.histogram(cell);
+            for (int k = 0; k < m.K(); ++k) {
+                if (map[k] != 0xFFFF) {
+                    ASSERT_EQ(out[map[k]], h[k]);
+                } else {
+                    ASSERT_EQ(h[k], 0) << "a closed topic holds no word";
+                }
+            }
+            for (int k = s.active_topics; k < m.K(); ++k) ASSERT_EQ(out[k], 0);
+        }
+    }
+    EXPECT_GT(most, 1) << "topics grew";
+    std::string why;
+    EXPECT_TRUE(e.model().checkInvariants(&why)) << why;
 }
 
 TEST(EngineSnapshot, ReadIsRefusedForASnapshotSizedForAnotherConfiguration) {

@@ -170,7 +170,7 @@ TEST(NoMalloc, TheCounterCatchesNewMallocAndAGrowingVector) {
     }
 }
 
-EngineConfig config(Budget b, DropPolicy drop, int threads = 1);
+EngineConfig config(Budget b, DropPolicy drop, int threads = 1, bool grow = false);
 
 // The counter also sees allocations made on the refiner thread: a hook that
 // allocates is caught.
@@ -196,10 +196,12 @@ TEST(NoMalloc, TheCounterCatchesAnAllocationOnTheRefinerThread) {
     EXPECT_GE(counted, frames.size());
 }
 
-EngineConfig config(Budget b, DropPolicy drop, int threads) {
+EngineConfig config(Budget b, DropPolicy drop, int threads, bool grow) {
     EngineConfig e;
     e.model = smallConfig();
     e.model.threads = threads;
+    e.model.grow = grow;
+    e.model.gamma = 0.5;
     e.budget = b;
     e.drop = drop;
     e.queue_slots = 4;
@@ -209,8 +211,8 @@ EngineConfig config(Budget b, DropPolicy drop, int threads) {
 // Thousands of observations through tryPush, the refiner thread and
 // snapshot reads, under each budget kind and drop policy: nothing allocates
 // between start() returning and stop().
-void runThreaded(Budget b, DropPolicy drop, int threads = 1) {
-    Engine e(config(b, drop, threads));
+void runThreaded(Budget b, DropPolicy drop, int threads = 1, bool grow = false) {
+    Engine e(config(b, drop, threads, grow));
     const auto frames = makeStream(e.config().model, 64, 300, 31);
     Snapshot snap = e.makeSnapshot();
     ASSERT_TRUE(e.start().ok());
@@ -255,6 +257,13 @@ TEST(NoMalloc, ThreadedEngineMakesNoAllocationAfterStartWithATimeBudget) {
 TEST(NoMalloc, ThreadedEngineWithRefinementWorkersMakesNoAllocationAfterStart) {
     runThreaded(Budget::steps(4), DropPolicy::DropOldest, 3);
     runThreaded(Budget::time(0.2), DropPolicy::DropNewest, 3);
+}
+
+// Growing topics: opening and closing topics, the open set recomputed after
+// each round, numbering the outputs, allocate nothing.
+TEST(NoMalloc, ThreadedEngineWithGrowingTopicsMakesNoAllocationAfterStart) {
+    runThreaded(Budget::steps(2), DropPolicy::DropOldest, 1, true);
+    runThreaded(Budget::steps(4), DropPolicy::DropOldest, 3, true);
 }
 
 // The engine's publication of results (Engine::publishResults): the refiner

@@ -82,7 +82,7 @@ void checkOutputs(const std::string& dir, int frames) {
         total += static_cast<long long>(n);
     }
 
-    const auto ppx = realRows(dir + "/perplexity.csv", "frame,instantaneous,final,plugin");
+    const auto ppx = realRows(dir + "/perplexity.csv", "frame,instantaneous,final,plugin,topics");
     ASSERT_EQ(static_cast<int>(ppx.size()), frames);
     for (std::size_t t = 0; t < ppx.size(); ++t) {
         EXPECT_EQ(ppx[t][0], static_cast<double>(t));
@@ -93,6 +93,7 @@ void checkOutputs(const std::string& dir, int frames) {
         // The plug-in perplexity (the 2013 code's) counts each word in its own
         // cell's topic mix and its topic's words: below ours at the same instant.
         EXPECT_LT(ppx[t][3], ppx[t][1]) << "row " << t;
+        EXPECT_EQ(ppx[t][4], K) << "without growth every topic is open";
     }
     const auto sur = realRows(dir + "/surprise.csv", "frame,surprise");
     ASSERT_EQ(static_cast<int>(sur.size()), frames);

@@ -128,6 +128,7 @@ struct ObservationResult {
     uint64_t refinements = 0;  // time-step draws
     uint64_t tokens = 0;       // tokens refined
     uint64_t rounds = 0;       // rounds of refinement (Model::refine; a time budget stops between two)
+    int active_topics = 0;     // open topics after refinement (Model::activeTopics; K without growth)
     int64_t elapsed_ns = 0;    // take-up to publish
     int64_t refine_ns = 0;     // spending the budget (refinement only)
     int64_t overrun_ns = 0;    // past the time-budget deadline (0 when met or not a time budget)

@@ -64,6 +64,7 @@ public:
     int64_t previous_step = -1;
     double previous_perplexity = std::numeric_limits<double>::quiet_NaN();
     double previous_plugin = std::numeric_limits<double>::quiet_NaN();  // plug-in, same step and instant
+    int active_topics = 0;  // open topics (K without growth); labels and histograms are numbered 0..A-1
     EngineCounters counters;
 
     int K() const noexcept { return K_; }

@@ -4,7 +4,7 @@ Row files, one observation per line, ``timestamp,v1,v2,...``:
     words.csv, topics.csv       read_words / read_topics  -> (timestamps int64 (F,), [int32 (N_f,), ...])
     positions.csv               read_positions            -> (timestamps, [int32 (N_f, 2), ...])
 Table files:
-    perplexity.csv              read_perplexity  -> structured array: frame, instantaneous, final, plugin
+    perplexity.csv              read_perplexity  -> structured array: frame, instantaneous, final, plugin, topics
     surprise.csv                read_surprise    -> structured array: frame, surprise
     surprise_cells.csv          read_surprise_cells -> (frames int64 (F,), float64 (F, cells))
     topicmodel.csv              read_topicmodel  -> int64 (K, V) counts n_k^v
@@ -99,8 +99,9 @@ def _table(path, names):
 
 def read_perplexity(path):
     """perplexity.csv: structured array with fields frame, instantaneous, final, plugin
-    (the plug-in perplexity of the 2013 ROST code at the instantaneous instant)."""
-    return _table(path, ("frame", "instantaneous", "final", "plugin"))
+    (the plug-in perplexity of the 2013 ROST code at the instantaneous instant), topics
+    (the open topics after the frame's refinement: K unless topics grow)."""
+    return _table(path, ("frame", "instantaneous", "final", "plugin", "topics"))
 
 
 def read_surprise(path):

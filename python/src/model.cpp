@@ -280,6 +280,9 @@ void bindModelState(py::class_<PyModel>& c) {
     c.def_property_readonly("config", [](PyModel& m) { return PyConfig{m.settings()}; })
         .def_property_readonly("K", [](PyModel& m) { return m.model().K(); })
         .def_property_readonly("V", [](PyModel& m) { return m.model().V(); })
+        .def_property_readonly("active_topics",
+                               [](PyModel& m) { return reading(m, [](const Model& x) { return x.activeTopics(); }); },
+                               "open topics: K, or with topics_grow the topics that hold a word (labels 0..A-1)")
         .def_property_readonly("observations", [](PyModel& m) { return reading(m, [](const Model& x) { return x.observations(); }); })
         .def_property_readonly("steps", [](PyModel& m) { return reading(m, [](const Model& x) { return x.steps(); }); })
         .def_property_readonly("memory_bytes", [](PyModel& m) { return m.engine().memoryBytes(); })

@@ -262,3 +262,20 @@ def test_parallel_refine_gives_the_same_model_for_any_number_of_threads():
         assert (other[1] == one[1]).all() and (other[2] == one[2]).all()
     with pytest.raises(ValueError, match="threads"):
         rost.parallel_refine(rost.Model(small_config()), 0)
+
+
+def test_topics_grow_from_one_to_the_two_planted_and_labels_stay_compact():
+    rng = np.random.default_rng(4)
+    model = rost.Model(small_config(K=8, V=20, g_space=0, g_time=0, cell_space=64, topics_grow=True, gamma=1e-3))
+    assert model.active_topics == 0
+    fill(model, rng, 30, two_topic_observation)
+    assert model.active_topics == 1
+    model.refine(sweeps=60)
+    assert 2 <= model.active_topics <= 4
+    labels = np.concatenate([model.ml_topics(t) for t in range(30)])
+    assert labels.max() < model.active_topics
+    # the two planted halves are told apart by their majority topics
+    words = np.concatenate([model.words(t) for t in range(30)])
+    a = np.bincount(labels[words < 10]).argmax()
+    b = np.bincount(labels[words >= 10]).argmax()
+    assert a != b

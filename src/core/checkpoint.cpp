@@ -776,6 +776,7 @@ Status checkOnScratchModel(const Parsed& p, std::span<const uint8_t> bytes, cons
         StateLayout layout;
         scratch.describeState(layout);
         restoreLayout(layout, p, bytes.data());
+        scratch.stateRestored();
         std::string why;
         if (!scratch.checkInvariants(&why)) return Status::error(P + "the model state is inconsistent: " + why);
     } catch (const std::bad_alloc&) {

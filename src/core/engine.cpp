@@ -72,7 +72,7 @@ constexpr std::size_t wordsFor(std::size_t bytes) noexcept { return (bytes + 7) 
 
 // Header of a snapshot buffer, in 64-bit words.
 enum Header : std::size_t {
-    kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kPrevPlugin, kWords,
+    kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kPrevPlugin, kActiveTopics, kWords,
     kPushed, kDroppedNewest, kDroppedOldest, kWordsTruncated, kIngested, kRejected, kWordsDroppedCell,
     kRefinements, kTokens, kOverruns, kMaxOverrun, kPublished,
     kHeaderWords
@@ -137,6 +137,7 @@ void SnapshotPublisher::publish(const Snapshot& s) noexcept {
     put(kPrevStep, static_cast<uint64_t>(s.previous_step));
     put(kPrevPerplexity, bitsOf(s.previous_perplexity));
     put(kPrevPlugin, bitsOf(s.previous_plugin));
+    put(kActiveTopics, static_cast<uint64_t>(s.active_topics));
     put(kWords, nw);
     const EngineCounters& c = s.counters;
     put(kPushed, c.pushed);
@@ -189,6 +190,7 @@ bool SnapshotPublisher::read(Snapshot& out, int max_retries) const noexcept {
         out.previous_step = static_cast<int64_t>(get(kPrevStep));
         out.previous_perplexity = doubleOf(get(kPrevPerplexity));
         out.previous_plugin = doubleOf(get(kPrevPlugin));
+        out.active_topics = static_cast<int>(get(kActiveTopics));
         const auto nw = static_cast<uint32_t>(std::min<uint64_t>(get(kWords), capacity_));
         out.n_words_ = nw;
         EngineCounters& c = out.counters;
@@ -245,8 +247,8 @@ Status EngineConfig::validate() const {
         return Status::error("budget.ms = " + std::to_string(budget.ms) +
                              " is out of range (expected 0 < ms <= 3600000)");
     if (budget.kind != BudgetKind::Time && static_cast<double>(budget.count) > kMaxCount)
-        return Status::error("budget.count = " + std::to_string(budget.count) +
-                             " is out of range (expected at most 2^40)");
+        return Status::error(std::string(budget.kind == BudgetKind::Steps ? "budget.refines" : "budget.tokens") +
+                             " = " + std::to_string(budget.count) + " is out of range (expected at most 2^40)");
     if (queue_slots < kQueue.lo || queue_slots > kQueue.hi)
         return Status::error("queue_slots = " + std::to_string(queue_slots) +
                              " is out of range (expected 1..65536)");
@@ -390,10 +392,17 @@ void Engine::publishResult(const ObservationResult& r) noexcept {
         const auto K = static_cast<std::size_t>(m.K());
         const auto cells = o->cell_surprise.size();
         const std::span<const float> cs = m.cellSurprise(r.step);
+        // Histograms in the output numbering (growth: open topics 0..A-1; a
+        // closed topic holds no word, so nothing is lost).
+        uint16_t map[1024];
+        m.outputNumbering({map, K});
         for (std::size_t c = 0; c < cells; ++c) {
             o->cell_surprise[c] = c < cs.size() ? cs[c] : 0.f;
             const std::span<const int32_t> h = m.cellHistogram(r.step, static_cast<int>(c));
-            std::copy_n(h.begin(), K, o->histograms.begin() + static_cast<std::ptrdiff_t>(c * K));
+            int32_t* out = o->histograms.data() + c * K;
+            std::fill_n(out, K, 0);
+            for (std::size_t k = 0; k < K; ++k)
+                if (map[k] != 0xFFFF) out[map[k]] = h[k];
         }
     }
     pub_->results.commitPush();
@@ -617,6 +626,7 @@ void Engine::publish(const ObservationResult& r) noexcept {
     s.previous_step = r.previous_step;
     s.previous_perplexity = r.previous_perplexity;
     s.previous_plugin = r.previous_plugin;
+    s.active_topics = r.active_topics;
     if (cfg_.flags.snapshot_labels) {
         const uint32_t n = std::min<uint32_t>(m.observationSize(r.observation), static_cast<uint32_t>(s.labels_.size()));
         s.n_words_ = n;
@@ -731,6 +741,7 @@ void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock:
     r.refine_ns = (tp - ts).count();
 
     if (cfg_.flags.snapshot_perplexity) r.perplexity = model_->stepPerplexity(r.step);
+    r.active_topics = model_->activeTopics();
     publish(r);
     const auto t1 = Clock::now();
     if (cfg_.budget.kind == BudgetKind::Time) {

@@ -11,7 +11,9 @@ std::string formatTopicModelCsv(const Model& model) {
     std::string out;
     out.reserve(static_cast<std::size_t>(model.K()) * static_cast<std::size_t>(model.V()) * 3);
     char buf[16];
+    // The open topics in label order (all K without growth): row i is output topic i.
     for (int k = 0; k < model.K(); ++k) {
+        if (!model.topicOpen(k)) continue;
         for (int v = 0; v < model.V(); ++v) {
             if (v) out.push_back(',');
             const auto r = std::to_chars(buf, buf + sizeof buf, model.topicWordCount(k, v));

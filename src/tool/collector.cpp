@@ -34,6 +34,7 @@ void Collector::fromPublished() {
     o.previous_step = r.previous_step;
     o.previous_perplexity = r.previous_perplexity;
     o.previous_plugin = r.previous_plugin;
+    o.active_topics = r.active_topics;
     o.refinements = r.refinements;
     o.elapsed_ns = r.elapsed_ns;
     if (o.rejected) return;
@@ -132,6 +133,7 @@ void Collector::takeObservation(const ObservationRecord& o) {
     row.step = o.step;
     row.kept = o.kept;
     row.surprise = o.surprise;
+    row.topics = o.active_topics;
     row.refinements = o.refinements;
     row.refine_ms = static_cast<double>(o.elapsed_ns) * 1e-6;
     row.cell_surprise = o.cell_surprise;
@@ -179,7 +181,7 @@ void Collector::finish(int sweeps) {
 }
 
 std::string Collector::perplexityCsv() const {
-    std::string s = "frame,instantaneous,final,plugin\n";
+    std::string s = "frame,instantaneous,final,plugin,topics\n";
     for (const auto& r : rows_) {
         s += std::to_string(r.frame);
         s += ',';
@@ -188,6 +190,8 @@ std::string Collector::perplexityCsv() const {
         appendNumber(s, r.final);
         s += ',';
         appendNumber(s, r.plugin);
+        s += ',';
+        s += std::to_string(r.topics);
         s += '\n';
     }
     return s;

@@ -34,6 +34,7 @@ struct ObservationRecord {
     int64_t previous_step = -1;
     double previous_perplexity = 0.0;
     double previous_plugin = 0.0;
+    int active_topics = 0;
     uint64_t refinements = 0;
     int64_t elapsed_ns = 0;
     std::vector<uint16_t> dominant;      // per cell: topic with the most labels, kNoTopic when empty

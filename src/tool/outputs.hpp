@@ -63,6 +63,7 @@ struct FrameRow {
     double surprise = std::nan("");
     double instantaneous = std::nan("");  // perplexity of its step one step after arrival
     double final = std::nan("");          // perplexity of its step at eviction or at the end
+    int topics = 0;                       // open topics after the observation's refinement (growth; else K)
     double plugin = std::nan("");         // plug-in perplexity (the 2013 ROST code's) at the instantaneous instant
     uint64_t refinements = 0;
     double refine_ms = 0.0;

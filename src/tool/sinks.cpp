@@ -282,6 +282,18 @@ std::string WordDrops::note(const Config& c) const {
 
 // ---- run.txt -------------------------------------------------------------------
 
+std::string topicsLine(const Model& m) {
+    if (!m.config().grow) return {};
+    std::string s = "topics: " + std::to_string(m.activeTopics()) + " open of at most K = " + std::to_string(m.K()) +
+                    " (topics.grow, gamma = ";
+    char g[32];
+    std::snprintf(g, sizeof g, "%g", m.config().gamma);
+    s += g;
+    s += ")";
+    if (m.topicCapReached()) s += "; the cap was reached: no new topic could open (raise -K)";
+    return s + "\n";
+}
+
 std::string RunReport::settingsText() const {
     const EngineConfig& ec = e.ec;
     std::string s;
@@ -336,6 +348,7 @@ std::string RunReport::text() const {
                   frames.wordsPerFrame());
     s += buf;
     s += drops.line(e.ec.model);
+    s += topicsLine(e.engine->model());
     std::snprintf(buf, sizeof buf, "time: %.2f s, %.1f frames/s; %llu refinements, %llu token updates; memory %zu bytes\n",
                   seconds, static_cast<double>(captured) / std::max(1e-9, seconds),
                   static_cast<unsigned long long>(counters.refinements), static_cast<unsigned long long>(counters.tokens),

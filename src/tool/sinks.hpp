@@ -137,4 +137,7 @@ struct OutputFile {
 };
 Status writeResultFiles(OutputDir& out, const Collector& c, const Engine& engine, std::initializer_list<OutputFile> extra);
 
+// run.txt's line on growing topics (empty without growth).
+std::string topicsLine(const Model& m);
+
 } // namespace rost::tool
