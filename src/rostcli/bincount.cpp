@@ -1,0 +1,80 @@
+// words.bincount -i IN -o OUT -V N: per input line `timestamp,c_0,...,c_{N-1}`,
+// the histogram of the line's labels (e.g. topics.maxlikelihood.csv -> the
+// topic mix of each document). The timestamp is copied as the input wrote it.
+
+#include <charconv>
+#include <cstdio>
+
+#include <CLI/CLI.hpp>
+
+#include "rost/word_stream.hpp"
+#include "rostcli.hpp"
+
+namespace rost::cli {
+
+namespace {
+
+struct BincountOptions {
+    std::string in, out, V, delim = ",";
+};
+
+Status bincount(const BincountOptions& o) {
+    Settings s;  // -V through the schema: its range and message
+    if (Status st = setSetting(s, "V", o.V); !st.ok()) return Status::error("-V: " + st.message());
+    if (Status st = s.validate(); !st.ok()) return Status::error("-V: " + st.message());
+    const auto bins = static_cast<uint32_t>(s.engine.model.V);
+    std::string text, name;
+    if (Status st = readInput(o.in, text, name); !st.ok()) return st;
+    Corpus c;
+    if (Status st = parseDocuments(text, name, o.delim, bins, c); !st.ok()) return st;
+    std::string out;
+    std::vector<uint32_t> count(bins);
+    char buf[16];
+    for (const Document& d : c.docs) {
+        std::fill(count.begin(), count.end(), 0u);
+        for (uint32_t w : d.words) ++count[w];
+        out += d.timestamp;
+        for (uint32_t n : count) {
+            out.push_back(',');
+            const auto r = std::to_chars(buf, buf + sizeof buf, n);
+            out.append(buf, r.ptr);
+        }
+        out.push_back('\n');
+    }
+    if (o.out.empty() || o.out == "-" || o.out == "/dev/stdout") {
+        if (std::fwrite(out.data(), 1, out.size(), stdout) != out.size() || std::fflush(stdout) != 0)
+            return Status::error("<stdout>: write error");
+        return {};
+    }
+    return writeFileAtomic(o.out, out);
+}
+
+} // namespace
+
+int wordsBincountMain(int argc, char** argv) {
+    CLI::App app("Histogram of each line's labels (rost-cli's words.bincount, on rost): per input line "
+                 "timestamp,c_0,...,c_{V-1}",
+                 "words.bincount");
+    app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+    BincountOptions o;
+    app.add_option("-i,--in.words", o.in, "labels: timestamp,z,z,... per line (default: standard input)");
+    app.add_option("-o,--out", o.out, "the histograms (default: standard output)");
+    app.add_option("-V,--vocabsize", o.V, "bins: labels are 0..V-1 [the schema's V: " + settingRange(*findSetting("V")) + "]")
+        ->required();
+    app.add_option("--in.words.delim", o.delim, "the delimiter of the input")->capture_default_str();
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "words.bincount: %s (see --help)\n", e.what());
+        return 2;
+    }
+    if (Status st = bincount(o); !st.ok()) {
+        std::fprintf(stderr, "words.bincount: %s\n", st.message().c_str());
+        return 2;
+    }
+    return 0;
+}
+
+} // namespace rost::cli

@@ -1,0 +1,237 @@
+// The flags of topics.refine.t and topics.refine.txy, spelled as rost-cli
+// spells them. A flag that is a rost setting is one row of kSettingFlags (its
+// schema key and, where rost-cli's default differs from the schema's,
+// rost-cli's default as text): its range, documentation and error messages
+// come from the settings schema. docs/rost-cli.md has the whole table.
+
+#include <sched.h>
+
+#include <cstdio>
+#include <deque>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+
+#include "rostcli.hpp"
+
+namespace rost::cli {
+
+namespace {
+
+struct SettingFlag {
+    const char* names;            // CLI11 option names
+    const char* key;              // the schema key it sets
+    const char* rostcli_default;  // rost-cli's default when it differs from the schema's (nullptr: the schema's)
+    bool spatial = false;         // topics.refine.t accepts it with any value and ignores it
+};
+
+// clang-format off
+constexpr SettingFlag kSettingFlags[] = {
+    {"-K,--ntopics", "K", "100"},
+    {"-V,--vocabsize", "V", nullptr},  // unless given: the largest word id + 1
+    {"-a,--alpha", "alpha", nullptr},
+    {"-b,--beta", "beta", "1.0"},
+    {"--gamma", "gamma", "1e-5"},
+    {"--grow.topics.size", "topics.grow", nullptr},
+    {"--threads", "threads", nullptr},  // unless given: the cores this process may use
+    {"--g.time", "g.time", nullptr},
+    {"--g.space", "g.space", nullptr, true},
+    {"--cell.time", "cell.time", nullptr},
+    {"--cell.space", "cell.space", "32", true},
+    {"-n,--iter", "final.sweeps", "100"},
+    {"--online.mint", "budget.ms", "50"},
+    {"--seed", "seed", nullptr},
+    {"--refine.window", "refine.window", nullptr},  // rost's own: part of what a seed reproduces
+};
+// clang-format on
+
+// rost-cli flags rost cannot reproduce: accepted only with the value that
+// changes nothing (`ok`, "" for never), else refused by name.
+struct LimitedFlag {
+    const char* name;
+    const char* ok;
+    const char* why;
+};
+constexpr LimitedFlag kLimitedFlags[] = {
+    {"--retime", "true", "rost numbers the documents in input order (rost-cli's --retime=true)"},
+    {"--topicmodel.update", "true", "rost always updates the topic model as it refines"},
+    {"--out.intermediate.topics", "false", "rost writes the topics at the end only"},
+    {"--add.to.topicmodel", "*", "only matters with --in.topics; accepted with any value and ignored"},
+    {"--in.topics", "", "rost draws the initial labels itself (it cannot start from given ones)"},
+    {"--in.topicmask", "", "rost has no topic masks"},
+    {"--g.sigma", "", "rost's neighbourhood counts every cell of G(c) alike (no decay)"},
+};
+
+// The CPUs this process may run on (its affinity mask), at least 1.
+unsigned usableCores() {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return static_cast<unsigned>(CPU_COUNT(&set));
+    return std::max(1u, std::thread::hardware_concurrency());
+}
+
+bool parseBool(const std::string& s, bool& out) {
+    if (s.empty() || s == "true" || s == "1" || s == "yes" || s == "on") return out = true, true;
+    if (s == "false" || s == "0" || s == "no" || s == "off") return out = false, true;
+    return false;
+}
+
+std::string helpOf(const SettingFlag& f, Command cmd) {
+    const SettingSpec* spec = findSetting(f.key);
+    std::string help = "[";
+    help += f.key;
+    help += "] ";
+    help += spec->doc;
+    if (spec->type != SettingType::Bool) help += "; " + settingRange(*spec);
+    if (f.spatial && cmd == Command::RefineT) help += " (topics.refine.t: accepted with any value and ignored)";
+    return help;
+}
+
+std::string defaultOf(const SettingFlag& f) {
+    const std::string key = f.key;
+    if (key == "V") return "the largest word id + 1";
+    if (key == "threads") return "the cores this process may use";
+    return f.rostcli_default ? f.rostcli_default : std::string(findSetting(f.key)->def);
+}
+
+struct Parsed {
+    RunOptions run;
+    std::deque<std::string> setting_text;  // one per kSettingFlags row (stable addresses)
+    std::vector<CLI::Option*> setting_opts;
+    std::deque<std::string> limited_text;
+    std::vector<CLI::Option*> limited_opts;
+};
+
+void addFileFlags(CLI::App& app, Parsed& p) {
+    RunOptions& o = p.run;
+    app.add_option("-i,--in.words", o.in_words, "words: a document per line, timestamp,w,w,... (default: standard input)");
+    app.add_option("--in.words.delim", o.delim, "the delimiter of the input files")->capture_default_str();
+    app.add_option("--in.position", o.in_position, "word positions: timestamp,x,y,x,y,... per document (txy)");
+    app.add_option("--in.topicmodel", o.in_topicmodel, "start from this topic model (K rows of V counts), as a prior");
+    o.out_topics = "topics.csv";
+    o.out_topics_ml = "topics.maxlikelihood.csv";
+    o.out_topicmodel = "topicmodel.csv";
+    o.ppx_out = "perplexity.csv";
+    o.out_position = "topics.position.csv";
+    o.logfile = "topics.log";
+    o.out_topics_online = "topics.online.csv";
+    o.out_ppx_online = "perplexity.online.csv";
+    app.add_option("--out.topics", o.out_topics, "topic labels (the Gibbs sample), timestamp,z,z,...")->capture_default_str();
+    app.add_option("--out.topics.ml", o.out_topics_ml, "maximum-likelihood topic labels")->capture_default_str();
+    app.add_option("--out.topicmodel", o.out_topicmodel, "the topic model: a row of V counts per topic")->capture_default_str();
+    app.add_option("--ppx.out", o.ppx_out, "timestamp,perplexity per document")->capture_default_str();
+    app.add_option("--out.position", o.out_position, "the words' positions, per document (txy)")->capture_default_str();
+    app.add_option("--logfile", o.logfile, "the run's log: settings, perplexity every --ppx.rate sweeps, speed")->capture_default_str();
+    app.add_option("--ppx.rate", o.ppx_rate, "sweeps between two perplexity lines of the log")->capture_default_str()->check(CLI::PositiveNumber);
+    app.add_flag("--online", o.online, "online: each document is refined for --online.mint ms as it arrives (not reproducible)");
+    app.add_option("--out.topics.online", o.out_topics_online, "online: each document's ML labels when its time was up")->capture_default_str();
+    app.add_option("--out.ppx.online", o.out_ppx_online, "online: each document's perplexity when its time was up")->capture_default_str();
+}
+
+void addSettingFlags(CLI::App& app, Parsed& p, Command cmd) {
+    for (const SettingFlag& f : kSettingFlags) {
+        std::string& text = p.setting_text.emplace_back();
+        const SettingType type = findSetting(f.key)->type;
+        CLI::Option* opt = app.add_option(f.names, text, helpOf(f, cmd));
+        opt->type_name(type == SettingType::Bool ? "[BOOL]" : type == SettingType::Integer ? "INT" : "NUM");
+        // --grow.topics.size alone means true: no default string, which CLI11
+        // would take as the value of the bare flag.
+        if (type == SettingType::Bool) opt->expected(0, 1)->description(opt->get_description() + " (default " + defaultOf(f) + ")");
+        else opt->default_str(defaultOf(f));
+        opt->group("Model (the settings schema's ranges)");
+        p.setting_opts.push_back(opt);
+    }
+    for (const LimitedFlag& f : kLimitedFlags) {
+        std::string& text = p.limited_text.emplace_back();
+        std::string help = f.why;
+        const std::string ok = f.ok;
+        if (ok == "*") help = "accepted and ignored: " + help;
+        else if (!ok.empty()) help = "accepted only as " + ok + " (ignoring it then changes nothing): " + help;
+        else help = "refused: " + help;
+        CLI::Option* opt = app.add_option(f.name, text, help)->expected(0, 1)->type_name(*f.ok == '\0' ? "ANY" : "[BOOL]");
+        opt->group("rost-cli flags rost does not reproduce");
+        p.limited_opts.push_back(opt);
+    }
+}
+
+// The setting flags through the schema (rost-cli's defaults where they
+// differ), then the limited flags checked.
+Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
+    for (std::size_t i = 0; i < std::size(kSettingFlags); ++i) {
+        const SettingFlag& f = kSettingFlags[i];
+        const bool given = p.setting_opts[i]->count() > 0;
+        if (f.spatial && cmd == Command::RefineT) continue;
+        std::string value = given ? p.setting_text[i] : (f.rostcli_default ? f.rostcli_default : "");
+        if (std::string(f.key) == "threads" && !given)
+            value = std::to_string(usableCores());
+        if (findSetting(f.key)->type == SettingType::Bool && given && value.empty()) value = "true";
+        if (value.empty()) continue;
+        // --online.mint is checked without --online too, but is the budget only with it.
+        Settings checked = s;
+        Settings& into = std::string(f.key) == "budget.ms" && !p.run.online ? checked : s;
+        if (Status st = setSetting(into, f.key, value); !st.ok())
+            return Status::error(p.setting_opts[i]->get_name(false, true) + ": " + st.message());
+        if (Status st = into.validate(); !st.ok())
+            return Status::error(p.setting_opts[i]->get_name(false, true) + ": " + st.message());
+    }
+    for (std::size_t i = 0; i < std::size(kLimitedFlags); ++i) {
+        const LimitedFlag& f = kLimitedFlags[i];
+        if (p.limited_opts[i]->count() == 0 || std::string(f.ok) == "*") continue;
+        bool v = false, ok = false;
+        if (*f.ok != '\0' && parseBool(p.limited_text[i], v)) ok = v == (std::string(f.ok) == "true");
+        if (!ok) {
+            std::string msg = f.name;
+            if (*f.ok != '\0') {
+                msg += " is supported only as ";
+                msg += f.ok;
+            } else {
+                msg += " is not supported";
+            }
+            msg += " (";
+            msg += f.why;
+            msg += ')';
+            return Status::error(msg);
+        }
+    }
+    return {};
+}
+
+} // namespace
+
+int topicsRefineMain(Command cmd, int argc, char** argv) {
+    const char* name = cmd == Command::RefineT ? "topics.refine.t" : "topics.refine.txy";
+    CLI::App app(cmd == Command::RefineT
+                     ? "Topic modelling of documents in time (rost-cli's topics.refine.t, on rost): a document per line"
+                     : "Topic modelling of words in time and space (rost-cli's topics.refine.txy, on rost)",
+                 name);
+    app.footer("Batch mode (the default) is reproducible for a seed, whatever --threads. docs/rost-cli.md lists every "
+               "flag and how it differs from rost-cli's.");
+    app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);  // a repeated flag: the last wins
+    Parsed p;
+    p.run.cmd = cmd;
+    addFileFlags(app, p);
+    addSettingFlags(app, p, cmd);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "%s: %s (see --help)\n", name, e.what());
+        return 2;
+    }
+    Settings s;
+    Status st = applyFlags(p, cmd, s);
+    p.run.v_given = p.setting_opts[1]->count() > 0;
+    for (int i = 0; i < argc; ++i) {
+        if (i) p.run.command_line += ' ';
+        p.run.command_line += argv[i];
+    }
+    if (st.ok()) st = runRefine(p.run, s);
+    if (!st.ok()) {
+        std::fprintf(stderr, "%s: %s\n", name, st.message().c_str());
+        return 2;
+    }
+    return 0;
+}
+
+} // namespace rost::cli

@@ -1,0 +1,300 @@
+// topics.refine.t / topics.refine.txy after the flags: the model's geometry
+// from the input, batch or online refinement, and rost-cli's output files.
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <new>
+#include <stdexcept>
+
+#include "rost/engine.hpp"
+#include "rost/model.hpp"
+#include "rost/topic_model_csv.hpp"
+#include "rost/word_stream.hpp"
+#include "rostcli.hpp"
+
+namespace rost::cli {
+
+std::string formatDouble(double v) {
+    if (std::isnan(v)) return "nan";
+    char buf[32];
+    const auto r = std::to_chars(buf, buf + sizeof buf, v);
+    return std::string(buf, r.ptr);
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+Status set(Settings& s, std::string_view key, const std::string& value) {
+    return setSetting(s, key, value);
+}
+
+// The largest number of words any one cell of any time step receives.
+uint32_t busiestCell(const Corpus& c, const Config& m) {
+    std::vector<uint32_t> count(static_cast<std::size_t>(m.cellsPerStep()), 0);
+    uint32_t most = 0;
+    const std::size_t ct = static_cast<std::size_t>(m.cell_time);
+    for (std::size_t first = 0; first < c.docs.size(); first += ct) {
+        std::fill(count.begin(), count.end(), 0u);
+        for (std::size_t d = first; d < std::min(first + ct, c.docs.size()); ++d) {
+            for (const Position& p : c.docs[d].positions) {
+                const int cell = (p.y / m.cell_space) * m.gridWidth() + p.x / m.cell_space;
+                most = std::max(most, ++count[static_cast<std::size_t>(cell)]);
+            }
+        }
+    }
+    return most;
+}
+
+// The model's geometry and capacities from the input: every document stays
+// refinable (ring.steps: all of its time steps) and no word is subsampled
+// away (max.words: the longest document; cell.capacity: the busiest cell).
+// All through the schema, so a value out of range is the schema's error.
+Status fitModel(const RunOptions& o, const Corpus& c, Settings& s) {
+    if (!o.v_given)
+        if (Status st = set(s, "V", std::to_string(c.any_word ? c.max_word + 1 : 1)); !st.ok()) return st;
+    if (o.cmd == Command::RefineT) {
+        // One cell per time step: a 1x1 frame, no spatial neighbours.
+        for (const char* key : {"frame.width", "frame.height", "cell.space"})
+            if (Status st = set(s, key, "1"); !st.ok()) return st;
+        if (Status st = set(s, "g.space", "0"); !st.ok()) return st;
+    } else {
+        if (Status st = set(s, "frame.width", std::to_string(int64_t{c.max_x} + 1)); !st.ok()) return st;
+        if (Status st = set(s, "frame.height", std::to_string(int64_t{c.max_y} + 1)); !st.ok()) return st;
+    }
+    const Config& m = s.engine.model;
+    const std::size_t steps = (c.docs.size() + static_cast<std::size_t>(m.cell_time) - 1) / static_cast<std::size_t>(m.cell_time);
+    if (Status st = set(s, "ring.steps", std::to_string(std::max<std::size_t>(steps, 1))); !st.ok()) return st;
+    if (Status st = set(s, "max.words", std::to_string(std::max<std::size_t>(c.longest, 1))); !st.ok()) return st;
+    uint32_t cap = 0;
+    if (o.cmd == Command::RefineT) {
+        for (std::size_t first = 0; first < c.docs.size(); first += static_cast<std::size_t>(m.cell_time)) {
+            uint32_t n = 0;
+            for (std::size_t d = first; d < std::min(first + static_cast<std::size_t>(m.cell_time), c.docs.size()); ++d)
+                n += static_cast<uint32_t>(c.docs[d].words.size());
+            cap = std::max(cap, n);
+        }
+    } else {
+        cap = busiestCell(c, m);
+    }
+    if (Status st = set(s, "cell.capacity", std::to_string(std::max<uint32_t>(cap, 1))); !st.ok()) return st;
+    if (Status st = s.validate(); !st.ok()) {
+        std::string msg = "the model this input needs: ";
+        msg += st.message();
+        return Status::error(msg);
+    }
+    return {};
+}
+
+// The outputs, built in memory and written at the end.
+struct Outputs {
+    std::string topics, topics_ml, ppx, position, topics_online, ppx_online, log;
+};
+
+void appendLabels(std::string& out, const std::string& timestamp, const std::vector<uint16_t>& z) {
+    out += timestamp;
+    char buf[8];
+    for (uint16_t k : z) {
+        out.push_back(',');
+        const auto r = std::to_chars(buf, buf + sizeof buf, k);
+        out.append(buf, r.ptr);
+    }
+    out.push_back('\n');
+}
+
+// topics.csv (the Gibbs sample), topics.maxlikelihood.csv, perplexity.csv
+// (each document's time step, the plug-in perplexity rost-cli reports) and,
+// for txy, topics.position.csv: one line per document, labels in input order.
+void finalOutputs(const RunOptions& o, const Corpus& c, const Model& model, Outputs& out) {
+    std::vector<uint16_t> z;
+    for (std::size_t d = 0; d < c.docs.size(); ++d) {
+        const Document& doc = c.docs[d];
+        z.resize(model.observationSize(d));
+        model.observationSamples(d, z);
+        appendLabels(out.topics, doc.timestamp, z);
+        model.observationLabels(d, z);
+        appendLabels(out.topics_ml, doc.timestamp, z);
+        out.ppx += doc.timestamp;
+        out.ppx += ',';
+        out.ppx += formatDouble(model.stepPluginPerplexity(model.stepOfObservation(d)));
+        out.ppx += '\n';
+        if (o.cmd == Command::RefineTxy) {
+            out.position += doc.timestamp;
+            for (const Position& p : doc.positions) {
+                out.position += ',';
+                out.position += std::to_string(p.x);
+                out.position += ',';
+                out.position += std::to_string(p.y);
+            }
+            out.position += '\n';
+        }
+    }
+}
+
+// topicmodel.csv: one row of V counts per open topic, in label order, so row
+// a is the topic the outputs number a (Model::outputNumbering); K rows
+// without growth.
+std::string topicModelText(const Model& model) {
+    std::string out;
+    char buf[16];
+    for (int k = 0; k < model.K(); ++k) {
+        if (!model.topicOpen(k)) continue;
+        for (int v = 0; v < model.V(); ++v) {
+            if (v) out.push_back(',');
+            const auto r = std::to_chars(buf, buf + sizeof buf, model.topicWordCount(k, v));
+            out.append(buf, r.ptr);
+        }
+        out.push_back('\n');
+    }
+    return out;
+}
+
+double corpusPerplexity(const Model& model) {
+    LogLoss total;
+    for (int64_t t = model.oldestStep(); t < model.steps(); ++t) total += model.stepPluginLogLoss(t);
+    return total.perplexity();
+}
+
+void logLine(Outputs& out, const std::string& line) { out.log += line + "\n"; }
+
+// Batch: every document added, then `final.sweeps` Gibbs sweeps over all of
+// them (perplexity logged every ppx.rate sweeps). Reproducible for a seed,
+// whatever the threads.
+Status runBatch(const RunOptions& o, const Corpus& c, const Settings& s, Model& model, Outputs& out) {
+    for (std::size_t d = 0; d < c.docs.size(); ++d) {
+        const AddResult r = model.addObservation(c.docs[d].words, c.docs[d].positions);
+        if (!r.ok())
+            return Status::error(c.words_name + ":" + std::to_string(c.docs[d].line) + ": " + toString(r.error));
+    }
+    const int sweeps = s.final_sweeps;
+    const uint64_t tokens0 = model.tokensRefined();
+    const auto t0 = Clock::now();
+    for (int done = 0; done < sweeps;) {
+        const int n = std::min(std::max(o.ppx_rate, 1), sweeps - done);
+        model.refineAll(n);
+        done += n;
+        logLine(out, std::string("sweep ") + std::to_string(done) + " perplexity " + formatDouble(corpusPerplexity(model)));
+    }
+    const double secs = secondsSince(t0);
+    const uint64_t tokens = model.tokensRefined() - tokens0;
+    logLine(out, std::string("refined ") + std::to_string(tokens) + " tokens in " + formatDouble(secs) + " s: " +
+                     formatDouble(secs > 0 ? static_cast<double>(tokens) / secs : 0.0) + " token updates/s on " +
+                     std::to_string(model.threads()) + " threads");
+    return {};
+}
+
+// Online: the engine takes each document up as it arrives and refines for
+// online.mint ms (a time budget: not reproducible); each document's ML labels
+// and perplexity are recorded as they stand when its budget is spent.
+Status runOnline(const Corpus& c, const Settings& s, Engine& engine, Outputs& out) {
+    std::vector<uint16_t> z;
+    uint64_t tokens = 0;
+    const auto t0 = Clock::now();
+    for (const Document& doc : c.docs) {
+        const ObservationResult r = engine.processNow({0, doc.words, doc.positions});
+        if (!r.add.ok())
+            return Status::error(c.words_name + ":" + std::to_string(doc.line) + ": " + toString(r.add.error));
+        tokens += r.tokens;
+        const Model& model = engine.model();
+        z.resize(model.observationSize(r.observation));
+        model.observationLabels(r.observation, z);
+        appendLabels(out.topics_online, doc.timestamp, z);
+        out.ppx_online += doc.timestamp + "," + formatDouble(model.stepPluginPerplexity(r.step)) + "\n";
+    }
+    const double secs = secondsSince(t0);
+    logLine(out, std::string("online: ") + std::to_string(c.docs.size()) + " documents, " + formatDouble(s.engine.budget.ms) +
+                     " ms each, refined " + std::to_string(tokens) + " tokens in " + formatDouble(secs) + " s");
+    return {};
+}
+
+struct FileOut {
+    const std::string* path;
+    const std::string* text;
+};
+
+// Writes each non-empty path (temporary file, then rename); the log last.
+Status writeOutputs(const RunOptions& o, const Outputs& out, const std::string& model) {
+    const FileOut files[] = {
+        {&o.out_topics, &out.topics},
+        {&o.out_topics_ml, &out.topics_ml},
+        {&o.ppx_out, &out.ppx},
+        {&o.out_topicmodel, &model},
+        {o.cmd == Command::RefineTxy ? &o.out_position : nullptr, &out.position},
+        {o.online ? &o.out_topics_online : nullptr, &out.topics_online},
+        {o.online ? &o.out_ppx_online : nullptr, &out.ppx_online},
+        {&o.logfile, &out.log},
+    };
+    for (const FileOut& f : files) {
+        if (f.path == nullptr || f.path->empty()) continue;
+        if (Status st = writeFileAtomic(*f.path, *f.text); !st.ok()) return st;
+    }
+    return {};
+}
+
+Status readCorpus(const RunOptions& o, const Settings& s, Corpus& c) {
+    std::string text, name;
+    if (Status st = readInput(o.in_words, text, name); !st.ok()) return st;
+    const uint32_t V = o.v_given ? static_cast<uint32_t>(s.engine.model.V) : 0;
+    if (Status st = parseDocuments(text, name, o.delim, V, c); !st.ok()) return st;
+    if (o.cmd == Command::RefineTxy) {
+        if (o.in_position.empty()) return Status::error("topics.refine.txy needs word positions: --in.position FILE");
+        if (Status st = readInput(o.in_position, text, name); !st.ok()) return st;
+        if (Status st = parsePositions(text, name, o.delim, c); !st.ok()) return st;
+    } else {
+        for (Document& d : c.docs) d.positions.assign(d.words.size(), Position{0, 0});
+    }
+    return {};
+}
+
+std::string settingsLog(const Settings& s) {
+    std::string out;
+    for (const char* key : {"K", "V", "alpha", "beta", "topics.grow", "gamma", "cell.time", "cell.space", "g.time",
+                            "g.space", "frame.width", "frame.height", "final.sweeps", "threads", "seed"}) {
+        out += key;
+        out += " = ";
+        out += settingValue(s, key);
+        out += '\n';
+    }
+    return out;
+}
+
+} // namespace
+
+Status runRefine(const RunOptions& o, Settings& s) {
+    Corpus c;
+    if (Status st = readCorpus(o, s, c); !st.ok()) return st;
+    if (Status st = fitModel(o, c, s); !st.ok()) return st;
+    Outputs out;
+    out.log = o.command_line + "\n" + std::to_string(c.docs.size()) + " documents from " + c.words_name + "\n";
+    out.log += settingsLog(s);
+    try {
+        std::unique_ptr<Engine> engine;
+        std::unique_ptr<Model> batch;
+        if (o.online) engine = std::make_unique<Engine>(s.engine);
+        else batch = std::make_unique<Model>(s.engine.model);
+        Model& model = o.online ? engine->model() : *batch;
+        if (!o.in_topicmodel.empty())
+            if (Status st = loadTopicModelCsv(o.in_topicmodel, model); !st.ok()) return st;
+        Status st = o.online ? runOnline(c, s, *engine, out) : runBatch(o, c, s, model, out);
+        if (!st.ok()) return st;
+        finalOutputs(o, c, model, out);
+        logLine(out, std::string("active topics ") + std::to_string(model.activeTopics()) + " of K = " + std::to_string(model.K()));
+        return writeOutputs(o, out, topicModelText(model));
+    } catch (const std::bad_alloc&) {
+        return Status::error(std::string("out of memory for a model of ") + std::to_string(c.docs.size()) +
+                             " documents (every document is kept refinable; its longest has " +
+                             std::to_string(c.longest) + " words)");
+    } catch (const std::exception& e) {
+        return Status::error(e.what());
+    }
+}
+
+} // namespace rost::cli

@@ -1,0 +1,81 @@
+#pragma once
+
+// rost-cli's drop-in commands (`topics.refine.t`, `topics.refine.txy`,
+// `words.bincount`): thin entry points over the library. The flags are
+// rost-cli's spellings; every flag that is a rost setting goes through the
+// settings schema (rost::setSetting), so its range and error messages are the
+// schema's. docs/rost-cli.md has the flag table.
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rost/position.hpp"
+#include "rost/settings.hpp"
+#include "rost/status.hpp"
+
+namespace rost::cli {
+
+// ---- input ------------------------------------------------------------------
+
+// One line of a words file: a document (a time step). The timestamp is kept
+// exactly as the input wrote it, for the outputs.
+struct Document {
+    std::string timestamp;
+    int line = 0;  // 1-based line in the words file
+    std::vector<uint32_t> words;
+    std::vector<Position> positions;  // topics.refine.txy only
+};
+
+struct Corpus {
+    std::vector<Document> docs;
+    std::string words_name;  // for messages: the path, or "<stdin>"
+    uint32_t max_word = 0;   // largest word id seen
+    bool any_word = false;
+    std::size_t longest = 0;  // words in the longest document
+    int32_t max_x = 0, max_y = 0;
+};
+
+// The whole of a file, or of standard input for "", "-" and "/dev/stdin".
+// `name` receives what messages call it.
+Status readInput(const std::string& path, std::string& text, std::string& name);
+
+// Parses `timestamp<d>w<d>w...` lines (d: `delim`); blank lines are skipped.
+// Word ids must be integers in [0, V) (V = 0: any id). Errors name the file,
+// line and column: "words.csv:3:7: word id 12 out of range [0, 10)".
+Status parseDocuments(std::string_view text, std::string_view name, std::string_view delim, uint32_t V,
+                      Corpus& out);
+// Parses `timestamp,x,y,x,y,...` lines, one per document of `corpus` in order:
+// the same timestamp and two non-negative integer coordinates per word.
+Status parsePositions(std::string_view text, std::string_view name, std::string_view delim, Corpus& corpus);
+
+// ---- the commands -----------------------------------------------------------
+
+enum class Command { RefineT, RefineTxy };
+
+// argv as the commands get it; returns the exit code (0, 2 on any error).
+int topicsRefineMain(Command cmd, int argc, char** argv);
+int wordsBincountMain(int argc, char** argv);
+
+// ---- refinement (refine.cpp) ------------------------------------------------
+
+struct RunOptions {
+    Command cmd = Command::RefineT;
+    std::string in_words, delim = ",", in_position, in_topicmodel;
+    std::string out_topics, out_topics_ml, out_topicmodel, ppx_out, out_position, logfile;
+    std::string out_topics_online, out_ppx_online;
+    bool online = false;
+    bool v_given = false;  // -V on the command line (else: the largest word id + 1)
+    int ppx_rate = 10;
+    std::string command_line;  // for the log file
+};
+
+// Everything after the flags are parsed and the settings set: reads the
+// input, refines, writes the outputs (temporary file, then rename).
+Status runRefine(const RunOptions& o, Settings& settings);
+
+// A number as the shortest text that parses back to it ("nan" for NaN).
+std::string formatDouble(double v);
+
+} // namespace rost::cli

@@ -1,0 +1,4 @@
+// words.bincount: rost-cli's command of that name (docs/rost-cli.md).
+#include "rostcli.hpp"
+
+int main(int argc, char** argv) { return rost::cli::wordsBincountMain(argc, argv); }

@@ -1,0 +1,438 @@
+// rost-cli's drop-in commands end to end, as a rost-cli user's pipeline runs
+// them: documents with planted topics written to a words file,
+// topics.refine.t (batch, online, standard input), words.bincount on the
+// maximum-likelihood topics, topics.refine.txy on planted spatial structure;
+// every output read back by its format (no headers) and checked: shapes,
+// sums, verbatim timestamps, recovery of the planted topics, reproducibility,
+// and errors that name the file, line and column with exit status 2.
+
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kTopics = 4, kWordsPerTopic = 10, kV = kTopics * kWordsPerTopic;
+constexpr int kDocs = 240, kDocWords = 24, kSegment = 20;
+
+std::string readText(const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+void writeText(const std::string& path, const std::string& text) {
+    std::ofstream f(path, std::ios::binary);
+    f << text;
+}
+
+// Lines of a headerless CSV, each split at commas (fields as text).
+std::vector<std::vector<std::string>> csv(const std::string& path) {
+    std::vector<std::vector<std::string>> rows;
+    std::istringstream in(readText(path));
+    std::string line;
+    while (std::getline(in, line)) {
+        std::vector<std::string> row;
+        std::string field;
+        std::istringstream ls(line);
+        while (std::getline(ls, field, ',')) row.push_back(field);
+        rows.push_back(std::move(row));
+    }
+    return rows;
+}
+
+struct Result {
+    int status = -1;
+    std::string err;
+};
+
+// Runs a shell command line in `dir`; stderr captured.
+Result run(const std::string& dir, const std::string& cmd) {
+    const std::string errPath = dir + "/stderr.txt";
+    const std::string line = "cd '" + dir + "' && " + cmd + " 2>'" + errPath + "'";
+    const int rc = std::system(line.c_str());
+    Result r;
+    r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+    r.err = readText(errPath);
+    return r;
+}
+
+std::string bin(const char* path) { return std::string("'") + path + "'"; }
+
+// A planted stream: the documents come in segments of kSegment, each segment
+// about one topic (its words drawn from that topic's kWordsPerTopic words),
+// the topics in a seeded random order. Timestamps are decimal text that a
+// number parser would not give back verbatim ("12.50").
+struct Planted {
+    std::vector<int> topic;  // per document
+    std::vector<std::string> stamp;
+    std::vector<std::vector<int>> words;
+};
+
+Planted plant(unsigned seed) {
+    std::mt19937 rng(seed);
+    Planted p;
+    int t = 0;
+    for (int d = 0; d < kDocs; ++d) {
+        if (d % kSegment == 0) t = (t + 1 + static_cast<int>(rng() % (kTopics - 1))) % kTopics;
+        p.topic.push_back(t);
+        p.stamp.push_back(std::to_string(d / 2) + (d % 2 ? ".50" : ".00"));
+        std::vector<int> w;
+        for (int i = 0; i < kDocWords; ++i) w.push_back(t * kWordsPerTopic + static_cast<int>(rng() % kWordsPerTopic));
+        p.words.push_back(std::move(w));
+    }
+    return p;
+}
+
+std::string wordsCsv(const Planted& p) {
+    std::string out;
+    for (std::size_t d = 0; d < p.words.size(); ++d) {
+        out += p.stamp[d];
+        for (int w : p.words[d]) {
+            out += ',';
+            out += std::to_string(w);
+        }
+        out += "\n";
+    }
+    return out;
+}
+
+class RostCli : public ::testing::Test {
+protected:
+    void SetUp() override {
+        std::string name = "rostcli-";
+        name += ::testing::UnitTest::GetInstance()->current_test_info()->name();
+        name += '-';
+        name += std::to_string(::getpid());
+        dir = (fs::temp_directory_path() / name).string();
+        fs::remove_all(dir);
+        fs::create_directories(dir);
+        planted = plant(7);
+        writeText(dir + "/words.csv", wordsCsv(planted));
+    }
+    void TearDown() override {
+        if (!HasFailure()) fs::remove_all(dir);
+    }
+    std::string dir;
+    Planted planted;
+};
+
+// Labels per document as integers; checks one line per document, the
+// timestamps verbatim, one label per word, every label below `K`.
+std::vector<std::vector<int>> labels(const std::string& path, const Planted& p, int K) {
+    const auto rows = csv(path);
+    EXPECT_EQ(rows.size(), p.words.size()) << path;
+    std::vector<std::vector<int>> out;
+    for (std::size_t d = 0; d < std::min(rows.size(), p.words.size()); ++d) {
+        EXPECT_EQ(rows[d][0], p.stamp[d]) << path << " line " << d + 1;
+        EXPECT_EQ(rows[d].size(), p.words[d].size() + 1) << path << " line " << d + 1;
+        std::vector<int> z;
+        for (std::size_t i = 1; i < rows[d].size(); ++i) {
+            z.push_back(std::stoi(rows[d][i]));
+            EXPECT_GE(z.back(), 0);
+            EXPECT_LT(z.back(), K) << path << " line " << d + 1;
+        }
+        out.push_back(std::move(z));
+    }
+    return out;
+}
+
+// Purity of per-document histograms (rows of `timestamp,c_0..c_{K-1}`) against
+// the planted topics: each learned topic is credited to the planted topic it
+// most often dominates; the share of documents whose dominant learned topic
+// maps to their own planted topic.
+double purity(const std::vector<std::vector<long long>>& hist, const std::vector<int>& planted) {
+    std::map<int, std::map<int, int>> votes;  // learned -> planted -> documents
+    std::vector<int> dominant;
+    for (const auto& h : hist) dominant.push_back(static_cast<int>(std::max_element(h.begin(), h.end()) - h.begin()));
+    for (std::size_t d = 0; d < dominant.size(); ++d) ++votes[dominant[d]][planted[d]];
+    int right = 0;
+    for (std::size_t d = 0; d < dominant.size(); ++d) {
+        const auto& v = votes[dominant[d]];
+        const int best = std::max_element(v.begin(), v.end(), [](auto& a, auto& b) { return a.second < b.second; })->first;
+        right += best == planted[d];
+    }
+    return static_cast<double>(right) / static_cast<double>(dominant.size());
+}
+
+// words.bincount's output: checks the shape and that each row sums to the document's words.
+std::vector<std::vector<long long>> histograms(const std::string& path, const Planted& p, int K) {
+    const auto rows = csv(path);
+    EXPECT_EQ(rows.size(), p.words.size());
+    std::vector<std::vector<long long>> out;
+    for (std::size_t d = 0; d < std::min(rows.size(), p.words.size()); ++d) {
+        EXPECT_EQ(rows[d][0], p.stamp[d]);
+        EXPECT_EQ(rows[d].size(), static_cast<std::size_t>(K) + 1);
+        std::vector<long long> h;
+        for (std::size_t i = 1; i < rows[d].size(); ++i) h.push_back(std::stoll(rows[d][i]));
+        long long sum = 0;
+        for (long long c : h) sum += c;
+        EXPECT_EQ(sum, static_cast<long long>(p.words[d].size())) << "line " << d + 1;
+        out.push_back(std::move(h));
+    }
+    return out;
+}
+
+// topicmodel.csv: `rows` rows of kV counts adding up to every word of the input.
+void checkTopicModel(const std::string& path, std::size_t rows, long long words) {
+    const auto m = csv(path);
+    ASSERT_EQ(m.size(), rows);
+    long long total = 0;
+    for (const auto& r : m) {
+        ASSERT_EQ(r.size(), static_cast<std::size_t>(kV));
+        for (const auto& c : r) total += std::stoll(c);
+    }
+    EXPECT_EQ(total, words);
+}
+
+void checkPerplexity(const std::string& path, const Planted& p) {
+    const auto rows = csv(path);
+    ASSERT_EQ(rows.size(), p.words.size());
+    for (std::size_t d = 0; d < rows.size(); ++d) {
+        ASSERT_EQ(rows[d].size(), 2u);
+        EXPECT_EQ(rows[d][0], p.stamp[d]);
+        const double ppx = std::stod(rows[d][1]);
+        // A document of one planted topic: about kWordsPerTopic equally likely words.
+        EXPECT_TRUE(std::isfinite(ppx) && ppx >= 1.0 && ppx < kV) << "line " << d + 1 << ": " << ppx;
+    }
+}
+
+const std::string kRefineFlags =
+    " --out.topics=topics.csv --out.topics.ml=topics.maxlikelihood.csv --out.topicmodel=topicmodel.csv"
+    " --ppx.out=perplexity.csv --logfile=topics.log -V 40 -K 4 --alpha=0.1 --beta=0.5 --g.time=1"
+    " --cell.space=0 --g.space 0 -n 60 --seed 3";
+
+TEST_F(RostCli, PipelineRecoversPlantedTopicsAndIsReproducible) {
+    const long long total = static_cast<long long>(kDocs) * kDocWords;
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv" + kRefineFlags + " --threads 2");
+    ASSERT_EQ(r.status, 0) << r.err;
+    labels(dir + "/topics.csv", planted, 4);
+    labels(dir + "/topics.maxlikelihood.csv", planted, 4);
+    checkTopicModel(dir + "/topicmodel.csv", 4, total);
+    checkPerplexity(dir + "/perplexity.csv", planted);
+    EXPECT_NE(readText(dir + "/topics.log").find("token updates/s"), std::string::npos);
+
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o topics.hist.csv -V 4");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const double pur = purity(histograms(dir + "/topics.hist.csv", planted, 4), planted.topic);
+    EXPECT_GE(pur, 0.95) << "planted topics not recovered";
+
+    // Same seed, one thread, words from standard input: the same bytes.
+    const std::string first = readText(dir + "/topics.csv") + readText(dir + "/topics.maxlikelihood.csv") +
+                              readText(dir + "/topicmodel.csv") + readText(dir + "/perplexity.csv");
+    fs::create_directories(dir + "/again");
+    r = run(dir + "/again", bin(ROSTCLI_REFINE_T) + kRefineFlags + " --threads 1 < ../words.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/again/topics.csv") + readText(dir + "/again/topics.maxlikelihood.csv") +
+                  readText(dir + "/again/topicmodel.csv") + readText(dir + "/again/perplexity.csv"),
+              first);
+    // Another seed: another sample.
+    r = run(dir + "/again", bin(ROSTCLI_REFINE_T) + " -i ../words.csv" + kRefineFlags + " --seed=4");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(readText(dir + "/again/topics.csv"), readText(dir + "/topics.csv"));
+}
+
+TEST_F(RostCli, OnlineWritesEachDocumentAsItArrivedAndTheFinalFiles) {
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv" + kRefineFlags +
+                         " --online --out.topics.online=topics.online.csv --out.ppx.online=perplexity.online.csv"
+                         " --online.mint 5");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto online = labels(dir + "/topics.online.csv", planted, 4);
+    checkPerplexity(dir + "/perplexity.online.csv", planted);
+    labels(dir + "/topics.maxlikelihood.csv", planted, 4);
+    checkTopicModel(dir + "/topicmodel.csv", 4, static_cast<long long>(kDocs) * kDocWords);
+    // Each document's labels as they stood when it arrived still follow the planted topics.
+    std::vector<std::vector<long long>> hist;
+    for (const auto& z : online) {
+        std::vector<long long> h(4, 0);
+        for (int k : z) ++h[static_cast<std::size_t>(k)];
+        hist.push_back(h);
+    }
+    EXPECT_GE(purity(hist, planted.topic), 0.8);
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -V 4 < topics.maxlikelihood.csv > hist.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, 4), planted.topic), 0.9);
+}
+
+// With growth (--grow.topics.size=true --gamma): K is the cap, topicmodel.csv
+// holds the A active topics, every label is below A, and the planted topics
+// are recovered.
+TEST_F(RostCli, GrowthWritesTheActiveTopicsAndRecoversThePlantedOnes) {
+    const std::string flags =
+        " -i words.csv -V 40 -K 16 -n 60 --g.time 1 --cell.space 0 --seed 3 --grow.topics.size=true --gamma=0.01";
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + flags);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::size_t A = csv(dir + "/topicmodel.csv").size();
+    EXPECT_GE(A, static_cast<std::size_t>(kTopics)) << "fewer topics than planted";
+    EXPECT_LT(A, 16u) << "growth ran to the cap";
+    checkTopicModel(dir + "/topicmodel.csv", A, static_cast<long long>(kDocs) * kDocWords);
+    labels(dir + "/topics.csv", planted, static_cast<int>(A));
+    labels(dir + "/topics.maxlikelihood.csv", planted, static_cast<int>(A));
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o hist.csv -V " + std::to_string(A));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, static_cast<int>(A)), planted.topic), 0.9);
+    // Without growth the same run has K topics; --grow.topics.size alone means true.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 16 -n 2 --gamma=0.01 --out.topicmodel=k.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(csv(dir + "/k.csv").size(), 16u);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + flags + " --grow.topics.size --out.topicmodel=g.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/g.csv"), readText(dir + "/topicmodel.csv"));
+}
+
+// topics.refine.txy: each document holds words at positions in a 64 x 32
+// frame; the left half speaks one planted topic, the right half another,
+// and the pair changes every kSegment documents.
+TEST_F(RostCli, TxyRecoversPlantedSpatialTopics) {
+    std::mt19937 rng(11);
+    std::string words, pos;
+    std::vector<int> truth;  // per word, all documents in order
+    for (int d = 0; d < 120; ++d) {
+        const int a = (d / kSegment) % kTopics, b = (a + 2) % kTopics;
+        words += std::to_string(d);
+        pos += std::to_string(d);
+        for (int i = 0; i < 30; ++i) {
+            const int x = static_cast<int>(rng() % 64), y = static_cast<int>(rng() % 32);
+            const int t = x < 32 ? a : b;
+            truth.push_back(t);
+            words += ',';
+            words += std::to_string(t * kWordsPerTopic + static_cast<int>(rng() % kWordsPerTopic));
+            pos += ',';
+            pos += std::to_string(x);
+            pos += ',';
+            pos += std::to_string(y);
+        }
+        words += "\n";
+        pos += "\n";
+    }
+    writeText(dir + "/txy.csv", words);
+    writeText(dir + "/pos.csv", pos);
+    Result r = run(dir, bin(ROSTCLI_REFINE_TXY) +
+                         " -i txy.csv --in.position=pos.csv -V 40 -K 4 --cell.space 16 --g.space 1 --g.time 1 -n 60"
+                         " --beta 0.5 --threads 2");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto ml = csv(dir + "/topics.maxlikelihood.csv");
+    ASSERT_EQ(ml.size(), 120u);
+    std::map<int, std::map<int, int>> votes;
+    std::vector<int> got;
+    for (const auto& row : ml)
+        for (std::size_t i = 1; i < row.size(); ++i) got.push_back(std::stoi(row[i]));
+    ASSERT_EQ(got.size(), truth.size());
+    for (std::size_t i = 0; i < got.size(); ++i) ++votes[got[i]][truth[i]];
+    int right = 0;
+    for (std::size_t i = 0; i < got.size(); ++i) {
+        const auto& v = votes[got[i]];
+        right += std::max_element(v.begin(), v.end(), [](auto& x, auto& y) { return x.second < y.second; })->first ==
+                 truth[i];
+    }
+    EXPECT_GE(static_cast<double>(right) / static_cast<double>(got.size()), 0.9);
+    EXPECT_EQ(readText(dir + "/topics.position.csv"), pos);
+    checkTopicModel(dir + "/topicmodel.csv", 4, 120 * 30);
+}
+
+// A topic model carried from one run to the next (--out.topicmodel ->
+// --in.topicmodel) is a prior the new run keeps and adds its own words to;
+// another delimiter (--in.words.delim) reads the same documents.
+TEST_F(RostCli, TopicModelCarriesOverAndDelimiterIsHonoured) {
+    const long long total = static_cast<long long>(kDocs) * kDocWords;
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 30 --out.topicmodel=first.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    checkTopicModel(dir + "/first.csv", 4, total);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 30 --in.topicmodel=first.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    checkTopicModel(dir + "/topicmodel.csv", 4, 2 * total);
+    const auto prior = csv(dir + "/first.csv"), both = csv(dir + "/topicmodel.csv");
+    for (std::size_t k = 0; k < 4; ++k)
+        for (std::size_t v = 0; v < static_cast<std::size_t>(kV); ++v)
+            EXPECT_GE(std::stoll(both[k][v]), std::stoll(prior[k][v])) << "topic " << k << " word " << v;
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o hist.csv -V 4");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, 4), planted.topic), 0.95);
+    // A model of another shape is an error naming the file.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 5 --in.topicmodel=first.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("first.csv"), std::string::npos) << r.err;
+
+    std::string semi = readText(dir + "/words.csv");
+    std::replace(semi.begin(), semi.end(), ',', ';');
+    writeText(dir + "/semi.csv", semi);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 5 --out.topics=comma.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i semi.csv --in.words.delim ';' -V 40 -K 4 -n 5 --out.topics=semi-topics.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/semi-topics.csv"), readText(dir + "/comma.csv"));
+}
+
+// Bad input: one line naming the file, line and column; exit 2; no outputs.
+TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
+    writeText(dir + "/bad.csv", "0,1,2\n1,3,x4,5\n");
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i bad.csv -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: bad.csv:2:5: expected word id (a non-negative integer), found 'x4'\n");
+    writeText(dir + "/big.csv", "0,1,2\n1,3,40\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i big.csv -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: big.csv:2:5: word id 40 out of range [0, 40)\n");
+    writeText(dir + "/p.csv", "0,1,2\n1,3,40,5\n");
+    writeText(dir + "/w.csv", "0,1\n1,3,4\n");
+    r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position p.csv -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.txy: p.csv:2:9: 3 coordinates for the 2 words of w.csv:2 (expected x,y per word: 4)\n");
+    for (const char* f : {"topics.csv", "topics.maxlikelihood.csv", "topicmodel.csv", "perplexity.csv", "topics.log"})
+        EXPECT_FALSE(fs::exists(dir + "/" + f)) << f;
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i bad.csv -V 5 -o h.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "words.bincount: bad.csv:2:5: expected word id (a non-negative integer), found 'x4'\n");
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i words.csv -V 5 -o h.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("words.csv:1:"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir + "/h.csv"));
+}
+
+// Flags: schema ranges with the schema's words, rost-cli flags rost cannot
+// reproduce refused by name, spatial flags accepted by topics.refine.t.
+TEST_F(RostCli, FlagsGoThroughTheSchema) {
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 0");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("-K"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("[1, 1024]"), std::string::npos) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --alpha=x");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("key 'alpha': expected a finite number, found 'x'"), std::string::npos) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --g.sigma 0.5");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("--g.sigma is not supported"), std::string::npos) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --retime=false");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("--retime is supported only as true"), std::string::npos) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --no.such.flag 1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("no.such.flag"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir + "/topics.csv"));
+    // Spatial settings mean nothing to topics.refine.t: any value, 0 included.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 2 --cell.space 0 --g.space=-3 --retime"
+                                         " --grow.topics.size=false --add.to.topicmodel=false");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(csv(dir + "/topics.csv").size(), static_cast<std::size_t>(kDocs));
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " --help > help.txt");
+    EXPECT_EQ(r.status, 0);
+    const std::string help = readText(dir + "/help.txt");
+    for (const char* f : {"--in.words", "--out.topics.ml", "--ppx.out", "--grow.topics.size", "--online.mint", "--g.sigma"})
+        EXPECT_NE(help.find(f), std::string::npos) << f;
+}
+
+} // namespace
