@@ -108,6 +108,19 @@ inline float freshWeight(const Tables& t) noexcept {
     return t.slot < t.K ? t.fresh : 0.f;
 }
 
+// 1 / (n_z + V beta) after a word left topic z (now n_z = nz); with growth,
+// 0 when it was the topic's last word: the topic closes.
+template <int KP>
+inline float leftReciprocal(Tables& t, int z, int32_t nz) noexcept {
+    if constexpr (KP == kGrow) {
+        if (nz == 0) {
+            closeTopic(t, z);
+            return 0.f;
+        }
+    }
+    return t.dec[z];
+}
+
 // The drawn topic from the number of prefix sums <= u (closed topics weigh 0,
 // so they are never drawn this way): with growth, all of the open topics'
 // sums <= u means a new topic, the slot (while there is room).
@@ -386,13 +399,7 @@ inline void refineCellSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* 
         // Word i leaves topic z (eq. 5's -i): n_k^v and n_G^k in registers by
         // lane mask; n_k and the reciprocals in memory.
         const int32_t nz = --t.nk[z];
-        float invZ = dec[z];
-        if constexpr (KP == kGrow) {
-            if (nz == 0) {  // the word was its topic's last: the topic closes
-                invZ = 0.f;
-                closeTopic(t, z);
-            }
-        }
+        const float invZ = leftReciprocal<KP>(t, z, nz);
         const v4::I zz = v4::seti(z);
         const v4::F vz = v4::set(invZ);
         v4::F carry = v4::set(0.f);
