@@ -139,24 +139,6 @@ void finalOutputs(const RunOptions& o, const Corpus& c, const Model& model, Outp
     }
 }
 
-// topicmodel.csv: one row of V counts per open topic, in label order, so row
-// a is the topic the outputs number a (Model::outputNumbering); K rows
-// without growth.
-std::string topicModelText(const Model& model) {
-    std::string out;
-    char buf[16];
-    for (int k = 0; k < model.K(); ++k) {
-        if (!model.topicOpen(k)) continue;
-        for (int v = 0; v < model.V(); ++v) {
-            if (v) out.push_back(',');
-            const auto r = std::to_chars(buf, buf + sizeof buf, model.topicWordCount(k, v));
-            out.append(buf, r.ptr);
-        }
-        out.push_back('\n');
-    }
-    return out;
-}
-
 double corpusPerplexity(const Model& model) {
     LogLoss total;
     for (int64_t t = model.oldestStep(); t < model.steps(); ++t) total += model.stepPluginLogLoss(t);
@@ -287,7 +269,7 @@ Status runRefine(const RunOptions& o, Settings& s) {
         if (!st.ok()) return st;
         finalOutputs(o, c, model, out);
         logLine(out, std::string("active topics ") + std::to_string(model.activeTopics()) + " of K = " + std::to_string(model.K()));
-        return writeOutputs(o, out, topicModelText(model));
+        return writeOutputs(o, out, formatTopicModelCsv(model));  // a row per open topic, in label order
     } catch (const std::bad_alloc&) {
         return Status::error(std::string("out of memory for a model of ") + std::to_string(c.docs.size()) +
                              " documents (every document is kept refinable; its longest has " +
