@@ -313,13 +313,16 @@ TEST(KernelFloatRange, WeightsAndDrawStayNormalAtTheExtremesOfTheDocumentedRange
     };
     for (const Corner& c : corners) {
         std::vector<int32_t> row(Kp, 0), g(Kp, 0);
-        std::vector<float> inv(Kp, rost::kernel::reciprocal(c.nk, c.vbeta));
+        std::vector<float> inv(Kp, rost::kernel::reciprocal(c.nk, c.vbeta)), h(Kp);
+        rost::kernel::cellWeights(inv.data(), g.data(), c.alpha, Kp, h.data());
         alignas(64) float a[Kp], b[Kp];
-        const float ts = rost::kernel::weightsAndScanScalar(row.data(), inv.data(), g.data(), c.alpha, c.beta, Kp, a);
-        const float tv = rost::kernel::weightsAndScanSimd(row.data(), inv.data(), g.data(), c.alpha, c.beta, Kp, b);
+        float ba[8], bb[8];
+        using rost::kernel::Path;
+        const float ts = rost::kernel::laneSums<Path::Scalar>(row.data(), h.data(), c.beta, Kp / 4, a, ba);
+        const float tv = rost::kernel::laneSums<Path::Simd>(row.data(), h.data(), c.beta, Kp / 4, b, bb);
         for (int k = 0; k < Kp; ++k) {
-            ASSERT_EQ(std::fpclassify(a[k]), FP_NORMAL) << "prefix sum " << k << " = " << a[k];
-            ASSERT_EQ(std::memcmp(&a[k], &b[k], sizeof(float)), 0) << "prefix sum " << k;
+            ASSERT_EQ(std::fpclassify(a[k]), FP_NORMAL) << "running sum " << k << " = " << a[k];
+            ASSERT_EQ(std::memcmp(&a[k], &b[k], sizeof(float)), 0) << "running sum " << k;
         }
         ASSERT_EQ(std::memcmp(&ts, &tv, sizeof(float)), 0);
         const float uMin = 0x1p-24f * ts;  // the smallest positive u = r * total
@@ -335,9 +338,12 @@ TEST(KernelFloatRange, DenormalWeightsAreFlushedOnlyByArmv7Neon) {
     constexpr int Kp = 4;
     const int32_t row[Kp] = {0, 1, 2, 3}, g[Kp] = {0, 0, 0, 0};
     const float inv[Kp] = {1e-36f, 1e-36f, 1e-36f, 1e-36f};
+    float h[Kp];
+    rost::kernel::cellWeights(inv, g, 0.01f, Kp, h);
     alignas(16) float a[Kp], b[Kp];
-    rost::kernel::weightsAndScanScalar(row, inv, g, 0.01f, 0.01f, Kp, a);
-    rost::kernel::weightsAndScanSimd(row, inv, g, 0.01f, 0.01f, Kp, b);
+    float ba[8], bb[8];
+    rost::kernel::laneSums<rost::kernel::Path::Scalar>(row, h, 0.01f, 1, a, ba);
+    rost::kernel::laneSums<rost::kernel::Path::Simd>(row, h, 0.01f, 1, b, bb);
     ASSERT_EQ(std::fpclassify(a[0]), FP_SUBNORMAL) << "the scalar reference keeps denormals: " << a[0];
     const bool same = std::memcmp(a, b, sizeof a) == 0;
 #if defined(__arm__) && (defined(__ARM_NEON) || defined(__ARM_NEON__)) && !defined(ROST_FORCE_SCALAR)

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -9,34 +10,79 @@
 namespace {
 
 // The SIMD path must reproduce the scalar reference bit for bit: the same
-// prefix sums (compared as bit patterns) and the same selected topic, for
-// many random count states, K values with and without padding, and u values
-// including both ends of [0, total].
-TEST(KernelSimdMatchesScalar, PrefixSumsAndSelectionBitIdentical) {
+// running sums and lane bases (compared as bit patterns) and the same drawn
+// topic, for many random count states, K values with and without padding
+// (odd and even block counts: the two chains), and u values including both
+// ends of [0, total]. Every drawn topic has a positive weight.
+TEST(KernelSimdMatchesScalar, CanonicalSumsAndDrawBitIdentical) {
+    using rost::kernel::Path;
     rost::Rng r(1234);
-    for (int K : {1, 3, 4, 16, 17, 32, 64, 100}) {
+    for (int K : {1, 3, 4, 8, 16, 17, 32, 64, 100}) {
         const int Kp = rost::kernel::paddedK(K);
+        const int nb = Kp / rost::kernel::kBlock;
         std::vector<int32_t> row(Kp, 0), g(Kp, 0);
-        std::vector<float> inv(Kp, 0.f);
+        std::vector<float> inv(Kp, 0.f), h(Kp, 0.f);
         alignas(64) float a[1024], b[1024];
+        float ba[8], bb[8];
         for (int trial = 0; trial < 2000; ++trial) {
             for (int k = 0; k < K; ++k) {
                 row[k] = static_cast<int32_t>(r.below(trial % 2 ? 50u : 100000u));
                 g[k] = static_cast<int32_t>(r.below(200));
-                inv[k] = rost::kernel::reciprocal(static_cast<int32_t>(r.below(1u << 22)), 2718.f);
+                // Some topics closed (weight 0), as with growth.
+                inv[k] = trial % 3 == 0 && r.below(4) == 0
+                             ? 0.f
+                             : rost::kernel::reciprocal(static_cast<int32_t>(r.below(1u << 22)), 2718.f);
             }
-            const float ts = rost::kernel::weightsAndScanScalar(row.data(), inv.data(), g.data(), 0.1f, 0.5f, Kp, a);
-            const float tv = rost::kernel::weightsAndScanSimd(row.data(), inv.data(), g.data(), 0.1f, 0.5f, Kp, b);
+            rost::kernel::cellWeights(inv.data(), g.data(), 0.1f, Kp, h.data());
+            const float ts = rost::kernel::laneSums<Path::Scalar>(row.data(), h.data(), 0.5f, nb, a, ba);
+            const float tv = rost::kernel::laneSums<Path::Simd>(row.data(), h.data(), 0.5f, nb, b, bb);
             ASSERT_EQ(std::memcmp(&ts, &tv, sizeof(float)), 0) << "K=" << K;
             ASSERT_EQ(std::memcmp(a, b, sizeof(float) * Kp), 0) << "K=" << K;
-            for (float u : {0.f, ts * 0.5f, ts, ts * r.uniformFloat()}) {
-                const int ks = rost::kernel::selectScalar(a, Kp, K, u);
-                ASSERT_EQ(ks, rost::kernel::selectSimd(b, Kp, K, u)) << "K=" << K;
+            ASSERT_EQ(std::memcmp(ba, bb, sizeof ba), 0) << "K=" << K;
+            if (!(ts > 0.f)) continue;
+            for (float u : {0.f, ts * 0.5f, std::nextafter(ts, 0.f), ts, ts * r.uniformFloat()}) {
+                const int ks = rost::kernel::laneSelect<Path::Scalar>(a, ba, nb, u);
+                ASSERT_EQ(ks, (rost::kernel::laneSelect<Path::Simd>(b, bb, nb, u))) << "K=" << K;
                 ASSERT_GE(ks, 0);
                 ASSERT_LT(ks, K);
+                ASSERT_GT(h[ks], 0.f) << "a topic of weight 0 was drawn, K=" << K << " u=" << u;
             }
         }
     }
+}
+
+// The draw is the canonical order's inverse CDF: with u at each running
+// sum's exact boundary, the topic is the one whose interval holds u.
+TEST(KernelCanonicalOrder, DrawFindsTheIntervalThatHoldsU) {
+    using rost::kernel::Path;
+    constexpr int K = 24, nb = K / rost::kernel::kBlock;
+    std::vector<int32_t> row(K);
+    std::vector<float> h(K);
+    for (int k = 0; k < K; ++k) {
+        row[k] = k % 5;
+        h[k] = k % 7 == 3 ? 0.f : 0.25f * static_cast<float>(1 + k % 3);  // exact small binary fractions
+    }
+    alignas(64) float cum[K];
+    float base[8];
+    const float total = rost::kernel::laneSums<Path::Scalar>(row.data(), h.data(), 0.5f, nb, cum, base);
+    // Walk the canonical order: lane v = 4 chain + j, blocks of that chain.
+    double lo = 0;
+    int drawn = 0;
+    for (int v = 0; v < 8; ++v)
+        for (int blk = v >> 2; blk < nb; blk += 2) {
+            const int k = 4 * blk + (v & 3);
+            const double w = (row[k] + 0.5) * h[k];
+            if (w == 0) continue;
+            for (const double f : {0.0, 0.5, 0.999}) {
+                const float u = static_cast<float>(lo + f * w);
+                EXPECT_EQ(rost::kernel::laneSelect<Path::Scalar>(cum, base, nb, u), k) << "u=" << u;
+                EXPECT_EQ(rost::kernel::laneSelect<Path::Simd>(cum, base, nb, u), k) << "u=" << u;
+            }
+            lo += w;
+            ++drawn;
+        }
+    EXPECT_EQ(lo, total) << "the sums of these exact fractions are exact";
+    EXPECT_EQ(drawn, K - 3);
 }
 
 TEST(KernelSimdMatchesScalar, WholeModelRunsGiveIdenticalLabels) {
