@@ -38,6 +38,10 @@ constexpr uint64_t kExpectedWindowChecksum = 0x29495752e6899d62ull;
 // strategy (all eight of section VI), with a count budget; one checksum over all.
 constexpr uint64_t kExpectedEngineChecksum = 0xb38cd0f70b105d7dull;        // refine.window = 1
 constexpr uint64_t kExpectedEngineWindowChecksum = 0xe7b803c6797458b5ull;  // refine.window = 256
+// The lane order (K = 64, K = 100) and growth (cap 100, gamma 0.05, about 60 open): serial
+// and W = 256 for each (LaneOrderAndGrowthGiveTheRecordedChecksums).
+constexpr uint64_t kExpectedLaneChecksum[6] = {0x1ceda9e85141ede9ull, 0x0ed8a20dc6a2201cull, 0xa18469b1d875939cull,
+                                              0x4bd2a6181a2b5028ull, 0x03d5285ed85c80e3ull, 0xe1d5069806a7d008ull};
 
 // FNV-1a over 64-bit values fed as numbers, so the checksum does not depend on
 // the byte order or width of the types being hashed.
@@ -125,15 +129,19 @@ struct Replay {
     uint64_t tokens = 0;
     uint64_t surpriseBits = 0;  // informational: libm-dependent, not part of the contract
     std::string invariants;
+    int active = 0;  // open topics at the end
 };
 
 // Adds the stream with a fixed refinement schedule (a count budget: which
 // steps are refined, and how often, depends only on the frame index) and
 // hashes every label and count the model exposes.
-Replay replay(rost::kernel::Path path, int refineWindow = 1, int threads = 1) {
+Replay replay(rost::kernel::Path path, int refineWindow = 1, int threads = 1, int K = 16, bool grow = false) {
     rost::Config c = streamConfig();
     c.refine_window = refineWindow;
     c.threads = threads;
+    c.K = K;
+    c.grow = grow;
+    c.gamma = 0.05;  // with growth: about 60 topics open, more than the scan order's 32
     rost::Model m(c);
     m.setKernelPath(path);
     rost::Rng stream(99);
@@ -164,6 +172,7 @@ Replay replay(rost::kernel::Path path, int refineWindow = 1, int threads = 1) {
     Checksum h;
     hashModel(m, h);
     out.checksum = h.value();
+    out.active = m.activeTopics();
     out.tokens = m.tokensRefined();
     out.surpriseBits = surprise.value();
     return out;
@@ -218,6 +227,36 @@ TEST(CrossArchReplay, WindowsGiveTheRecordedChecksumForOneToFourThreads) {
         }
     // And a window of 64 picks is another sampler: its own result.
     EXPECT_NE(hex(replay(rost::kernel::Path::Simd, 64, 2).checksum), hex(kExpectedWindowChecksum));
+}
+
+// More topics than the scan order's 8 blocks: the lane order, compiled for
+// K = 64 and at runtime for K = 100, and topics that grow under a cap of 100.
+// Serial and in windows for 1 to 4 threads, both paths, the recorded values
+// on every target.
+TEST(CrossArchReplay, LaneOrderAndGrowthGiveTheRecordedChecksums) {
+    struct Case {
+        int K;
+        bool grow;
+        int window;
+        uint64_t expected;
+    };
+    const Case cases[] = {
+        {64, false, 1, kExpectedLaneChecksum[0]},   {64, false, 256, kExpectedLaneChecksum[1]},
+        {100, false, 1, kExpectedLaneChecksum[2]},  {100, false, 256, kExpectedLaneChecksum[3]},
+        {100, true, 1, kExpectedLaneChecksum[4]},   {100, true, 256, kExpectedLaneChecksum[5]},
+    };
+    for (const Case& c : cases)
+        for (const auto path : {rost::kernel::Path::Simd, rost::kernel::Path::Scalar})
+            for (int threads = 1; threads <= (c.window == 1 ? 1 : 4); ++threads) {
+                const Replay r = replay(path, c.window, threads, c.K, c.grow);
+                ASSERT_TRUE(r.invariants.empty()) << r.invariants;
+                std::printf("[ replay   ] K %d%s, W %d, %d threads, %s: checksum %s, %d open topics\n", c.K,
+                            c.grow ? " (grow)" : "", c.window, threads,
+                            path == rost::kernel::Path::Simd ? "simd" : "scalar", hex(r.checksum).c_str(), r.active);
+                EXPECT_EQ(hex(r.checksum), hex(c.expected))
+                    << "K " << c.K << (c.grow ? " grow" : "") << ", W " << c.window << ", " << threads << " threads, "
+                    << (path == rost::kernel::Path::Simd ? "SIMD" : "scalar") << " path";
+            }
 }
 
 #if defined(ROST_TEST_ENGINE)

@@ -137,7 +137,10 @@ template void Model::setTaskKernels<64>() noexcept;
 
 template <int KP>
 void Model::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept {
-    const int Kp = KP > 0 ? KP : Kp_;
+    // With growth only the live blocks can hold counts (every cell's count of
+    // a closed topic is 0): the rest is zero, so the cost follows the open topics.
+    const int Kp = kernel::liveLanes<KP>(tables_, KP > 0 ? KP : Kp_);
+    for (int k = Kp; k < Kp_; ++k) g[k] = 0;
     const int32_t* h = nck(slots.self, static_cast<int>(nbr_cell_[nbr_begin_[cell]]));
     for (int k = 0; k < Kp; ++k) g[k] = h[k];
     for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
