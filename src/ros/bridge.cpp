@@ -221,7 +221,7 @@ bool Pipeline::next(FrameResult& out) {
     out.timestamp = r.timestamp;
     out.perplexity = static_cast<float>(r.perplexity);
     out.surprise = static_cast<float>(r.surprise);
-    out.active_topics = K;  // until topics grow, every topic is active
+    out.active_topics = r.active_topics;  // K, or the open topics with topics.grow
     out.cells_x = cellsX();
     out.cells_y = cellsY();
     out.topic_weights.assign(static_cast<std::size_t>(K), 0.0f);

@@ -19,7 +19,7 @@ void BagSink::onObservation(const ObservationRecord& r) {
     f.frame = static_cast<uint64_t>(r.frame);
     f.timestamp = r.frame;
     f.surprise = static_cast<float>(r.surprise);
-    f.active_topics = static_cast<int32_t>(r.topic_share.size());  // until topics grow, every topic is active
+    f.active_topics = r.active_topics;  // K, or the open topics with topics.grow
     f.topic_weights = r.topic_share;
     f.cells_x = cells_x_;
     f.cells_y = cells_y_;

@@ -6,7 +6,8 @@ sensor_msgs/Image (bgr8), as CompressedImage (jpeg), and one topic whose
 encoding rost cannot read; then checks: without --topic the image topics are
 listed and the exit is 2 (also with -q); frames.csv has the messages' stamps;
 the compressed topic gives as many frames; --out.bag holds a FrameTopics per
-image, stamped like it; the unreadable encoding and a truncated bag give one
+image, stamped like it (with --topics.grow its active_topics follow
+perplexity.csv's topics); the unreadable encoding and a truncated bag give one
 line naming the bag, the topic (and message) with exit 2.
 
 Usage: test_bag.py BUILD_DIR FOOTAGE_DIR
@@ -105,6 +106,20 @@ def main():
     sur = [float(r["surprise"]) for r in csv.DictReader(open(os.path.join(out, "surprise.csv")))]
     check(all(abs(a - mm.surprise) <= 1e-3 * abs(a) for a, (_, mm) in zip(sur, msgs)),
           "--out.bag: the surprise of surprise.csv")
+
+    # Topics that grow: active_topics is the perplexity.csv `topics` of the
+    # frame, and the labels from there on weigh nothing.
+    gout, gbag = os.path.join(work, "grow"), os.path.join(work, "grow.bag")
+    code, err = rost_run(bag, "--topic", "/cam/image_raw", "--out", gout, "--out.bag", gbag, "-q", "--no-overlay",
+                         "-K", "32", "--topics.grow", "--gamma", "0.3")
+    check(code == 0, "growth: exit 0 " + err.strip())
+    with rosbag.Bag(gbag) as b:
+        grown = [m for _, m, _ in b.read_messages()]
+    topics = [int(r["topics"]) for r in csv.DictReader(open(os.path.join(gout, "perplexity.csv")))]
+    check(len(grown) == N and [m.active_topics for m in grown] == topics and 1 < topics[-1] < 32,
+          "growth: active_topics per frame as perplexity.csv's topics %s" % topics)
+    check(all(len(m.topic_weights) == 32 and not any(m.topic_weights[m.active_topics:]) for m in grown),
+          "growth: no weight beyond the open topics")
 
     code, err = rost_run(bag, "--topic", "/cam/image_raw/compressed", "--out", os.path.join(work, "jpeg"), "-q",
                          "--no-overlay", "--no-summary")
