@@ -36,6 +36,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <initializer_list>
 #include <limits>
 #include <map>
 #include <ostream>
@@ -416,24 +417,24 @@ TEST(SamplerStatistics, ChiSquareTailMatchesTables) {
 // the round began (a), while its own cell's counts hold its current label
 // (c). Its draws must follow eq. 5 with the word left out of n_k^v and n_k at
 // a and out of n_G^k at c; the frozen tables must not change. Both paths.
-TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelPaths) {
-    constexpr int K = 7, Kp = 8, V = 3;
+void frozenCase(const int K) {
+    const int Kp = rost::kernel::paddedK(K), V = 3;
     const float alpha = 0.1f, beta = 0.5f;
     rost::Rng r(77);
     std::vector<int32_t> nkv(V * Kp, 0), nk(Kp, 0);
     for (int v = 0; v < V; ++v)
         for (int k = 0; k < K; ++k) nkv[v * Kp + k] = static_cast<int32_t>(r.below(12));
     const uint32_t word = 1;
-    const int a = 2, c = 5;
+    const int a = 2, c = K - 2;
     nkv[word * Kp + a] += 1;  // the word itself, at its round-start label
     for (int k = 0; k < K; ++k) nk[k] = nkv[k] + nkv[Kp + k] + nkv[2 * Kp + k] + static_cast<int32_t>(r.below(30));
-    alignas(64) float inv[Kp], dec[Kp], inc[Kp];
+    std::vector<float> inv(Kp), dec(Kp), inc(Kp);
     rost::kernel::Tables t;
     t.nkv = nkv.data();
     t.nk = nk.data();
-    t.inv = inv;
-    t.dec = dec;
-    t.inc = inc;
+    t.inv = inv.data();
+    t.dec = dec.data();
+    t.inc = inc.data();
     t.K = K;
     t.Kp = Kp;
     t.active = K;
@@ -456,17 +457,17 @@ TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelP
     const std::vector<int32_t> nkvBefore = nkv, nkBefore = nk;
     for (const Path path : {Path::Simd, Path::Scalar}) {
         std::vector<double> counts(K, 0.0);
+        std::vector<int32_t> g(Kp), nc(Kp);
         for (int d = 0; d < kDraws; ++d) {
-            alignas(64) int32_t g[Kp], nc[Kp];
-            std::copy(g0.begin(), g0.end(), g);
-            std::copy(nc0.begin(), nc0.end(), nc);
-            uint16_t z = c;
+            std::copy(g0.begin(), g0.end(), g.begin());
+            std::copy(nc0.begin(), nc0.end(), nc.begin());
+            uint16_t z = static_cast<uint16_t>(c);
             const uint16_t z0 = a;
             rost::detail::CounterRng rng(12345, static_cast<uint64_t>(d));
             if (path == Path::Simd)
-                rost::kernel::refineCellFrozen<0, Path::Simd>(t, g, nc, &word, &z, &z0, 1, rng);
+                rost::kernel::refineCellFrozen<0, Path::Simd>(t, g.data(), nc.data(), &word, &z, &z0, 1, rng);
             else
-                rost::kernel::refineCellFrozen<0, Path::Scalar>(t, g, nc, &word, &z, &z0, 1, rng);
+                rost::kernel::refineCellFrozen<0, Path::Scalar>(t, g.data(), nc.data(), &word, &z, &z0, 1, rng);
             counts[z] += 1;
             ASSERT_EQ(g[z], g0[z] + (z == c ? 0 : 1)) << "the neighbourhood sums follow the new label";
             ASSERT_EQ(nc[z], 1);
@@ -477,9 +478,16 @@ TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelP
             gof.stat += (counts[k] - e) * (counts[k] - e) / e;
         }
         gof.df = K - 1;
-        EXPECT_GT(gof.p(), kPass) << (path == Path::Simd ? "simd: " : "scalar: ") << gof;
+        EXPECT_GT(gof.p(), kPass) << "K " << K << (path == Path::Simd ? " simd: " : " scalar: ") << gof;
         EXPECT_TRUE(nkv == nkvBefore && nk == nkBefore) << "a round must not write the frozen tables";
     }
+}
+
+// K = 7: the scan order (2 blocks, one padding lane). K = 37: the lane
+// order (10 blocks, three padding lanes).
+TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelPaths) {
+    frozenCase(7);
+    frozenCase(37);
 }
 
 // ---- topic growth: the conditional with a new topic -------------------------------------
@@ -493,8 +501,9 @@ TEST(FrozenConditional, DrawsFollowEq5WithTheRoundStartLabelLeftOutOnBothKernelP
 // and a word that is its topic's only word (its topic closes while it draws:
 // weight 0, and live, its label becomes the slot). The tables are restored
 // between draws.
-struct GrowthScene {
-    static constexpr int K = 7, Kp = 8, V = 5;
+template <int KK>
+struct GrowthSceneT {
+    static constexpr int K = KK, Kp = rost::kernel::paddedK(KK), V = 5;
     const float alpha = 0.1f, beta = 0.5f, gamma = 0.8f;
     std::vector<int32_t> nkv, nk;
     std::vector<int32_t> g0, nc0;
@@ -504,7 +513,7 @@ struct GrowthScene {
     int z = 0;
     bool singleton = false;
 
-    GrowthScene(int A, int hole, bool single) : nkv(V * Kp, 0), nk(Kp, 0), g0(Kp, 0), nc0(Kp, 0), singleton(single) {
+    GrowthSceneT(int A, int hole, bool single) : nkv(V * Kp, 0), nk(Kp, 0), g0(Kp, 0), nc0(Kp, 0), singleton(single) {
         rost::Rng r(static_cast<uint64_t>(90 + A * 7 + hole + (single ? 50 : 0)));
         z = A - 1;
         for (int v = 0; v < V; ++v)
@@ -556,9 +565,10 @@ struct GrowthScene {
 };
 
 // One draw of the word on kernel `variant` (0 live simd, 1 live scalar, 2 frozen simd, 3 frozen scalar).
-uint16_t growthDraw(GrowthScene& sc, int variant, int d, int32_t* nc) {
+template <int KK>
+uint16_t growthDraw(GrowthSceneT<KK>& sc, int variant, int d, int32_t* nc) {
     using rost::kernel::kGrow;
-    alignas(64) int32_t g[GrowthScene::Kp];
+    alignas(64) int32_t g[GrowthSceneT<KK>::Kp];
     std::copy(sc.g0.begin(), sc.g0.end(), g);
     std::copy(sc.nc0.begin(), sc.nc0.end(), nc);
     uint16_t z = static_cast<uint16_t>(sc.z);
@@ -571,13 +581,15 @@ uint16_t growthDraw(GrowthScene& sc, int variant, int d, int32_t* nc) {
     return z;
 }
 
-TEST(GrowthConditional, NewTopicDrawsWithWeightGammaOverVOnEveryKernelPath) {
-    struct Case {
-        int A, hole;
-        bool single;
-    };
-    for (const Case c : {Case{4, -1, false}, Case{5, -1, false}, Case{6, -1, false}, Case{7, -1, false},
-                         Case{6, 1, false}, Case{5, -1, true}, Case{6, 2, true}}) {
+struct GrowthCase {
+    int A, hole;
+    bool single;
+};
+
+template <int KK>
+void growthCases(std::initializer_list<GrowthCase> cases) {
+    using GrowthScene = GrowthSceneT<KK>;
+    for (const GrowthCase c : cases) {
         GrowthScene sc(c.A, c.hole, c.single);
         const GrowthScene ref(c.A, c.hole, c.single);
         for (int variant = 0; variant < 4; ++variant) {
@@ -634,6 +646,18 @@ TEST(GrowthConditional, NewTopicDrawsWithWeightGammaOverVOnEveryKernelPath) {
     }
 }
 
+// K = 7: the scan order.
+TEST(GrowthConditional, NewTopicDrawsWithWeightGammaOverVOnEveryKernelPath) {
+    growthCases<7>({{4, -1, false}, {5, -1, false}, {6, -1, false}, {7, -1, false}, {6, 1, false}, {5, -1, true},
+                    {6, 2, true}});
+}
+
+// K = 37: more than 8 live blocks, the lane order: open topics up to a block
+// boundary and inside a block, the cap, a hole, a word that closes its topic.
+TEST(GrowthConditional, NewTopicDrawsWithWeightGammaOverVInTheLaneOrder) {
+    growthCases<37>({{34, -1, false}, {36, -1, false}, {37, -1, false}, {35, 3, false}, {36, -1, true}});
+}
+
 // ---- paper eq. 5: the exact conditional -----------------------------------------------
 
 class ExactConditional : public ::testing::TestWithParam<SceneSpec> {};
@@ -677,15 +701,18 @@ INSTANTIATE_TEST_SUITE_P(
         // K = 16: the compile-time specialised kernel (one cache line of counts).
         SceneSpec{"K16_radius1", 16, 12, 3, 3, 5, 8, 1, 1, 2, 4, 1, 7, 1, 4, 5, 13},
         // Temporal radius only (g.space = 0, g.time = 2).
-        SceneSpec{"K5_timeOnly", 5, 8, 3, 3, 5, 8, 0, 2, 2, 4, 1, 2, 1, 3, 5, 14}),
+        SceneSpec{"K5_timeOnly", 5, 8, 3, 3, 5, 8, 0, 2, 2, 4, 1, 2, 1, 3, 5, 14},
+        // More than 8 blocks: the lane order, compiled (K = 64) and at run
+        // time with padding lanes (K = 37).
+        SceneSpec{"K64_radius1_laneOrder", 64, 16, 3, 3, 5, 8, 1, 1, 2, 4, 1, 7, 2, 8, 5, 15},
+        SceneSpec{"K37_radius1_laneOrder", 37, 16, 3, 3, 5, 8, 1, 1, 2, 4, 1, 7, 2, 8, 5, 16}),
     [](const ::testing::TestParamInfo<SceneSpec>& param) { return std::string(param.param.name); });
 
 // Two words of the same type in one cell: the second word's conditional must
 // see the first word's NEW label in n_k^v, n_k and n_G^k (the kernel carries
 // the neighbourhood sums across the words of a cell). The transition law of
 // a sweep is the product of the two sequential eq. 5 conditionals.
-TEST(ExactConditionalInCell, TwoWordSweepFollowsSequentialEq5OnBothKernelPaths) {
-    const SceneSpec s{"K5_twoWords", 5, 8, 3, 3, 5, 8, 1, 1, 2, 4, 2, 3, 2, 6, 5, 21};
+void twoWordSweep(const SceneSpec& s) {
     rost::Model m(configOf(s));
     const Scene sc = makeScene(m, s);
     ASSERT_EQ(sc.target.size(), 2u);
@@ -696,6 +723,12 @@ TEST(ExactConditionalInCell, TwoWordSweepFollowsSequentialEq5OnBothKernelPaths) 
         report(std::string(s.name) + (path == Path::Simd ? " simd" : " scalar"), g);
         EXPECT_GT(g.p(), kPass) << (path == Path::Simd ? "simd: " : "scalar: ") << g;
     }
+}
+
+// K = 5: the scan order. K = 33 (9 blocks, 3 padding lanes): the lane order.
+TEST(ExactConditionalInCell, TwoWordSweepFollowsSequentialEq5OnBothKernelPaths) {
+    twoWordSweep(SceneSpec{"K5_twoWords", 5, 8, 3, 3, 5, 8, 1, 1, 2, 4, 2, 3, 2, 6, 5, 21});
+    twoWordSweep(SceneSpec{"K33_twoWords_laneOrder", 33, 8, 3, 3, 5, 8, 1, 1, 2, 4, 2, 3, 2, 6, 5, 22});
 }
 
 // The test can fail: the public 2013 code removed the word by subtracting one
