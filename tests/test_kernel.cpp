@@ -9,7 +9,39 @@
 
 namespace {
 
-// The SIMD path must reproduce the scalar reference bit for bit: the same
+// The register kernels (the scan order, K <= 32): the SIMD path must
+// reproduce the scalar reference bit for bit, the same
+// prefix sums (compared as bit patterns) and the same selected topic, for
+// many random count states, K values with and without padding, and u values
+// including both ends of [0, total].
+TEST(KernelSimdMatchesScalar, PrefixSumsAndSelectionBitIdentical) {
+    rost::Rng r(1234);
+    for (int K : {1, 3, 4, 16, 17, 32}) {
+        const int Kp = rost::kernel::paddedK(K);
+        std::vector<int32_t> row(Kp, 0), g(Kp, 0);
+        std::vector<float> inv(Kp, 0.f);
+        alignas(64) float a[1024], b[1024];
+        for (int trial = 0; trial < 2000; ++trial) {
+            for (int k = 0; k < K; ++k) {
+                row[k] = static_cast<int32_t>(r.below(trial % 2 ? 50u : 100000u));
+                g[k] = static_cast<int32_t>(r.below(200));
+                inv[k] = rost::kernel::reciprocal(static_cast<int32_t>(r.below(1u << 22)), 2718.f);
+            }
+            const float ts = rost::kernel::weightsAndScanScalar(row.data(), inv.data(), g.data(), 0.1f, 0.5f, Kp, a);
+            const float tv = rost::kernel::weightsAndScanSimd(row.data(), inv.data(), g.data(), 0.1f, 0.5f, Kp, b);
+            ASSERT_EQ(std::memcmp(&ts, &tv, sizeof(float)), 0) << "K=" << K;
+            ASSERT_EQ(std::memcmp(a, b, sizeof(float) * Kp), 0) << "K=" << K;
+            for (float u : {0.f, ts * 0.5f, ts, ts * r.uniformFloat()}) {
+                const int ks = rost::kernel::selectScalar(a, Kp, K, u);
+                ASSERT_EQ(ks, rost::kernel::selectSimd(b, Kp, K, u)) << "K=" << K;
+                ASSERT_GE(ks, 0);
+                ASSERT_LT(ks, K);
+            }
+        }
+    }
+}
+
+// The lane kernels (K > 32): the SIMD path must reproduce the scalar reference bit for bit: the same
 // running sums and lane bases (compared as bit patterns) and the same drawn
 // topic, for many random count states, K values with and without padding
 // (odd and even block counts: the two chains), and u values including both
