@@ -153,3 +153,98 @@ TEST(KernelSimdMatchesScalar, WholeModelRunsGiveIdenticalLabels) {
 }
 
 } // namespace
+
+namespace rost_kernel_rounding {
+
+using rost::kernel::Path;
+
+// A generator that always returns u01 (the kernels take any type with uniformFloat()).
+struct FixedUniform {
+    float u;
+    float uniformFloat() noexcept { return u; }
+};
+
+// The least u01 in [0, 1) with u01 * scale in [lo, hi); 0 if none.
+float uniformHitting(float lo, float hi, float scale) {
+    float u01 = lo / scale;
+    for (int i = 0; i < 64 && u01 < 1.f; ++i, u01 = std::nextafter(u01, 1.f)) {
+        const float u = u01 * scale;
+        if (u >= lo && u < hi) return u01;
+    }
+    return 0.f;
+}
+
+// Weights (1 + 2^-23, 2^-24, 1.5 * 2^-24, 0) in one block: the scan's sums
+// are rounded in different orders, and the sum at the closed topic 3 ends one
+// ulp above the sum at topic 2. A u between them must draw topic 2, not the
+// closed topic, on both paths.
+TEST(KernelScanRounding, TheLaneKernelsScanNeverDrawsAClosedTopic) {
+    alignas(64) float h[8] = {1.f + 0x1p-23f, 0x1p-24f, 1.5f * 0x1p-24f, 0.f, 0.f, 0.f, 0.f, 0.f};
+    alignas(64) int32_t row[8] = {};
+    int32_t nk[8] = {5, 1, 1, 0, 0, 0, 0, 0};
+    rost::kernel::Tables t;
+    t.nk = nk;
+    t.K = t.Kp = 8;
+    t.grow = true;
+    t.beta = 1.f;
+    t.fresh = 1e-30f;
+    rost::kernel::updateTopics(t);
+    ASSERT_EQ(t.slot, 3);
+    alignas(64) float cum[8];
+    const float total = rost::kernel::scanSumsScalar<false>(row, -1, h, 1.f, 1, cum);
+    ASSERT_LT(cum[2], cum[3]) << "the rounding this test is about";
+    const float u01 = uniformHitting(cum[2], cum[3], total + t.fresh);
+    ASSERT_GT(u01, 0.f);
+    EXPECT_EQ((rost::kernel::drawTopic<rost::kernel::kGrow, Path::Scalar, false>(t, row, -1, h, 1, u01)), 2);
+    EXPECT_EQ((rost::kernel::drawTopic<rost::kernel::kGrow, Path::Simd, false>(t, row, -1, h, 1, u01)), 2);
+}
+
+// The same rounding in the register kernels (growth, few open topics): topics
+// 0-2 open with those weights, 3 closed (the slot), 4 holds the word. A u
+// between the sums at 2 and 3 draws topic 2, and the open set stays right.
+TEST(KernelScanRounding, TheRegisterKernelsNeverDrawAClosedTopic) {
+    constexpr int K = 8;
+    for (const Path path : {Path::Scalar, Path::Simd}) {
+        std::vector<int32_t> nkv(K, 0), nk = {5, 1, 1, 0, 2, 0, 0, 0}, nG(K, 0), nc(K, 0);
+        nkv[4] = nG[4] = nc[4] = 1;  // the word, at topic 4
+        alignas(64) float inv[K], dec[K], inc[K];
+        rost::kernel::Tables t;
+        t.nkv = nkv.data();
+        t.nk = nk.data();
+        t.inv = inv;
+        t.dec = dec;
+        t.inc = inc;
+        t.K = t.Kp = K;
+        t.grow = true;
+        t.alpha = t.beta = 1.f;
+        t.vbeta = 1e6f;
+        t.fresh = 1e-30f;
+        rost::kernel::refreshReciprocals(t);
+        rost::kernel::updateTopics(t);
+        inv[0] = 1.f + 0x1p-23f;  // weights ((0 + 1) * inv_k) * (0 + 1) = inv_k
+        inv[1] = 0x1p-24f;
+        inv[2] = 1.5f * 0x1p-24f;
+        // The weights after the word leaves topic 4, as the kernel forms them.
+        std::vector<int32_t> rowAfter = nkv, nGAfter = nG;
+        rowAfter[4] = nGAfter[4] = 0;
+        std::vector<float> invAfter(inv, inv + K);
+        invAfter[4] = dec[4];
+        alignas(64) float cum[K];
+        const float total =
+            rost::kernel::weightsAndScanScalar(rowAfter.data(), invAfter.data(), nGAfter.data(), 1.f, 1.f, K, cum);
+        ASSERT_LT(cum[2], cum[3]) << "the rounding this test is about";
+        FixedUniform rng{uniformHitting(cum[2], cum[3], total + t.fresh)};
+        ASSERT_GT(rng.u, 0.f);
+        const uint32_t word = 0;
+        uint16_t z = 4;
+        if (path == Path::Simd)
+            rost::kernel::refineCell<rost::kernel::kGrow, Path::Simd>(t, nG.data(), nc.data(), &word, &z, 1, rng);
+        else
+            rost::kernel::refineCell<rost::kernel::kGrow, Path::Scalar>(t, nG.data(), nc.data(), &word, &z, 1, rng);
+        EXPECT_EQ(z, 2) << (path == Path::Simd ? "simd" : "scalar");
+        EXPECT_EQ(nk[3], 0) << "the closed topic stays closed";
+        EXPECT_EQ(t.slot, 3);
+    }
+}
+
+} // namespace rost_kernel_rounding

@@ -238,15 +238,23 @@ inline constexpr int kMaxBlocks = kMaxK / kBlock;  // blocks of the runtime-K ke
 // added block by block; the new topic is the number of running sums <= u,
 // u = r * total.
 
-// The drawn topic from the number of prefix sums <= u (closed topics weigh 0,
-// so they are never drawn this way): with growth, all of the open topics'
-// sums <= u means a new topic, the slot (while there is room).
+// The drawn topic from the number of prefix sums <= u: with growth, all of
+// the open topics' sums <= u means a new topic, the slot (while there is
+// room). `away` is a topic whose count in t.nk is one higher than the draw's (the
+// frozen kernels' round-start label; -1 for the live ones, which decrement
+// n_k first).
 template <int KP>
-inline int drawnTopic(const Tables& t, int count) noexcept {
+inline int drawnTopic(const Tables& t, int count, int away = -1) noexcept {
     if constexpr (KP != kGrow) {
         return count < t.K ? count : t.K - 1;
     } else {
-        return count < t.hi ? count : (t.slot < t.K ? t.slot : t.hi - 1);
+        if (count >= t.hi) return t.slot < t.K ? t.slot : t.hi - 1;
+        // A block's scan rounds its sums in different orders, so the sum at
+        // a closed topic (weight 0) can end one ulp above the sum before it
+        // and be counted: the draw is then the last open topic below it.
+        int k = count;
+        while (k > 0 && t.nk[k] - (k == away ? 1 : 0) <= 0) --k;
+        return k;
     }
 }
 
@@ -536,7 +544,7 @@ inline void refineCellFrozenScanScalar(const Tables& t, int32_t* nG, int32_t* nc
         for (int j = 0; j < L; ++j) count += cum[j] <= u ? 1 : 0;
         // With growth, a word that opens a topic takes label `slot`: every
         // task of the round that opens one opens the same, merged after it.
-        const int k = drawnTopic<KP>(t, count);
+        const int k = drawnTopic<KP>(t, count, a);
         ++nG[k];
         if (k != z) {
             --nc[z];
@@ -593,7 +601,7 @@ inline void refineCellFrozenScanSimd(const Tables& t, int32_t* nG, int32_t* nc, 
         count = v4::hbroadcast(count);
         int k = -v4::firsti(count);
         if constexpr (KP == kGrow) {
-            k = drawnTopic<KP>(t, k);
+            k = drawnTopic<KP>(t, k, a);
             count = v4::seti(-k);
         }
         for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
@@ -734,11 +742,13 @@ inline int scanSelectScalar(const float* cum, int nb, float u) noexcept {
     return count;
 }
 
-// The last topic of positive weight in the scan order (-1: none).
-inline int lastWeightedScan(const float* cum, int nb) noexcept {
-    for (int k = kBlock * nb - 1; k >= 0; --k)
-        if (cum[k] > (k > 0 ? cum[k - 1] : 0.f)) return k;
-    return -1;
+// Topic k if its weight is positive, else the last topic of positive weight
+// below it: a block's scan rounds its sums in different orders, so the sum at
+// a topic of weight 0 (closed, or padding) can end one ulp above the sum
+// before it and be counted. The weight is positive iff h_k > 0.
+inline int lastPositive(const float* h, int k) noexcept {
+    while (k > 0 && !(h[k] > 0.f)) --k;
+    return k;
 }
 
 #if defined(ROST_KERNEL_SIMD)
@@ -776,7 +786,7 @@ ROST_KERNEL_INLINE float laneSumsSimd(const int32_t* row, int minus, const float
 template <int KA>
 ROST_KERNEL_INLINE int laneSelectSimd(const v4::F (&cum)[KA], v4::F base0, v4::F base1, int nb, float u) noexcept {
     const v4::F uu = v4::set(u);
-    const int v = -v4::hsum(v4::add(v4::le(base0, uu), v4::le(base1, uu))) - 1;
+    const int v = (-v4::hsum(v4::add(v4::le(base0, uu), v4::le(base1, uu))) - 1) & 7;  // base_0 = 0 <= u
     const v4::F t0 = v4::sub(uu, base0), t1 = v4::sub(uu, base1);
     v4::I n0 = v4::zeroi(), n1 = v4::zeroi();
     int b = 0;
@@ -831,12 +841,6 @@ ROST_KERNEL_INLINE int scanSelectSimd(const v4::F (&cum)[KA], int nb, float u) n
     return -v4::hsum(count);
 }
 
-template <int KA>
-inline int lastWeightedScanSimd(const v4::F (&cum)[KA], int nb) noexcept {
-    alignas(64) float c[kBlock * KA];
-    for (int b = 0; b < nb; ++b) v4::store(c + kBlock * b, cum[b]);
-    return lastWeightedScan(c, nb);
-}
 #endif
 
 // The canonical sums and draw on path P from memory, for tests that compare
@@ -886,11 +890,11 @@ ROST_KERNEL_INLINE int drawTopic(const Tables& t, const int32_t* row, int minus,
             const float u = u01 * (total + freshWeight<KP>(t));
             if (u < total) {
                 const int k = scanSelectSimd(cum, nb, u);
-                if (k < kBlock * nb) return k;
+                if (k < kBlock * nb) return lastPositive(h, k);
             } else if (grows) {
                 return t.slot;
             }
-            return lastWeightedScanSimd(cum, nb);
+            return lastPositive(h, kBlock * nb - 1);
         }
         v4::F base0, base1;
         const float total = laneSumsSimd<kMinus>(row, minus, h, t.beta, nb, cum, base0, base1);
@@ -908,11 +912,11 @@ ROST_KERNEL_INLINE int drawTopic(const Tables& t, const int32_t* row, int minus,
         const float u = u01 * (total + freshWeight<KP>(t));
         if (u < total) {
             const int k = scanSelectScalar(cum, nb, u);
-            if (k < kBlock * nb) return k;
+            if (k < kBlock * nb) return lastPositive(h, k);
         } else if (grows) {
             return t.slot;
         }
-        return lastWeightedScan(cum, nb);
+        return lastPositive(h, kBlock * nb - 1);
     }
     float base[8];
     const float total = laneSumsScalar<kMinus>(row, minus, h, t.beta, nb, cum, base);
