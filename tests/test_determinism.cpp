@@ -338,7 +338,10 @@ TEST(CrossArchReplay, SimdPathIsTheTargetsNativeOne) {
 // beta * alpha / (n_k + V beta) and its smallest positive u is 2^-24 times a
 // total at least that large. This checks the extreme corner of the documented
 // range (alpha, beta >= 1e-9, n_k < 2^31, V <= 2^24, beta <= 1e6).
+// Both kernels: the lane kernels' sums of (n_k^v + beta) * h_k and the
+// register kernels' scan of ((n_k^v + beta) * inv_k) * (n_G^k + alpha).
 TEST(KernelFloatRange, WeightsAndDrawStayNormalAtTheExtremesOfTheDocumentedRange) {
+    using rost::kernel::Path;
     constexpr int Kp = 16;
     struct Corner {
         float alpha, beta;
@@ -350,52 +353,28 @@ TEST(KernelFloatRange, WeightsAndDrawStayNormalAtTheExtremesOfTheDocumentedRange
         {1e-9f, 1e6f, 2147483000, static_cast<float>(16777216.0 * 1e6)},
         {1e-9f, 1e-9f, 0, static_cast<float>(1.0 * 1e-9)},
     };
-    for (const Corner& c : corners) {
-        std::vector<int32_t> row(Kp, 0), g(Kp, 0);
-        std::vector<float> inv(Kp, rost::kernel::reciprocal(c.nk, c.vbeta)), h(Kp);
-        rost::kernel::cellWeights(inv.data(), g.data(), c.alpha, Kp, h.data());
-        alignas(64) float a[Kp], b[Kp];
-        float ba[8], bb[8];
-        using rost::kernel::Path;
-        const float ts = rost::kernel::laneSums<Path::Scalar>(row.data(), h.data(), c.beta, Kp / 4, a, ba);
-        const float tv = rost::kernel::laneSums<Path::Simd>(row.data(), h.data(), c.beta, Kp / 4, b, bb);
-        for (int k = 0; k < Kp; ++k) {
-            ASSERT_EQ(std::fpclassify(a[k]), FP_NORMAL) << "running sum " << k << " = " << a[k];
-            ASSERT_EQ(std::memcmp(&a[k], &b[k], sizeof(float)), 0) << "running sum " << k;
+    for (const Corner& c : corners)
+        for (const bool lanes : {true, false}) {
+            std::vector<int32_t> row(Kp, 0), g(Kp, 0);
+            std::vector<float> inv(Kp, rost::kernel::reciprocal(c.nk, c.vbeta)), h(Kp);
+            rost::kernel::cellWeights(inv.data(), g.data(), c.alpha, Kp, h.data());
+            alignas(64) float a[Kp], b[Kp];
+            float ba[8], bb[8];
+            const float ts =
+                lanes ? rost::kernel::laneSums<Path::Scalar>(row.data(), h.data(), c.beta, Kp / 4, a, ba)
+                      : rost::kernel::weightsAndScanScalar(row.data(), inv.data(), g.data(), c.alpha, c.beta, Kp, a);
+            const float tv =
+                lanes ? rost::kernel::laneSums<Path::Simd>(row.data(), h.data(), c.beta, Kp / 4, b, bb)
+                      : rost::kernel::weightsAndScanSimd(row.data(), inv.data(), g.data(), c.alpha, c.beta, Kp, b);
+            const char* kernel = lanes ? "lane kernels" : "register kernels";
+            for (int k = 0; k < Kp; ++k) {
+                ASSERT_EQ(std::fpclassify(a[k]), FP_NORMAL) << kernel << ": running sum " << k << " = " << a[k];
+                ASSERT_EQ(std::memcmp(&a[k], &b[k], sizeof(float)), 0) << kernel << ": running sum " << k;
+            }
+            ASSERT_EQ(std::memcmp(&ts, &tv, sizeof(float)), 0) << kernel;
+            const float uMin = 0x1p-24f * ts;  // the smallest positive u = r * total
+            EXPECT_EQ(std::fpclassify(uMin), FP_NORMAL) << kernel << ": " << uMin;
         }
-        ASSERT_EQ(std::memcmp(&ts, &tv, sizeof(float)), 0);
-        const float uMin = 0x1p-24f * ts;  // the smallest positive u = r * total
-        EXPECT_EQ(std::fpclassify(uMin), FP_NORMAL) << uMin;
-    }
-}
-
-// The same corners for the register kernels' weights and scan (K <= 32).
-TEST(KernelFloatRange, ScanOrderWeightsAndDrawStayNormalAtTheExtremesOfTheDocumentedRange) {
-    constexpr int Kp = 16;
-    struct Corner {
-        float alpha, beta;
-        int32_t nk;
-        float vbeta;
-    };
-    const Corner corners[] = {
-        {1e-9f, 1e-9f, 2147483000, static_cast<float>(16777216.0 * 1e-9)},
-        {1e-9f, 1e6f, 2147483000, static_cast<float>(16777216.0 * 1e6)},
-        {1e-9f, 1e-9f, 0, static_cast<float>(1.0 * 1e-9)},
-    };
-    for (const Corner& c : corners) {
-        std::vector<int32_t> row(Kp, 0), g(Kp, 0);
-        std::vector<float> inv(Kp, rost::kernel::reciprocal(c.nk, c.vbeta));
-        alignas(64) float a[Kp], b[Kp];
-        const float ts = rost::kernel::weightsAndScanScalar(row.data(), inv.data(), g.data(), c.alpha, c.beta, Kp, a);
-        const float tv = rost::kernel::weightsAndScanSimd(row.data(), inv.data(), g.data(), c.alpha, c.beta, Kp, b);
-        for (int k = 0; k < Kp; ++k) {
-            ASSERT_EQ(std::fpclassify(a[k]), FP_NORMAL) << "prefix sum " << k << " = " << a[k];
-            ASSERT_EQ(std::memcmp(&a[k], &b[k], sizeof(float)), 0) << "prefix sum " << k;
-        }
-        ASSERT_EQ(std::memcmp(&ts, &tv, sizeof(float)), 0);
-        const float uMin = 0x1p-24f * ts;  // the smallest positive u = r * total
-        EXPECT_EQ(std::fpclassify(uMin), FP_NORMAL) << uMin;
-    }
 }
 
 // The control for the test above: weights pushed into the denormal range do

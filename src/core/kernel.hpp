@@ -22,6 +22,7 @@
 // an add, a multiply and one add on the chain, and one compare and add in the
 // draw; the sums across lanes are done once per token, not once per block.
 
+#include <algorithm>
 #include <cstdint>
 
 #include "rost/kernel_types.hpp"
@@ -874,6 +875,16 @@ inline int laneSelect(const float* cum, const float* base, int nb, float u) noex
     return k >= 0 ? k : lastWeighted(cum, nb, -1 - k);
 }
 
+// u = u01 * (total + the new-topic weight); the slot when u >= total with
+// growth. `select(u)` is the order's draw for u < total, `last()` the last
+// topic of positive weight (u at the very end by rounding).
+template <int KP, typename Select, typename Last>
+ROST_KERNEL_INLINE int drawFrom(const Tables& t, float total, float u01, Select select, Last last) noexcept {
+    const float u = u01 * (total + freshWeight<KP>(t));
+    if (u < total) return select(u);
+    return KP == kGrow && t.slot < t.K ? t.slot : last();
+}
+
 // A word's topic: the sums over nb live blocks (the scan order up to
 // kScanBlocks blocks, the lane order beyond), u = u01 * (total + the
 // new-topic weight), and the draw (the slot when u >= total with growth).
@@ -881,51 +892,45 @@ template <int KP, Path P, bool kMinus>
 ROST_KERNEL_INLINE int drawTopic(const Tables& t, const int32_t* row, int minus, const float* h, int nb,
                                  float u01) noexcept {
     constexpr int KA = KP > 0 ? KP / kBlock : kMaxBlocks;
-    const bool grows = KP == kGrow && t.slot < t.K;
+    const bool scan = KP > 0 ? KA <= kScanBlocks : nb <= kScanBlocks;
+    const int lastLane = kBlock * nb - 1;
+    auto lastScan = [&] { return lastPositive(h, lastLane); };
 #if defined(ROST_KERNEL_SIMD)
     if constexpr (P == Path::Simd) {
         v4::F cum[KA];
-        if (KP > 0 ? KA <= kScanBlocks : nb <= kScanBlocks) {
+        if (scan) {
             const float total = scanSumsSimd<kMinus>(row, minus, h, t.beta, nb, cum);
-            const float u = u01 * (total + freshWeight<KP>(t));
-            if (u < total) {
-                const int k = scanSelectSimd(cum, nb, u);
-                if (k < kBlock * nb) return lastPositive(h, k);
-            } else if (grows) {
-                return t.slot;
-            }
-            return lastPositive(h, kBlock * nb - 1);
+            return drawFrom<KP>(
+                t, total, u01, [&](float u) { return lastPositive(h, std::min(scanSelectSimd(cum, nb, u), lastLane)); },
+                lastScan);
         }
         v4::F base0, base1;
         const float total = laneSumsSimd<kMinus>(row, minus, h, t.beta, nb, cum, base0, base1);
-        const float u = u01 * (total + freshWeight<KP>(t));
-        if (u < total) {
-            const int k = laneSelectSimd(cum, base0, base1, nb, u);
-            return k >= 0 ? k : lastWeightedSimd(cum, nb, -1 - k);
-        }
-        return grows ? t.slot : lastWeightedSimd(cum, nb, 7);
+        return drawFrom<KP>(
+            t, total, u01,
+            [&](float u) {
+                const int k = laneSelectSimd(cum, base0, base1, nb, u);
+                return k >= 0 ? k : lastWeightedSimd(cum, nb, -1 - k);
+            },
+            [&] { return lastWeightedSimd(cum, nb, 7); });
     }
 #endif
     alignas(64) float cum[kBlock * KA];
-    if (KP > 0 ? KA <= kScanBlocks : nb <= kScanBlocks) {
+    if (scan) {
         const float total = scanSumsScalar<kMinus>(row, minus, h, t.beta, nb, cum);
-        const float u = u01 * (total + freshWeight<KP>(t));
-        if (u < total) {
-            const int k = scanSelectScalar(cum, nb, u);
-            if (k < kBlock * nb) return lastPositive(h, k);
-        } else if (grows) {
-            return t.slot;
-        }
-        return lastPositive(h, kBlock * nb - 1);
+        return drawFrom<KP>(
+            t, total, u01, [&](float u) { return lastPositive(h, std::min(scanSelectScalar(cum, nb, u), lastLane)); },
+            lastScan);
     }
     float base[8];
     const float total = laneSumsScalar<kMinus>(row, minus, h, t.beta, nb, cum, base);
-    const float u = u01 * (total + freshWeight<KP>(t));
-    if (u < total) {
-        const int k = laneSelectScalar(cum, base, nb, u);
-        return k >= 0 ? k : lastWeighted(cum, nb, -1 - k);
-    }
-    return grows ? t.slot : lastWeighted(cum, nb, 7);
+    return drawFrom<KP>(
+        t, total, u01,
+        [&](float u) {
+            const int k = laneSelectScalar(cum, base, nb, u);
+            return k >= 0 ? k : lastWeighted(cum, nb, -1 - k);
+        },
+        [&] { return lastWeighted(cum, nb, 7); });
 }
 
 // One count of a word-topic row or of h changed. The vector path rewrites the
