@@ -339,13 +339,18 @@ private:
     // Windows of cell picks (src/core/refine_windows.cpp).
     struct Windows;
     struct WindowJob;
+    struct MergeJob;
     bool fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept;
     bool refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
     bool refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
     void groupWindow() noexcept;
     uint64_t roundTokens(uint32_t begin, uint32_t end) const noexcept;
     void runRound(uint32_t begin, uint32_t end) noexcept;
-    void mergeRound(uint32_t begin, uint32_t end) noexcept;
+    void mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy) noexcept;
+    void runLiveRound(uint32_t task) noexcept;
+    void syncWorkerTables(bool copy) noexcept;
+    void finishRound() noexcept;
+    void cutRound(uint32_t begin, uint32_t end) noexcept;
     void countStarted(RefineCount& rc) noexcept;
     void allocateWindows();
     void chooseColours() noexcept;

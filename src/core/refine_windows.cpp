@@ -24,6 +24,16 @@ struct Model::WindowJob final : detail::WorkerPool::Job {
     void task(int worker, uint32_t index) noexcept override { (model->*kernel)(worker, tasks[index]); }
 };
 
+// The merge of a round on the pool: task r adds the round's moves to copy r
+// of n_k^v (0: the model's), whoever runs it (worker r first).
+struct Model::MergeJob final : detail::WorkerPool::Job {
+    Model* model = nullptr;
+    const uint32_t* tasks = nullptr;
+    uint32_t count = 0;
+
+    void task(int /*worker*/, uint32_t copy) noexcept override { model->mergeMoves(tasks, count, copy); }
+};
+
 namespace {
 
 // A step picker over every step of a window in order, `sweeps` times.
@@ -51,9 +61,9 @@ void Model::setThreads(int n) {
     if (n == threads() && n == cfg_.threads) return;
     Windows& w = *win_;
     pool_.reset();
-    memory_bytes_ -= w.worker_g.bytes();
-    w.worker_g.reset(static_cast<std::size_t>(n) * static_cast<std::size_t>(Kp_));
-    memory_bytes_ += w.worker_g.bytes();
+    memory_bytes_ -= w.workerBytes();
+    w.sizeWorkers(static_cast<std::size_t>(n), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
+    memory_bytes_ += w.workerBytes();
     cfg_.threads = n;
     if (n > 1 && w.W > 1) pool_ = std::make_unique<detail::WorkerPool>(n);
 }
@@ -114,10 +124,11 @@ void Model::allocateWindows() {
     const std::size_t cellsInRing = static_cast<std::size_t>(ring_) * static_cast<std::size_t>(cells_);
     if (W > 1) {
         w.z0.reset(std::min(W, cellsInRing) * static_cast<std::size_t>(cap_));
-        w.changed.reset(w.z0.size());
+        w.moves.reset(w.z0.size());
     }
-    w.task_changed.reset(W);
-    w.worker_g.reset(static_cast<std::size_t>(cfg_.threads) * static_cast<std::size_t>(Kp_));
+    w.task_moves.reset(W);
+    w.owned.reset(W);
+    w.sizeWorkers(static_cast<std::size_t>(cfg_.threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
     if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
     memory_bytes_ += w.bytes();
 }
@@ -164,20 +175,22 @@ void Model::frozenTask(int worker, uint32_t task) noexcept {
     const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(cell)];
     const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
     uint16_t* z = cell_z_.data() + base;
+    const uint32_t* words = cell_words_.data() + base;
     uint16_t* z0 = w.z0.data() + w.task_z0[task];
     std::memcpy(z0, z, n * sizeof(uint16_t));
     int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
     sumNeighbourhood<KP>(slots, cell, g);
     for (uint32_t p = w.task_head[task]; p != Windows::kNone; p = w.pick_next[p]) {
         detail::CounterRng rng(w.key, p);
-        kernel::refineCellFrozen<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, z, z0, n, rng);
+        kernel::refineCellFrozen<KP, P>(w.worker_tables[static_cast<std::size_t>(worker)], g, nck(slot, cell), words, z,
+                                        z0, n, rng);
     }
-    // The merge after the round visits only the changed labels.
-    uint32_t* changed = w.changed.data() + w.task_z0[task];
+    // The merge after the round reads only the moves.
+    uint64_t* moves = w.moves.data() + w.task_z0[task];
     uint32_t m = 0;
     for (uint32_t j = 0; j < n; ++j)
-        if (z[j] != z0[j]) changed[m++] = j;
-    w.task_changed[task] = m;
+        if (z[j] != z0[j]) moves[m++] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
+    w.task_moves[task] = m;
 }
 
 template <int KP, kernel::Path P>
@@ -304,11 +317,33 @@ uint64_t Model::roundTokens(uint32_t b, uint32_t e) const noexcept {
     return total;
 }
 
+// Orders the round's tasks by owner: the band of rows of cells a worker
+// refines whenever it can, so a cell's words, labels and counts stay in one
+// core's cache from round to round. The order of a round's tasks changes
+// nothing in its result (frozen counts, draws keyed by pick).
+void Model::cutRound(uint32_t b, uint32_t e) noexcept {
+    Windows& w = *win_;
+    const auto n = static_cast<uint32_t>(pool_->workers());
+    uint32_t* cuts = w.cuts.data();
+    std::fill_n(cuts, n + 1, 0u);
+    const auto ownerOf = [&](uint32_t t) {
+        return static_cast<uint32_t>(static_cast<uint64_t>(w.task_cell[t]) * n / static_cast<uint64_t>(cells_));
+    };
+    for (uint32_t i = b; i < e; ++i) ++cuts[ownerOf(w.order[i]) + 1];
+    for (uint32_t o = 0; o < n; ++o) cuts[o + 1] += cuts[o];
+    for (uint32_t i = b; i < e; ++i) {
+        const uint32_t t = w.order[i];
+        w.owned[cuts[ownerOf(t)]++] = t;
+    }
+    for (uint32_t o = n; o > 0; --o) cuts[o] = cuts[o - 1];
+    cuts[0] = 0;
+}
+
 void Model::runRound(uint32_t b, uint32_t e) noexcept {
     Windows& w = *win_;
     const int path = path_ == kernel::Path::Simd ? 1 : 0;
     if (e - b == 1) {  // one cell: refined against live counts, exactly as a serial sampler
-        (this->*live_kernel_[path])(0, w.order[b]);
+        runLiveRound(w.order[b]);
         return;
     }
     std::size_t off = 0;
@@ -319,38 +354,97 @@ void Model::runRound(uint32_t b, uint32_t e) noexcept {
     }
     WindowJob job;
     job.model = this;
-    job.tasks = w.order.data() + b;
     job.kernel = frozen_kernel_[path];
-    if (pool_)
-        pool_->run(job, e - b);
-    else
+    MergeJob merge;
+    merge.model = this;
+    merge.count = e - b;
+    if (pool_) {
+        cutRound(b, e);
+        job.tasks = merge.tasks = w.owned.data();
+        pool_->run(job, e - b, w.cuts.data());
+        pool_->run(merge, static_cast<uint32_t>(pool_->workers()));
+    } else {
+        job.tasks = merge.tasks = w.order.data() + b;
         for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
-    mergeRound(b, e);
+        merge.task(0, 0);
+    }
+    finishRound();
 }
 
-// Adds each changed label's move to n_k^v and n_k: integer adds, in any order the same.
-void Model::mergeRound(uint32_t b, uint32_t e) noexcept {
-    const Windows& w = *win_;
-    for (uint32_t i = b; i < e; ++i) {
-        const uint32_t t = w.order[i];
-        const std::size_t slot = slotOf(w.task_step[t]);
-        const std::size_t base = (slot * cells_ + static_cast<std::size_t>(w.task_cell[t])) * cap_;
-        const uint16_t* z = cell_z_.data() + base;
-        const uint16_t* z0 = w.z0.data() + w.task_z0[t];
-        const uint32_t* changed = w.changed.data() + w.task_z0[t];
-        const uint32_t* words = cell_words_.data() + base;
-        for (uint32_t c = 0; c < w.task_changed[t]; ++c) {
-            const uint32_t j = changed[c];
-            int32_t* row = nkv_.data() + static_cast<std::size_t>(words[j]) * Kp_;
-            --row[z0[j]];
+// The live kernel refines one cell against the model's n_k^v: its moves go
+// to the workers' copies.
+void Model::runLiveRound(uint32_t task) noexcept {
+    Windows& w = *win_;
+    const int path = path_ == kernel::Path::Simd ? 1 : 0;
+    if (!pool_) {
+        (this->*live_kernel_[path])(0, task);
+        return;
+    }
+    const std::size_t base = (slotOf(w.task_step[task]) * cells_ + static_cast<std::size_t>(w.task_cell[task])) * cap_;
+    const uint32_t n = cellWordCount(w.task_step[task], w.task_cell[task]);
+    const uint16_t* z = cell_z_.data() + base;
+    const uint32_t* words = cell_words_.data() + base;
+    std::memcpy(w.z0.data(), z, n * sizeof(uint16_t));
+    (this->*live_kernel_[path])(0, task);
+    for (std::size_t r = 1; r < static_cast<std::size_t>(pool_->workers()); ++r) {
+        int32_t* nkv = w.worker_tables[r].nkv;
+        for (uint32_t j = 0; j < n; ++j) {
+            if (z[j] == w.z0[j]) continue;
+            int32_t* row = nkv + static_cast<std::size_t>(words[j]) * Kp_;
+            --row[w.z0[j]];
             ++row[z[j]];
-            --nk_[z0[j]];
-            ++nk_[z[j]];
         }
+    }
+    syncWorkerTables(false);  // n_k and the open topics moved with the cell
+}
+
+// Adds the moves of the round's tasks to copy `copy` of n_k^v, and, for the
+// model's own (copy 0), to n_k's change: integer adds, in any order the same.
+void Model::mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy) noexcept {
+    Windows& w = *win_;
+    int32_t* nkv = w.worker_tables[copy].nkv;
+    int32_t* dnk = w.dnk.data();
+    for (uint32_t i = 0; i < count; ++i) {
+        const uint32_t t = tasks[i];
+        const uint64_t* moves = w.moves.data() + w.task_z0[t];
+        for (uint32_t c = 0; c < w.task_moves[t]; ++c) {
+            const uint64_t mv = moves[c];
+            const auto from = static_cast<uint16_t>(mv >> 32), to = static_cast<uint16_t>(mv >> 48);
+            int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp_;
+            --row[from];
+            ++row[to];
+            if (copy == 0) {
+                --dnk[from];
+                ++dnk[to];
+            }
+        }
+    }
+}
+
+// After the merge: n_k, the reciprocals, the open topics, and the workers' tables.
+void Model::finishRound() noexcept {
+    Windows& w = *win_;
+    for (int k = 0; k < Kp_; ++k) {
+        nk_[k] += w.dnk[k];
+        w.dnk[k] = 0;
     }
     kernel::refreshReciprocals(tables_);
     // Topics closed and opened (every task that opened one opened the same).
     kernel::updateTopics(tables_);
+    syncWorkerTables(false);
+}
+
+// The workers' tables are the model's, each with its own n_k^v; with `copy`
+// the copies are made equal to the model's (when a refinement starts).
+void Model::syncWorkerTables(bool copy) noexcept {
+    Windows& w = *win_;
+    const std::size_t n = w.worker_tables.size(), table = static_cast<std::size_t>(V_) * static_cast<std::size_t>(Kp_);
+    for (std::size_t r = 0; r < n; ++r) {
+        int32_t* nkv = r == 0 || w.replicas.size() == 0 ? nkv_.data() : w.replicas.data() + (r - 1) * table;
+        if (copy && r > 0 && nkv != nkv_.data()) std::memcpy(nkv, nkv_.data(), table * sizeof(int32_t));
+        w.worker_tables[r] = tables_;
+        w.worker_tables[r].nkv = nkv;
+    }
 }
 
 void Model::countStarted(RefineCount& rc) noexcept {
@@ -394,6 +488,7 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
     w.cur_step = -1;
     w.next_cell = 0;
     w.counted_ord = 0;
+    if (w.W > 1) syncWorkerTables(true);
     while (fillWindow(picker, limits, rc)) {
         const bool go = w.W == 1 ? refineSerialWindow(limits, rc) : refineParallelWindow(limits, rc);
         if (!go) break;

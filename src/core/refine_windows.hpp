@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "rost/aligned_buffer.hpp"
+#include "rost/kernel_types.hpp"
 #include "rost/model.hpp"
 #include "worker_pool.hpp"
 
@@ -40,12 +41,23 @@ struct Model::Windows {
     AlignedBuffer<uint32_t> hash_stamp;
     uint32_t stamp = 0;
     // Labels of a round's cells when it began (frozen view of n_k^v), and
-    // which of them a task changed (its slots, listed by the task itself).
+    // the moves a task made, listed by the task itself: word | from << 32 |
+    // to << 48 (a compact list the merge reads on every core).
     AlignedBuffer<uint16_t> z0;
-    AlignedBuffer<uint32_t> changed;
-    AlignedBuffer<uint32_t> task_changed;  // how many
-    // Per worker: neighbourhood sums.
+    AlignedBuffer<uint64_t> moves;
+    AlignedBuffer<uint32_t> task_moves;  // how many
+    // Per worker: neighbourhood sums and the kernel's tables. With workers,
+    // each worker w > 0 reads its own copy of n_k^v (replica w - 1; worker 0
+    // reads the model's), so the rows a round reads are in its core's cache:
+    // the copies are made equal when a refinement starts, and each round's
+    // moves are added to every copy (docs/design.md, "Refinement on every core").
     AlignedBuffer<int32_t> worker_g;
+    AlignedBuffer<kernel::Tables> worker_tables;
+    AlignedBuffer<int32_t> replicas;
+    AlignedBuffer<int32_t> dnk;  // the merge's change to n_k
+    // A round's tasks by owner (scratch) and the owners' ranges (threads + 1).
+    AlignedBuffer<uint32_t> owned;
+    AlignedBuffer<uint32_t> cuts;
     uint64_t key = 0;
     // The step being expanded into cell picks.
     int64_t cur_step = -1;
@@ -54,11 +66,23 @@ struct Model::Windows {
     uint64_t counted_ord = 0;
     static constexpr uint32_t kNone = 0xFFFFFFFFu;
 
+    std::size_t workerBytes() const noexcept {
+        return worker_g.bytes() + worker_tables.bytes() + replicas.bytes() + dnk.bytes() + cuts.bytes();
+    }
+    // Sized for n workers over a V x Kp table (set-up code).
+    void sizeWorkers(std::size_t n, std::size_t V, std::size_t Kp) {
+        worker_g.reset(n * Kp);
+        worker_tables.reset(n);
+        replicas.reset(W > 1 ? (n - 1) * V * Kp : 0);
+        dnk.reset(Kp);
+        cuts.reset(n + 1);
+    }
+
     std::size_t bytes() const noexcept {
         return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
                task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
                task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() + hash_key.bytes() +
-               hash_task.bytes() + hash_stamp.bytes() + z0.bytes() + changed.bytes() + task_changed.bytes() + worker_g.bytes() + sizeof(Windows);
+               hash_task.bytes() + hash_stamp.bytes() + z0.bytes() + moves.bytes() + task_moves.bytes() + workerBytes() + owned.bytes() + sizeof(Windows);
     }
 };
 

@@ -25,7 +25,10 @@ inline void cpuRelax() noexcept {
 
 } // namespace
 
-WorkerPool::WorkerPool(int workers) : workers_(workers < 1 ? 1 : workers) { start(nullptr); }
+WorkerPool::WorkerPool(int workers)
+    : workers_(workers < 1 ? 1 : workers), ranges_(std::make_unique<Range[]>(static_cast<std::size_t>(workers_))) {
+    start(nullptr);
+}
 
 WorkerPool::~WorkerPool() { stopThreads(); }
 
@@ -62,6 +65,14 @@ void WorkerPool::waitChange(std::atomic<uint32_t>& a, uint32_t old) noexcept {
     while (a.load(std::memory_order_acquire) == old) a.wait(old, std::memory_order_acquire);
 }
 
+void WorkerPool::waitFor(std::atomic<uint32_t>& a, uint32_t want) noexcept {
+    for (int i = 0; i < kSpinIterations; ++i) {
+        if (a.load(std::memory_order_acquire) == want) return;
+        cpuRelax();
+    }
+    for (uint32_t v; (v = a.load(std::memory_order_acquire)) != want;) a.wait(v, std::memory_order_acquire);
+}
+
 void WorkerPool::workerMain(int index, const ThreadSettings* settings, uint32_t seen) noexcept {
     if (settings) {
         ThreadSettings s = *settings;
@@ -82,27 +93,40 @@ void WorkerPool::workerMain(int index, const ThreadSettings* settings, uint32_t 
         waitChange(generation_, seen);
         seen = generation_.load(std::memory_order_acquire);
         if (stop_.load(std::memory_order_relaxed)) return;
-        runTasks(index, seen);
+        const uint32_t ran = runTasks(index, seen);
+        if (ran > 0) countDone(ran, count_);
     }
 }
 
-void WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
+uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
     const uint64_t gen = generation & 0xFFFFFFu;
-    uint64_t c = claim_.load(std::memory_order_acquire);
-    for (;;) {
-        if ((c >> 40) != gen) return;  // a later job's word: this one is over
-        const uint64_t count = (c >> 20) & kField, next = c & kField;
-        if (next >= count) return;
-        // A successful claim of a task not yet done pins the job: the caller
-        // cannot start another before this task is counted done.
-        if (!claim_.compare_exchange_weak(c, c + 1, std::memory_order_acquire, std::memory_order_acquire)) continue;
-        job_->task(worker, static_cast<uint32_t>(next));
-        if (done_.fetch_add(1, std::memory_order_acq_rel) + 1 == count) done_.notify_one();
-        c = claim_.load(std::memory_order_acquire);
+    uint32_t ran = 0;
+    // Its own range from the front, then the others' from the back.
+    for (int i = 0; i < workers_; ++i) {
+        std::atomic<uint64_t>& word = ranges_[static_cast<std::size_t>((worker + i) % workers_)].word;
+        uint64_t c = word.load(std::memory_order_acquire);
+        for (;;) {
+            if ((c >> 40) != gen) return ran;  // a later job's word: this one is over
+            const uint64_t end = (c >> 20) & kField, next = c & kField;
+            if (next >= end) break;
+            // A successful claim of a task not yet done pins the job: the
+            // caller cannot start another before this task is counted done.
+            const uint64_t claimed = i == 0 ? c + 1 : c - (uint64_t{1} << 20);
+            if (!word.compare_exchange_weak(c, claimed, std::memory_order_acquire, std::memory_order_acquire)) continue;
+            ++ran;
+            job_->task(worker, static_cast<uint32_t>(i == 0 ? next : end - 1));
+            c = word.load(std::memory_order_acquire);
+        }
     }
+    return ran;
 }
 
-void WorkerPool::run(Job& job, uint32_t count) noexcept {
+void WorkerPool::countDone(uint32_t ran, uint32_t count) noexcept {
+    // The line holding the count moves between cores once per worker and job, not per task.
+    if (done_.fetch_add(ran, std::memory_order_acq_rel) + ran == count) done_.notify_one();
+}
+
+void WorkerPool::run(Job& job, uint32_t count, const uint32_t* cuts) noexcept {
     ++jobs_;
     if (count == 0) return;
     if (workers_ == 1) {
@@ -110,18 +134,20 @@ void WorkerPool::run(Job& job, uint32_t count) noexcept {
         return;
     }
     job_ = &job;
+    count_ = count;
     done_.store(0, std::memory_order_relaxed);
     const uint32_t g = generation_.load(std::memory_order_relaxed) + 1;
-    claim_.store((static_cast<uint64_t>(g & 0xFFFFFFu) << 40) | (static_cast<uint64_t>(count) << 20),
-                 std::memory_order_release);
+    const uint64_t gen = static_cast<uint64_t>(g & 0xFFFFFFu) << 40;
+    const auto n = static_cast<uint64_t>(workers_);
+    for (uint64_t w = 0; w < n; ++w) {
+        const uint64_t lo = cuts ? cuts[w] : count * w / n, hi = cuts ? cuts[w + 1] : count * (w + 1) / n;
+        ranges_[w].word.store(gen | (hi << 20) | lo, std::memory_order_relaxed);
+    }
     generation_.store(g, std::memory_order_release);
     generation_.notify_all();
-    runTasks(0, g);
-    for (int i = 0; i < kSpinIterations; ++i) {
-        if (done_.load(std::memory_order_acquire) == count) return;
-        cpuRelax();
-    }
-    for (uint32_t d; (d = done_.load(std::memory_order_acquire)) != count;) done_.wait(d, std::memory_order_acquire);
+    const uint32_t ran = runTasks(0, g);
+    if (ran > 0) countDone(ran, count);
+    waitFor(done_, count);
 }
 
 } // namespace rost::detail

@@ -10,13 +10,17 @@
 // steps. run() allocates nothing, takes no lock and makes no blocking call
 // while the workers are busy; waking a parked worker is a futex wake.
 //
-// A job is `count` independent tasks. Every thread, the caller included,
-// claims tasks one at a time from a shared word that also holds the job's
-// generation and task count, so a worker that wakes late (descheduled on a
-// loaded machine) finds the job over and claims nothing: run() returns as
-// soon as every task is done, whoever did them, and never waits for a
-// worker that is not running. Every task's writes are visible to the caller
-// when run() returns, and the caller's writes before run() to every task.
+// A job is `count` independent tasks, cut into one contiguous range per
+// worker (by default even; the caller may give the cuts, so that a worker
+// keeps the cells whose data are already in its cache). Each worker takes
+// the tasks of its own range from the front; when it is empty it steals
+// from the back of the others'. A range is one word that also holds the
+// job's generation, so a worker that wakes late (descheduled on a loaded
+// machine) finds the job over and claims nothing: the tasks are done by
+// whoever runs, and run() never waits for a worker that is not running.
+//
+// Every task's writes are visible to the caller when run() returns, and
+// the caller's writes before run() to every task.
 
 #include <atomic>
 #include <cstdint>
@@ -57,7 +61,9 @@ public:
 
     // Runs tasks 0..count-1 of the job (count < 2^20) on the workers and the
     // caller (worker 0); returns when all are done.
-    void run(Job& job, uint32_t count) noexcept;
+    // `cuts`, when given, holds workers() + 1 ascending task indices from 0
+    // to count: worker w's own range is [cuts[w], cuts[w + 1]).
+    void run(Job& job, uint32_t count, const uint32_t* cuts = nullptr) noexcept;
 
     // Jobs run so far (for tests).
     uint64_t jobs() const noexcept { return jobs_; }
@@ -67,16 +73,25 @@ private:
     void stopThreads() noexcept;
     void workerMain(int index, const ThreadSettings* settings, uint32_t seen) noexcept;
     static void waitChange(std::atomic<uint32_t>& a, uint32_t old) noexcept;
-    // Claims and runs tasks of the job of `generation` until none is left.
-    void runTasks(int worker, uint32_t generation) noexcept;
+    // Claims and runs tasks of the job of `generation` until none is left;
+    // returns how many it ran.
+    uint32_t runTasks(int worker, uint32_t generation) noexcept;
+    // Counts the worker's tasks done (one add per worker and job).
+    void countDone(uint32_t ran, uint32_t count) noexcept;
+    static void waitFor(std::atomic<uint32_t>& a, uint32_t want) noexcept;
+
+    struct alignas(64) Range {
+        // generation (24 bits) | end (20 bits) | next (20 bits)
+        std::atomic<uint64_t> word{0};
+    };
 
     int workers_;
     alignas(64) std::atomic<uint32_t> generation_{0};  // bumped per job (workers park on it)
-    // generation (24 bits) | count (20 bits) | next task (20 bits)
-    alignas(64) std::atomic<uint64_t> claim_{0};
-    alignas(64) std::atomic<uint32_t> done_{0};
+    std::unique_ptr<Range[]> ranges_;
+    alignas(64) std::atomic<uint32_t> done_{0};  // tasks done
     std::atomic<bool> stop_{false};
     Job* job_ = nullptr;
+    uint32_t count_ = 0;
     uint64_t jobs_ = 0;
     std::vector<std::thread> threads_;
     std::unique_ptr<ThreadSettings> settings_;
