@@ -5,12 +5,22 @@
 #include <cstring>
 #include <new>
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 namespace rost {
 
 // Cache-line constant pinned here rather than taken from
 // std::hardware_destructive_interference_size, which differs between targets
 // and compilers and would change struct layouts across architectures.
 inline constexpr std::size_t kCacheLine = 64;
+
+// Buffers of at least this size are aligned to it and, on Linux, asked for
+// transparent huge pages: the ring's tables are touched once at set-up (one
+// fault per 2 MiB instead of per 4 KiB) and refinement's random reads across
+// them miss the TLB less. Where huge pages are off this changes nothing.
+inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 
 // A fixed-size, zero-initialised, cache-line-aligned array. Allocates once in
 // its constructor (set-up time) and never again; not copyable.
@@ -43,9 +53,13 @@ public:
         size_ = 0;
         if (n == 0) return;
         std::size_t bytes = (n * sizeof(T) + kCacheLine - 1) / kCacheLine * kCacheLine;
-        void* p = std::aligned_alloc(kCacheLine, bytes);
+        const std::size_t align = bytes >= kHugePage ? kHugePage : kCacheLine;
+        void* p = std::aligned_alloc(align, (bytes + align - 1) / align * align);
         if (p == nullptr) throw std::bad_alloc();
-        std::memset(p, 0, bytes);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+        if (align == kHugePage) (void)madvise(p, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
+#endif
+        std::memset(p, 0, bytes);  // every page is touched now, at set-up
         data_ = static_cast<T*>(p);
         size_ = n;
     }

@@ -349,6 +349,7 @@ private:
     void mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy) noexcept;
     void runLiveRound(uint32_t task) noexcept;
     void syncWorkerTables(bool copy) noexcept;
+    bool workerCopiesAgree(std::string* why) const;
     void finishRound() noexcept;
     void cutRound(uint32_t begin, uint32_t end) noexcept;
     void countStarted(RefineCount& rc) noexcept;

@@ -742,6 +742,7 @@ bool Model::checkInvariants(std::string* why) const {
             if (k >= K_ && c != 0) return fail("padding count non-zero at word " + std::to_string(v));
             nk[k] += c;
         }
+    if (!workerCopiesAgree(why)) return false;
     kernel::Tables topics = tables_;
     kernel::updateTopics(topics);
     if (topics.active != tables_.active || topics.hi != tables_.hi || topics.slot != tables_.slot)

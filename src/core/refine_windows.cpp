@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstring>
+#include <string>
 
 #include "counter_rng.hpp"
 #include "kernel.hpp"
@@ -434,6 +435,25 @@ void Model::finishRound() noexcept {
     syncWorkerTables(false);
 }
 
+bool Model::workerCopiesAgree(std::string* why) const {
+    const Windows& w = *win_;
+    if (!w.copies_synced) return true;
+    const std::size_t table = static_cast<std::size_t>(V_) * static_cast<std::size_t>(Kp_);
+    for (std::size_t r = 0; r < w.worker_tables.size(); ++r) {
+        const kernel::Tables& t = w.worker_tables[r];
+        if (t.nk != nk_.data() || t.inv != inv_.data() || t.active != tables_.active || t.hi != tables_.hi ||
+            t.slot != tables_.slot) {
+            if (why) *why = "worker " + std::to_string(r) + "'s tables are stale";
+            return false;
+        }
+        if (std::memcmp(t.nkv, nkv_.data(), table * sizeof(int32_t)) != 0) {
+            if (why) *why = "worker " + std::to_string(r) + "'s copy of n_k^v differs from the model's";
+            return false;
+        }
+    }
+    return true;
+}
+
 // The workers' tables are the model's, each with its own n_k^v; with `copy`
 // the copies are made equal to the model's (when a refinement starts).
 void Model::syncWorkerTables(bool copy) noexcept {
@@ -489,10 +509,12 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
     w.next_cell = 0;
     w.counted_ord = 0;
     if (w.W > 1) syncWorkerTables(true);
+    w.copies_synced = w.W > 1;
     while (fillWindow(picker, limits, rc)) {
         const bool go = w.W == 1 ? refineSerialWindow(limits, rc) : refineParallelWindow(limits, rc);
         if (!go) break;
     }
+    w.copies_synced = false;  // the model's table may change before the next refinement
     return rc;
 }
 

@@ -55,6 +55,7 @@ struct Model::Windows {
     AlignedBuffer<kernel::Tables> worker_tables;
     AlignedBuffer<int32_t> replicas;
     AlignedBuffer<int32_t> dnk;  // the merge's change to n_k
+    bool copies_synced = false;  // inside a refinement: the copies are kept equal
     // A round's tasks by owner (scratch) and the owners' ranges (threads + 1).
     AlignedBuffer<uint32_t> owned;
     AlignedBuffer<uint32_t> cuts;

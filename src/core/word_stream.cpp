@@ -1,5 +1,6 @@
 #include "rost/word_stream.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -170,9 +171,21 @@ Status readFile(const std::string& path, std::string& out) {
     FILE* f = std::fopen(path.c_str(), "rb");
     if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
     out.clear();
-    char buf[1 << 16];
-    std::size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
+    // Read into place: sized once from the file's length when it has one
+    // (a pipe grows it), not copied through a buffer and a doubling string.
+    std::size_t have = 0;
+    if (std::fseek(f, 0, SEEK_END) == 0) {
+        const long len = std::ftell(f);
+        if (len > 0) out.resize(static_cast<std::size_t>(len) + 1);
+        std::rewind(f);
+    }
+    for (;;) {
+        if (have == out.size()) out.resize(std::max<std::size_t>(out.size() * 2, std::size_t{1} << 16));
+        const std::size_t n = std::fread(out.data() + have, 1, out.size() - have, f);
+        have += n;
+        if (n == 0) break;
+    }
+    out.resize(have);
     const bool failed = std::ferror(f) != 0;
     std::fclose(f);
     if (failed) return Status::error(path + ": read error");
