@@ -340,6 +340,7 @@ private:
     struct Windows;
     struct WindowJob;
     struct MergeJob;
+    struct CopyJob;
     bool fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept;
     bool refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
     bool refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept;

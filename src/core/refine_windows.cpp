@@ -35,6 +35,18 @@ struct Model::MergeJob final : detail::WorkerPool::Job {
     void task(int /*worker*/, uint32_t copy) noexcept override { model->mergeMoves(tasks, count, copy); }
 };
 
+// The copies of n_k^v made equal to the model's: task r copies into copy r (task 0: nothing to do).
+struct Model::CopyJob final : detail::WorkerPool::Job {
+    Model* model = nullptr;
+
+    void task(int /*worker*/, uint32_t copy) noexcept override {
+        if (copy == 0) return;
+        const Windows& w = *model->win_;
+        const std::size_t table = static_cast<std::size_t>(model->V_) * static_cast<std::size_t>(model->Kp_);
+        std::memcpy(w.worker_tables[copy].nkv, model->nkv_.data(), table * sizeof(int32_t));
+    }
+};
+
 namespace {
 
 // A step picker over every step of a window in order, `sweeps` times.
@@ -455,16 +467,20 @@ bool Model::workerCopiesAgree(std::string* why) const {
 }
 
 // The workers' tables are the model's, each with its own n_k^v; with `copy`
-// the copies are made equal to the model's (when a refinement starts).
+// the copies are made equal to the model's (when a refinement starts), on
+// the pool: worker r copies its own first, so the copy starts in its cache,
+// and the time is one copy's whatever the number of workers.
 void Model::syncWorkerTables(bool copy) noexcept {
     Windows& w = *win_;
     const std::size_t n = w.worker_tables.size(), table = static_cast<std::size_t>(V_) * static_cast<std::size_t>(Kp_);
     for (std::size_t r = 0; r < n; ++r) {
-        int32_t* nkv = r == 0 || w.replicas.size() == 0 ? nkv_.data() : w.replicas.data() + (r - 1) * table;
-        if (copy && r > 0 && nkv != nkv_.data()) std::memcpy(nkv, nkv_.data(), table * sizeof(int32_t));
         w.worker_tables[r] = tables_;
-        w.worker_tables[r].nkv = nkv;
+        w.worker_tables[r].nkv = r == 0 || w.replicas.size() == 0 ? nkv_.data() : w.replicas.data() + (r - 1) * table;
     }
+    if (!copy || !pool_ || w.replicas.size() == 0) return;
+    CopyJob job;
+    job.model = this;
+    pool_->run(job, static_cast<uint32_t>(n));
 }
 
 void Model::countStarted(RefineCount& rc) noexcept {
