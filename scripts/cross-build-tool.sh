@@ -70,7 +70,7 @@ fi
 # The arm64 packages the vision parts and the tool build against. libc6-dev
 # and libstdc++-12-dev put the target's C runtime and crt files in the sysroot
 # (the cross compiler takes its C++ headers from its own installation).
-packages=(libopencv-dev libcamera-dev libcli11-dev libeigen3-dev libc6-dev libstdc++-12-dev)
+packages=(libopencv-dev libcamera-dev libcli11-dev libpng-dev libeigen3-dev libc6-dev libstdc++-12-dev)
 
 t0=$(date +%s)
 stamp=$sysroot/.rost-sysroot-complete
@@ -140,6 +140,9 @@ if [ "$test" = 1 ]; then
   (cd "$build" && ctest "${ctest_args[@]}") || status=1
   if [ -n "$tool" ]; then
     qemu-aarch64 -L "$sysroot" "$tool" --help >/dev/null && echo "rost --help under qemu: ok" || status=1
+    # `rost run` becomes rost-vision (execv), which qemu-user cannot follow: run it directly.
+    qemu-aarch64 -L "$sysroot" "$(dirname "$tool")/rost-vision" run --help >/dev/null &&
+      echo "rost-vision run --help under qemu: ok" || status=1
   fi
 fi
 echo "=== cross-build-tool: total $(( $(date +%s) - t0 )) s"

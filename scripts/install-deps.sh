@@ -7,7 +7,7 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 export DEBIAN_FRONTEND=noninteractive
 packages=(
   build-essential cmake ninja-build pkg-config
-  libeigen3-dev libopencv-dev libcamera-dev libcli11-dev zlib1g-dev
+  libeigen3-dev libopencv-dev libcamera-dev libcli11-dev zlib1g-dev libpng-dev
   libgtest-dev googletest libgmock-dev libbenchmark-dev
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   clang libclang-rt-14-dev valgrind ffmpeg

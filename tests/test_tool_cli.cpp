@@ -58,6 +58,43 @@ TEST(ToolCli, HelpExplainsEveryCommandAndOption) {
     EXPECT_NE(r.out.find("--words"), std::string::npos);
 }
 
+// `rost` links no OpenCV video or image I/O (and no ROS): those libraries
+// cost 0.15 s of start-up (docs/tool.md, "Two programs"). rost-vision, which
+// runs `rost run`, has them: the check tells the two apart.
+TEST(ToolCli, RostStartsWithoutVideoImageIoOrRos) {
+    const std::string vision = std::filesystem::path(ROST_TOOL).parent_path() / "rost-vision";
+    const RunResult light = rost::testing::runShell("readelf -d " + tool());
+    const RunResult heavy = rost::testing::runShell("readelf -d '" + vision + "'");
+    ASSERT_EQ(light.exit_code, 0) << light.err;
+    ASSERT_EQ(heavy.exit_code, 0) << heavy.err;
+    EXPECT_NE(light.out.find("NEEDED"), std::string::npos) << light.out;
+    for (const char* lib : {"opencv_videoio", "opencv_imgcodecs", "opencv_features2d", "rosbag", "roscpp"})
+        EXPECT_EQ(light.out.find(lib), std::string::npos) << "rost needs " << lib << ":\n" << light.out;
+    EXPECT_NE(heavy.out.find("opencv_videoio"), std::string::npos) << heavy.out;
+}
+
+// Without rost-vision beside it (or where the install puts it), `rost run`
+// says which program it needs; `rost refine` still works.
+TEST(ToolCli, RunWithoutRostVisionNamesTheProgram) {
+    TempDir t;
+    const std::string alone = t / "rost";
+    std::filesystem::copy_file(ROST_TOOL, alone);
+    std::filesystem::permissions(alone, std::filesystem::perms::owner_all);
+    const RunResult r = rost::testing::runShell("'" + alone + "' run x.mp4 --out '" + (t / "o") + "'");
+    expectError(r, "rost-vision", t / "o");
+    EXPECT_NE(r.err.find("cannot run it"), std::string::npos) << r.err;
+    {
+        std::FILE* f = std::fopen((t / "w.csv").c_str(), "w");
+        ASSERT_NE(f, nullptr);
+        std::fputs("0,1,2,3\n1,3,2,1\n", f);
+        std::fclose(f);
+    }
+    const RunResult ok = rost::testing::runShell("'" + alone + "' refine '" + (t / "w.csv") + "' --out '" + (t / "r") +
+                                                 "' -K 2 -q");
+    EXPECT_EQ(ok.exit_code, 0) << ok.err;
+    EXPECT_TRUE(std::filesystem::exists(t / "r/summary.png"));
+}
+
 TEST(ToolCli, NoCommandOrUnknownOptionIsAnErrorWithExitCode2) {
     expectError(runRost(""), "subcommand");
     TempDir t;

@@ -1,11 +1,25 @@
 // The `rost` command-line tool. See docs/tool.md, or `rost --help` and
 // `rost run --help`.
+//
+// Built twice (docs/tool.md, "Two programs"): `rost` itself (ROST_TOOL_LIGHT)
+// runs `refine` and `config` and links no OpenCV I/O, so it starts in
+// milliseconds; for `run`, `vocab` and `cameras` it parses the command line
+// (errors and --help are its own) and then becomes `rost-vision`, the same
+// program with the frame sources, the video writer and ROS bags.
 
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <memory>
 #include <string>
+
+#if ROST_TOOL_LIGHT
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#endif
 
 #include <CLI/CLI.hpp>
 #include <opencv2/core/utils/logger.hpp>
@@ -147,6 +161,29 @@ CLI::App* addVocab(CLI::App& app, VocabOptions& voc) {
     return vocCmd;
 }
 
+#if ROST_TOOL_LIGHT
+// rost-vision: beside this program (the build tree), or where the install
+// puts it relative to its bin directory (ROST_VISION_FROM_BIN).
+std::string visionProgram() {
+    std::error_code ec;
+    const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (ec) return "rost-vision";
+    const std::filesystem::path dir = self.parent_path();
+    for (const std::filesystem::path& p : {dir / "rost-vision", dir / ROST_VISION_FROM_BIN})
+        if (::access(p.c_str(), X_OK) == 0) return p.lexically_normal().string();
+    return (dir / ROST_VISION_FROM_BIN).lexically_normal().string();
+}
+
+// Replaces this process with rost-vision, the same arguments: it returns only on failure.
+int runVisionProgram(char** argv) {
+    const std::string path = visionProgram();
+    std::fflush(nullptr);
+    ::execv(path.c_str(), argv);
+    return fail(path + ": cannot run it (" + std::strerror(errno) +
+                "): `rost run`, `rost vocab` and `rost cameras` are in that program, installed with rost");
+}
+#endif
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -196,15 +233,22 @@ int main(int argc, char** argv) {
         return fail(std::string(e.what()) + " (see rost --help)");
     }
 
+#if ROST_TOOL_LIGHT
+    if (run.cmd->parsed() || vocCmd->parsed() || camCmd->parsed()) return runVisionProgram(argv);
+#endif
     if ((run.cmd->parsed() && givenOn(run.cmd)("--resume") && run.o.model.resume.empty()) ||
         (ref.cmd->parsed() && givenOn(ref.cmd)("--resume") && ref.o.model.resume.empty()))
         return fail("--resume: no file given");
+#if !ROST_TOOL_LIGHT
     if (run.cmd->parsed()) {
         if (const rost::Status st = run.settings->apply(&run.o, nullptr); !st.ok()) return fail(st.message());
         run.o.overlay = !run.noOverlay;
         run.o.summary = !run.noSummary;
         return runCommand(run.o);
     }
+    if (vocCmd->parsed()) return vocabCommand(voc);
+    if (camCmd->parsed()) return camerasCommand();
+#endif
     if (ref.cmd->parsed()) {
         if (const rost::Status st = ref.settings->apply(nullptr, &ref.o); !st.ok()) return fail(st.message());
         ref.o.summary = !ref.noSummary;
@@ -214,7 +258,5 @@ int main(int argc, char** argv) {
         if (const rost::Status st = confSettings.apply(nullptr, nullptr); !st.ok()) return fail(st.message());
         return configCommand(conf);
     }
-    if (vocCmd->parsed()) return vocabCommand(voc);
-    if (camCmd->parsed()) return camerasCommand();
     return kExitError;
 }

@@ -5,12 +5,11 @@
 #include <chrono>
 #include <cstdio>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include "collector.hpp"
 #include "outputs.hpp"
+#include "png_file.hpp"
 #include "progress.hpp"
-#include "sinks.hpp"
+#include "results.hpp"
 #include "stages.hpp"
 #include "tool.hpp"
 
@@ -47,7 +46,7 @@ Status writeRefineSummary(OutputDir& out, const RefineOptions& o, const StreamSt
     si.K = in.ec.model.K;
     si.rows = c.rows();
     si.resumed = in.resuming;
-    if (!cv::imwrite(out.staged("summary.png"), drawSummary(si))) return Status::error(out.staged("summary.png") + ": cannot write");
+    if (Status st = writePng(out.staged("summary.png"), drawSummary(si)); !st.ok()) return st;
     out.track("summary.png");
     return {};
 }
