@@ -3,6 +3,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include <unistd.h>
 
 #include "rost/word_stream.hpp"
 
@@ -90,6 +94,80 @@ TEST(WordStreamCsv, WriterOutputParsesBackAndAtomicWriteReplaces) {
     ASSERT_FALSE(st.ok());
     EXPECT_NE(st.message().find("missing/x.csv"), std::string::npos) << st.message();
     std::filesystem::remove_all(dir);
+}
+
+// Reads files of `words` and `positions` (an empty `positions` string is a
+// missing --positions) with `threads`; "ok" or the error, and the stream.
+std::string readWith(int threads, const std::string& words, const std::string& positions, rost::WordStream& s) {
+    const auto dir = std::filesystem::temp_directory_path() / ("rost_word_stream_threads_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string wp = (dir / "w.csv").string(), pp = (dir / "p.csv").string();
+    EXPECT_TRUE(rost::writeFileAtomic(wp, words).ok());
+    EXPECT_TRUE(rost::writeFileAtomic(pp, positions).ok());
+    rost::WordStreamLimits l = limits();
+    l.threads = threads;
+    const rost::Status st = rost::readWordStream(wp, positions == "<missing>" ? dir.string() + "/nope.csv" : pp, l, s);
+    std::filesystem::remove_all(dir);
+    return st.ok() ? std::string("ok") : st.message();
+}
+
+// The positions file read on a second thread: the serial result, and the
+// serial pass's first error, for valid files and for each kind of error.
+TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
+    std::string bigWords, bigPositions;
+    uint64_t x = 12345;
+    for (int t = 0; t < 300; ++t) {
+        std::vector<uint32_t> w;
+        std::vector<rost::Position> p;
+        for (int i = 0; i < t % 37; ++i) {
+            x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+            w.push_back(static_cast<uint32_t>(x >> 33) % 100);
+            p.push_back({static_cast<int32_t>((x >> 20) % 640), static_cast<int32_t>((x >> 40) % 480)});
+        }
+        rost::appendCsvLine(bigWords, t, w.data(), w.size());
+        rost::appendPositionsLine(bigPositions, t, p.data(), p.size());
+    }
+    const std::pair<std::string, std::string> cases[] = {
+        {bigWords, bigPositions},
+        {"# c\n10,1,2,3\n\n11\r\n12,99,\n", "10,0,0,1,1,639,479\n11\n12,5,6\n"},
+        {"1,2\n", "1,0,-5\n"},
+        {"1,2\n", "1,640,0\n"},
+        {"1,2\n", "1,0,480\n"},
+        {"1,2\n", "2,0,0\n"},
+        {"1,2\n", "1,0\n"},
+        {"1,2\n", "1,0,0,1,1\n"},
+        {"1,2\n2,3\n", "1,0,0\n"},
+        {"1,2\n", "1,0,0\n2,0,0\n"},
+        {"1,2\n", "1,x,0\n"},
+        {"1,2\n", "1,99999999999,0\n"},
+        {"1,2\n", "1,,0\n"},
+        {"1,2\n", " \n"},
+        {"1,2\n", "<missing>"},
+        {"1,200\n", "1,x\n"},  // both wrong: the words' error first
+        {bigWords + "300,1\n", bigPositions + "300,3,4\n"},
+        {bigWords, bigPositions + "300,3,4\n"},
+    };
+    int i = 0;
+    for (const auto& [words, positions] : cases) {
+        rost::WordStream serial, parallel;
+        const std::string a = readWith(1, words, positions, serial);
+        const std::string b = readWith(2, words, positions, parallel);
+        EXPECT_EQ(a, b) << "case " << i;
+        if (a == "ok" && b == "ok") {
+            ASSERT_EQ(serial.observations.size(), parallel.observations.size()) << "case " << i;
+            for (std::size_t o = 0; o < serial.observations.size(); ++o) {
+                EXPECT_EQ(serial.observations[o].words, parallel.observations[o].words);
+                const auto& ps = serial.observations[o].positions;
+                const auto& pp = parallel.observations[o].positions;
+                ASSERT_EQ(ps.size(), pp.size());
+                for (std::size_t k = 0; k < ps.size(); ++k) EXPECT_TRUE(ps[k].x == pp[k].x && ps[k].y == pp[k].y);
+            }
+        }
+        ++i;
+    }
+    rost::WordStream s;
+    EXPECT_EQ(readWith(2, bigWords, bigPositions, s), "ok");
+    EXPECT_EQ(s.observations.size(), 300u);
 }
 
 } // namespace

@@ -6,7 +6,10 @@
 #include <cstdio>
 #include <cstring>
 #include <fcntl.h>
+#include <functional>
 #include <limits>
+#include <new>
+#include <thread>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -85,10 +88,11 @@ Status parseFields(std::string_view line, std::string_view name, int number, std
 
 } // namespace
 
-Status parseWordStream(std::string_view wordsText, std::string_view positionsText, const WordStreamLimits& limits,
-                       WordStream& out, std::string_view wordsName, std::string_view positionsName) {
-    out.observations.clear();
-    out.has_positions = !positionsText.empty();
+namespace {
+
+// The words file's pass: one observation per data line, positions empty.
+Status parseWords(std::string_view wordsText, const WordStreamLimits& limits, WordStream& out,
+                  std::string_view wordsName) {
     std::vector<int64_t> values;
     std::vector<std::size_t> columns;
     Lines lines(wordsText);
@@ -115,10 +119,17 @@ Status parseWordStream(std::string_view wordsText, std::string_view positionsTex
         }
         out.observations.push_back(std::move(obs));
     }
-    if (!out.has_positions) {
-        for (auto& obs : out.observations) obs.positions.assign(obs.words.size(), Position{0, 0});
-        return {};
-    }
+    return {};
+}
+
+// The positions file's pass over the observations parseWords made: the
+// checks every line gets, in order; the first that fails is the error.
+Status parsePositions(std::string_view positionsText, const WordStreamLimits& limits, WordStream& out,
+                      std::string_view positionsName, std::string_view wordsName) {
+    std::vector<int64_t> values;
+    std::vector<std::size_t> columns;
+    std::string_view line;
+    int number = 0;
     Lines plines(positionsText);
     std::size_t index = 0;
     while (plines.next(line, number)) {
@@ -167,6 +178,65 @@ Status parseWordStream(std::string_view wordsText, std::string_view positionsTex
     return {};
 }
 
+// A positions line parsed apart from the words (on another thread): its
+// time stamp and coordinates, checked later against its observation.
+struct PositionsLine {
+    int64_t timestamp = 0;
+    std::vector<Position> xy;
+};
+
+// Parses every positions line without the checks that need the words;
+// false at the first line parseFields rejects, with an odd count, or with a
+// coordinate outside int32 (the serial pass then finds and words the error).
+bool parsePositionLines(std::string_view text, std::vector<PositionsLine>& out) {
+    std::vector<int64_t> values;
+    std::vector<std::size_t> columns;
+    Lines lines(text);
+    std::string_view line;
+    int number = 0;
+    while (lines.next(line, number)) {
+        if (!parseFields(line, "", number, values, columns).ok() || values.size() % 2 != 1) return false;
+        PositionsLine& p = out.emplace_back();
+        p.timestamp = values[0];
+        p.xy.resize(values.size() / 2);
+        for (std::size_t i = 0; i < p.xy.size(); ++i) {
+            const int64_t x = values[1 + 2 * i], y = values[2 + 2 * i];
+            if (x < 0 || y < 0 || x > std::numeric_limits<int32_t>::max() || y > std::numeric_limits<int32_t>::max())
+                return false;
+            p.xy[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
+        }
+    }
+    return true;
+}
+
+// Gives each observation its parsed positions when every check of
+// parsePositions passes; false (nothing given) otherwise.
+bool attachPositions(std::vector<PositionsLine>& lines, const WordStreamLimits& limits, WordStream& out) {
+    if (lines.size() != out.observations.size()) return false;
+    for (std::size_t i = 0; i < lines.size(); ++i) {
+        const StreamObservation& obs = out.observations[i];
+        if (lines[i].timestamp != obs.timestamp || lines[i].xy.size() != obs.words.size()) return false;
+        for (const Position& p : lines[i].xy)
+            if ((limits.width > 0 && p.x >= limits.width) || (limits.height > 0 && p.y >= limits.height)) return false;
+    }
+    for (std::size_t i = 0; i < lines.size(); ++i) out.observations[i].positions = std::move(lines[i].xy);
+    return true;
+}
+
+} // namespace
+
+Status parseWordStream(std::string_view wordsText, std::string_view positionsText, const WordStreamLimits& limits,
+                       WordStream& out, std::string_view wordsName, std::string_view positionsName) {
+    out.observations.clear();
+    out.has_positions = !positionsText.empty();
+    if (Status st = parseWords(wordsText, limits, out, wordsName); !st.ok()) return st;
+    if (!out.has_positions) {
+        for (auto& obs : out.observations) obs.positions.assign(obs.words.size(), Position{0, 0});
+        return {};
+    }
+    return parsePositions(positionsText, limits, out, positionsName, wordsName);
+}
+
 Status readFile(const std::string& path, std::string& out) {
     FILE* f = std::fopen(path.c_str(), "rb");
     if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
@@ -192,18 +262,62 @@ Status readFile(const std::string& path, std::string& out) {
     return {};
 }
 
+namespace {
+
+// The positions file read and parsed on a thread of its own.
+struct PositionsReader {
+    Status read;
+    bool parsed = false;
+    bool failed = false;  // an exception on the thread (out of memory)
+    std::string text;
+    std::vector<PositionsLine> lines;
+
+    void operator()(const std::string& path) noexcept {
+        try {
+            read = readFile(path, text);
+            if (read.ok()) parsed = parsePositionLines(text, lines);
+        } catch (...) {
+            failed = true;
+        }
+    }
+};
+
+} // namespace
+
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
                       const WordStreamLimits& limits, WordStream& out) {
-    std::string words, positions;
-    Status st = readFile(wordsPath, words);
-    if (!st.ok()) return st;
-    if (!positionsPath.empty()) {
-        st = readFile(positionsPath, positions);
+    if (positionsPath.empty() || limits.threads < 2) {
+        std::string words, positions;
+        Status st = readFile(wordsPath, words);
         if (!st.ok()) return st;
-        if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
-            return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+        if (!positionsPath.empty()) {
+            st = readFile(positionsPath, positions);
+            if (!st.ok()) return st;
+            if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+                return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+        }
+        return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
     }
-    return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
+    // Two threads: the words here, the positions beside them. The result
+    // and the first error are the serial path's: a positions file that does
+    // not fit the words as parsed goes through the serial pass, which names
+    // the first error exactly.
+    PositionsReader pr;
+    std::jthread thread(std::ref(pr), std::cref(positionsPath));  // joined on every way out
+    std::string words;
+    Status st = readFile(wordsPath, words);
+    out.observations.clear();
+    out.has_positions = true;
+    Status wordsParsed = st.ok() ? parseWords(words, limits, out, wordsPath) : Status();
+    thread.join();
+    if (!st.ok()) return st;
+    if (pr.failed) throw std::bad_alloc();
+    if (!pr.read.ok()) return pr.read;
+    if (pr.text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+        return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+    if (!wordsParsed.ok()) return wordsParsed;
+    if (pr.parsed && attachPositions(pr.lines, limits, out)) return {};
+    return parsePositions(pr.text, limits, out, positionsPath, wordsPath);
 }
 
 Status writeFileAtomic(const std::string& path, std::string_view content) {

@@ -25,6 +25,8 @@ EngineFlags toolFlags(bool realtime) {
     return f;
 }
 
+} // namespace
+
 // --threads when given; else the CPUs this process may run on, less one
 // for the capture thread of a realtime run, at least 1. The result is the
 // same for any number of threads: this only sets how fast it comes.
@@ -37,8 +39,6 @@ int toolThreads(const ModelOptions& m, bool realtime) {
     if (n <= 0) n = static_cast<int>(std::thread::hardware_concurrency());
     return std::clamp(n - (realtime ? 1 : 0), 1, static_cast<int>(settingSpec("threads").hi));
 }
-
-} // namespace
 
 int fail(const std::string& message) {
     std::fprintf(stderr, "rost: error: %s\n", message.c_str());

@@ -22,6 +22,7 @@ Status StreamStage::read(const RefineOptions& o) {
         limits.max_words = static_cast<uint32_t>(std::max(1, resuming ? ec.model.max_words_per_frame : given.max_words_per_frame));
     else
         limits.max_words = static_cast<uint32_t>(settingSpec("max.words").hi);
+    limits.threads = toolThreads(o.model, false);  // the positions file read beside the words
     if (Status st = readWordStream(o.words, o.positions, limits, ws); !st.ok()) return st;
     if (ws.observations.empty()) return Status::error(o.words + ": no observations (the file has no data lines)");
     if (!ws.has_positions)  // no positions: every word at (0, 0)

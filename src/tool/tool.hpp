@@ -48,6 +48,10 @@ struct ModelOptions {
     bool isGiven(std::string_view key) const;
 };
 
+// --threads when given; else the CPUs this process may run on, less one
+// for the capture thread of a realtime run, at least 1.
+int toolThreads(const ModelOptions& m, bool realtime);
+
 // The option that sets `key` on the command line ("-K", "--alpha").
 std::string optionName(const SettingSpec& spec);
 
