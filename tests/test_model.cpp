@@ -1,9 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <vector>
 
+#include "rost/aligned_buffer.hpp"
 #include "rost/model.hpp"
 
 namespace {
@@ -331,3 +333,20 @@ TEST(ModelState, CopiedStateResumesBitForBit) {
 }
 
 } // namespace
+
+// Set-up zeroing on several threads (the ring's tables): every byte, for
+// sizes that are and are not whole 2 MiB pages, whatever the thread count.
+TEST(AlignedBuffer, ZeroPagesClearsEveryByteOnAnyNumberOfThreads) {
+    for (const std::size_t bytes : {std::size_t{1} << 10, (std::size_t{9} << 20) + 4100, std::size_t{24} << 20}) {
+        std::vector<unsigned char> buf(bytes, 0xA5);
+        for (int threads : {1, 2, 3, 7}) {
+            std::fill(buf.begin(), buf.end(), static_cast<unsigned char>(0xA5));
+            rost::zeroPages(buf.data(), bytes, threads);
+            EXPECT_EQ(std::count(buf.begin(), buf.end(), 0), static_cast<std::ptrdiff_t>(bytes))
+                << bytes << " bytes, " << threads << " threads";
+        }
+    }
+    rost::AlignedBuffer<uint32_t> b;
+    b.reset((std::size_t{10} << 20) / 4 + 3, 2);
+    EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));
+}

@@ -22,6 +22,12 @@ inline constexpr std::size_t kCacheLine = 64;
 // them miss the TLB less. Where huge pages are off this changes nothing.
 inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 
+// Zeroes `bytes` at `p` (set-up code). With `threads` > 1 a large buffer is
+// cut at 2 MiB boundaries and zeroed by that many threads at once: the
+// first touch of a page makes the kernel clear it, which for the tens of
+// MiB of a ring is most of a model's set-up time (src/core/memory.cpp).
+void zeroPages(void* p, std::size_t bytes, int threads);
+
 // A fixed-size, zero-initialised, cache-line-aligned array. Allocates once in
 // its constructor (set-up time) and never again; not copyable.
 template <typename T>
@@ -47,7 +53,8 @@ public:
         return *this;
     }
 
-    void reset(std::size_t n) {
+    // `threads`: how many threads touch (zero) a large buffer at set-up.
+    void reset(std::size_t n, int threads = 1) {
         std::free(data_);
         data_ = nullptr;
         size_ = 0;
@@ -59,7 +66,7 @@ public:
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
         if (align == kHugePage) (void)madvise(p, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
 #endif
-        std::memset(p, 0, bytes);  // every page is touched now, at set-up
+        zeroPages(p, bytes, threads);  // every page is touched now, at set-up
         data_ = static_cast<T*>(p);
         size_ = n;
     }

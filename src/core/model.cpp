@@ -91,7 +91,8 @@ void Model::allocateState() {
     const auto Kp = static_cast<std::size_t>(Kp_);
     const auto inputs = ring * static_cast<std::size_t>(ct_) * static_cast<std::size_t>(maxw_);
 
-    nkv_.reset(static_cast<std::size_t>(V_) * Kp);
+    // The ring's large tables are zeroed (their pages faulted in) on `threads` threads.
+    nkv_.reset(static_cast<std::size_t>(V_) * Kp, cfg_.threads);
     nk_.reset(Kp);
     inv_.reset(Kp);
     inv_dec_.reset(Kp);
@@ -100,13 +101,13 @@ void Model::allocateState() {
     slot_step_.reset(ring);
     for (std::size_t s = 0; s < ring; ++s) slot_step_[s] = -1;
     cell_n_.reset(ring * cells);
-    cell_words_.reset(ring * cells * cap);
-    cell_z_.reset(ring * cells * cap);
-    nck_.reset(ring * cells * Kp);
+    cell_words_.reset(ring * cells * cap, cfg_.threads);
+    cell_z_.reset(ring * cells * cap, cfg_.threads);
+    nck_.reset(ring * cells * Kp, cfg_.threads);
     cell_surprise_.reset(ring * cells);
-    in_word_.reset(inputs);
-    in_pos_.reset(inputs);
-    in_slot_.reset(inputs);
+    in_word_.reset(inputs, cfg_.threads);
+    in_pos_.reset(inputs, cfg_.threads);
+    in_slot_.reset(inputs, cfg_.threads);
     in_n_.reset(ring * static_cast<std::size_t>(ct_));
     obs_surprise_.reset(ring * static_cast<std::size_t>(ct_));
 
