@@ -108,10 +108,15 @@ void Collector::takeFinal(const FinalLabels& f) {
     };
     line_.clear();
     const int64_t frame = f.where.timestamp;
-    appendCsvLine(line_, frame, f.words.data(), f.n);
-    put(words_);
-    appendPositionsLine(line_, frame, f.positions.data(), f.n);
-    put(positions_);
+    // Only the files being written are formatted (`rost refine` writes topics.csv alone).
+    if (words_.file) {
+        appendCsvLine(line_, frame, f.words.data(), f.n);
+        put(words_);
+    }
+    if (positions_.file) {
+        appendPositionsLine(line_, frame, f.positions.data(), f.n);
+        put(positions_);
+    }
     appendCsvLine(line_, frame, f.labels.data(), f.n);
     put(topics_);
     ++finals_;
