@@ -170,17 +170,18 @@ bool Model::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexce
 // sort), so that a task takes its cell's inputs.
 void Model::groupInputsByCell(std::size_t base, uint32_t n) const noexcept {
     Measure& m = *measure_;
-    auto cellOf = [&](uint32_t i) {
-        const uint32_t s = in_slot_[base + i];
-        return (s & kDropped) ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
-    };
+    uint32_t* cellOf = m.input_cell.data();
     std::fill_n(m.cell_begin.data(), cells_ + 1, 0u);
-    for (uint32_t i = 0; i < n; ++i) ++m.cell_begin[cellOf(i) + 1];
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t s = in_slot_[base + i];
+        cellOf[i] = (s & kDropped) ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
+        ++m.cell_begin[cellOf[i] + 1];
+    }
     for (int c = 0; c < cells_; ++c) {
         m.cell_begin[c + 1] += m.cell_begin[c];
         m.cursor[c] = m.cell_begin[c];
     }
-    for (uint32_t i = 0; i < n; ++i) m.by_cell[m.cursor[cellOf(i)]++] = i;
+    for (uint32_t i = 0; i < n; ++i) m.by_cell[m.cursor[cellOf[i]]++] = i;
 }
 
 } // namespace rost
