@@ -301,6 +301,35 @@ TEST(NoMalloc, ThreadedEngineWithPublishedResultsMakesNoAllocationAfterStart) {
     EXPECT_EQ(results + finals + e.resultsLost(), 2000u + (2000u - static_cast<uint64_t>(e.config().model.ring_steps)));
 }
 
+// The measurements on the workers (threads 3, observations of 300 words over
+// 12 cells, above the 256 words that go to the pool): the surprise of
+// addObservation, both perplexities of a step, the labels, from the model and
+// from the engine's eviction hook, allocate nothing.
+TEST(NoMalloc, MeasurementsOnTheWorkersMakeNoAllocation) {
+    Engine e(config(Budget::steps(2), DropPolicy::DropOldest, 3));
+    const auto frames = makeStream(e.config().model, 64, 300, 34);
+    std::vector<uint16_t> labels(512);
+    double sum = 0.0;
+    e.setEvictionHook([&](const WindowObservation& w, const Model& m) { sum += m.stepPerplexity(w.step); });
+    Model& m = e.model();
+    uint64_t measured = 0;
+    {
+        Counting c;
+        for (int i = 0; i < 200; ++i) {
+            e.processNow(frames[static_cast<std::size_t>(i) % frames.size()].view());
+            const uint64_t jobs = m.poolJobs();
+            const int64_t t = m.steps() - 1;
+            sum += m.stepPerplexity(t) + m.stepPluginPerplexity(t);
+            m.observationLabels(m.observations() - 1, {labels.data(), m.observationSize(m.observations() - 1)});
+            measured += m.poolJobs() - jobs;
+        }
+        e.flushWindowToEvictionHook();
+        EXPECT_EQ(c.count(), 0u) << "allocations on the measurement paths";
+    }
+    EXPECT_EQ(measured, 3u * 200u) << "every measurement ran on the workers";
+    EXPECT_GT(sum, 0.0);
+}
+
 TEST(NoMalloc, SynchronousProcessNowEvictionAndFinalPassMakeNoAllocation) {
   for (const int threads : {1, 2}) {
     Engine e(config(Budget::steps(2), DropPolicy::DropOldest, threads));

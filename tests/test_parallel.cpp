@@ -1,7 +1,8 @@
 // Refinement in windows on every core (Model::refine, src/core/worker_pool):
 // the same labels, counts and perplexity for any number of threads; the
 // count invariants after every round; the colouring; W = 1 is the serial
-// sampler; the pool under more threads than cores.
+// sampler; the pool under more threads than cores; the measurements on the
+// workers (perplexities, surprise, labels) give the serial bits.
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,7 @@
 
 #include "rost/engine.hpp"
 #include "rost/model.hpp"
+#include "synthetic.hpp"
 #include "test_engine_support.hpp"
 #include "worker_pool.hpp"
 
@@ -22,6 +24,7 @@ namespace {
 
 using testing::makeStream;
 using testing::smallConfig;
+namespace syn = synthetic;
 
 // Everything a run exposes, to compare runs with.
 struct Outcome {
@@ -194,6 +197,140 @@ TEST(ParallelRefine, ATimeBudgetStopsBetweenRoundsAndCountsThem) {
         const ObservationResult r = e.processNow(f.view());
         EXPECT_GE(r.rounds, 1u) << "50 ms hold at least a round of one observation's cells";
         EXPECT_GT(r.tokens, 0u);
+    }
+}
+
+// ---- measurements on the workers (src/core/measure.cpp) -------------------------
+
+// Everything measured along a run, as exact bits (NaN compares too).
+struct Measured {
+    std::vector<uint64_t> ppx;    // left-out and plug-in nll of the previous step, before each observation
+    std::vector<uint32_t> surprise;  // observation and cell surprise (floats)
+    std::vector<uint64_t> atEnd;  // every step's nll and perplexities at the end
+    std::vector<uint16_t> labels;
+    std::vector<uint64_t> words;
+    uint64_t measureJobs = 0;  // pool jobs run by the measurements alone
+    bool operator==(const Measured& o) const {
+        return ppx == o.ppx && surprise == o.surprise && atEnd == o.atEnd && labels == o.labels && words == o.words;
+    }
+};
+
+void measureLoss(Measured& out, std::vector<uint64_t>& to, const LogLoss& l) {
+    to.push_back(std::bit_cast<uint64_t>(l.nll));
+    to.push_back(std::bit_cast<uint64_t>(l.perplexity()));
+    out.words.push_back(l.words);
+}
+
+// Measures a step as the engine does, counting the pool jobs the measurements run.
+void measureStep(Model& m, int64_t t, Measured& out, std::vector<uint64_t>& to) {
+    const uint64_t jobs = m.poolJobs();
+    measureLoss(out, to, m.stepLogLoss(t));
+    measureLoss(out, to, m.stepPluginLogLoss(t));
+    out.measureJobs += m.poolJobs() - jobs;
+}
+
+void measureLabels(Model& m, Measured& out) {
+    for (uint64_t f = 0; f < m.observations(); ++f) {
+        std::vector<uint16_t> z(m.observationSize(f));
+        const uint64_t jobs = m.poolJobs();
+        m.observationLabels(f, z);
+        out.measureJobs += m.poolJobs() - jobs;
+        out.labels.insert(out.labels.end(), z.begin(), z.end());
+    }
+}
+
+// A synthetic stream of 12 x 12 cells, 20-30 words each (about 3600 words a
+// step): every measurement is large enough for the workers.
+Measured measuredRun(const syn::Data& d, Config c, int threads) {
+    c.threads = threads;
+    Model m(c);
+    Measured out;
+    for (int t = 0; t < d.spec.steps; ++t) {
+        if (t > 0) measureStep(m, t - 1, out, out.ppx);
+        const uint64_t jobs = m.poolJobs();
+        EXPECT_TRUE(m.addObservation(d.words[t], d.positions[t]).ok());
+        out.measureJobs += m.poolJobs() - jobs;
+        out.surprise.push_back(std::bit_cast<uint32_t>(static_cast<float>(m.observationSurprise(t))));
+        for (const float s : m.cellSurprise(t)) out.surprise.push_back(std::bit_cast<uint32_t>(s));
+        Sweep sweep(m);
+        RefineLimits limits;
+        limits.steps = 3;
+        m.refine(sweep, limits);
+    }
+    for (int64_t t = m.oldestStep(); t < m.steps(); ++t) measureStep(m, t, out, out.atEnd);
+    measureLabels(m, out);
+    return out;
+}
+
+syn::Data measureData() {
+    syn::Spec s;
+    s.K = 6;
+    s.steps = 12;
+    s.seed = 21;
+    return syn::generate(s);
+}
+
+TEST(ParallelMeasure, OneTwoThreeThreadsGiveIdenticalPerplexitySurpriseAndLabels) {
+    const syn::Data d = measureData();
+    Config growing = d.config();
+    growing.K = 12;
+    growing.grow = true;
+    growing.gamma = 0.5;
+    for (const Config& c : {d.config(), growing}) {
+        const Measured one = measuredRun(d, c, 1);
+        EXPECT_EQ(one.measureJobs, 0u) << "one thread: no pool";
+        for (const int threads : {2, 3}) {
+            const Measured more = measuredRun(d, c, threads);
+            EXPECT_TRUE(more == one) << threads << " threads differ from 1 (grow " << c.grow << ")";
+            // Every step's two perplexities (before each observation and at the end), the surprise, the labels.
+            const uint64_t expected = 2 * (static_cast<uint64_t>(d.spec.steps) - 1) + 2 * d.spec.steps +
+                                      static_cast<uint64_t>(d.spec.steps) + static_cast<uint64_t>(d.spec.steps);
+            EXPECT_EQ(more.measureJobs, expected) << "every measurement ran on the workers";
+        }
+    }
+}
+
+// Const measurements from two threads at once: one has the workers, the
+// other computes serially; both get the serial bits.
+TEST(ParallelMeasure, TwoThreadsMeasuringAtOnceGetTheSerialBits) {
+    const syn::Data d = measureData();
+    Config c = d.config();
+    Model serial(c);
+    c.threads = 2;
+    Model m(c);
+    for (int t = 0; t < d.spec.steps; ++t) {
+        ASSERT_TRUE(serial.addObservation(d.words[t], d.positions[t]).ok());
+        ASSERT_TRUE(m.addObservation(d.words[t], d.positions[t]).ok());
+    }
+    std::vector<double> want;
+    for (int64_t t = 0; t < serial.steps(); ++t) want.push_back(serial.stepPerplexity(t));
+    std::atomic<int> wrong{0};
+    auto measureAll = [&] {
+        for (int rep = 0; rep < 50; ++rep)
+            for (int64_t t = 0; t < m.steps(); ++t) {
+                const double got = m.stepPerplexity(t), expect = want[static_cast<std::size_t>(t)];
+                if (std::bit_cast<uint64_t>(got) != std::bit_cast<uint64_t>(expect)) ++wrong;
+            }
+    };
+    std::thread a(measureAll), b(measureAll);
+    a.join();
+    b.join();
+    EXPECT_EQ(wrong.load(), 0);
+    EXPECT_GT(m.poolJobs(), 0u);
+}
+
+// Small work stays on the calling thread: a word stream's step (one cell)
+// and a step of fewer than 256 words.
+TEST(ParallelMeasure, SmallStepsAndOneCellAreMeasuredSerially) {
+    for (const auto make : {&gridConfig, &streamConfig}) {
+        Model m(make(3, 64));
+        for (const auto& f : makeStream(m.config(), 4, make == &gridConfig ? 200 : 2000, 8))
+            ASSERT_TRUE(m.addObservation(f.words, f.positions).ok());
+        std::vector<uint16_t> z(m.observationSize(3));
+        m.observationLabels(3, z);
+        EXPECT_GT(m.stepLogLoss(3).words, 0u);
+        EXPECT_GT(m.stepPluginLogLoss(3).words, 0u);
+        EXPECT_EQ(m.poolJobs(), 0u);
     }
 }
 

@@ -232,6 +232,24 @@ public:
     void setKernelPath(kernel::Path p) noexcept { path_ = p; }
     kernel::Path kernelPath() const noexcept { return path_; }
 
+    // ---- measurements on the workers ------------------------------------
+    // With workers (threads > 1 and refine.window > 1), stepLogLoss,
+    // stepPluginLogLoss, the surprise of addObservation and
+    // observationLabels compute their per-word terms on the refinement
+    // workers, a task per cell, and sum them on the calling thread in the
+    // serial order: the results are the same bits for any number of threads
+    // (src/core/measure.cpp). Only a measurement of at least 256 words, on a
+    // grid of more than one cell, does (a word stream's step is one cell).
+    // The calling thread drives the pool, as refine() does, so call these
+    // where a reader may call them: on the refining thread, or while nothing
+    // refines. Two threads may measure at once (the const functions): the
+    // pool and its buffers are claimed with a flag (one atomic exchange,
+    // never a wait) and the call that finds them taken computes serially,
+    // with the same bits; two pool jobs never run at once. No allocation,
+    // no lock, no blocking call.
+    // Jobs run on the pool so far, refinement and measurements (for tests).
+    uint64_t poolJobs() const noexcept;
+
     // ---- perplexity -----------------------------------------------------
     // p(w_i) = sum_k phi_k(w_i) theta_G(k), with word i left out of its own
     // counts (n_k^v, n_k and n_G^k each lose one at z_i): the predictive
@@ -383,6 +401,34 @@ private:
     void reciprocals(Reciprocals& r) const noexcept;
     double logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum, const Reciprocals& r) const noexcept;
     int mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& r) const noexcept;
+    // Per-cell parts of the plug-in perplexity and the surprise, called by
+    // the serial and the parallel code alike, so both compute the same bits:
+    // the plug-in weights theta_c(k) / (n_k + V beta) (returns the fresh
+    // topic's term), log p of one word; the surprise's prior (the past
+    // neighbourhood, summed into g, or n_k when that is empty; thetaNorm:
+    // 1 / its normaliser) and log(p * thetaNorm) of one word.
+    double pluginWeights(std::size_t slot, int cell, uint32_t n, double* weight) const noexcept;
+    double pluginLogProb(uint32_t v, const double* weight, double freshP) const noexcept;
+    const int32_t* surprisePrior(int64_t step, int cell, double globalSum, int32_t* g,
+                                 double& thetaNorm) const noexcept;
+    double surpriseLogProb(uint32_t v, const int32_t* prior, double thetaNorm) const noexcept;
+    // -log of the cell's new words, summed in order (terms: from the pool, or nullptr: computed here).
+    double cellSurpriseNll(int64_t step, std::size_t slot, int cell, uint32_t s0, double globalSum,
+                           const double* terms) const noexcept;
+    // Measurements on the workers (src/core/measure.cpp): each returns false
+    // (surpriseTermsOnPool nullptr) when the measurement is to be serial.
+    // The buffers they write sit behind measure_ (a pointer: const functions
+    // write them, under the claim).
+    struct Measure;
+    void sizeMeasure();
+    bool claimMeasure(uint64_t words) const noexcept;
+    void releaseMeasure() const noexcept;
+    bool parallelStepLogLoss(int64_t step, LogLoss& out) const noexcept;
+    bool parallelStepPluginLogLoss(int64_t step, LogLoss& out) const noexcept;
+    const double* surpriseTermsOnPool(int64_t step, std::size_t slot, const uint32_t* firstNew,
+                                      double globalSum) noexcept;
+    bool parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexcept;
+    void groupInputsByCell(std::size_t base, uint32_t n) const noexcept;
     // G(c) of a cell of `step`, cached for the current output call (epoch).
     const int32_t* cachedNeighbourhood(int64_t step, int cell) const noexcept;
     template <typename F>
@@ -441,6 +487,7 @@ private:
     TaskKernel live_kernel_[2] = {};
     std::unique_ptr<Windows> win_;
     std::unique_ptr<detail::WorkerPool> pool_;
+    std::unique_ptr<Measure> measure_;
     int colours_ = 1;
     int colour_b_ = 0;
     kernel::Tables tables_;

@@ -1,6 +1,7 @@
 #include "rost/model.hpp"
 
 #include "kernel.hpp"
+#include "measure.hpp"
 #include "refine_windows.hpp"
 
 #include <algorithm>
@@ -82,6 +83,7 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
                     out_g_.bytes() + out_g_epoch_.bytes() +
                     sizeof(Model);
     allocateWindows();
+    sizeMeasure();
 }
 
 void Model::allocateState() {
@@ -362,9 +364,9 @@ void Model::fillCells(std::size_t slot, std::size_t obs, uint32_t m, AddResult& 
 
 void Model::observeSurprise(int64_t step, std::size_t slot, std::size_t obs, const uint32_t* firstNew) noexcept {
     // Surprise, before the new words touch any count.
-    alignas(64) int32_t g[kMaxKp];
     double globalSum = 0.0;
     for (int k = 0; k < K_; ++k) globalSum += nk_[k];
+    const double* terms = surpriseTermsOnPool(step, slot, firstNew, globalSum);
     double frameNll = 0.0;
     uint64_t frameWords = 0;
     float* cs = cell_surprise_.data() + slot * cells_;
@@ -372,31 +374,52 @@ void Model::observeSurprise(int64_t step, std::size_t slot, std::size_t obs, con
     for (int c = 0; c < cells_; ++c) {
         const uint32_t s0 = firstNew[c], s1 = cellN[c];
         if (s1 == s0) continue;
-        neighbourhood(step, c, g, true);
-        double gsum = 0.0;
-        for (int k = 0; k < K_; ++k) gsum += g[k];
-        const int32_t* prior = g;
-        if (gsum == 0.0) {
-            prior = nk_.data();
-            gsum = globalSum;
-        }
-        const double fresh = freshMass();
-        const double thetaNorm = 1.0 / (gsum + tables_.active * cfg_.alpha + fresh);
-        double nll = 0.0;
-        const uint32_t* w = cell_words_.data() + (slot * cells_ + c) * cap_;
-        for (uint32_t s = s0; s < s1; ++s) {
-            const int32_t* row = nkv_.data() + static_cast<std::size_t>(w[s]) * Kp_;
-            double p = 0.0;
-            for (int k = 0; k < K_; ++k)
-                if (topicOpen(k)) p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
-            p += fresh / V_;
-            nll -= std::log(p * thetaNorm);
-        }
+        const double nll = cellSurpriseNll(step, slot, c, s0, globalSum, terms);
         cs[c] = static_cast<float>(std::exp(nll / (s1 - s0)));
         frameNll += nll;
         frameWords += s1 - s0;
     }
+    if (terms) releaseMeasure();
     obs_surprise_[obs] = frameWords ? static_cast<float>(std::exp(frameNll / static_cast<double>(frameWords))) : 0.f;
+}
+
+double Model::cellSurpriseNll(int64_t step, std::size_t slot, int cell, uint32_t s0, double globalSum,
+                              const double* terms) const noexcept {
+    const std::size_t at = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    const uint32_t s1 = cell_n_[slot * cells_ + cell];
+    double nll = 0.0;
+    if (terms) {
+        for (uint32_t s = s0; s < s1; ++s) nll -= terms[static_cast<std::size_t>(cell) * cap_ + s];
+        return nll;
+    }
+    alignas(64) int32_t g[kMaxKp];
+    double thetaNorm = 0.0;
+    const int32_t* prior = surprisePrior(step, cell, globalSum, g, thetaNorm);
+    for (uint32_t s = s0; s < s1; ++s) nll -= surpriseLogProb(cell_words_[at + s], prior, thetaNorm);
+    return nll;
+}
+
+const int32_t* Model::surprisePrior(int64_t step, int cell, double globalSum, int32_t* g,
+                                    double& thetaNorm) const noexcept {
+    neighbourhood(step, cell, g, true);
+    double gsum = 0.0;
+    for (int k = 0; k < K_; ++k) gsum += g[k];
+    const int32_t* prior = g;
+    if (gsum == 0.0) {
+        prior = nk_.data();
+        gsum = globalSum;
+    }
+    thetaNorm = 1.0 / (gsum + tables_.active * cfg_.alpha + freshMass());
+    return prior;
+}
+
+double Model::surpriseLogProb(uint32_t v, const int32_t* prior, double thetaNorm) const noexcept {
+    const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+    double p = 0.0;
+    for (int k = 0; k < K_; ++k)
+        if (topicOpen(k)) p += (row[k] + cfg_.beta) / (nk_[k] + V_ * cfg_.beta) * (prior[k] + cfg_.alpha);
+    p += freshMass() / V_;
+    return std::log(p * thetaNorm);
 }
 
 void Model::drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexcept {
@@ -564,7 +587,7 @@ LogLoss Model::cellLogLoss(int64_t step, int cell) const noexcept {
 
 LogLoss Model::stepLogLoss(int64_t step) const noexcept {
     LogLoss out;
-    if (!inWindow(step)) return out;
+    if (!inWindow(step) || parallelStepLogLoss(step, out)) return out;
     const std::size_t slot = slotOf(step);
     Reciprocals r;
     reciprocals(r);
@@ -633,6 +656,7 @@ void Model::observationPositions(uint64_t frame, std::span<Position> out) const 
 }
 
 void Model::observationLabels(uint64_t frame, std::span<uint16_t> out) const noexcept {
+    if (parallelLabels(frame, out)) return;
     const int64_t step = stepOfObservation(frame);
     const std::size_t slot = slotOf(step);
     Reciprocals r;

@@ -26,30 +26,36 @@ LogLoss Model::cellPluginLogLoss(int64_t step, int cell) const noexcept {
     const std::size_t slot = slotOf(step);
     const uint32_t n = cell_n_[slot * cells_ + cell];
     if (n == 0) return out;
-    // weight[k] = theta_c(k) / (n_k + V beta): one multiply-add per topic and word.
     double weight[kMaxK];
+    const double freshP = pluginWeights(slot, cell, n, weight);
+    const uint32_t* words = cell_words_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    for (uint32_t i = 0; i < n; ++i) out.nll -= pluginLogProb(words[i], weight, freshP);
+    out.words = n;
+    return out;
+}
+
+// weight[k] = theta_c(k) / (n_k + V beta): one multiply-add per topic and word.
+double Model::pluginWeights(std::size_t slot, int cell, uint32_t n, double* weight) const noexcept {
     const int32_t* h = nck(slot, cell);
     const double vbeta = V_ * cfg_.beta;
     const int A = tables_.active;
     const double fresh = freshMass();
     const double thetaNorm = 1.0 / (static_cast<double>(n) + A * cfg_.alpha + fresh);
     for (int k = 0; k < K_; ++k) weight[k] = topicOpen(k) ? (h[k] + cfg_.alpha) * thetaNorm / (nk_[k] + vbeta) : 0.0;
-    const double freshP = fresh * thetaNorm / V_;  // a new topic, its words uniform
-    const uint32_t* words = cell_words_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
-    for (uint32_t i = 0; i < n; ++i) {
-        const int32_t* row = nkv_.data() + static_cast<std::size_t>(words[i]) * Kp_;
-        double p = 0.0;
-        for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * weight[k];
-        p += freshP;
-        out.nll -= std::log(p);
-    }
-    out.words = n;
-    return out;
+    return fresh * thetaNorm / V_;  // a new topic, its words uniform
+}
+
+double Model::pluginLogProb(uint32_t v, const double* weight, double freshP) const noexcept {
+    const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+    double p = 0.0;
+    for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * weight[k];
+    p += freshP;
+    return std::log(p);
 }
 
 LogLoss Model::stepPluginLogLoss(int64_t step) const noexcept {
     LogLoss out;
-    if (!inWindow(step)) return out;
+    if (!inWindow(step) || parallelStepPluginLogLoss(step, out)) return out;
     for (int c = 0; c < cells_; ++c) out += cellPluginLogLoss(step, c);
     return out;
 }

@@ -9,6 +9,7 @@
 
 #include "counter_rng.hpp"
 #include "kernel.hpp"
+#include "measure.hpp"
 #include "refine_windows.hpp"
 #include "rost/model.hpp"
 #include "rost/realtime.hpp"
@@ -79,6 +80,7 @@ void Model::setThreads(int n) {
     memory_bytes_ += w.workerBytes();
     cfg_.threads = n;
     if (n > 1 && w.W > 1) pool_ = std::make_unique<detail::WorkerPool>(n);
+    sizeMeasure();
 }
 
 void Model::applyWorkerSettings(const ThreadSettings& settings) {

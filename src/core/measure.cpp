@@ -1,0 +1,187 @@
+// The per-observation measurements (left-out and plug-in perplexity of a
+// step, surprise, maximum-likelihood labels) on the refinement workers, with
+// the same bits as the serial code for any number of threads (rost/model.hpp,
+// "Measurements on the workers"; docs/design.md, "Refinement on every core").
+//
+// Each task computes the per-word terms of one cell (the same functions the
+// serial code calls, -ffp-contract=off) into a buffer of one step's words;
+// the sums are then made on the calling thread in the serial order, word by
+// word and cell by cell in one double, so not one bit changes.
+
+#include <algorithm>
+
+#include "measure.hpp"
+#include "rost/model.hpp"
+#include "worker_pool.hpp"
+
+namespace rost {
+
+namespace {
+
+constexpr int kMaxKp = 1024;
+
+// Fewer words are measured serially: a job costs a futex wake and the
+// barrier (microseconds), what about 256 words' terms cost (about 40 ns each
+// at K = 16). A step of one cell (a word stream) is always serial: the tasks are cells.
+constexpr uint64_t kParallelWords = 256;
+
+// One task per cell: f(cell).
+template <typename F>
+struct CellJob final : detail::WorkerPool::Job {
+    explicit CellJob(const F& fn) noexcept : f(fn) {}
+    const F& f;
+    void task(int /*worker*/, uint32_t cell) noexcept override { f(static_cast<int>(cell)); }
+};
+
+template <typename F>
+void runCells(detail::WorkerPool& pool, int cells, const F& f) noexcept {
+    CellJob<F> job(f);
+    pool.run(job, static_cast<uint32_t>(cells));
+}
+
+} // namespace
+
+void Model::sizeMeasure() {
+    if (!measure_) measure_ = std::make_unique<Measure>();
+    memory_bytes_ -= measure_->bytes();
+    const bool pooled = pool_ != nullptr;
+    measure_->size(pooled ? static_cast<std::size_t>(cells_) : 0, pooled ? static_cast<std::size_t>(cap_) : 0,
+                   pooled ? static_cast<std::size_t>(maxw_) : 0);
+    memory_bytes_ += measure_->bytes();
+}
+
+uint64_t Model::poolJobs() const noexcept { return pool_ ? pool_->jobs() : 0; }
+
+bool Model::claimMeasure(uint64_t words) const noexcept {
+    if (!pool_ || cells_ < 2 || words < kParallelWords) return false;
+    return !measure_->busy.exchange(true, std::memory_order_acquire);
+}
+
+void Model::releaseMeasure() const noexcept { measure_->busy.store(false, std::memory_order_release); }
+
+// ---- left-out perplexity -------------------------------------------------------
+
+bool Model::parallelStepLogLoss(int64_t step, LogLoss& out) const noexcept {
+    if (!claimMeasure(wordsInStep(step))) return false;
+    const std::size_t slot = slotOf(step);
+    Reciprocals r;
+    reciprocals(r);
+    double* terms = measure_->terms.data();
+    runCells(*pool_, cells_, [&](int c) {
+        const uint32_t n = cell_n_[slot * cells_ + c];
+        if (n == 0) return;
+        alignas(64) int32_t g[kMaxKp];
+        neighbourhood(step, c, g, false);
+        int32_t gsum = 0;
+        for (int k = 0; k < K_; ++k) gsum += g[k];
+        const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
+        double* t = terms + static_cast<std::size_t>(c) * cap_;
+        for (uint32_t i = 0; i < n; ++i) t[i] = logProbLeftOut(cell_words_[base + i], cell_z_[base + i], g, gsum, r);
+    });
+    // Summed as stepLogLoss sums: word by word, cell by cell, in one double.
+    for (int c = 0; c < cells_; ++c) {
+        const uint32_t n = cell_n_[slot * cells_ + c];
+        const double* t = terms + static_cast<std::size_t>(c) * cap_;
+        for (uint32_t i = 0; i < n; ++i) out.nll -= t[i];
+        out.words += n;
+    }
+    releaseMeasure();
+    return true;
+}
+
+// ---- plug-in perplexity --------------------------------------------------------
+
+bool Model::parallelStepPluginLogLoss(int64_t step, LogLoss& out) const noexcept {
+    if (!claimMeasure(wordsInStep(step))) return false;
+    const std::size_t slot = slotOf(step);
+    double* terms = measure_->terms.data();
+    runCells(*pool_, cells_, [&](int c) {
+        const uint32_t n = cell_n_[slot * cells_ + c];
+        if (n == 0) return;
+        double weight[kMaxKp];
+        const double freshP = pluginWeights(slot, c, n, weight);
+        const uint32_t* words = cell_words_.data() + (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
+        double* t = terms + static_cast<std::size_t>(c) * cap_;
+        for (uint32_t i = 0; i < n; ++i) t[i] = pluginLogProb(words[i], weight, freshP);
+    });
+    // Summed as stepPluginLogLoss sums: each cell in its own double, then the cells in order.
+    for (int c = 0; c < cells_; ++c) {
+        LogLoss cell;
+        cell.words = cell_n_[slot * cells_ + c];
+        const double* t = terms + static_cast<std::size_t>(c) * cap_;
+        for (uint32_t i = 0; i < cell.words; ++i) cell.nll -= t[i];
+        out += cell;
+    }
+    releaseMeasure();
+    return true;
+}
+
+// ---- surprise ------------------------------------------------------------------
+
+const double* Model::surpriseTermsOnPool(int64_t step, std::size_t slot, const uint32_t* firstNew,
+                                         double globalSum) noexcept {
+    const uint32_t* cellN = cell_n_.data() + slot * cells_;
+    uint64_t words = 0;
+    for (int c = 0; c < cells_; ++c) words += cellN[c] - firstNew[c];
+    if (!claimMeasure(words)) return nullptr;
+    double* terms = measure_->terms.data();
+    runCells(*pool_, cells_, [&](int c) {
+        const uint32_t s0 = firstNew[c], s1 = cellN[c];
+        if (s1 == s0) return;
+        alignas(64) int32_t g[kMaxKp];
+        double thetaNorm = 0.0;
+        const int32_t* prior = surprisePrior(step, c, globalSum, g, thetaNorm);
+        const uint32_t* w = cell_words_.data() + (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
+        double* t = terms + static_cast<std::size_t>(c) * cap_;
+        for (uint32_t s = s0; s < s1; ++s) t[s] = surpriseLogProb(w[s], prior, thetaNorm);
+    });
+    return terms;  // the caller sums and then releases
+}
+
+// ---- maximum-likelihood labels -------------------------------------------------
+
+bool Model::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexcept {
+    const auto n = static_cast<uint32_t>(std::min<std::size_t>(out.size(), observationSize(frame)));
+    if (!claimMeasure(n)) return false;
+    const int64_t step = stepOfObservation(frame);
+    const std::size_t slot = slotOf(step);
+    const std::size_t base = (slot * ct_ + frame % static_cast<uint64_t>(ct_)) * static_cast<std::size_t>(maxw_);
+    groupInputsByCell(base, n);
+    const uint32_t* begin = measure_->cell_begin.data();
+    const uint32_t* byCell = measure_->by_cell.data();
+    Reciprocals r;
+    reciprocals(r);
+    const uint16_t* z = cell_z_.data() + slot * cells_ * cap_;
+    runCells(*pool_, cells_, [&](int c) {
+        if (begin[c] == begin[c + 1]) return;
+        alignas(64) int32_t g[kMaxKp];
+        neighbourhood(step, c, g, false);
+        for (uint32_t j = begin[c]; j < begin[c + 1]; ++j) {
+            const uint32_t i = byCell[j], s = in_slot_[base + i];
+            out[i] = static_cast<uint16_t>(mlTopic(in_word_[base + i], (s & kDropped) ? -1 : z[s], g, r));
+        }
+    });
+    releaseMeasure();
+    renumber(frame, out);
+    return true;
+}
+
+// Inputs [base, base + n) of an observation grouped by cell (a counting
+// sort), so that a task takes its cell's inputs.
+void Model::groupInputsByCell(std::size_t base, uint32_t n) const noexcept {
+    Measure& m = *measure_;
+    uint32_t* cellOf = m.input_cell.data();
+    std::fill_n(m.cell_begin.data(), cells_ + 1, 0u);
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t s = in_slot_[base + i];
+        cellOf[i] = (s & kDropped) ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
+        ++m.cell_begin[cellOf[i] + 1];
+    }
+    for (int c = 0; c < cells_; ++c) {
+        m.cell_begin[c + 1] += m.cell_begin[c];
+        m.cursor[c] = m.cell_begin[c];
+    }
+    for (uint32_t i = 0; i < n; ++i) m.by_cell[m.cursor[cellOf[i]]++] = i;
+}
+
+} // namespace rost
