@@ -111,7 +111,14 @@ std::string readWith(int threads, const std::string& words, const std::string& p
     return st.ok() ? std::string("ok") : st.message();
 }
 
-// The positions file read on a second thread: the serial result, and the
+// `text` with the first `from` replaced by `to`.
+std::string wrongAt(std::string text, const std::string& from, const std::string& to) {
+    const std::size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return at == std::string::npos ? text : text.replace(at, from.size(), to);
+}
+
+// Part of the positions file parsed on a second thread: the serial result, and the
 // serial pass's first error, for valid files and for each kind of error.
 TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
     std::string bigWords, bigPositions;
@@ -146,6 +153,10 @@ TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
         {"1,200\n", "1,x\n"},  // both wrong: the words' error first
         {bigWords + "300,1\n", bigPositions + "300,3,4\n"},
         {bigWords, bigPositions + "300,3,4\n"},
+        {bigWords, "# head\n\n" + bigPositions},
+        {bigWords, wrongAt(bigPositions, "\n20,", "\n21,")},    // in the head of the cut
+        {bigWords, wrongAt(bigPositions, "\n250,", "\n251,")},  // in the tail
+        {bigWords, wrongAt(bigPositions, "\n260,", "\n260,700,")},
     };
     int i = 0;
     for (const auto& [words, positions] : cases) {

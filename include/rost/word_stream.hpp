@@ -33,8 +33,8 @@ struct WordStreamLimits {
     uint32_t vocabulary = 0;        // V: word ids must be < V (0: no check)
     int32_t width = 0, height = 0;  // positions must lie in [0, width) x [0, height) (0: no check)
     uint32_t max_words = 1u << 22;  // per observation
-    // readWordStream: with 2 or more, the positions file is read and parsed on
-    // a second thread while this one reads the words (same result, same errors).
+    // readWordStream: with 2 or more, a second thread parses part of the
+    // positions file while this one parses the words (same result, same errors).
     int threads = 1;
 };
 

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fcntl.h>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <new>
 #include <thread>
@@ -264,60 +265,67 @@ Status readFile(const std::string& path, std::string& out) {
 
 namespace {
 
-// The positions file read and parsed on a thread of its own.
-struct PositionsReader {
-    Status read;
+// The tail of the positions text parsed on a thread of its own.
+struct PositionsTail {
+    std::string_view text;
     bool parsed = false;
     bool failed = false;  // an exception on the thread (out of memory)
-    std::string text;
     std::vector<PositionsLine> lines;
 
-    void operator()(const std::string& path) noexcept {
+    void operator()() noexcept {
         try {
-            read = readFile(path, text);
-            if (read.ok()) parsed = parsePositionLines(text, lines);
+            parsed = parsePositionLines(text, lines);
         } catch (...) {
             failed = true;
         }
     }
 };
 
+// Where the positions text is cut so that both threads parse about as many
+// bytes: this one the words and the positions' head, the other the tail.
+std::size_t positionsCut(std::size_t wordsBytes, std::string_view positions) {
+    const std::size_t half = (wordsBytes + positions.size()) / 2;
+    if (half <= wordsBytes) return 0;
+    const std::size_t nl = positions.find('\n', half - wordsBytes);
+    return nl == std::string_view::npos ? positions.size() : nl + 1;
+}
+
 } // namespace
 
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
                       const WordStreamLimits& limits, WordStream& out) {
-    if (positionsPath.empty() || limits.threads < 2) {
-        std::string words, positions;
-        Status st = readFile(wordsPath, words);
-        if (!st.ok()) return st;
-        if (!positionsPath.empty()) {
-            st = readFile(positionsPath, positions);
-            if (!st.ok()) return st;
-            if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
-                return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
-        }
-        return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
-    }
-    // Two threads: the words here, the positions beside them. The result
-    // and the first error are the serial path's: a positions file that does
-    // not fit the words as parsed goes through the serial pass, which names
-    // the first error exactly.
-    PositionsReader pr;
-    std::jthread thread(std::ref(pr), std::cref(positionsPath));  // joined on every way out
-    std::string words;
+    std::string words, positions;
     Status st = readFile(wordsPath, words);
+    if (!st.ok()) return st;
+    if (!positionsPath.empty()) {
+        st = readFile(positionsPath, positions);
+        if (!st.ok()) return st;
+        if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+            return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+    }
+    if (positionsPath.empty() || limits.threads < 2) return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
+    // Two threads: here the words and the head of the positions, beside them
+    // the tail (whole lines each). The result and the first error are the
+    // serial path's: positions that do not fit the words as parsed go
+    // through the serial pass, which names the first error exactly.
+    const std::string_view text = positions;
+    const std::size_t cut = positionsCut(words.size(), text);
+    PositionsTail tail;
+    tail.text = text.substr(cut);
+    std::jthread thread(std::ref(tail));  // joined on every way out
     out.observations.clear();
     out.has_positions = true;
-    Status wordsParsed = st.ok() ? parseWords(words, limits, out, wordsPath) : Status();
+    if (st = parseWords(words, limits, out, wordsPath); !st.ok()) return st;
+    std::vector<PositionsLine> lines;
+    const bool head = parsePositionLines(text.substr(0, cut), lines);
     thread.join();
-    if (!st.ok()) return st;
-    if (pr.failed) throw std::bad_alloc();
-    if (!pr.read.ok()) return pr.read;
-    if (pr.text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
-        return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
-    if (!wordsParsed.ok()) return wordsParsed;
-    if (pr.parsed && attachPositions(pr.lines, limits, out)) return {};
-    return parsePositions(pr.text, limits, out, positionsPath, wordsPath);
+    if (tail.failed) throw std::bad_alloc();
+    if (head && tail.parsed) {
+        lines.reserve(lines.size() + tail.lines.size());
+        std::move(tail.lines.begin(), tail.lines.end(), std::back_inserter(lines));
+        if (attachPositions(lines, limits, out)) return {};
+    }
+    return parsePositions(text, limits, out, positionsPath, wordsPath);
 }
 
 Status writeFileAtomic(const std::string& path, std::string_view content) {
