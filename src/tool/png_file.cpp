@@ -47,6 +47,9 @@ bool encode(std::FILE* f, const cv::Mat& bgr, PngErrors& errors) {
     // Fast and small for plots: OpenCV's own defaults for PNG (level 1, run-length strategy).
     png_set_compression_level(png, 1);
     png_set_compression_strategy(png, 3);  // Z_RLE
+    // One filter, not libpng's per-row trial of all five (which took 30 ms of
+    // a 35 ms summary): a plot's runs of one colour compress as well with it.
+    png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
     png_set_IHDR(png, info, static_cast<png_uint_32>(bgr.cols), static_cast<png_uint_32>(bgr.rows), 8,
                  PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_write_info(png, info);
