@@ -413,22 +413,27 @@ void Model::runLiveRound(uint32_t task) noexcept {
     syncWorkerTables(false);  // n_k and the open topics moved with the cell
 }
 
-// Adds the moves of the round's tasks to copy `copy` of n_k^v, and, for the
-// model's own (copy 0), to n_k's change: integer adds, in any order the same.
+// Adds the moves of the round's tasks to copy `copy` of n_k^v and, for its
+// share of the tasks (1/copies of them), to its own part of n_k's change:
+// integer adds, in any order the same; every copy's task does as much.
 void Model::mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy) noexcept {
     Windows& w = *win_;
     int32_t* nkv = w.worker_tables[copy].nkv;
-    int32_t* dnk = w.dnk.data();
+    int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(copy) * static_cast<std::size_t>(Kp_);
+    const auto copies = static_cast<uint64_t>(w.worker_tables.size());
+    const auto mineBegin = static_cast<uint32_t>(count * uint64_t{copy} / copies);
+    const auto mineEnd = static_cast<uint32_t>(count * (uint64_t{copy} + 1) / copies);
     for (uint32_t i = 0; i < count; ++i) {
         const uint32_t t = tasks[i];
         const uint64_t* moves = w.moves.data() + w.task_z0[t];
+        const bool mine = i >= mineBegin && i < mineEnd;
         for (uint32_t c = 0; c < w.task_moves[t]; ++c) {
             const uint64_t mv = moves[c];
             const auto from = static_cast<uint16_t>(mv >> 32), to = static_cast<uint16_t>(mv >> 48);
             int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp_;
             --row[from];
             ++row[to];
-            if (copy == 0) {
+            if (mine) {
                 --dnk[from];
                 ++dnk[to];
             }
@@ -439,10 +444,12 @@ void Model::mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy) noe
 // After the merge: n_k, the reciprocals, the open topics, and the workers' tables.
 void Model::finishRound() noexcept {
     Windows& w = *win_;
-    for (int k = 0; k < Kp_; ++k) {
-        nk_[k] += w.dnk[k];
-        w.dnk[k] = 0;
-    }
+    int32_t* dnk = w.dnk.data();
+    for (std::size_t r = 0; r < w.worker_tables.size(); ++r, dnk += Kp_)
+        for (int k = 0; k < Kp_; ++k) {
+            nk_[k] += dnk[k];
+            dnk[k] = 0;
+        }
     kernel::refreshReciprocals(tables_);
     // Topics closed and opened (every task that opened one opened the same).
     kernel::updateTopics(tables_);

@@ -54,7 +54,7 @@ struct Model::Windows {
     AlignedBuffer<int32_t> worker_g;
     AlignedBuffer<kernel::Tables> worker_tables;
     AlignedBuffer<int32_t> replicas;
-    AlignedBuffer<int32_t> dnk;  // the merge's change to n_k
+    AlignedBuffer<int32_t> dnk;  // the merge's change to n_k, one part per copy
     bool copies_synced = false;  // inside a refinement: the copies are kept equal
     // A round's tasks by owner (scratch) and the owners' ranges (threads + 1).
     AlignedBuffer<uint32_t> owned;
@@ -75,7 +75,7 @@ struct Model::Windows {
         worker_g.reset(n * Kp);
         worker_tables.reset(n);
         replicas.reset(W > 1 ? (n - 1) * V * Kp : 0);
-        dnk.reset(Kp);
+        dnk.reset(n * Kp);
         cuts.reset(n + 1);
     }
 
