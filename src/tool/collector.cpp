@@ -63,8 +63,8 @@ void Collector::fillFinal(const WindowObservation& w, const Model& m) noexcept {
     f.where = w;
     f.perplexity = m.stepPerplexity(w.step);
     f.n = std::min<uint32_t>(m.observationSize(w.observation), static_cast<uint32_t>(f.labels.size()));
-    m.observationWords(w.observation, {f.words.data(), f.n});
-    m.observationPositions(w.observation, {f.positions.data(), f.n});
+    if (words_.file) m.observationWords(w.observation, {f.words.data(), f.n});
+    if (positions_.file) m.observationPositions(w.observation, {f.positions.data(), f.n});
     m.observationLabels(w.observation, {f.labels.data(), f.n});
 }
 
