@@ -67,6 +67,11 @@ TEST(WordStreamCsv, MissingFileNamesThePath) {
     const rost::Status st = rost::readWordStream("/nonexistent/words.csv", "", limits(), s);
     ASSERT_FALSE(st.ok());
     EXPECT_NE(st.message().find("/nonexistent/words.csv: cannot open"), std::string::npos) << st.message();
+    // Two threads: the words file's error first, as on one.
+    rost::WordStreamLimits two = limits();
+    two.threads = 2;
+    const rost::Status both = rost::readWordStream("/nonexistent/words.csv", "/nonexistent/positions.csv", two, s);
+    EXPECT_NE(both.message().find("/nonexistent/words.csv: cannot open"), std::string::npos) << both.message();
 }
 
 TEST(WordStreamCsv, WriterOutputParsesBackAndAtomicWriteReplaces) {

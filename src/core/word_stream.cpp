@@ -6,8 +6,10 @@
 #include <cstdio>
 #include <cstring>
 #include <fcntl.h>
+#include <filesystem>
 #include <functional>
 #include <iterator>
+#include <latch>
 #include <limits>
 #include <new>
 #include <thread>
@@ -265,24 +267,8 @@ Status readFile(const std::string& path, std::string& out) {
 
 namespace {
 
-// The tail of the positions text parsed on a thread of its own.
-struct PositionsTail {
-    std::string_view text;
-    bool parsed = false;
-    bool failed = false;  // an exception on the thread (out of memory)
-    std::vector<PositionsLine> lines;
-
-    void operator()() noexcept {
-        try {
-            parsed = parsePositionLines(text, lines);
-        } catch (...) {
-            failed = true;
-        }
-    }
-};
-
 // Where the positions text is cut so that both threads parse about as many
-// bytes: this one the words and the positions' head, the other the tail.
+// bytes: one the words and the positions' head, the other the tail.
 std::size_t positionsCut(std::size_t wordsBytes, std::string_view positions) {
     const std::size_t half = (wordsBytes + positions.size()) / 2;
     if (half <= wordsBytes) return 0;
@@ -290,34 +276,76 @@ std::size_t positionsCut(std::size_t wordsBytes, std::string_view positions) {
     return nl == std::string_view::npos ? positions.size() : nl + 1;
 }
 
+// The positions file read, and its tail parsed, on a thread of its own.
+struct PositionsTail {
+    const std::string* path = nullptr;
+    std::size_t wordsBytes = 0;  // for the cut; any value gives the same result
+    Status read;
+    std::string text;
+    std::size_t cut = 0;
+    std::latch readDone{1};  // `read`, `text` and `cut` are set
+    bool parsed = false;
+    bool failed = false;  // an exception on the thread (out of memory)
+    std::vector<PositionsLine> lines;
+
+    void operator()() noexcept {
+        try {
+            read = readFile(*path, text);
+            if (read.ok()) cut = positionsCut(wordsBytes, text);
+        } catch (...) {
+            failed = true;
+        }
+        readDone.count_down();
+        if (failed || !read.ok()) return;
+        try {
+            parsed = parsePositionLines(std::string_view(text).substr(cut), lines);
+        } catch (...) {
+            failed = true;
+        }
+    }
+};
+
 } // namespace
 
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
                       const WordStreamLimits& limits, WordStream& out) {
-    std::string words, positions;
-    Status st = readFile(wordsPath, words);
-    if (!st.ok()) return st;
-    if (!positionsPath.empty()) {
-        st = readFile(positionsPath, positions);
+    if (positionsPath.empty() || limits.threads < 2) {
+        std::string words, positions;
+        Status st = readFile(wordsPath, words);
         if (!st.ok()) return st;
-        if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
-            return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+        if (!positionsPath.empty()) {
+            st = readFile(positionsPath, positions);
+            if (!st.ok()) return st;
+            if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+                return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+        }
+        return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
     }
-    if (positionsPath.empty() || limits.threads < 2) return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
-    // Two threads: here the words and the head of the positions, beside them
-    // the tail (whole lines each). The result and the first error are the
-    // serial path's: positions that do not fit the words as parsed go
-    // through the serial pass, which names the first error exactly.
-    const std::string_view text = positions;
-    const std::size_t cut = positionsCut(words.size(), text);
+    // Two threads: beside this one the positions file is read and its tail
+    // parsed; here the words file, the words and the positions' head (whole
+    // lines each, about half the bytes each). The result and the first error
+    // are the serial path's: positions that do not fit the words as parsed
+    // go through the serial pass, which names the first error exactly.
     PositionsTail tail;
-    tail.text = text.substr(cut);
+    tail.path = &positionsPath;
+    std::error_code sizeError;
+    const auto wordsBytes = std::filesystem::file_size(wordsPath, sizeError);
+    tail.wordsBytes = sizeError ? 0 : static_cast<std::size_t>(wordsBytes);
     std::jthread thread(std::ref(tail));  // joined on every way out
+    std::string words;
+    Status st = readFile(wordsPath, words);
+    tail.readDone.wait();
+    if (tail.failed) throw std::bad_alloc();
+    if (!st.ok()) return st;
+    if (!tail.read.ok()) return tail.read;
+    const std::string_view text = tail.text;
+    if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+        return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
     out.observations.clear();
     out.has_positions = true;
     if (st = parseWords(words, limits, out, wordsPath); !st.ok()) return st;
     std::vector<PositionsLine> lines;
-    const bool head = parsePositionLines(text.substr(0, cut), lines);
+    const bool head = parsePositionLines(text.substr(0, tail.cut), lines);
     thread.join();
     if (tail.failed) throw std::bad_alloc();
     if (head && tail.parsed) {

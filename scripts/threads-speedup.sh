@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Issue 13's bar, measured: wall time of the whole `rost refine WORDS
+# --positions POSITIONS --out DIR -q` (default settings, summary.png too)
+# with --threads 1 and --threads 2, RUNS runs each, interleaved, the median
+# and the ratio; then whether the outputs are byte-identical. Give more
+# rost binaries (an older build) to measure them in the same interleaved
+# runs. bench/RESULTS.md, "Every core".
+# Usage: scripts/threads-speedup.sh WORDS.csv POSITIONS.csv [RUNS] [ROST...]
+set -euo pipefail
+words=$1 positions=$2 runs=${3:-9}
+shift $(( $# < 3 ? $# : 3 ))
+cd "$(dirname "$0")/.."
+tools=("$@")
+[ ${#tools[@]} -gt 0 ] || tools=(build/rost)
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+for i in $(seq 1 "$runs"); do
+  for b in "${!tools[@]}"; do
+    for t in 1 2; do
+      /usr/bin/time -f "%e" -o "$tmp/time" "${tools[$b]}" refine "$words" --positions "$positions" \
+        --out "$tmp/out$b-$t" --threads "$t" -q
+      cat "$tmp/time" >> "$tmp/times$b-$t"
+    done
+  done
+done
+median() { sort -n "$1" | awk '{ x[NR] = $1 } END { print (NR % 2) ? x[(NR + 1) / 2] : (x[NR / 2] + x[NR / 2 + 1]) / 2 }'; }
+for b in "${!tools[@]}"; do
+  m1=$(median "$tmp/times$b-1") m2=$(median "$tmp/times$b-2")
+  echo "${tools[$b]}: threads 1: $(sort -n "$tmp/times$b-1" | tr '\n' ' ')s (median $m1)"
+  echo "${tools[$b]}: threads 2: $(sort -n "$tmp/times$b-2" | tr '\n' ' ')s (median $m2)"
+  echo "${tools[$b]}: speed-up $(awk -v a="$m1" -v b="$m2" 'BEGIN { printf "%.2f", a / b }')x"
+  for f in topics.csv topicmodel.csv perplexity.csv surprise.csv surprise_cells.csv; do
+    cmp -s "$tmp/out$b-1/$f" "$tmp/out$b-2/$f" || { echo "${tools[$b]}: $f differs between 1 and 2 threads"; exit 1; }
+  done
+  echo "${tools[$b]}: outputs of --threads 1 and 2 byte-identical"
+done
