@@ -16,7 +16,8 @@
 # database is not touched. Then it configures with
 # ROST_SYSROOT=DIR and toolchains/aarch64-linux-gnu.cmake, builds everything
 # with ROST_VISION=ON and ROST_LIBCAMERA=ON, and (unless --no-test) runs the
-# tests under qemu-aarch64 with the sysroot's libraries and `rost --help`.
+# tests under qemu-aarch64 with the sysroot's libraries, `rost --help` and
+# `rost-vision run --help`.
 #
 #   --sysroot DIR    where the arm64 root is made, outside the source tree
 #                    (default: ~/.cache/rost/sysroot-arm64)
@@ -125,7 +126,7 @@ cmake --build "$build" -j "$jobs"
 t4=$(date +%s)
 echo "=== cross-build-tool: built in $((t4 - t3)) s"
 tool=
-for cand in "$build/rost" "$build/src/vision/rost"; do
+for cand in "$build/rost"; do
   if [ -x "$cand" ]; then
     tool=$cand
     break

@@ -162,6 +162,10 @@ TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
         {bigWords, wrongAt(bigPositions, "\n20,", "\n21,")},    // in the head of the cut
         {bigWords, wrongAt(bigPositions, "\n250,", "\n251,")},  // in the tail
         {bigWords, wrongAt(bigPositions, "\n260,", "\n260,700,")},
+        {"", ""},
+        {"", " \n"},
+        {"# only a comment\n", ""},
+        {"# only a comment\n", "# and here\n"},
     };
     int i = 0;
     for (const auto& [words, positions] : cases) {
@@ -170,8 +174,10 @@ TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
         const std::string b = readWith(2, words, positions, parallel);
         EXPECT_EQ(a, b) << "case " << i;
         if (a == "ok" && b == "ok") {
+            EXPECT_EQ(serial.has_positions, parallel.has_positions) << "case " << i;
             ASSERT_EQ(serial.observations.size(), parallel.observations.size()) << "case " << i;
             for (std::size_t o = 0; o < serial.observations.size(); ++o) {
+                EXPECT_EQ(serial.observations[o].timestamp, parallel.observations[o].timestamp);
                 EXPECT_EQ(serial.observations[o].words, parallel.observations[o].words);
                 const auto& ps = serial.observations[o].positions;
                 const auto& pp = parallel.observations[o].positions;
@@ -184,6 +190,22 @@ TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
     rost::WordStream s;
     EXPECT_EQ(readWith(2, bigWords, bigPositions, s), "ok");
     EXPECT_EQ(s.observations.size(), 300u);
+}
+
+// A positions "file" that is not a regular file (a pipe, /dev/stdin) is read
+// on one thread, as before: here /dev/null, empty, beside non-empty words.
+TEST(WordStreamCsv, APositionsPipeIsReadInOrderOnOneThread) {
+    const auto dir = std::filesystem::temp_directory_path() / ("rost_word_stream_pipe_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string wp = (dir / "w.csv").string();
+    ASSERT_TRUE(rost::writeFileAtomic(wp, "1,2\n").ok());
+    rost::WordStreamLimits l = limits();
+    l.threads = 2;
+    rost::WordStream s;
+    const rost::Status st = rost::readWordStream(wp, "/dev/null", l, s);
+    std::filesystem::remove_all(dir);
+    ASSERT_FALSE(st.ok());
+    EXPECT_EQ(st.message(), "/dev/null: empty, but " + wp + " is not");
 }
 
 } // namespace

@@ -365,7 +365,7 @@ private:
     void groupWindow() noexcept;
     uint64_t roundTokens(uint32_t begin, uint32_t end) const noexcept;
     void runRound(uint32_t begin, uint32_t end) noexcept;
-    void mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy) noexcept;
+    void mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy, uint32_t copies) noexcept;
     void runLiveRound(uint32_t task) noexcept;
     void syncWorkerTables(bool copy) noexcept;
     bool workerCopiesAgree(std::string* why) const;

@@ -33,7 +33,9 @@ struct Model::MergeJob final : detail::WorkerPool::Job {
     const uint32_t* tasks = nullptr;
     uint32_t count = 0;
 
-    void task(int /*worker*/, uint32_t copy) noexcept override { model->mergeMoves(tasks, count, copy); }
+    uint32_t copies = 1;  // the copies of n_k^v in use: the pool's workers, or 1 without a pool
+
+    void task(int /*worker*/, uint32_t copy) noexcept override { model->mergeMoves(tasks, count, copy, copies); }
 };
 
 // The copies of n_k^v made equal to the model's: task r copies into copy r (task 0: nothing to do).
@@ -75,12 +77,23 @@ void Model::setThreads(int n) {
     if (n == threads() && n == cfg_.threads) return;
     Windows& w = *win_;
     pool_.reset();
-    memory_bytes_ -= w.workerBytes();
-    w.sizeWorkers(static_cast<std::size_t>(n), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
-    memory_bytes_ += w.workerBytes();
-    cfg_.threads = n;
-    if (n > 1 && w.W > 1) pool_ = std::make_unique<detail::WorkerPool>(n);
-    sizeMeasure();
+    const auto size = [&](int threads) {
+        memory_bytes_ -= w.workerBytes();
+        w.sizeWorkers(static_cast<std::size_t>(threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
+        memory_bytes_ += w.workerBytes();
+        cfg_.threads = threads;
+    };
+    try {
+        size(n);
+        if (n > 1 && w.W > 1) pool_ = std::make_unique<detail::WorkerPool>(n);
+        sizeMeasure();
+    } catch (...) {
+        // No thread or no memory to be had: the model is left whole, on one thread.
+        pool_.reset();
+        size(1);
+        sizeMeasure();
+        throw;
+    }
 }
 
 void Model::applyWorkerSettings(const ThreadSettings& settings) {
@@ -375,6 +388,7 @@ void Model::runRound(uint32_t b, uint32_t e) noexcept {
     merge.count = e - b;
     if (pool_) {
         cutRound(b, e);
+        merge.copies = static_cast<uint32_t>(pool_->workers());
         job.tasks = merge.tasks = w.owned.data();
         pool_->run(job, e - b, w.cuts.data());
         pool_->run(merge, static_cast<uint32_t>(pool_->workers()));
@@ -416,13 +430,12 @@ void Model::runLiveRound(uint32_t task) noexcept {
 // Adds the moves of the round's tasks to copy `copy` of n_k^v and, for its
 // share of the tasks (1/copies of them), to its own part of n_k's change:
 // integer adds, in any order the same; every copy's task does as much.
-void Model::mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy) noexcept {
+void Model::mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy, uint32_t copies) noexcept {
     Windows& w = *win_;
     int32_t* nkv = w.worker_tables[copy].nkv;
     int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(copy) * static_cast<std::size_t>(Kp_);
-    const auto copies = static_cast<uint64_t>(w.worker_tables.size());
-    const auto mineBegin = static_cast<uint32_t>(count * uint64_t{copy} / copies);
-    const auto mineEnd = static_cast<uint32_t>(count * (uint64_t{copy} + 1) / copies);
+    const auto mineBegin = static_cast<uint32_t>(uint64_t{count} * copy / copies);
+    const auto mineEnd = static_cast<uint32_t>(uint64_t{count} * (copy + 1) / copies);
     for (uint32_t i = 0; i < count; ++i) {
         const uint32_t t = tasks[i];
         const uint64_t* moves = w.moves.data() + w.task_z0[t];

@@ -12,6 +12,7 @@
 #include <latch>
 #include <limits>
 #include <new>
+#include <system_error>
 #include <thread>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -284,8 +285,9 @@ struct PositionsTail {
     std::string text;
     std::size_t cut = 0;
     std::latch readDone{1};  // `read`, `text` and `cut` are set
+    bool readFailed = false;  // an exception while reading (out of memory): before readDone
     bool parsed = false;
-    bool failed = false;  // an exception on the thread (out of memory)
+    bool parseFailed = false;  // an exception while parsing: read after the join
     std::vector<PositionsLine> lines;
 
     void operator()() noexcept {
@@ -293,34 +295,45 @@ struct PositionsTail {
             read = readFile(*path, text);
             if (read.ok()) cut = positionsCut(wordsBytes, text);
         } catch (...) {
-            failed = true;
+            readFailed = true;
         }
         readDone.count_down();
-        if (failed || !read.ok()) return;
+        if (readFailed || !read.ok()) return;
         try {
             parsed = parsePositionLines(std::string_view(text).substr(cut), lines);
         } catch (...) {
-            failed = true;
+            parseFailed = true;
         }
     }
 };
+
+// Both paths name regular files: a pipe or a device is read by one thread,
+// in order, as before (two readers of one pipe would share its bytes).
+bool regularFiles(const std::string& a, const std::string& b) {
+    struct stat sa {}, sb {};
+    return ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 && S_ISREG(sa.st_mode) && S_ISREG(sb.st_mode);
+}
+
+Status readSerially(const std::string& wordsPath, const std::string& positionsPath, const WordStreamLimits& limits,
+                    WordStream& out) {
+    std::string words, positions;
+    Status st = readFile(wordsPath, words);
+    if (!st.ok()) return st;
+    if (!positionsPath.empty()) {
+        st = readFile(positionsPath, positions);
+        if (!st.ok()) return st;
+        if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+            return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
+    }
+    return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
+}
 
 } // namespace
 
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
                       const WordStreamLimits& limits, WordStream& out) {
-    if (positionsPath.empty() || limits.threads < 2) {
-        std::string words, positions;
-        Status st = readFile(wordsPath, words);
-        if (!st.ok()) return st;
-        if (!positionsPath.empty()) {
-            st = readFile(positionsPath, positions);
-            if (!st.ok()) return st;
-            if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
-                return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
-        }
-        return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
-    }
+    if (positionsPath.empty() || limits.threads < 2 || !regularFiles(wordsPath, positionsPath))
+        return readSerially(wordsPath, positionsPath, limits, out);
     // Two threads: beside this one the positions file is read and its tail
     // parsed; here the words file, the words and the positions' head (whole
     // lines each, about half the bytes each). The result and the first error
@@ -331,23 +344,29 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     std::error_code sizeError;
     const auto wordsBytes = std::filesystem::file_size(wordsPath, sizeError);
     tail.wordsBytes = sizeError ? 0 : static_cast<std::size_t>(wordsBytes);
-    std::jthread thread(std::ref(tail));  // joined on every way out
+    std::jthread thread;  // joined on every way out
+    try {
+        thread = std::jthread(std::ref(tail));
+    } catch (const std::system_error&) {  // no thread to be had
+        return readSerially(wordsPath, positionsPath, limits, out);
+    }
     std::string words;
     Status st = readFile(wordsPath, words);
     tail.readDone.wait();
-    if (tail.failed) throw std::bad_alloc();
     if (!st.ok()) return st;
+    if (tail.readFailed) throw std::bad_alloc();
     if (!tail.read.ok()) return tail.read;
     const std::string_view text = tail.text;
     if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
         return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
     out.observations.clear();
-    out.has_positions = true;
+    out.has_positions = !text.empty();
     if (st = parseWords(words, limits, out, wordsPath); !st.ok()) return st;
     std::vector<PositionsLine> lines;
     const bool head = parsePositionLines(text.substr(0, tail.cut), lines);
     thread.join();
-    if (tail.failed) throw std::bad_alloc();
+    if (tail.parseFailed) throw std::bad_alloc();
+    if (!out.has_positions) return {};  // both files empty: no observations
     if (head && tail.parsed) {
         lines.reserve(lines.size() + tail.lines.size());
         std::move(tail.lines.begin(), tail.lines.end(), std::back_inserter(lines));

@@ -162,25 +162,25 @@ CLI::App* addVocab(CLI::App& app, VocabOptions& voc) {
 }
 
 #if ROST_TOOL_LIGHT
-// rost-vision: beside this program (the build tree), or where the install
-// puts it relative to its bin directory (ROST_VISION_FROM_BIN).
-std::string visionProgram() {
+// Replaces this process with rost-vision, the same arguments: beside this
+// program (the build tree, or copied so), or where the install puts it
+// relative to its bin directory (ROST_VISION_FROM_BIN). Returns only on failure.
+int runVisionProgram(char** argv) {
     std::error_code ec;
     const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
-    if (ec) return "rost-vision";
+    if (ec) return fail("cannot find rost-vision: /proc/self/exe: " + ec.message());
     const std::filesystem::path dir = self.parent_path();
-    for (const std::filesystem::path& p : {dir / "rost-vision", dir / ROST_VISION_FROM_BIN})
-        if (::access(p.c_str(), X_OK) == 0) return p.lexically_normal().string();
-    return (dir / ROST_VISION_FROM_BIN).lexically_normal().string();
-}
-
-// Replaces this process with rost-vision, the same arguments: it returns only on failure.
-int runVisionProgram(char** argv) {
-    const std::string path = visionProgram();
+    const std::filesystem::path beside = dir / "rost-vision";
+    const std::filesystem::path installed = (dir / ROST_VISION_FROM_BIN).lexically_normal();
     std::fflush(nullptr);
-    ::execv(path.c_str(), argv);
-    return fail(path + ": cannot run it (" + std::strerror(errno) +
-                "): `rost run`, `rost vocab` and `rost cameras` are in that program, installed with rost");
+    for (const std::filesystem::path& p : {beside, installed})
+        if (::access(p.c_str(), X_OK) == 0) {
+            ::execv(p.c_str(), argv);
+            return fail(p.string() + ": cannot run it (" + std::strerror(errno) + ")");
+        }
+    return fail("rost-vision is neither beside " + self.string() + " nor at " + installed.string() +
+                ": `rost run`, `rost vocab` and `rost cameras` are that program's; install it with rost, or copy it "
+                "beside rost");
 }
 #endif
 
