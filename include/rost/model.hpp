@@ -245,8 +245,9 @@ public:
     // refines. Two threads may measure at once (the const functions): the
     // pool and its buffers are claimed with a flag (one atomic exchange,
     // never a wait) and the call that finds them taken computes serially,
-    // with the same bits; two pool jobs never run at once. No allocation,
-    // no lock, no blocking call.
+    // with the same bits; two pool jobs never run at once. No allocation and
+    // no lock; the pool's barrier is refine()'s (a bounded spin, then a futex
+    // wait for a worker still running a task).
     // Jobs run on the pool so far, refinement and measurements (for tests).
     uint64_t poolJobs() const noexcept;
 
