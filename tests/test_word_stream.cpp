@@ -192,9 +192,10 @@ TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
     EXPECT_EQ(s.observations.size(), 300u);
 }
 
-// A positions "file" that is not a regular file (a pipe, /dev/stdin) is read
-// on one thread, as before: here /dev/null, empty, beside non-empty words.
-TEST(WordStreamCsv, APositionsPipeIsReadInOrderOnOneThread) {
+// A positions "file" that is not a regular file (here /dev/null, empty,
+// beside non-empty words) asked for on two threads gives the serial error.
+// (It does not show which path read it: both would give this message.)
+TEST(WordStreamCsv, ADeviceAsPositionsOnTwoThreadsGivesTheSerialError) {
     const auto dir = std::filesystem::temp_directory_path() / ("rost_word_stream_pipe_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     const std::string wp = (dir / "w.csv").string();
