@@ -35,7 +35,10 @@ case "$mode" in
     ;;
 esac
 jobs=${ROST_JOBS:-2}
-cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DROST_WERROR=ON \
+# -g1 (line tables): a report's stack still names file and line, and the
+# build takes about a third less time than with full debug information.
+cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
+  -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DROST_WERROR=ON \
   -DROST_BUILD_BENCH=OFF -DROST_BUILD_EXAMPLES=OFF -DROST_PYTHON=OFF -DROST_ROS=OFF \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" -DCMAKE_SHARED_LINKER_FLAGS="$flags" >/dev/null
 cmake --build "$dir" -j "$jobs"
