@@ -38,6 +38,20 @@ TEST(Config, InvalidValueNamesFieldAndRange) {
     }
 }
 
+// A ring too large for memory is refused naming every setting its size comes
+// from, each as "key = value" (so a Python caller sees its own keyword).
+TEST(Config, ARingTooLargeNamesEverySettingItsSizeComesFrom) {
+    rost::Config c;
+    c.cell_space = 1;  // 640 x 480 cells a step: each setting alone is in range
+    c.ring_steps = 4096;
+    c.cell_capacity = 4096;
+    const rost::Status s = c.validate();
+    ASSERT_FALSE(s.ok());
+    for (const char* key : {"ring.steps = 4096", "frame.width = ", "frame.height = ", "cell.space = 1",
+                            "cell.capacity = 4096", "64 GiB"})
+        EXPECT_NE(s.message().find(key), std::string::npos) << key << " in: " << s.message();
+}
+
 TEST(Config, NanAlphaRejected) {
     rost::Config c;
     c.alpha = std::numeric_limits<double>::quiet_NaN();

@@ -71,8 +71,14 @@ Status Config::validate() const {
     const double words = static_cast<double>(ring_steps) * static_cast<double>(cells) * cell_capacity;
     const double bytes = words * 8.0;
     if (bytes > 64.0 * 1024 * 1024 * 1024)
-        return Status::error("invalid configuration: ring of " + std::to_string(static_cast<long long>(words)) +
-                             " words needs more than 64 GiB; lower ring.steps or cell.capacity");
+        // Every setting the size comes from, each as "key = value".
+        return Status::error("invalid configuration: the ring would need more than 64 GiB: ring.steps = " +
+                             std::to_string(ring_steps) + " steps of " + std::to_string(cells) +
+                             " cells (the cells of a step: frame.width = " + std::to_string(frame_width) +
+                             " and frame.height = " + std::to_string(frame_height) + " over cell.space = " +
+                             std::to_string(cell_space) + ") of cell.capacity = " + std::to_string(cell_capacity) +
+                             " words, " + std::to_string(static_cast<long long>(words)) +
+                             " words in all; lower ring.steps or cell.capacity, or raise cell.space");
     // Each observation's kept inputs (word, position, cell slot: 12 bytes).
     const double inputs = static_cast<double>(ring_steps) * cell_time * max_words_per_frame;
     if (inputs * 12.0 > 64.0 * 1024 * 1024 * 1024)
