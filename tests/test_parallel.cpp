@@ -147,6 +147,43 @@ TEST(ParallelRefine, CountsAreConsistentAfterEveryRound) {
     }
 }
 
+// With workers and a step budget each window is planned (picks drawn, key
+// drawn, cells grouped) by a task of the window before; the draws are the
+// serial order's, so the result is one thread's. A token budget or a time
+// control plans after the round, as one thread does.
+TEST(ParallelRefine, WindowsArePlannedAheadOnWorkersWithTheSameDraws) {
+    const auto run = [](int threads, RefineLimits limits, RefineCount& rc) {
+        Model m(gridConfig(threads, 16));
+        for (const auto& f : makeStream(m.config(), 20, 200, 6)) EXPECT_TRUE(m.addObservation(f.words, f.positions).ok());
+        Sweep sweep(m);
+        rc = m.refine(sweep, limits);
+        std::string why;
+        EXPECT_TRUE(m.checkInvariants(&why)) << why;
+        return outcomeOf(m);
+    };
+    RefineLimits steps;
+    steps.steps = 45;
+    RefineCount one, two, three;
+    const Outcome a = run(1, steps, one);
+    EXPECT_EQ(one.planned, 0u);
+    EXPECT_TRUE(run(2, steps, two) == a);
+    EXPECT_TRUE(run(3, steps, three) == a);
+    for (const RefineCount& rc : {two, three}) {
+        EXPECT_EQ(rc.steps, one.steps);
+        EXPECT_EQ(rc.tokens, one.tokens);
+        EXPECT_EQ(rc.rounds, one.rounds);
+        // Every window after the first was planned ahead, unless its
+        // predecessor's last round was a single cell (refined live, serially).
+        EXPECT_GT(rc.planned, one.rounds / 4);
+    }
+    RefineLimits tokens;
+    tokens.tokens = 20000;
+    RefineCount t1, t2;
+    EXPECT_TRUE(run(2, tokens, t2) == run(1, tokens, t1));
+    EXPECT_EQ(t2.planned, 0u);
+    EXPECT_GT(t2.rounds, 0u);
+}
+
 TEST(ParallelRefine, WindowOfOneIsTheSerialSampler) {
     Model a(gridConfig(2, 1)), b(gridConfig(1, 1));
     const auto stream = makeStream(a.config(), 20, 200, 4);

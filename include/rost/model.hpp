@@ -129,6 +129,7 @@ struct RefineCount {
     uint64_t started = 0;  // step picks of which at least one cell was refined
     uint64_t tokens = 0;   // token refinements
     uint64_t rounds = 0;   // rounds run (a round of a serial window is one cell)
+    uint64_t planned = 0;  // windows planned by a worker during the window before (same draws)
 };
 
 class Model {
@@ -357,21 +358,25 @@ private:
     void evict(std::size_t slot) noexcept;
     // Windows of cell picks (src/core/refine_windows.cpp).
     struct Windows;
+    struct WindowPlan;
     struct WindowJob;
     struct MergeJob;
     struct CopyJob;
-    bool fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept;
+    bool fillWindow(WindowPlan& plan, StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept;
     bool refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
     bool refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
-    void groupWindow() noexcept;
+    void groupWindow(WindowPlan& plan) noexcept;
+    void prepareWindow(WindowPlan& plan) noexcept;
+    void planNextWindow() noexcept;
     uint64_t roundTokens(uint32_t begin, uint32_t end) const noexcept;
-    void runRound(uint32_t begin, uint32_t end) noexcept;
+    // True when a task of the round planned the next window (planNext, on the pool).
+    bool runRound(uint32_t begin, uint32_t end, bool planNext) noexcept;
     void mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy, uint32_t copies) noexcept;
     void runLiveRound(uint32_t task) noexcept;
     void syncWorkerTables(bool copy) noexcept;
     bool workerCopiesAgree(std::string* why) const;
     void finishRound() noexcept;
-    void cutRound(uint32_t begin, uint32_t end) noexcept;
+    void cutRound(uint32_t begin, uint32_t end, bool planTask) noexcept;
     void countStarted(RefineCount& rc) noexcept;
     void allocateWindows();
     void chooseColours() noexcept;

@@ -23,7 +23,13 @@ struct Model::WindowJob final : detail::WorkerPool::Job {
     const uint32_t* tasks = nullptr;
     TaskKernel kernel = nullptr;
 
-    void task(int worker, uint32_t index) noexcept override { (model->*kernel)(worker, tasks[index]); }
+    void task(int worker, uint32_t index) noexcept override {
+        const uint32_t t = tasks[index];
+        if (t == Windows::kPlanTask)
+            model->planNextWindow();
+        else
+            (model->*kernel)(worker, t);
+    }
 };
 
 // The merge of a round on the pool: task r adds the round's moves to copy r
@@ -129,20 +135,9 @@ void Model::allocateWindows() {
     Windows& w = *win_;
     const auto W = static_cast<std::size_t>(cfg_.refine_window);
     w.W = static_cast<uint32_t>(W);
-    w.pick_step.reset(W);
-    w.pick_cell.reset(W);
-    w.pick_ord.reset(W);
-    w.pick_next.reset(W);
-    w.pick_done.reset(W);
-    w.task_step.reset(W);
-    w.task_cell.reset(W);
-    w.task_head.reset(W);
-    w.task_tail.reset(W);
-    w.task_mult.reset(W);
-    w.task_colour.reset(W);
-    w.task_z0.reset(W);
-    w.order.reset(W);
-    w.colour_begin.reset(static_cast<std::size_t>(colours_) + 1);
+    // The second plan is used only with workers (planning ahead), but sized
+    // alike so that setThreads() never allocates one.
+    for (Windows::Plan& P : w.plans) P.size(W, static_cast<std::size_t>(colours_));
     std::size_t h = 1;
     while (h < 2 * W) h <<= 1;
     w.hash_key.reset(h);
@@ -155,7 +150,7 @@ void Model::allocateWindows() {
         w.moves.reset(w.z0.size());
     }
     w.task_moves.reset(W);
-    w.owned.reset(W);
+    w.owned.reset(W + 1);  // + the task that plans the next window
     w.sizeWorkers(static_cast<std::size_t>(cfg_.threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
     if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
     memory_bytes_ += w.bytes();
@@ -195,8 +190,9 @@ void Model::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const
 template <int KP, kernel::Path P>
 void Model::frozenTask(int worker, uint32_t task) noexcept {
     Windows& w = *win_;
-    const int64_t step = w.task_step[task];
-    const int cell = w.task_cell[task];
+    const Windows::Plan& plan = w.plan();
+    const int64_t step = plan.task_step[task];
+    const int cell = plan.task_cell[task];
     StepSlots slots;
     stepSlots(step, slots);
     const std::size_t slot = slots.self;
@@ -204,17 +200,17 @@ void Model::frozenTask(int worker, uint32_t task) noexcept {
     const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
     uint16_t* z = cell_z_.data() + base;
     const uint32_t* words = cell_words_.data() + base;
-    uint16_t* z0 = w.z0.data() + w.task_z0[task];
+    uint16_t* z0 = w.z0.data() + plan.task_z0[task];
     std::memcpy(z0, z, n * sizeof(uint16_t));
     int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
     sumNeighbourhood<KP>(slots, cell, g);
-    for (uint32_t p = w.task_head[task]; p != Windows::kNone; p = w.pick_next[p]) {
-        detail::CounterRng rng(w.key, p);
+    for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
+        detail::CounterRng rng(plan.key, p);
         kernel::refineCellFrozen<KP, P>(w.worker_tables[static_cast<std::size_t>(worker)], g, nck(slot, cell), words, z,
                                         z0, n, rng);
     }
     // The merge after the round reads only the moves.
-    uint64_t* moves = w.moves.data() + w.task_z0[task];
+    uint64_t* moves = w.moves.data() + plan.task_z0[task];
     uint32_t m = 0;
     for (uint32_t j = 0; j < n; ++j)
         if (z[j] != z0[j]) moves[m++] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
@@ -224,8 +220,9 @@ void Model::frozenTask(int worker, uint32_t task) noexcept {
 template <int KP, kernel::Path P>
 void Model::liveTask(int worker, uint32_t task) noexcept {
     Windows& w = *win_;
-    const int64_t step = w.task_step[task];
-    const int cell = w.task_cell[task];
+    const Windows::Plan& plan = w.plan();
+    const int64_t step = plan.task_step[task];
+    const int cell = plan.task_cell[task];
     StepSlots slots;
     stepSlots(step, slots);
     const std::size_t slot = slots.self;
@@ -233,8 +230,8 @@ void Model::liveTask(int worker, uint32_t task) noexcept {
     const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
     int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
     sumNeighbourhood<KP>(slots, cell, g);
-    for (uint32_t p = w.task_head[task]; p != Windows::kNone; p = w.pick_next[p]) {
-        detail::CounterRng rng(w.key, p);
+    for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
+        detail::CounterRng rng(plan.key, p);
         kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
                                   rng);
     }
@@ -242,9 +239,10 @@ void Model::liveTask(int worker, uint32_t task) noexcept {
 
 // Adds the step's next non-empty cells to the window until it is full,
 // drawing steps as needed. False when the window stays empty (no more picks).
-bool Model::fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept {
+bool Model::fillWindow(Windows::Plan& P, StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept {
     Windows& w = *win_;
-    w.picks = 0;
+    P.grouped = false;
+    P.picks = 0;
     // A token budget also bounds the window, so the budget is passed by less
     // than one cell, as by a serial sampler; so does the control's allowance.
     uint64_t bound = limits.tokens;
@@ -253,7 +251,7 @@ bool Model::fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCou
         bound = std::min(bound, allowance > UINT64_MAX - rc.tokens ? UINT64_MAX : rc.tokens + allowance);
     }
     uint64_t tokens = rc.tokens;
-    while (w.picks < w.W && tokens < bound) {
+    while (P.picks < w.W && tokens < bound) {
         if (w.cur_step < 0 || w.next_cell >= cells_) {
             if (rc.steps >= limits.steps || rc.tokens >= limits.tokens ||
                 (limits.control && !limits.control->beforeStep()))
@@ -269,25 +267,25 @@ bool Model::fillWindow(StepPicker& picker, const RefineLimits& limits, RefineCou
         const std::size_t row = slotOf(w.cur_step) * static_cast<std::size_t>(cells_);
         while (w.next_cell < cells_ && cell_n_[row + static_cast<std::size_t>(w.next_cell)] == 0) ++w.next_cell;
         if (w.next_cell >= cells_) continue;
-        w.pick_step[w.picks] = w.cur_step;
-        w.pick_cell[w.picks] = w.next_cell++;
-        w.pick_ord[w.picks] = w.cur_ord;
-        w.pick_done[w.picks] = 0;
-        tokens += cell_n_[row + static_cast<std::size_t>(w.pick_cell[w.picks])];
-        ++w.picks;
+        P.pick_step[P.picks] = w.cur_step;
+        P.pick_cell[P.picks] = w.next_cell++;
+        P.pick_ord[P.picks] = w.cur_ord;
+        P.pick_done[P.picks] = 0;
+        tokens += cell_n_[row + static_cast<std::size_t>(P.pick_cell[P.picks])];
+        ++P.picks;
     }
-    return w.picks > 0;
+    return P.picks > 0;
 }
 
 bool Model::refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
-    Windows& w = *win_;
-    const int64_t step = w.pick_step[0];
-    const int cell = w.pick_cell[0];
+    Windows::Plan& P = win_->plan();
+    const int64_t step = P.pick_step[0];
+    const int cell = P.pick_cell[0];
     const uint32_t n = cellWordCount(step, cell);
     if (rc.tokens >= limits.tokens || (limits.control && !limits.control->beforeRound(n))) return false;
     rc.tokens += refineCell(step, cell);
     ++rc.rounds;
-    w.pick_done[0] = 1;
+    P.pick_done[0] = 1;
     countStarted(rc);
     if (limits.control) limits.control->afterRound(n);
     return true;
@@ -295,52 +293,52 @@ bool Model::refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noex
 
 // Groups the window's picks into tasks (one per distinct cell) and the tasks
 // into rounds by colour.
-void Model::groupWindow() noexcept {
+void Model::groupWindow(Windows::Plan& P) noexcept {
     Windows& w = *win_;
     if (++w.stamp == 0) {
         std::fill_n(w.hash_stamp.data(), w.hash_stamp.size(), 0u);
         w.stamp = 1;
     }
     const std::size_t mask = w.hash_key.size() - 1;
-    w.tasks = 0;
-    for (uint32_t p = 0; p < w.picks; ++p) {
-        const int64_t key = w.pick_step[p] * cells_ + w.pick_cell[p];
+    P.tasks = 0;
+    for (uint32_t p = 0; p < P.picks; ++p) {
+        const int64_t key = P.pick_step[p] * cells_ + P.pick_cell[p];
         std::size_t h = detail::mix64(static_cast<uint64_t>(key)) & mask;
         while (w.hash_stamp[h] == w.stamp && w.hash_key[h] != key) h = (h + 1) & mask;
-        w.pick_next[p] = Windows::kNone;
+        P.pick_next[p] = Windows::kNone;
         if (w.hash_stamp[h] != w.stamp) {
-            const uint32_t t = w.tasks++;
+            const uint32_t t = P.tasks++;
             w.hash_stamp[h] = w.stamp;
             w.hash_key[h] = key;
             w.hash_task[h] = t;
-            w.task_step[t] = w.pick_step[p];
-            w.task_cell[t] = w.pick_cell[p];
-            w.task_head[t] = w.task_tail[t] = p;
-            w.task_mult[t] = 1;
-            w.task_colour[t] = static_cast<uint32_t>(colourOf(w.pick_step[p], w.pick_cell[p]));
+            P.task_step[t] = P.pick_step[p];
+            P.task_cell[t] = P.pick_cell[p];
+            P.task_head[t] = P.task_tail[t] = p;
+            P.task_mult[t] = 1;
+            P.task_colour[t] = static_cast<uint32_t>(colourOf(P.pick_step[p], P.pick_cell[p]));
         } else {
             const uint32_t t = w.hash_task[h];
-            w.pick_next[w.task_tail[t]] = p;
-            w.task_tail[t] = p;
-            ++w.task_mult[t];
+            P.pick_next[P.task_tail[t]] = p;
+            P.task_tail[t] = p;
+            ++P.task_mult[t];
         }
     }
     // Counting sort of the tasks by colour (stable: first-pick order within a colour).
-    uint32_t* begin = w.colour_begin.data();
+    uint32_t* begin = P.colour_begin.data();
     std::fill_n(begin, colours_ + 1, 0u);
-    for (uint32_t t = 0; t < w.tasks; ++t) ++begin[w.task_colour[t] + 1];
+    for (uint32_t t = 0; t < P.tasks; ++t) ++begin[P.task_colour[t] + 1];
     for (int c = 0; c < colours_; ++c) begin[c + 1] += begin[c];
-    for (uint32_t t = 0; t < w.tasks; ++t) w.order[begin[w.task_colour[t]]++] = t;
+    for (uint32_t t = 0; t < P.tasks; ++t) P.order[begin[P.task_colour[t]]++] = t;
     for (int c = colours_; c > 0; --c) begin[c] = begin[c - 1];
     begin[0] = 0;
 }
 
 uint64_t Model::roundTokens(uint32_t b, uint32_t e) const noexcept {
-    const Windows& w = *win_;
+    const Windows::Plan& P = win_->plan();
     uint64_t total = 0;
     for (uint32_t i = b; i < e; ++i) {
-        const uint32_t t = w.order[i];
-        total += static_cast<uint64_t>(cellWordCount(w.task_step[t], w.task_cell[t])) * w.task_mult[t];
+        const uint32_t t = P.order[i];
+        total += static_cast<uint64_t>(cellWordCount(P.task_step[t], P.task_cell[t])) * P.task_mult[t];
     }
     return total;
 }
@@ -349,36 +347,45 @@ uint64_t Model::roundTokens(uint32_t b, uint32_t e) const noexcept {
 // refines whenever it can, so a cell's words, labels and counts stay in one
 // core's cache from round to round. The order of a round's tasks changes
 // nothing in its result (frozen counts, draws keyed by pick).
-void Model::cutRound(uint32_t b, uint32_t e) noexcept {
+void Model::cutRound(uint32_t b, uint32_t e, bool planTask) noexcept {
     Windows& w = *win_;
+    const Windows::Plan& P = w.plan();
     const auto n = static_cast<uint32_t>(pool_->workers());
     uint32_t* cuts = w.cuts.data();
     std::fill_n(cuts, n + 1, 0u);
     const auto ownerOf = [&](uint32_t t) {
-        return static_cast<uint32_t>(static_cast<uint64_t>(w.task_cell[t]) * n / static_cast<uint64_t>(cells_));
+        return static_cast<uint32_t>(static_cast<uint64_t>(P.task_cell[t]) * n / static_cast<uint64_t>(cells_));
     };
-    for (uint32_t i = b; i < e; ++i) ++cuts[ownerOf(w.order[i]) + 1];
+    for (uint32_t i = b; i < e; ++i) ++cuts[ownerOf(P.order[i]) + 1];
     for (uint32_t o = 0; o < n; ++o) cuts[o + 1] += cuts[o];
     for (uint32_t i = b; i < e; ++i) {
-        const uint32_t t = w.order[i];
+        const uint32_t t = P.order[i];
         w.owned[cuts[ownerOf(t)]++] = t;
     }
     for (uint32_t o = n; o > 0; --o) cuts[o] = cuts[o - 1];
     cuts[0] = 0;
+    if (!planTask) return;
+    // The planning task first in worker 1's range: that worker plans while
+    // the caller refines (and if it is late, the caller steals it last).
+    const uint32_t at = cuts[1];
+    std::memmove(w.owned.data() + at + 1, w.owned.data() + at, (e - b - at) * sizeof(uint32_t));
+    w.owned[at] = Windows::kPlanTask;
+    for (uint32_t o = 2; o <= n; ++o) ++cuts[o];
 }
 
-void Model::runRound(uint32_t b, uint32_t e) noexcept {
+bool Model::runRound(uint32_t b, uint32_t e, bool planNext) noexcept {
     Windows& w = *win_;
+    Windows::Plan& P = w.plan();
     const int path = path_ == kernel::Path::Simd ? 1 : 0;
     if (e - b == 1) {  // one cell: refined against live counts, exactly as a serial sampler
-        runLiveRound(w.order[b]);
-        return;
+        runLiveRound(P.order[b]);
+        return false;
     }
     std::size_t off = 0;
     for (uint32_t i = b; i < e; ++i) {
-        const uint32_t t = w.order[i];
-        w.task_z0[t] = off;
-        off += cellWordCount(w.task_step[t], w.task_cell[t]);
+        const uint32_t t = P.order[i];
+        P.task_z0[t] = off;
+        off += cellWordCount(P.task_step[t], P.task_cell[t]);
     }
     WindowJob job;
     job.model = this;
@@ -387,30 +394,34 @@ void Model::runRound(uint32_t b, uint32_t e) noexcept {
     merge.model = this;
     merge.count = e - b;
     if (pool_) {
-        cutRound(b, e);
+        cutRound(b, e, planNext);
         merge.copies = static_cast<uint32_t>(pool_->workers());
+        merge.count = e - b + (planNext ? 1 : 0);
         job.tasks = merge.tasks = w.owned.data();
-        pool_->run(job, e - b, w.cuts.data());
+        pool_->run(job, merge.count, w.cuts.data());
         pool_->run(merge, static_cast<uint32_t>(pool_->workers()));
     } else {
-        job.tasks = merge.tasks = w.order.data() + b;
+        job.tasks = merge.tasks = P.order.data() + b;
         for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
         merge.task(0, 0);
+        planNext = false;
     }
     finishRound();
+    return planNext;
 }
 
 // The live kernel refines one cell against the model's n_k^v: its moves go
 // to the workers' copies.
 void Model::runLiveRound(uint32_t task) noexcept {
     Windows& w = *win_;
+    const Windows::Plan& P = w.plan();
     const int path = path_ == kernel::Path::Simd ? 1 : 0;
     if (!pool_) {
         (this->*live_kernel_[path])(0, task);
         return;
     }
-    const std::size_t base = (slotOf(w.task_step[task]) * cells_ + static_cast<std::size_t>(w.task_cell[task])) * cap_;
-    const uint32_t n = cellWordCount(w.task_step[task], w.task_cell[task]);
+    const std::size_t base = (slotOf(P.task_step[task]) * cells_ + static_cast<std::size_t>(P.task_cell[task])) * cap_;
+    const uint32_t n = cellWordCount(P.task_step[task], P.task_cell[task]);
     const uint16_t* z = cell_z_.data() + base;
     const uint32_t* words = cell_words_.data() + base;
     std::memcpy(w.z0.data(), z, n * sizeof(uint16_t));
@@ -432,13 +443,15 @@ void Model::runLiveRound(uint32_t task) noexcept {
 // integer adds, in any order the same; every copy's task does as much.
 void Model::mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy, uint32_t copies) noexcept {
     Windows& w = *win_;
+    const Windows::Plan& P = w.plan();
     int32_t* nkv = w.worker_tables[copy].nkv;
     int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(copy) * static_cast<std::size_t>(Kp_);
     const auto mineBegin = static_cast<uint32_t>(uint64_t{count} * copy / copies);
     const auto mineEnd = static_cast<uint32_t>(uint64_t{count} * (copy + 1) / copies);
     for (uint32_t i = 0; i < count; ++i) {
         const uint32_t t = tasks[i];
-        const uint64_t* moves = w.moves.data() + w.task_z0[t];
+        if (t == Windows::kPlanTask) continue;
+        const uint64_t* moves = w.moves.data() + P.task_z0[t];
         const bool mine = i >= mineBegin && i < mineEnd;
         for (uint32_t c = 0; c < w.task_moves[t]; ++c) {
             const uint64_t mv = moves[c];
@@ -507,32 +520,53 @@ void Model::syncWorkerTables(bool copy) noexcept {
 
 void Model::countStarted(RefineCount& rc) noexcept {
     Windows& w = *win_;
-    for (uint32_t p = 0; p < w.picks; ++p)
-        if (w.pick_done[p] && w.pick_ord[p] != w.counted_ord) {
-            w.counted_ord = w.pick_ord[p];
+    const Windows::Plan& P = w.plan();
+    for (uint32_t p = 0; p < P.picks; ++p)
+        if (P.pick_done[p] && P.pick_ord[p] != w.counted_ord) {
+            w.counted_ord = P.pick_ord[p];
             ++rc.started;
         }
 }
 
+// Draws the window's key and groups its picks (the model's generator, in
+// the serial order: the picks, then the key).
+void Model::prepareWindow(Windows::Plan& P) noexcept {
+    P.key = (static_cast<uint64_t>(rng_.next()) << 32) | rng_.next();
+    groupWindow(P);
+    P.grouped = true;
+}
+
+// The task of the current window's last round that plans the next window
+// (run by one worker while the others refine): the same draws, in the same
+// order, as planning it after the round.
+void Model::planNextWindow() noexcept {
+    Windows& w = *win_;
+    Windows::Plan& next = w.spare();
+    if (fillWindow(next, *w.picker, *w.limits, *w.count)) prepareWindow(next);
+    w.planned = true;
+}
+
 bool Model::refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
     Windows& w = *win_;
-    w.key = (static_cast<uint64_t>(rng_.next()) << 32) | rng_.next();
-    groupWindow();
+    Windows::Plan& P = w.plan();
+    if (!P.grouped) prepareWindow(P);
+    int last = colours_ - 1;
+    while (last > 0 && P.colour_begin[last] == P.colour_begin[last + 1]) --last;
     bool go = true;
     for (int c = 0; c < colours_ && go; ++c) {
-        const uint32_t b = w.colour_begin[c], e = w.colour_begin[c + 1];
+        const uint32_t b = P.colour_begin[c], e = P.colour_begin[c + 1];
         if (b == e) continue;
         const uint64_t tokens = roundTokens(b, e);
         if (rc.tokens >= limits.tokens || (limits.control && !limits.control->beforeRound(tokens))) {
             go = false;
             break;
         }
-        runRound(b, e);
+        runRound(b, e, w.plan_ahead && c == last);
         rc.tokens += tokens;
         tokens_refined_ += tokens;
         ++rc.rounds;
         for (uint32_t i = b; i < e; ++i)
-            for (uint32_t p = w.task_head[w.order[i]]; p != Windows::kNone; p = w.pick_next[p]) w.pick_done[p] = 1;
+            for (uint32_t p = P.task_head[P.order[i]]; p != Windows::kNone; p = P.pick_next[p]) P.pick_done[p] = 1;
         if (limits.control) limits.control->afterRound(tokens);
     }
     countStarted(rc);
@@ -548,11 +582,31 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
     w.counted_ord = 0;
     if (w.W > 1) syncWorkerTables(true);
     w.copies_synced = w.W > 1;
-    while (fillWindow(picker, limits, rc)) {
+    // With workers and a budget that does not depend on the rounds (no time
+    // control, no token limit), the next window is planned by a task of the
+    // current window's last round.
+    w.picker = &picker;
+    w.limits = &limits;
+    w.count = &rc;
+    w.plan_ahead = pool_ && w.W > 1 && !limits.control && limits.tokens == UINT64_MAX;
+    w.planned = false;
+    bool more = fillWindow(w.plan(), picker, limits, rc);
+    while (more) {
         const bool go = w.W == 1 ? refineSerialWindow(limits, rc) : refineParallelWindow(limits, rc);
         if (!go) break;
+        if (w.planned) {
+            w.planned = false;
+            ++rc.planned;
+            w.current ^= 1;
+            more = w.plan().picks > 0;
+        } else {
+            more = fillWindow(w.plan(), picker, limits, rc);
+        }
     }
     w.copies_synced = false;  // the model's table may change before the next refinement
+    w.picker = nullptr;
+    w.limits = nullptr;
+    w.count = nullptr;
     return rc;
 }
 

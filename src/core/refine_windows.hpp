@@ -12,10 +12,11 @@
 
 namespace rost {
 
-// The picks of the current window, their cells (tasks) and the rounds.
-// Sized at construction: nothing here allocates afterwards.
-struct Model::Windows {
-    uint32_t W = 1;
+// A window's plan: its picks, its tasks (cells) and rounds, its key.
+// Two plans: with workers and a budget known in advance, the next
+// window is planned by a task of the current window's last round while
+// the others refine (refine(); docs/design.md, "Refinement on every core").
+struct Model::WindowPlan {
     // Picks, in draw order.
     uint32_t picks = 0;
     AlignedBuffer<int64_t> pick_step;
@@ -35,6 +36,50 @@ struct Model::Windows {
     // Tasks ordered by colour; round c is order[colour_begin[c], colour_begin[c + 1]).
     AlignedBuffer<uint32_t> order;
     AlignedBuffer<uint32_t> colour_begin;
+    uint64_t key = 0;      // of the counter-based draws
+    bool grouped = false;  // key drawn and tasks grouped (planned ahead)
+
+    void size(std::size_t w, std::size_t colours) {
+        pick_step.reset(w);
+        pick_cell.reset(w);
+        pick_ord.reset(w);
+        pick_next.reset(w);
+        pick_done.reset(w);
+        task_step.reset(w);
+        task_cell.reset(w);
+        task_head.reset(w);
+        task_tail.reset(w);
+        task_mult.reset(w);
+        task_colour.reset(w);
+        task_z0.reset(w);
+        order.reset(w);
+        colour_begin.reset(colours + 1);
+    }
+    std::size_t bytes() const noexcept {
+        return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
+               task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
+               task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes();
+    }
+};
+
+// The windows: their two plans, the grouping table, the rounds' labels and moves, the workers' tables.
+// Sized at construction: nothing here allocates afterwards.
+struct Model::Windows {
+    uint32_t W = 1;
+    using Plan = WindowPlan;
+    Plan plans[2];
+    uint32_t current = 0;
+    Plan& plan() noexcept { return plans[current]; }
+    const Plan& plan() const noexcept { return plans[current]; }
+    Plan& spare() noexcept { return plans[current ^ 1]; }
+    // Planning ahead: what the next window is drawn with (set by refine()),
+    // whether the current window's last round plans it, and whether it did.
+    StepPicker* picker = nullptr;
+    const RefineLimits* limits = nullptr;
+    RefineCount* count = nullptr;
+    bool plan_ahead = false;
+    bool planned = false;
+    static constexpr uint32_t kPlanTask = 0xFFFFFFFEu;  // the task that plans the next window
     // (step, cell) -> task, open addressing, cleared lazily by stamp.
     AlignedBuffer<int64_t> hash_key;
     AlignedBuffer<uint32_t> hash_task;
@@ -59,7 +104,6 @@ struct Model::Windows {
     // A round's tasks by owner (scratch) and the owners' ranges (threads + 1).
     AlignedBuffer<uint32_t> owned;
     AlignedBuffer<uint32_t> cuts;
-    uint64_t key = 0;
     // The step being expanded into cell picks.
     int64_t cur_step = -1;
     int next_cell = 0;
@@ -80,10 +124,8 @@ struct Model::Windows {
     }
 
     std::size_t bytes() const noexcept {
-        return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
-               task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
-               task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() + hash_key.bytes() +
-               hash_task.bytes() + hash_stamp.bytes() + z0.bytes() + moves.bytes() + task_moves.bytes() + workerBytes() + owned.bytes() + sizeof(Windows);
+        return plans[0].bytes() + plans[1].bytes() + hash_key.bytes() + hash_task.bytes() + hash_stamp.bytes() +
+               z0.bytes() + moves.bytes() + task_moves.bytes() + workerBytes() + owned.bytes() + sizeof(Windows);
     }
 };
 
