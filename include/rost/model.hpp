@@ -471,6 +471,10 @@ private:
     AlignedBuffer<uint32_t> nbr_cell_;
 
     // Scratch for ingest and refinement.
+    // A position's cell without a division per word: x / cell.space, and
+    // (y / cell.space) * grid width, for every x and y of the frame.
+    AlignedBuffer<uint32_t> cell_of_x_;
+    AlignedBuffer<uint32_t> cell_of_y_;
     AlignedBuffer<uint32_t> scratch_cell_;   // per input: its cell
     AlignedBuffer<uint32_t> scratch_count_;  // per cell
     AlignedBuffer<uint32_t> scratch_need_;   // per cell

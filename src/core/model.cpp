@@ -78,7 +78,7 @@ Model::Model(const Config& config) : cfg_(config), rng_(config.seed) {
     memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
                     cell_words_.bytes() + cell_z_.bytes() + nck_.bytes() + cell_surprise_.bytes() +
                     in_word_.bytes() + in_pos_.bytes() + in_slot_.bytes() + in_n_.bytes() + obs_surprise_.bytes() +
-                    nbr_begin_.bytes() + nbr_cell_.bytes() + scratch_cell_.bytes() + scratch_count_.bytes() +
+                    nbr_begin_.bytes() + nbr_cell_.bytes() + cell_of_x_.bytes() + cell_of_y_.bytes() + scratch_cell_.bytes() + scratch_count_.bytes() +
                     scratch_need_.bytes() + scratch_g_.bytes() + scratch_ll_.bytes() + scratch_wn_.bytes() +
                     out_g_.bytes() + out_g_epoch_.bytes() +
                     sizeof(Model);
@@ -114,6 +114,11 @@ void Model::allocateState() {
     obs_surprise_.reset(ring * static_cast<std::size_t>(ct_));
 
     scratch_cell_.reset(static_cast<std::size_t>(maxw_));
+    cell_of_x_.reset(static_cast<std::size_t>(cfg_.frame_width));
+    cell_of_y_.reset(static_cast<std::size_t>(cfg_.frame_height));
+    for (int x = 0; x < cfg_.frame_width; ++x) cell_of_x_[static_cast<std::size_t>(x)] = static_cast<uint32_t>(x / cfg_.cell_space);
+    for (int y = 0; y < cfg_.frame_height; ++y)
+        cell_of_y_[static_cast<std::size_t>(y)] = static_cast<uint32_t>(y / cfg_.cell_space * gw_);
     scratch_count_.reset(cells);
     scratch_need_.reset(cells);
     scratch_g_.reset(Kp);
@@ -337,9 +342,8 @@ void Model::fillCells(std::size_t slot, std::size_t obs, uint32_t m, AddResult& 
     std::fill_n(count, cells_, 0u);
     for (uint32_t i = 0; i < m; ++i) {
         const uint32_t packed = in_pos_[ibase + i];
-        const uint32_t cx = (packed & 0xFFFFu) / static_cast<uint32_t>(cfg_.cell_space);
-        const uint32_t cy = (packed >> 16) / static_cast<uint32_t>(cfg_.cell_space);
-        cellOf[i] = cy * static_cast<uint32_t>(gw_) + cx;
+        // Validated: x < frame.width, y < frame.height.
+        cellOf[i] = cell_of_y_[packed >> 16] + cell_of_x_[packed & 0xFFFFu];
         ++count[cellOf[i]];
     }
     uint32_t* cellN = cell_n_.data() + slot * cells_;
