@@ -147,41 +147,65 @@ TEST(ParallelRefine, CountsAreConsistentAfterEveryRound) {
     }
 }
 
+// Steps drawn at random from the model's generator, as a strategy draws them.
+class RandomSteps final : public StepPicker {
+public:
+    explicit RandomSteps(Model& m) : m_(m) {}
+    int64_t next() noexcept override {
+        return m_.oldestStep() + m_.rng().below(static_cast<uint32_t>(m_.steps() - m_.oldestStep()));
+    }
+    Model& m_;
+};
+
 // With workers and a step budget each window is planned (picks drawn, key
-// drawn, cells grouped) by a task of the window before; the draws are the
-// serial order's, so the result is one thread's. A token budget or a time
-// control plans after the round, as one thread does.
+// drawn, cells grouped) by a task of the window before; the draws are in
+// the serial order, so the result and the generator's state afterwards are
+// one thread's. A token budget plans after the round, as one thread does.
 TEST(ParallelRefine, WindowsArePlannedAheadOnWorkersWithTheSameDraws) {
-    const auto run = [](int threads, RefineLimits limits, RefineCount& rc) {
+    struct Run {
+        Outcome outcome;
+        RefineCount rc;
+        uint32_t after = 0;  // the generator's next draw after the refinement
+    };
+    const auto run = [](int threads, const RefineLimits& limits, bool random) {
         Model m(gridConfig(threads, 16));
         for (const auto& f : makeStream(m.config(), 20, 200, 6)) EXPECT_TRUE(m.addObservation(f.words, f.positions).ok());
         Sweep sweep(m);
-        rc = m.refine(sweep, limits);
+        RandomSteps steps(m);
+        Run r;
+        r.rc = random ? m.refine(steps, limits) : m.refine(sweep, limits);
         std::string why;
         EXPECT_TRUE(m.checkInvariants(&why)) << why;
-        return outcomeOf(m);
+        r.outcome = outcomeOf(m);
+        r.after = m.rng().next();
+        return r;
     };
     RefineLimits steps;
     steps.steps = 45;
-    RefineCount one, two, three;
-    const Outcome a = run(1, steps, one);
-    EXPECT_EQ(one.planned, 0u);
-    EXPECT_TRUE(run(2, steps, two) == a);
-    EXPECT_TRUE(run(3, steps, three) == a);
-    for (const RefineCount& rc : {two, three}) {
-        EXPECT_EQ(rc.steps, one.steps);
-        EXPECT_EQ(rc.tokens, one.tokens);
-        EXPECT_EQ(rc.rounds, one.rounds);
-        // Every window after the first was planned ahead, unless its
-        // predecessor's last round was a single cell (refined live, serially).
-        EXPECT_GT(rc.planned, one.rounds / 4);
+    for (const bool random : {false, true}) {
+        const Run one = run(1, steps, random);
+        ASSERT_GT(one.rc.rounds, 4u);
+        for (const int threads : {2, 3}) {
+            const Run r = run(threads, steps, random);
+            EXPECT_TRUE(r.outcome == one.outcome) << threads << " threads, random " << random;
+            EXPECT_EQ(r.after, one.after) << threads << " threads, random " << random;
+            EXPECT_EQ(r.rc.steps, one.rc.steps);
+            EXPECT_EQ(r.rc.started, one.rc.started);
+            EXPECT_EQ(r.rc.tokens, one.rc.tokens);
+            EXPECT_EQ(r.rc.rounds, one.rc.rounds);
+            // Two colours: about one window every two rounds, each planned
+            // ahead but the first (and any after a round of a single cell).
+            EXPECT_GT(r.rc.planned, one.rc.rounds / 4) << threads << " threads, random " << random;
+            EXPECT_LT(r.rc.planned, one.rc.rounds);
+        }
     }
     RefineLimits tokens;
     tokens.tokens = 20000;
-    RefineCount t1, t2;
-    EXPECT_TRUE(run(2, tokens, t2) == run(1, tokens, t1));
-    EXPECT_EQ(t2.planned, 0u);
-    EXPECT_GT(t2.rounds, 0u);
+    const Run t1 = run(1, tokens, true), t2 = run(2, tokens, true);
+    EXPECT_TRUE(t2.outcome == t1.outcome);
+    EXPECT_EQ(t2.after, t1.after);
+    EXPECT_EQ(t2.rc.planned, 0u);
+    EXPECT_GT(t2.rc.rounds, 0u);
 }
 
 TEST(ParallelRefine, WindowOfOneIsTheSerialSampler) {

@@ -89,7 +89,11 @@ struct LogLoss {
 // ---- refinement in windows (docs/design.md, "Refinement on every core") -----
 
 // The time steps to refine, one pick at a time: a strategy's draws, or the
-// window's steps in order for a batch sweep.
+// window's steps in order for a batch sweep. With workers, next() may be
+// called on a pool thread while a round is refining (the next window is
+// planned ahead): a picker may draw from the model's generator and read the
+// window's extent (steps(), oldestStep()), but not the counts or labels,
+// which the round is changing.
 class StepPicker {
 public:
     virtual int64_t next() noexcept = 0;
@@ -369,8 +373,8 @@ private:
     void prepareWindow(WindowPlan& plan) noexcept;
     void planNextWindow() noexcept;
     uint64_t roundTokens(uint32_t begin, uint32_t end) const noexcept;
-    // True when a task of the round planned the next window (planNext, on the pool).
-    bool runRound(uint32_t begin, uint32_t end, bool planNext) noexcept;
+    // planNext: one more task of the round plans the next window (on the pool).
+    void runRound(uint32_t begin, uint32_t end, bool planNext) noexcept;
     void mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy, uint32_t copies) noexcept;
     void runLiveRound(uint32_t task) noexcept;
     void syncWorkerTables(bool copy) noexcept;

@@ -373,13 +373,13 @@ void Model::cutRound(uint32_t b, uint32_t e, bool planTask) noexcept {
     for (uint32_t o = 2; o <= n; ++o) ++cuts[o];
 }
 
-bool Model::runRound(uint32_t b, uint32_t e, bool planNext) noexcept {
+void Model::runRound(uint32_t b, uint32_t e, bool planNext) noexcept {
     Windows& w = *win_;
     Windows::Plan& P = w.plan();
     const int path = path_ == kernel::Path::Simd ? 1 : 0;
     if (e - b == 1) {  // one cell: refined against live counts, exactly as a serial sampler
         runLiveRound(P.order[b]);
-        return false;
+        return;
     }
     std::size_t off = 0;
     for (uint32_t i = b; i < e; ++i) {
@@ -404,10 +404,8 @@ bool Model::runRound(uint32_t b, uint32_t e, bool planNext) noexcept {
         job.tasks = merge.tasks = P.order.data() + b;
         for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
         merge.task(0, 0);
-        planNext = false;
     }
     finishRound();
-    return planNext;
 }
 
 // The live kernel refines one cell against the model's n_k^v: its moves go
@@ -596,9 +594,9 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
         if (!go) break;
         if (w.planned) {
             w.planned = false;
-            ++rc.planned;
             w.current ^= 1;
             more = w.plan().picks > 0;
+            if (more) ++rc.planned;
         } else {
             more = fillWindow(w.plan(), picker, limits, rc);
         }
