@@ -208,6 +208,48 @@ TEST(ParallelRefine, WindowsArePlannedAheadOnWorkersWithTheSameDraws) {
     EXPECT_GT(t2.rc.rounds, 0u);
 }
 
+// A sweep that takes its time over each step (on the worker that plans
+// the next window): the other workers park meanwhile, wake late for the
+// next round and miss it, and take part in the rounds after.
+class SlowSweep final : public StepPicker {
+public:
+    explicit SlowSweep(const Model& m) : sweep_(m) {}
+    int64_t next() noexcept override {
+        std::this_thread::sleep_for(std::chrono::microseconds(300));
+        return sweep_.next();
+    }
+    Sweep sweep_;
+};
+
+// Without a control, a round's moves reach each worker's copy of n_k^v at
+// the start of the next round (the worker that takes part adds them
+// itself; the caller adds them to the copies of workers that took no task)
+// and the model's own table when the refinement ends. Four threads on
+// rounds of one to a few cells, planned slowly: workers miss rounds and
+// take part again, and rounds of one cell refine against the live counts
+// in between.
+TEST(ParallelRefine, DeferredMergesReachEveryCopyAndTheModelsTable) {
+    for (const int window : {2, 3, 16}) {
+        const auto run = [window](int threads) {
+            Model m(gridConfig(threads, window));
+            const auto stream = makeStream(m.config(), 24, 200, 8);
+            SlowSweep sweep(m);
+            RefineLimits limits;
+            limits.steps = 7;
+            std::string why;
+            for (std::size_t i = 0; i < stream.size(); ++i) {
+                EXPECT_TRUE(m.addObservation(stream[i].words, stream[i].positions).ok());
+                if (i % 4 != 3) continue;
+                m.refine(sweep, limits);
+                EXPECT_TRUE(m.checkInvariants(&why)) << "window " << window << ", " << threads << " threads: " << why;
+            }
+            return outcomeOf(m);
+        };
+        const Outcome one = run(1);
+        for (const int threads : {2, 4}) EXPECT_TRUE(run(threads) == one) << "window " << window << ", " << threads << " threads";
+    }
+}
+
 TEST(ParallelRefine, WindowOfOneIsTheSerialSampler) {
     Model a(gridConfig(2, 1)), b(gridConfig(1, 1));
     const auto stream = makeStream(a.config(), 20, 200, 4);

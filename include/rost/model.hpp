@@ -363,6 +363,7 @@ private:
     // Windows of cell picks (src/core/refine_windows.cpp).
     struct Windows;
     struct WindowPlan;
+    struct MoveLog;
     struct WindowJob;
     struct MergeJob;
     struct CopyJob;
@@ -375,7 +376,9 @@ private:
     uint64_t roundTokens(uint32_t begin, uint32_t end) const noexcept;
     // planNext: one more task of the round plans the next window (on the pool).
     void runRound(uint32_t begin, uint32_t end, bool planNext) noexcept;
-    void mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy, uint32_t copies) noexcept;
+    void takeMoves(const MoveLog& log, uint32_t copy) noexcept;
+    void takeMovesEverywhere(const MoveLog& log) noexcept;
+    void takePendingMoves() noexcept;
     void runLiveRound(uint32_t task) noexcept;
     void syncWorkerTables(bool copy) noexcept;
     bool workerCopiesAgree(std::string* why) const;

@@ -17,12 +17,18 @@
 
 namespace rost {
 
-// One round on the pool: a task per cell of the round.
+// One round on the pool: a task per cell of the round. With merges
+// deferred, each worker first adds the previous round's moves to its own
+// copy of n_k^v (begin(): only a worker that takes part reads its copy).
 struct Model::WindowJob final : detail::WorkerPool::Job {
     Model* model = nullptr;
     const uint32_t* tasks = nullptr;
     TaskKernel kernel = nullptr;
+    const MoveLog* pending = nullptr;
 
+    void begin(int worker) noexcept override {
+        if (pending) model->takeMoves(*pending, static_cast<uint32_t>(worker));
+    }
     void task(int worker, uint32_t index) noexcept override {
         const uint32_t t = tasks[index];
         if (t == Windows::kPlanTask)
@@ -32,16 +38,14 @@ struct Model::WindowJob final : detail::WorkerPool::Job {
     }
 };
 
-// The merge of a round on the pool: task r adds the round's moves to copy r
-// of n_k^v (0: the model's), whoever runs it (worker r first).
+// The merge of a round on the pool (merges not deferred): task r adds the
+// round's moves to copy r of n_k^v (0: the model's), whoever runs it
+// (worker r first).
 struct Model::MergeJob final : detail::WorkerPool::Job {
     Model* model = nullptr;
-    const uint32_t* tasks = nullptr;
-    uint32_t count = 0;
+    const MoveLog* log = nullptr;
 
-    uint32_t copies = 1;  // the copies of n_k^v in use: the pool's workers, or 1 without a pool
-
-    void task(int /*worker*/, uint32_t copy) noexcept override { model->mergeMoves(tasks, count, copy, copies); }
+    void task(int /*worker*/, uint32_t copy) noexcept override { model->takeMoves(*log, copy); }
 };
 
 // The copies of n_k^v made equal to the model's: task r copies into copy r (task 0: nothing to do).
@@ -147,9 +151,8 @@ void Model::allocateWindows() {
     const std::size_t cellsInRing = static_cast<std::size_t>(ring_) * static_cast<std::size_t>(cells_);
     if (W > 1) {
         w.z0.reset(std::min(W, cellsInRing) * static_cast<std::size_t>(cap_));
-        w.moves.reset(w.z0.size());
+        for (MoveLog& log : w.logs) log.size(w.z0.size(), W);
     }
-    w.task_moves.reset(W);
     w.owned.reset(W + 1);  // + the task that plans the next window
     w.sizeWorkers(static_cast<std::size_t>(cfg_.threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
     if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
@@ -209,12 +212,19 @@ void Model::frozenTask(int worker, uint32_t task) noexcept {
         kernel::refineCellFrozen<KP, P>(w.worker_tables[static_cast<std::size_t>(worker)], g, nck(slot, cell), words, z,
                                         z0, n, rng);
     }
-    // The merge after the round reads only the moves.
-    uint64_t* moves = w.moves.data() + plan.task_z0[task];
+    // The merge after the round reads only the moves; the change to n_k is
+    // the worker's part (added up after the round).
+    MoveLog& log = w.logs[w.round & 1];
+    uint64_t* moves = log.moves.data() + plan.task_z0[task];
+    int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
     uint32_t m = 0;
     for (uint32_t j = 0; j < n; ++j)
-        if (z[j] != z0[j]) moves[m++] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
-    w.task_moves[task] = m;
+        if (z[j] != z0[j]) {
+            moves[m++] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
+            --dnk[z0[j]];
+            ++dnk[z[j]];
+        }
+    log.count[task] = m;
 }
 
 template <int KP, kernel::Path P>
@@ -381,29 +391,43 @@ void Model::runRound(uint32_t b, uint32_t e, bool planNext) noexcept {
         runLiveRound(P.order[b]);
         return;
     }
+    ++w.round;
+    MoveLog& log = w.logs[w.round & 1];
+    log.round = w.round;
     std::size_t off = 0;
     for (uint32_t i = b; i < e; ++i) {
         const uint32_t t = P.order[i];
         P.task_z0[t] = off;
+        log.off[t] = off;
         off += cellWordCount(P.task_step[t], P.task_cell[t]);
     }
     WindowJob job;
     job.model = this;
     job.kernel = frozen_kernel_[path];
-    MergeJob merge;
-    merge.model = this;
-    merge.count = e - b;
     if (pool_) {
         cutRound(b, e, planNext);
-        merge.copies = static_cast<uint32_t>(pool_->workers());
-        merge.count = e - b + (planNext ? 1 : 0);
-        job.tasks = merge.tasks = w.owned.data();
-        pool_->run(job, merge.count, w.cuts.data());
-        pool_->run(merge, static_cast<uint32_t>(pool_->workers()));
+        log.n = e - b + (planNext ? 1 : 0);
+        std::memcpy(log.tasks.data(), w.owned.data(), log.n * sizeof(uint32_t));
+        job.tasks = w.owned.data();
+        job.pending = w.pending != 0 ? &w.logs[w.pending & 1] : nullptr;
+        pool_->run(job, log.n, w.cuts.data());
+        if (w.defer) {
+            // The copies whose workers took no part take the previous round's
+            // moves now, before its log is written again.
+            if (job.pending) takeMovesEverywhere(*job.pending);
+            w.pending = w.round;
+        } else {
+            MergeJob merge;
+            merge.model = this;
+            merge.log = &log;
+            pool_->run(merge, static_cast<uint32_t>(pool_->workers()));
+        }
     } else {
-        job.tasks = merge.tasks = P.order.data() + b;
+        log.n = e - b;
+        std::memcpy(log.tasks.data(), P.order.data() + b, log.n * sizeof(uint32_t));
+        job.tasks = log.tasks.data();
         for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
-        merge.task(0, 0);
+        takeMoves(log, 0);
     }
     finishRound();
 }
@@ -418,6 +442,7 @@ void Model::runLiveRound(uint32_t task) noexcept {
         (this->*live_kernel_[path])(0, task);
         return;
     }
+    takePendingMoves();  // every copy up to date before the live counts move
     const std::size_t base = (slotOf(P.task_step[task]) * cells_ + static_cast<std::size_t>(P.task_cell[task])) * cap_;
     const uint32_t n = cellWordCount(P.task_step[task], P.task_cell[task]);
     const uint16_t* z = cell_z_.data() + base;
@@ -436,33 +461,39 @@ void Model::runLiveRound(uint32_t task) noexcept {
     syncWorkerTables(false);  // n_k and the open topics moved with the cell
 }
 
-// Adds the moves of the round's tasks to copy `copy` of n_k^v and, for its
-// share of the tasks (1/copies of them), to its own part of n_k's change:
-// integer adds, in any order the same; every copy's task does as much.
-void Model::mergeMoves(const uint32_t* tasks, uint32_t count, uint32_t copy, uint32_t copies) noexcept {
+// Adds a round's moves to copy `copy` of n_k^v (integer adds, in any order
+// the same) and records that the copy took them. Run by the copy's worker,
+// or by the calling thread between jobs.
+void Model::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
     Windows& w = *win_;
-    const Windows::Plan& P = w.plan();
     int32_t* nkv = w.worker_tables[copy].nkv;
-    int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(copy) * static_cast<std::size_t>(Kp_);
-    const auto mineBegin = static_cast<uint32_t>(uint64_t{count} * copy / copies);
-    const auto mineEnd = static_cast<uint32_t>(uint64_t{count} * (copy + 1) / copies);
-    for (uint32_t i = 0; i < count; ++i) {
-        const uint32_t t = tasks[i];
+    for (uint32_t i = 0; i < log.n; ++i) {
+        const uint32_t t = log.tasks[i];
         if (t == Windows::kPlanTask) continue;
-        const uint64_t* moves = w.moves.data() + P.task_z0[t];
-        const bool mine = i >= mineBegin && i < mineEnd;
-        for (uint32_t c = 0; c < w.task_moves[t]; ++c) {
+        const uint64_t* moves = log.moves.data() + log.off[t];
+        for (uint32_t c = 0, m = log.count[t]; c < m; ++c) {
             const uint64_t mv = moves[c];
-            const auto from = static_cast<uint16_t>(mv >> 32), to = static_cast<uint16_t>(mv >> 48);
             int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp_;
-            --row[from];
-            ++row[to];
-            if (mine) {
-                --dnk[from];
-                ++dnk[to];
-            }
+            --row[static_cast<uint16_t>(mv >> 32)];
+            ++row[static_cast<uint16_t>(mv >> 48)];
         }
     }
+    w.merged[copy * Windows::kMergedStride] = log.round;
+}
+
+// The copies that have not taken the round's moves take them (the calling thread).
+void Model::takeMovesEverywhere(const MoveLog& log) noexcept {
+    Windows& w = *win_;
+    for (uint32_t c = 0; c < static_cast<uint32_t>(w.worker_tables.size()); ++c)
+        if (w.merged[c * Windows::kMergedStride] != log.round) takeMoves(log, c);
+}
+
+// A deferred merge done now: every copy takes the last round's moves.
+void Model::takePendingMoves() noexcept {
+    Windows& w = *win_;
+    if (w.pending == 0) return;
+    takeMovesEverywhere(w.logs[w.pending & 1]);
+    w.pending = 0;
 }
 
 // After the merge: n_k, the reciprocals, the open topics, and the workers' tables.
@@ -588,6 +619,12 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
     w.count = &rc;
     w.plan_ahead = pool_ && w.W > 1 && !limits.control && limits.tokens == UINT64_MAX;
     w.planned = false;
+    // Without a control (nothing looks at the counts between rounds), each
+    // round's merge is deferred to the next round's job: every worker adds
+    // the moves to its own copy of n_k^v before its first task, and the
+    // round's end is one barrier instead of two.
+    w.defer = pool_ && w.W > 1 && !limits.control;
+    w.pending = 0;
     bool more = fillWindow(w.plan(), picker, limits, rc);
     while (more) {
         const bool go = w.W == 1 ? refineSerialWindow(limits, rc) : refineParallelWindow(limits, rc);
@@ -601,6 +638,14 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
             more = fillWindow(w.plan(), picker, limits, rc);
         }
     }
+    // The model's own table takes the last round's moves; the workers'
+    // copies are made equal again when the next refinement starts.
+    if (w.pending != 0) {
+        const MoveLog& last = w.logs[w.pending & 1];
+        if (w.merged[0] != last.round) takeMoves(last, 0);
+        w.pending = 0;
+    }
+    w.defer = false;
     w.copies_synced = false;  // the model's table may change before the next refinement
     w.picker = nullptr;
     w.limits = nullptr;

@@ -21,16 +21,16 @@ struct Model::WindowPlan {
     uint32_t picks = 0;
     AlignedBuffer<int64_t> pick_step;
     AlignedBuffer<int32_t> pick_cell;
-    AlignedBuffer<uint64_t> pick_ord;    // which step pick it came from (1, 2, ...)
-    AlignedBuffer<uint32_t> pick_next;   // the task's next pick, or kNone
+    AlignedBuffer<uint64_t> pick_ord;   // which step pick it came from (1, 2, ...)
+    AlignedBuffer<uint32_t> pick_next;  // the task's next pick, or kNone
     AlignedBuffer<uint8_t> pick_done;
     // Tasks: one per distinct cell of the window, in order of first pick.
     uint32_t tasks = 0;
     AlignedBuffer<int64_t> task_step;
     AlignedBuffer<int32_t> task_cell;
-    AlignedBuffer<uint32_t> task_head;   // first pick
-    AlignedBuffer<uint32_t> task_tail;   // last pick
-    AlignedBuffer<uint32_t> task_mult;   // picks
+    AlignedBuffer<uint32_t> task_head;  // first pick
+    AlignedBuffer<uint32_t> task_tail;  // last pick
+    AlignedBuffer<uint32_t> task_mult;  // picks
     AlignedBuffer<uint32_t> task_colour;
     AlignedBuffer<std::size_t> task_z0;  // offset of its labels at the round's start
     // Tasks ordered by colour; round c is order[colour_begin[c], colour_begin[c + 1]).
@@ -62,6 +62,24 @@ struct Model::WindowPlan {
     }
 };
 
+// The moves of a round's tasks, listed by each task: word | from << 32 |
+// to << 48 (a compact list the merge reads on every core).
+struct Model::MoveLog {
+    AlignedBuffer<uint64_t> moves;
+    AlignedBuffer<std::size_t> off;  // by task: its first move
+    AlignedBuffer<uint32_t> count;   // by task: how many
+    AlignedBuffer<uint32_t> tasks;   // the round's tasks (and the planning task)
+    uint32_t n = 0;
+    uint64_t round = 0;  // the round's number (Windows::round)
+    void size(std::size_t movesCap, std::size_t W) {
+        moves.reset(movesCap);
+        off.reset(W);
+        count.reset(W);
+        tasks.reset(W + 1);
+    }
+    std::size_t bytes() const noexcept { return moves.bytes() + off.bytes() + count.bytes() + tasks.bytes(); }
+};
+
 // The windows: their two plans, the grouping table, the rounds' labels and moves, the workers' tables.
 // Sized at construction: nothing here allocates afterwards.
 struct Model::Windows {
@@ -85,12 +103,18 @@ struct Model::Windows {
     AlignedBuffer<uint32_t> hash_task;
     AlignedBuffer<uint32_t> hash_stamp;
     uint32_t stamp = 0;
-    // Labels of a round's cells when it began (frozen view of n_k^v), and
-    // the moves a task made, listed by the task itself: word | from << 32 |
-    // to << 48 (a compact list the merge reads on every core).
+    // Labels of a round's cells when it began (frozen view of n_k^v).
     AlignedBuffer<uint16_t> z0;
-    AlignedBuffer<uint64_t> moves;
-    AlignedBuffer<uint32_t> task_moves;  // how many
+    // The rounds' moves, in two logs by round parity: with merges deferred,
+    // a round's moves are added to each copy of n_k^v by its worker at the
+    // start of the next round, while that round's tasks list theirs in the
+    // other log.
+    MoveLog logs[2];
+    uint64_t round = 0;              // frozen rounds run so far (the current one lists its moves in logs[round & 1])
+    bool defer = false;              // merges deferred to the next round's job (no RefineControl)
+    uint64_t pending = 0;            // a round whose moves some copy has not taken yet (0: none)
+    AlignedBuffer<uint64_t> merged;  // per copy (a cache line each): the last round taken
+    static constexpr std::size_t kMergedStride = kCacheLine / sizeof(uint64_t);
     // Per worker: neighbourhood sums and the kernel's tables. With workers,
     // each worker w > 0 reads its own copy of n_k^v (replica w - 1; worker 0
     // reads the model's), so the rows a round reads are in its core's cache:
@@ -99,7 +123,7 @@ struct Model::Windows {
     AlignedBuffer<int32_t> worker_g;
     AlignedBuffer<kernel::Tables> worker_tables;
     AlignedBuffer<int32_t> replicas;
-    AlignedBuffer<int32_t> dnk;  // the merge's change to n_k, one part per copy
+    AlignedBuffer<int32_t> dnk;  // a round's change to n_k, one part per worker (its tasks' moves)
     bool copies_synced = false;  // inside a refinement: the copies are kept equal
     // A round's tasks by owner (scratch) and the owners' ranges (threads + 1).
     AlignedBuffer<uint32_t> owned;
@@ -112,7 +136,8 @@ struct Model::Windows {
     static constexpr uint32_t kNone = 0xFFFFFFFFu;
 
     std::size_t workerBytes() const noexcept {
-        return worker_g.bytes() + worker_tables.bytes() + replicas.bytes() + dnk.bytes() + cuts.bytes();
+        return worker_g.bytes() + worker_tables.bytes() + replicas.bytes() + dnk.bytes() + merged.bytes() +
+               cuts.bytes();
     }
     // Sized for n workers over a V x Kp table (set-up code).
     void sizeWorkers(std::size_t n, std::size_t V, std::size_t Kp) {
@@ -120,12 +145,13 @@ struct Model::Windows {
         worker_tables.reset(n);
         replicas.reset(W > 1 ? (n - 1) * V * Kp : 0);
         dnk.reset(n * Kp);
+        merged.reset(n * kMergedStride);
         cuts.reset(n + 1);
     }
 
     std::size_t bytes() const noexcept {
         return plans[0].bytes() + plans[1].bytes() + hash_key.bytes() + hash_task.bytes() + hash_stamp.bytes() +
-               z0.bytes() + moves.bytes() + task_moves.bytes() + workerBytes() + owned.bytes() + sizeof(Windows);
+               z0.bytes() + logs[0].bytes() + logs[1].bytes() + workerBytes() + owned.bytes() + sizeof(Windows);
     }
 };
 

@@ -101,6 +101,7 @@ void WorkerPool::workerMain(int index, const ThreadSettings* settings, uint32_t 
 uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
     const uint64_t gen = generation & 0xFFFFFFu;
     uint32_t ran = 0;
+    bool begun = false;
     // Its own range from the front, then the others' from the back.
     for (int i = 0; i < workers_; ++i) {
         std::atomic<uint64_t>& word = ranges_[static_cast<std::size_t>((worker + i) % workers_)].word;
@@ -114,6 +115,10 @@ uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
             const uint64_t claimed = i == 0 ? c + 1 : c - (uint64_t{1} << 20);
             if (!word.compare_exchange_weak(c, claimed, std::memory_order_acquire, std::memory_order_acquire)) continue;
             ++ran;
+            if (!begun) {
+                begun = true;
+                job_->begin(worker);
+            }
             job_->task(worker, static_cast<uint32_t>(i == 0 ? next : end - 1));
             c = word.load(std::memory_order_acquire);
         }
@@ -130,6 +135,7 @@ void WorkerPool::run(Job& job, uint32_t count, const uint32_t* cuts) noexcept {
     ++jobs_;
     if (count == 0) return;
     if (workers_ == 1) {
+        job.begin(0);
         for (uint32_t i = 0; i < count; ++i) job.task(0, i);
         return;
     }

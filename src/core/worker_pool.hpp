@@ -39,6 +39,10 @@ public:
     class Job {
     public:
         virtual void task(int worker, uint32_t index) noexcept = 0;
+        // Run by a worker once per job, after it has claimed its first task
+        // and before running it (so the job cannot end while it runs); a
+        // worker that claims no task of the job does not run it.
+        virtual void begin(int /*worker*/) noexcept {}
 
     protected:
         ~Job() = default;
