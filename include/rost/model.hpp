@@ -373,9 +373,9 @@ private:
     void groupWindow(WindowPlan& plan) noexcept;
     void prepareWindow(WindowPlan& plan) noexcept;
     void planNextWindow() noexcept;
-    uint64_t roundTokens(uint32_t begin, uint32_t end) const noexcept;
-    // planNext: one more task of the round plans the next window (on the pool).
-    void runRound(uint32_t begin, uint32_t end, bool planNext) noexcept;
+    void layoutRounds(WindowPlan& plan) noexcept;
+    // Round (colour) c of the current window; its last round may also plan the next window.
+    void runRound(int c) noexcept;
     void takeMoves(const MoveLog& log, uint32_t copy) noexcept;
     void takeMovesEverywhere(const MoveLog& log) noexcept;
     void takePendingMoves() noexcept;
@@ -383,7 +383,6 @@ private:
     void syncWorkerTables(bool copy) noexcept;
     bool workerCopiesAgree(std::string* why) const;
     void finishRound() noexcept;
-    void cutRound(uint32_t begin, uint32_t end, bool planTask) noexcept;
     void countStarted(RefineCount& rc) noexcept;
     void allocateWindows();
     void chooseColours() noexcept;

@@ -153,7 +153,7 @@ void Model::allocateWindows() {
         w.z0.reset(std::min(W, cellsInRing) * static_cast<std::size_t>(cap_));
         for (MoveLog& log : w.logs) log.size(w.z0.size(), W);
     }
-    w.owned.reset(W + 1);  // + the task that plans the next window
+    w.colours = static_cast<std::size_t>(colours_);
     w.sizeWorkers(static_cast<std::size_t>(cfg_.threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
     if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
     memory_bytes_ += w.bytes();
@@ -343,49 +343,66 @@ void Model::groupWindow(Windows::Plan& P) noexcept {
     begin[0] = 0;
 }
 
-uint64_t Model::roundTokens(uint32_t b, uint32_t e) const noexcept {
-    const Windows::Plan& P = win_->plan();
-    uint64_t total = 0;
-    for (uint32_t i = b; i < e; ++i) {
-        const uint32_t t = P.order[i];
-        total += static_cast<uint64_t>(cellWordCount(P.task_step[t], P.task_cell[t])) * P.task_mult[t];
-    }
-    return total;
-}
-
-// Orders the round's tasks by owner: the band of rows of cells a worker
-// refines whenever it can, so a cell's words, labels and counts stay in one
-// core's cache from round to round. The order of a round's tasks changes
-// nothing in its result (frozen counts, draws keyed by pick).
-void Model::cutRound(uint32_t b, uint32_t e, bool planTask) noexcept {
+// Lays the window's rounds out: each task's offset in its round's labels
+// and moves, each round's tokens and, with workers, each round's tasks by
+// owner: the band of rows of cells a worker refines whenever it can, so a
+// cell's words, labels and counts stay in one core's cache from round to
+// round. The order of a round's tasks changes nothing in its result (frozen
+// counts, draws keyed by pick). With planning ahead, the task that plans the
+// next window goes first in worker 1's range of the last round of more than
+// one cell: that worker plans while the caller refines (and if it is late,
+// the caller steals it last).
+void Model::layoutRounds(Windows::Plan& P) noexcept {
     Windows& w = *win_;
-    const Windows::Plan& P = w.plan();
-    const auto n = static_cast<uint32_t>(pool_->workers());
-    uint32_t* cuts = w.cuts.data();
-    std::fill_n(cuts, n + 1, 0u);
-    const auto ownerOf = [&](uint32_t t) {
-        return static_cast<uint32_t>(static_cast<uint64_t>(P.task_cell[t]) * n / static_cast<uint64_t>(cells_));
-    };
-    for (uint32_t i = b; i < e; ++i) ++cuts[ownerOf(P.order[i]) + 1];
-    for (uint32_t o = 0; o < n; ++o) cuts[o + 1] += cuts[o];
-    for (uint32_t i = b; i < e; ++i) {
-        const uint32_t t = P.order[i];
-        w.owned[cuts[ownerOf(t)]++] = t;
+    const uint32_t n = pool_ ? static_cast<uint32_t>(pool_->workers()) : 1;
+    P.last = colours_ - 1;
+    while (P.last > 0 && P.colour_begin[P.last] == P.colour_begin[P.last + 1]) --P.last;
+    P.plan_task = false;
+    uint32_t o = 0;
+    for (int c = 0; c < colours_; ++c) {
+        const uint32_t b = P.colour_begin[c], e = P.colour_begin[c + 1];
+        P.owned_begin[c] = o;
+        uint64_t tokens = 0;
+        std::size_t off = 0;
+        for (uint32_t i = b; i < e; ++i) {
+            const uint32_t t = P.order[i];
+            const uint32_t words = cellWordCount(P.task_step[t], P.task_cell[t]);
+            P.task_z0[t] = off;
+            off += words;
+            tokens += static_cast<uint64_t>(words) * P.task_mult[t];
+        }
+        P.round_tokens[c] = tokens;
+        if (!pool_ || e - b < 2) continue;  // one cell: refined live, on the caller
+        uint32_t* owned = P.owned.data() + o;
+        uint32_t* cuts = P.round_cuts.data() + static_cast<std::size_t>(c) * (n + 1);
+        std::fill_n(cuts, n + 1, 0u);
+        const auto ownerOf = [&](uint32_t t) {
+            return static_cast<uint32_t>(static_cast<uint64_t>(P.task_cell[t]) * n / static_cast<uint64_t>(cells_));
+        };
+        for (uint32_t i = b; i < e; ++i) ++cuts[ownerOf(P.order[i]) + 1];
+        for (uint32_t k = 0; k < n; ++k) cuts[k + 1] += cuts[k];
+        for (uint32_t i = b; i < e; ++i) {
+            const uint32_t t = P.order[i];
+            owned[cuts[ownerOf(t)]++] = t;
+        }
+        for (uint32_t k = n; k > 0; --k) cuts[k] = cuts[k - 1];
+        cuts[0] = 0;
+        o += e - b;
+        if (!(w.plan_ahead && c == P.last)) continue;
+        const uint32_t at = cuts[1];
+        std::memmove(owned + at + 1, owned + at, (e - b - at) * sizeof(uint32_t));
+        owned[at] = Windows::kPlanTask;
+        for (uint32_t k = 2; k <= n; ++k) ++cuts[k];
+        P.plan_task = true;
+        ++o;
     }
-    for (uint32_t o = n; o > 0; --o) cuts[o] = cuts[o - 1];
-    cuts[0] = 0;
-    if (!planTask) return;
-    // The planning task first in worker 1's range: that worker plans while
-    // the caller refines (and if it is late, the caller steals it last).
-    const uint32_t at = cuts[1];
-    std::memmove(w.owned.data() + at + 1, w.owned.data() + at, (e - b - at) * sizeof(uint32_t));
-    w.owned[at] = Windows::kPlanTask;
-    for (uint32_t o = 2; o <= n; ++o) ++cuts[o];
+    P.owned_begin[colours_] = o;
 }
 
-void Model::runRound(uint32_t b, uint32_t e, bool planNext) noexcept {
+void Model::runRound(int c) noexcept {
     Windows& w = *win_;
     Windows::Plan& P = w.plan();
+    const uint32_t b = P.colour_begin[c], e = P.colour_begin[c + 1];
     const int path = path_ == kernel::Path::Simd ? 1 : 0;
     if (e - b == 1) {  // one cell: refined against live counts, exactly as a serial sampler
         runLiveRound(P.order[b]);
@@ -394,23 +411,17 @@ void Model::runRound(uint32_t b, uint32_t e, bool planNext) noexcept {
     ++w.round;
     MoveLog& log = w.logs[w.round & 1];
     log.round = w.round;
-    std::size_t off = 0;
-    for (uint32_t i = b; i < e; ++i) {
-        const uint32_t t = P.order[i];
-        P.task_z0[t] = off;
-        log.off[t] = off;
-        off += cellWordCount(P.task_step[t], P.task_cell[t]);
-    }
+    for (uint32_t i = b; i < e; ++i) log.off[P.order[i]] = P.task_z0[P.order[i]];
     WindowJob job;
     job.model = this;
     job.kernel = frozen_kernel_[path];
     if (pool_) {
-        cutRound(b, e, planNext);
-        log.n = e - b + (planNext ? 1 : 0);
-        std::memcpy(log.tasks.data(), w.owned.data(), log.n * sizeof(uint32_t));
-        job.tasks = w.owned.data();
+        const auto n = static_cast<std::size_t>(pool_->workers());
+        log.n = P.owned_begin[c + 1] - P.owned_begin[c];
+        job.tasks = P.owned.data() + P.owned_begin[c];
+        std::memcpy(log.tasks.data(), job.tasks, log.n * sizeof(uint32_t));
         job.pending = w.pending != 0 ? &w.logs[w.pending & 1] : nullptr;
-        pool_->run(job, log.n, w.cuts.data());
+        pool_->run(job, log.n, P.round_cuts.data() + static_cast<std::size_t>(c) * (n + 1));
         if (w.defer) {
             // The copies whose workers took no part take the previous round's
             // moves now, before its log is written again.
@@ -562,6 +573,7 @@ void Model::countStarted(RefineCount& rc) noexcept {
 void Model::prepareWindow(Windows::Plan& P) noexcept {
     P.key = (static_cast<uint64_t>(rng_.next()) << 32) | rng_.next();
     groupWindow(P);
+    layoutRounds(P);
     P.grouped = true;
 }
 
@@ -579,18 +591,16 @@ bool Model::refineParallelWindow(const RefineLimits& limits, RefineCount& rc) no
     Windows& w = *win_;
     Windows::Plan& P = w.plan();
     if (!P.grouped) prepareWindow(P);
-    int last = colours_ - 1;
-    while (last > 0 && P.colour_begin[last] == P.colour_begin[last + 1]) --last;
     bool go = true;
     for (int c = 0; c < colours_ && go; ++c) {
         const uint32_t b = P.colour_begin[c], e = P.colour_begin[c + 1];
         if (b == e) continue;
-        const uint64_t tokens = roundTokens(b, e);
+        const uint64_t tokens = P.round_tokens[c];
         if (rc.tokens >= limits.tokens || (limits.control && !limits.control->beforeRound(tokens))) {
             go = false;
             break;
         }
-        runRound(b, e, w.plan_ahead && c == last);
+        runRound(c);
         rc.tokens += tokens;
         tokens_refined_ += tokens;
         ++rc.rounds;

@@ -36,6 +36,17 @@ struct Model::WindowPlan {
     // Tasks ordered by colour; round c is order[colour_begin[c], colour_begin[c + 1]).
     AlignedBuffer<uint32_t> order;
     AlignedBuffer<uint32_t> colour_begin;
+    // Laid out with the grouping (Model::layoutRounds), so that whoever plans
+    // the window does it, not the caller between rounds: each round's tokens
+    // and, with workers, its tasks by owner (owned[owned_begin[c], ...)) and
+    // the owners' ranges (round_cuts[c * (workers + 1), ...)); the last
+    // non-empty round, and whether it holds the task that plans the next window.
+    AlignedBuffer<uint64_t> round_tokens;
+    AlignedBuffer<uint32_t> owned;
+    AlignedBuffer<uint32_t> owned_begin;
+    AlignedBuffer<uint32_t> round_cuts;  // sized with the workers (Windows::sizeWorkers)
+    int last = 0;
+    bool plan_task = false;
     uint64_t key = 0;      // of the counter-based draws
     bool grouped = false;  // key drawn and tasks grouped (planned ahead)
 
@@ -54,11 +65,15 @@ struct Model::WindowPlan {
         task_z0.reset(w);
         order.reset(w);
         colour_begin.reset(colours + 1);
+        round_tokens.reset(colours);
+        owned.reset(w + 1);  // + the task that plans the next window
+        owned_begin.reset(colours + 1);
     }
     std::size_t bytes() const noexcept {
         return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
                task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
-               task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes();
+               task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() + round_tokens.bytes() +
+               owned.bytes() + owned_begin.bytes();
     }
 };
 
@@ -84,6 +99,7 @@ struct Model::MoveLog {
 // Sized at construction: nothing here allocates afterwards.
 struct Model::Windows {
     uint32_t W = 1;
+    std::size_t colours = 1;
     using Plan = WindowPlan;
     Plan plans[2];
     uint32_t current = 0;
@@ -125,9 +141,6 @@ struct Model::Windows {
     AlignedBuffer<int32_t> replicas;
     AlignedBuffer<int32_t> dnk;  // a round's change to n_k, one part per worker (its tasks' moves)
     bool copies_synced = false;  // inside a refinement: the copies are kept equal
-    // A round's tasks by owner (scratch) and the owners' ranges (threads + 1).
-    AlignedBuffer<uint32_t> owned;
-    AlignedBuffer<uint32_t> cuts;
     // The step being expanded into cell picks.
     int64_t cur_step = -1;
     int next_cell = 0;
@@ -137,7 +150,7 @@ struct Model::Windows {
 
     std::size_t workerBytes() const noexcept {
         return worker_g.bytes() + worker_tables.bytes() + replicas.bytes() + dnk.bytes() + merged.bytes() +
-               cuts.bytes();
+               plans[0].round_cuts.bytes() + plans[1].round_cuts.bytes();
     }
     // Sized for n workers over a V x Kp table (set-up code).
     void sizeWorkers(std::size_t n, std::size_t V, std::size_t Kp) {
@@ -146,12 +159,12 @@ struct Model::Windows {
         replicas.reset(W > 1 ? (n - 1) * V * Kp : 0);
         dnk.reset(n * Kp);
         merged.reset(n * kMergedStride);
-        cuts.reset(n + 1);
+        for (Plan& P : plans) P.round_cuts.reset(colours * (n + 1));
     }
 
     std::size_t bytes() const noexcept {
         return plans[0].bytes() + plans[1].bytes() + hash_key.bytes() + hash_task.bytes() + hash_stamp.bytes() +
-               z0.bytes() + logs[0].bytes() + logs[1].bytes() + workerBytes() + owned.bytes() + sizeof(Windows);
+               z0.bytes() + logs[0].bytes() + logs[1].bytes() + workerBytes() + sizeof(Windows);
     }
 };
 
