@@ -134,6 +134,12 @@ struct RefineCount {
     uint64_t tokens = 0;   // token refinements
     uint64_t rounds = 0;   // rounds run (a round of a serial window is one cell)
     uint64_t planned = 0;  // windows planned by a worker during the window before (same draws)
+    // Rounds whose merge was deferred to the next round's job, and copies of
+    // n_k^v given a deferred round's moves by the caller: their worker took
+    // no task of the next round, or the next round was one cell, refined live
+    // (docs/design.md, "A copy of n_k^v per worker").
+    uint64_t deferred = 0;
+    uint64_t caught_up = 0;
 };
 
 class Model {

@@ -349,15 +349,16 @@ void Model::groupWindow(Windows::Plan& P) noexcept {
 // cell's words, labels and counts stay in one core's cache from round to
 // round. The order of a round's tasks changes nothing in its result (frozen
 // counts, draws keyed by pick). With planning ahead, the task that plans the
-// next window goes first in worker 1's range of the last round of more than
-// one cell: that worker plans while the caller refines (and if it is late,
-// the caller steals it last).
+// next window goes first in worker 1's range of the window's last round, when
+// that round has more than one cell (one cell is refined live by the caller,
+// and the next window is then planned after it): worker 1 plans while the
+// others refine, and if it is late, the first to run out of its own tasks
+// takes the planning.
 void Model::layoutRounds(Windows::Plan& P) noexcept {
     Windows& w = *win_;
     const uint32_t n = pool_ ? static_cast<uint32_t>(pool_->workers()) : 1;
-    P.last = colours_ - 1;
-    while (P.last > 0 && P.colour_begin[P.last] == P.colour_begin[P.last + 1]) --P.last;
-    P.plan_task = false;
+    int last = colours_ - 1;  // the last non-empty round
+    while (last > 0 && P.colour_begin[last] == P.colour_begin[last + 1]) --last;
     uint32_t o = 0;
     for (int c = 0; c < colours_; ++c) {
         const uint32_t b = P.colour_begin[c], e = P.colour_begin[c + 1];
@@ -388,12 +389,11 @@ void Model::layoutRounds(Windows::Plan& P) noexcept {
         for (uint32_t k = n; k > 0; --k) cuts[k] = cuts[k - 1];
         cuts[0] = 0;
         o += e - b;
-        if (!(w.plan_ahead && c == P.last)) continue;
+        if (!(w.plan_ahead && c == last)) continue;
         const uint32_t at = cuts[1];
         std::memmove(owned + at + 1, owned + at, (e - b - at) * sizeof(uint32_t));
         owned[at] = Windows::kPlanTask;
         for (uint32_t k = 2; k <= n; ++k) ++cuts[k];
-        P.plan_task = true;
         ++o;
     }
     P.owned_begin[colours_] = o;
@@ -427,6 +427,7 @@ void Model::runRound(int c) noexcept {
             // moves now, before its log is written again.
             if (job.pending) takeMovesEverywhere(*job.pending);
             w.pending = w.round;
+            ++w.count->deferred;
         } else {
             MergeJob merge;
             merge.model = this;
@@ -496,7 +497,10 @@ void Model::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
 void Model::takeMovesEverywhere(const MoveLog& log) noexcept {
     Windows& w = *win_;
     for (uint32_t c = 0; c < static_cast<uint32_t>(w.worker_tables.size()); ++c)
-        if (w.merged[c * Windows::kMergedStride] != log.round) takeMoves(log, c);
+        if (w.merged[c * Windows::kMergedStride] != log.round) {
+            takeMoves(log, c);
+            if (w.count) ++w.count->caught_up;
+        }
 }
 
 // A deferred merge done now: every copy takes the last round's moves.
@@ -651,8 +655,7 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
     // The model's own table takes the last round's moves; the workers'
     // copies are made equal again when the next refinement starts.
     if (w.pending != 0) {
-        const MoveLog& last = w.logs[w.pending & 1];
-        if (w.merged[0] != last.round) takeMoves(last, 0);
+        takeMoves(w.logs[w.pending & 1], 0);  // no round after it: no worker has taken it
         w.pending = 0;
     }
     w.defer = false;

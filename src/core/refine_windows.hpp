@@ -39,14 +39,13 @@ struct Model::WindowPlan {
     // Laid out with the grouping (Model::layoutRounds), so that whoever plans
     // the window does it, not the caller between rounds: each round's tokens
     // and, with workers, its tasks by owner (owned[owned_begin[c], ...)) and
-    // the owners' ranges (round_cuts[c * (workers + 1), ...)); the last
-    // non-empty round, and whether it holds the task that plans the next window.
+    // the owners' ranges (round_cuts[c * (workers + 1), ...)). With planning
+    // ahead, the last round of more than one cell also holds the task that
+    // plans the next window.
     AlignedBuffer<uint64_t> round_tokens;
     AlignedBuffer<uint32_t> owned;
     AlignedBuffer<uint32_t> owned_begin;
     AlignedBuffer<uint32_t> round_cuts;  // sized with the workers (Windows::sizeWorkers)
-    int last = 0;
-    bool plan_task = false;
     uint64_t key = 0;      // of the counter-based draws
     bool grouped = false;  // key drawn and tasks grouped (planned ahead)
 
