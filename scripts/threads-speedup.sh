@@ -30,6 +30,11 @@ for b in "${!tools[@]}"; do
   echo "${tools[$b]}: threads 1: $(sort -n "$tmp/times$b-1" | tr '\n' ' ')s (median $m1)"
   echo "${tools[$b]}: threads 2: $(sort -n "$tmp/times$b-2" | tr '\n' ' ')s (median $m2)"
   echo "${tools[$b]}: speed-up $(awk -v a="$m1" -v b="$m2" 'BEGIN { printf "%.2f", a / b }')x"
+  # Each run at one thread is followed by one at two: the median of the
+  # pairs' ratios is less moved by the host's busy spells than the ratio of
+  # the medians (a spell that slows both runs of a pair cancels out).
+  paste "$tmp/times$b-1" "$tmp/times$b-2" | awk '{ print $1 / $2 }' > "$tmp/ratios$b"
+  echo "${tools[$b]}: median of the $runs pairs' speed-ups $(median "$tmp/ratios$b" | awk '{ printf "%.2f", $1 }')x"
   for f in topics.csv topicmodel.csv perplexity.csv surprise.csv surprise_cells.csv; do
     cmp -s "$tmp/out$b-1/$f" "$tmp/out$b-2/$f" || { echo "${tools[$b]}: $f differs between 1 and 2 threads"; exit 1; }
   done
