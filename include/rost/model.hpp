@@ -372,6 +372,7 @@ private:
     struct MoveLog;
     struct WindowJob;
     struct MergeJob;
+    struct CatchUpJob;
     struct CopyJob;
     bool fillWindow(WindowPlan& plan, StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept;
     bool refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept;

@@ -48,6 +48,18 @@ struct Model::MergeJob final : detail::WorkerPool::Job {
     void task(int /*worker*/, uint32_t copy) noexcept override { model->takeMoves(*log, copy); }
 };
 
+// A round's moves given to the copies that have not taken them: task r for
+// copy r, whoever runs it (many copies behind: a round of fewer cells than
+// workers, or a live round after a deferred one).
+struct Model::CatchUpJob final : detail::WorkerPool::Job {
+    Model* model = nullptr;
+    const MoveLog* log = nullptr;
+
+    void task(int /*worker*/, uint32_t copy) noexcept override {
+        if (model->win_->merged[copy * Windows::kMergedStride] != log->round) model->takeMoves(*log, copy);
+    }
+};
+
 // The copies of n_k^v made equal to the model's: task r copies into copy r (task 0: nothing to do).
 struct Model::CopyJob final : detail::WorkerPool::Job {
     Model* model = nullptr;
@@ -493,13 +505,25 @@ void Model::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
     w.merged[copy * Windows::kMergedStride] = log.round;
 }
 
-// The copies that have not taken the round's moves take them (the calling thread).
+// The copies that have not taken the round's moves take them: on the
+// calling thread when one or two are behind, else on the pool, a copy a task.
 void Model::takeMovesEverywhere(const MoveLog& log) noexcept {
     Windows& w = *win_;
-    for (uint32_t c = 0; c < static_cast<uint32_t>(w.worker_tables.size()); ++c)
+    const auto copies = static_cast<uint32_t>(w.worker_tables.size());
+    uint32_t behind = 0;
+    for (uint32_t c = 0; c < copies; ++c) behind += w.merged[c * Windows::kMergedStride] != log.round ? 1 : 0;
+    if (w.count) w.count->caught_up += behind;
+    if (behind > 2 && pool_) {
+        CatchUpJob job;
+        job.model = this;
+        job.log = &log;
+        pool_->run(job, copies);
+        return;
+    }
+    for (uint32_t c = 0; c < copies && behind > 0; ++c)
         if (w.merged[c * Windows::kMergedStride] != log.round) {
             takeMoves(log, c);
-            if (w.count) ++w.count->caught_up;
+            --behind;
         }
 }
 
