@@ -423,15 +423,20 @@ void Model::runRound(int c) noexcept {
     ++w.round;
     MoveLog& log = w.logs[w.round & 1];
     log.round = w.round;
-    for (uint32_t i = b; i < e; ++i) log.off[P.order[i]] = P.task_z0[P.order[i]];
+    log.task_off = P.task_z0.data();
     WindowJob job;
     job.model = this;
     job.kernel = frozen_kernel_[path];
     if (pool_) {
         const auto n = static_cast<std::size_t>(pool_->workers());
         log.n = P.owned_begin[c + 1] - P.owned_begin[c];
-        job.tasks = P.owned.data() + P.owned_begin[c];
-        std::memcpy(log.tasks.data(), job.tasks, log.n * sizeof(uint32_t));
+        job.tasks = log.task_list = P.owned.data() + P.owned_begin[c];
+        if (w.defer) {  // taken during the next round: keep the round's own list and offsets
+            std::memcpy(log.tasks.data(), job.tasks, log.n * sizeof(uint32_t));
+            for (uint32_t i = b; i < e; ++i) log.off[P.order[i]] = P.task_z0[P.order[i]];
+            log.task_list = log.tasks.data();
+            log.task_off = log.off.data();
+        }
         job.pending = w.pending != 0 ? &w.logs[w.pending & 1] : nullptr;
         pool_->run(job, log.n, P.round_cuts.data() + static_cast<std::size_t>(c) * (n + 1));
         if (w.defer) {
@@ -448,8 +453,7 @@ void Model::runRound(int c) noexcept {
         }
     } else {
         log.n = e - b;
-        std::memcpy(log.tasks.data(), P.order.data() + b, log.n * sizeof(uint32_t));
-        job.tasks = log.tasks.data();
+        job.tasks = log.task_list = P.order.data() + b;
         for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
         takeMoves(log, 0);
     }
@@ -492,9 +496,9 @@ void Model::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
     Windows& w = *win_;
     int32_t* nkv = w.worker_tables[copy].nkv;
     for (uint32_t i = 0; i < log.n; ++i) {
-        const uint32_t t = log.tasks[i];
+        const uint32_t t = log.task_list[i];
         if (t == Windows::kPlanTask) continue;
-        const uint64_t* moves = log.moves.data() + log.off[t];
+        const uint64_t* moves = log.moves.data() + log.task_off[t];
         for (uint32_t c = 0, m = log.count[t]; c < m; ++c) {
             const uint64_t mv = moves[c];
             int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp_;

@@ -21,16 +21,16 @@ struct Model::WindowPlan {
     uint32_t picks = 0;
     AlignedBuffer<int64_t> pick_step;
     AlignedBuffer<int32_t> pick_cell;
-    AlignedBuffer<uint64_t> pick_ord;   // which step pick it came from (1, 2, ...)
-    AlignedBuffer<uint32_t> pick_next;  // the task's next pick, or kNone
+    AlignedBuffer<uint64_t> pick_ord;    // which step pick it came from (1, 2, ...)
+    AlignedBuffer<uint32_t> pick_next;   // the task's next pick, or kNone
     AlignedBuffer<uint8_t> pick_done;
     // Tasks: one per distinct cell of the window, in order of first pick.
     uint32_t tasks = 0;
     AlignedBuffer<int64_t> task_step;
     AlignedBuffer<int32_t> task_cell;
-    AlignedBuffer<uint32_t> task_head;  // first pick
-    AlignedBuffer<uint32_t> task_tail;  // last pick
-    AlignedBuffer<uint32_t> task_mult;  // picks
+    AlignedBuffer<uint32_t> task_head;   // first pick
+    AlignedBuffer<uint32_t> task_tail;   // last pick
+    AlignedBuffer<uint32_t> task_mult;   // picks
     AlignedBuffer<uint32_t> task_colour;
     AlignedBuffer<std::size_t> task_z0;  // offset of its labels at the round's start
     // Tasks ordered by colour; round c is order[colour_begin[c], colour_begin[c + 1]).
@@ -80,9 +80,14 @@ struct Model::WindowPlan {
 // to << 48 (a compact list the merge reads on every core).
 struct Model::MoveLog {
     AlignedBuffer<uint64_t> moves;
-    AlignedBuffer<std::size_t> off;  // by task: its first move
-    AlignedBuffer<uint32_t> count;   // by task: how many
-    AlignedBuffer<uint32_t> tasks;   // the round's tasks (and the planning task)
+    AlignedBuffer<uint32_t> count;  // by task: how many
+    // The round's n tasks (and the planning task) and, by task, its first
+    // move: the window plan's own arrays when the moves are taken at once,
+    // else a copy here (the plan may be filled again before they are taken).
+    const uint32_t* task_list = nullptr;
+    const std::size_t* task_off = nullptr;
+    AlignedBuffer<std::size_t> off;
+    AlignedBuffer<uint32_t> tasks;
     uint32_t n = 0;
     uint64_t round = 0;  // the round's number (Windows::round)
     void size(std::size_t movesCap, std::size_t W) {
