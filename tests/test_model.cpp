@@ -350,3 +350,48 @@ TEST(AlignedBuffer, ZeroPagesClearsEveryByteOnAnyNumberOfThreads) {
     b.reset((std::size_t{10} << 20) / 4 + 3, 2);
     EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));
 }
+
+// Several buffers zeroed together (a model's ring tables): every byte of
+// every range, none outside them, for ranges of under one piece, of whole
+// and partial 2 MiB pieces, on any number of threads; then the zeroer is
+// empty and can be used again.
+TEST(AlignedBuffer, PageZeroerClearsEveryRangeAndNothingElse) {
+    const std::size_t sizes[] = {100, (std::size_t{2} << 20) + 7, std::size_t{4} << 20, 4096, (std::size_t{5} << 20) + 1};
+    std::size_t total = 0;
+    for (std::size_t n : sizes) total += n + 64;  // a guard band after each range
+    std::vector<unsigned char> buf(total);
+    for (int threads : {1, 2, 3, 8}) {
+        std::fill(buf.begin(), buf.end(), static_cast<unsigned char>(0xA5));
+        rost::PageZeroer z;
+        std::size_t at = 0;
+        for (std::size_t n : sizes) {
+            z.add(buf.data() + at, n);
+            at += n + 64;
+        }
+        z.add(buf.data(), 0);  // an empty range is no range
+        EXPECT_EQ(z.bytes(), total - 64 * std::size(sizes));
+        z.run(threads);
+        EXPECT_EQ(z.bytes(), 0u);
+        at = 0;
+        for (std::size_t n : sizes) {
+            EXPECT_EQ(std::count(buf.begin() + static_cast<std::ptrdiff_t>(at), buf.begin() + static_cast<std::ptrdiff_t>(at + n), 0),
+                      static_cast<std::ptrdiff_t>(n))
+                << n << " bytes, " << threads << " threads";
+            EXPECT_EQ(std::count(buf.begin() + static_cast<std::ptrdiff_t>(at + n), buf.begin() + static_cast<std::ptrdiff_t>(at + n + 64),
+                                 static_cast<unsigned char>(0xA5)),
+                      64)
+                << "guard after " << n << " bytes, " << threads << " threads";
+            at += n + 64;
+        }
+    }
+    // Buffers registered with a zeroer are zero once it has run.
+    rost::PageZeroer z;
+    rost::AlignedBuffer<uint32_t> a, b;
+    a.reset((std::size_t{3} << 20) / 4 + 5, z);
+    b.reset(1000, z);
+    std::fill_n(a.data(), a.size(), 7u);  // whatever the allocator handed out
+    std::fill_n(b.data(), b.size(), 7u);
+    z.run(2);
+    EXPECT_EQ(std::count(a.data(), a.data() + a.size(), 0u), static_cast<std::ptrdiff_t>(a.size()));
+    EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));
+}

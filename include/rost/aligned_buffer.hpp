@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <new>
+#include <vector>
 
 #if defined(__linux__)
 #include <sys/mman.h>
@@ -27,6 +28,24 @@ inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 // first touch of a page makes the kernel clear it, which for the tens of
 // MiB of a ring is most of a model's set-up time (src/core/memory.cpp).
 void zeroPages(void* p, std::size_t bytes, int threads);
+
+// Buffers zeroed together at set-up (a model's ring tables): run() zeroes
+// every range added on `threads` threads, which claim 2 MiB pieces of all of
+// them in turn, so no thread waits while another faults its part in.
+class PageZeroer {
+public:
+    void add(void* p, std::size_t bytes);
+    void run(int threads);  // then forgets the ranges
+    std::size_t bytes() const noexcept { return total_; }
+
+private:
+    struct Range {
+        unsigned char* p;
+        std::size_t bytes;
+    };
+    std::vector<Range> ranges_;
+    std::size_t total_ = 0;
+};
 
 // A fixed-size, zero-initialised, cache-line-aligned array. Allocates once in
 // its constructor (set-up time) and never again; not copyable.
@@ -55,20 +74,14 @@ public:
 
     // `threads`: how many threads touch (zero) a large buffer at set-up.
     void reset(std::size_t n, int threads = 1) {
-        std::free(data_);
-        data_ = nullptr;
-        size_ = 0;
-        if (n == 0) return;
-        std::size_t bytes = (n * sizeof(T) + kCacheLine - 1) / kCacheLine * kCacheLine;
-        const std::size_t align = bytes >= kHugePage ? kHugePage : kCacheLine;
-        void* p = std::aligned_alloc(align, (bytes + align - 1) / align * align);
-        if (p == nullptr) throw std::bad_alloc();
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-        if (align == kHugePage) (void)madvise(p, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
-#endif
-        zeroPages(p, bytes, threads);  // every page is touched now, at set-up
-        data_ = static_cast<T*>(p);
-        size_ = n;
+        allocate(n);
+        zeroPages(data_, bytes(), threads);  // every page is touched now, at set-up
+    }
+    // Allocates and leaves the zeroing to `zeroer`: the buffer must not be
+    // used before zeroer.run(), which zeroes it with the others added.
+    void reset(std::size_t n, PageZeroer& zeroer) {
+        allocate(n);
+        zeroer.add(data_, bytes());
     }
 
     T* data() noexcept { return data_; }
@@ -82,6 +95,22 @@ public:
     }
 
 private:
+    void allocate(std::size_t n) {
+        std::free(data_);
+        data_ = nullptr;
+        size_ = 0;
+        if (n == 0) return;
+        std::size_t bytes = (n * sizeof(T) + kCacheLine - 1) / kCacheLine * kCacheLine;
+        const std::size_t align = bytes >= kHugePage ? kHugePage : kCacheLine;
+        void* p = std::aligned_alloc(align, (bytes + align - 1) / align * align);
+        if (p == nullptr) throw std::bad_alloc();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+        if (align == kHugePage) (void)madvise(p, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
+#endif
+        data_ = static_cast<T*>(p);
+        size_ = n;
+    }
+
     T* data_ = nullptr;
     std::size_t size_ = 0;
 };

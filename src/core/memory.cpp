@@ -1,6 +1,7 @@
-// Set-up time memory: zeroing (and so faulting in) a large buffer on several threads.
+// Set-up time memory: zeroing (and so faulting in) large buffers on several threads.
 
 #include <algorithm>
+#include <atomic>
 #include <cstring>
 #include <system_error>
 #include <thread>
@@ -11,32 +12,58 @@
 namespace rost {
 
 namespace {
-// Below this a thread costs more than it saves.
-constexpr std::size_t kParallelZeroBytes = std::size_t{8} << 20;
+// Below this in all a thread costs more than it saves.
+constexpr std::size_t kParallelZeroBytes = std::size_t{4} << 20;
 } // namespace
 
+void PageZeroer::add(void* p, std::size_t bytes) {
+    if (bytes == 0) return;
+    ranges_.push_back({static_cast<unsigned char*>(p), bytes});
+    total_ += bytes;
+}
+
+void PageZeroer::run(int threads) {
+    if (threads <= 1 || total_ < kParallelZeroBytes) {
+        for (const Range& r : ranges_) std::memset(r.p, 0, r.bytes);
+    } else {
+        // The ranges are cut into pieces of one huge page (2 MiB-aligned
+        // buffers: at page boundaries) and the threads claim the pieces in
+        // turn. A static split left one thread idle whenever its part faulted
+        // faster than the other's (memory the process had touched before, a
+        // huge page to be had or not), and buffers too small to split on
+        // their own were zeroed by one thread while the others waited.
+        std::vector<std::size_t> first(ranges_.size() + 1, 0);  // each range's first piece
+        for (std::size_t i = 0; i < ranges_.size(); ++i)
+            first[i + 1] = first[i] + (ranges_[i].bytes + kHugePage - 1) / kHugePage;
+        const std::size_t pieces = first.back();
+        std::atomic<std::size_t> next{0};
+        const auto work = [&] {
+            std::size_t r = 0;
+            for (std::size_t k = next.fetch_add(1, std::memory_order_relaxed); k < pieces;
+                 k = next.fetch_add(1, std::memory_order_relaxed)) {
+                while (first[r + 1] <= k) ++r;  // pieces are claimed in increasing order
+                const std::size_t b = (k - first[r]) * kHugePage;
+                std::memset(ranges_[r].p + b, 0, std::min(kHugePage, ranges_[r].bytes - b));
+            }
+        };
+        const auto n = std::min(static_cast<std::size_t>(threads), pieces);
+        std::vector<std::jthread> helpers;
+        helpers.reserve(n - 1);
+        try {
+            for (std::size_t i = 1; i < n; ++i) helpers.emplace_back(work);
+        } catch (const std::system_error&) {
+            // No more threads to be had: those started and this one share the pieces.
+        }
+        work();
+    }  // the helpers are joined here, before the ranges are forgotten
+    ranges_.clear();
+    total_ = 0;
+}
+
 void zeroPages(void* p, std::size_t bytes, int threads) {
-    if (threads <= 1 || bytes < kParallelZeroBytes) {
-        std::memset(p, 0, bytes);
-        return;
-    }
-    auto* base = static_cast<unsigned char*>(p);
-    const std::size_t pages = (bytes + kHugePage - 1) / kHugePage;
-    const auto n = static_cast<std::size_t>(std::min<std::size_t>(static_cast<std::size_t>(threads), pages));
-    const auto part = [&](std::size_t i) {
-        const std::size_t b = std::min(bytes, pages * i / n * kHugePage);
-        const std::size_t e = std::min(bytes, pages * (i + 1) / n * kHugePage);
-        std::memset(base + b, 0, e - b);
-    };
-    std::vector<std::jthread> helpers;
-    helpers.reserve(n - 1);
-    try {
-        for (std::size_t i = 1; i < n; ++i) helpers.emplace_back(part, i);
-    } catch (const std::system_error&) {
-        // No thread to be had: the parts not started are zeroed here.
-        for (std::size_t i = helpers.size() + 1; i < n; ++i) part(i);
-    }
-    part(0);
+    PageZeroer z;
+    z.add(p, bytes);
+    z.run(threads);
 }
 
 } // namespace rost

@@ -93,8 +93,10 @@ void Model::allocateState() {
     const auto Kp = static_cast<std::size_t>(Kp_);
     const auto inputs = ring * static_cast<std::size_t>(ct_) * static_cast<std::size_t>(maxw_);
 
-    // The ring's large tables are zeroed (their pages faulted in) on `threads` threads.
-    nkv_.reset(static_cast<std::size_t>(V_) * Kp, cfg_.threads);
+    // The ring's large tables are zeroed (their pages faulted in) together,
+    // on `threads` threads, at the end.
+    PageZeroer zeroer;
+    nkv_.reset(static_cast<std::size_t>(V_) * Kp, zeroer);
     nk_.reset(Kp);
     inv_.reset(Kp);
     inv_dec_.reset(Kp);
@@ -103,13 +105,13 @@ void Model::allocateState() {
     slot_step_.reset(ring);
     for (std::size_t s = 0; s < ring; ++s) slot_step_[s] = -1;
     cell_n_.reset(ring * cells);
-    cell_words_.reset(ring * cells * cap, cfg_.threads);
-    cell_z_.reset(ring * cells * cap, cfg_.threads);
-    nck_.reset(ring * cells * Kp, cfg_.threads);
+    cell_words_.reset(ring * cells * cap, zeroer);
+    cell_z_.reset(ring * cells * cap, zeroer);
+    nck_.reset(ring * cells * Kp, zeroer);
     cell_surprise_.reset(ring * cells);
-    in_word_.reset(inputs, cfg_.threads);
-    in_pos_.reset(inputs, cfg_.threads);
-    in_slot_.reset(inputs, cfg_.threads);
+    in_word_.reset(inputs, zeroer);
+    in_pos_.reset(inputs, zeroer);
+    in_slot_.reset(inputs, zeroer);
     in_n_.reset(ring * static_cast<std::size_t>(ct_));
     obs_surprise_.reset(ring * static_cast<std::size_t>(ct_));
 
@@ -126,6 +128,7 @@ void Model::allocateState() {
     scratch_wn_.reset(cells);
     out_g_.reset(cells * Kp);
     out_g_epoch_.reset(cells);
+    zeroer.run(cfg_.threads);
 }
 
 void Model::buildNeighbourhoods() {
