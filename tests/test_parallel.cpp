@@ -437,6 +437,68 @@ TEST(ParallelMeasure, TwoThreadsMeasuringAtOnceGetTheSerialBits) {
     EXPECT_GT(m.poolJobs(), 0u);
 }
 
+// The final pass's measurements of many observations at once (a task an
+// observation on the workers): each observation's step perplexity and
+// labels are the bits stepPerplexity and observationLabels give one at a
+// time, on one thread or several, with several observations a step (the
+// step's perplexity computed once and copied), with growth, and with a
+// stride shorter than an observation (its first labels only, the rest of
+// the buffer untouched). One pool job a call.
+TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
+    const syn::Data d = measureData();
+    Config twoPerStep = d.config();
+    twoPerStep.cell_time = 2;
+    Config growing = d.config();
+    growing.K = 12;
+    growing.grow = true;
+    growing.gamma = 0.5;
+    for (const Config& base : {d.config(), twoPerStep, growing}) {
+        std::vector<uint64_t> reference;  // one thread, one measurement at a time
+        for (const int threads : {1, 2, 3}) {
+            Config c = base;
+            c.threads = threads;
+            Model m(c);
+            for (int t = 0; t < d.spec.steps; ++t) {
+                ASSERT_TRUE(m.addObservation(d.words[t], d.positions[t]).ok());
+                Sweep sweep(m);
+                RefineLimits limits;
+                limits.steps = 2;
+                m.refine(sweep, limits);
+            }
+            const uint64_t first = 1, count = m.observations() - 1;
+            for (const std::size_t stride : {std::size_t{4096}, std::size_t{50}}) {
+                std::vector<uint64_t> one;  // one measurement at a time, on this model
+                for (uint64_t f = first; f < first + count; ++f) {
+                    one.push_back(std::bit_cast<uint64_t>(m.stepPerplexity(m.stepOfObservation(f))));
+                    std::vector<uint16_t> z(std::min<std::size_t>(stride, m.observationSize(f)));
+                    ASSERT_LT(z.size(), 4096u);
+                    m.observationLabels(f, z);
+                    one.insert(one.end(), z.begin(), z.end());
+                }
+                std::vector<double> ppx(count, -1.0);
+                std::vector<uint16_t> labels(count * stride, 0xBEEF);
+                const uint64_t jobs = m.poolJobs();
+                m.finalMeasurements(first, ppx, labels, stride);
+                EXPECT_EQ(m.poolJobs() - jobs, threads > 1 ? 1u : 0u) << threads << " threads";
+                std::vector<uint64_t> batch;
+                for (uint64_t i = 0; i < count; ++i) {
+                    batch.push_back(std::bit_cast<uint64_t>(ppx[i]));
+                    const std::size_t n = std::min<std::size_t>(stride, m.observationSize(first + i));
+                    batch.insert(batch.end(), labels.begin() + static_cast<std::ptrdiff_t>(i * stride),
+                                 labels.begin() + static_cast<std::ptrdiff_t>(i * stride + n));
+                    for (std::size_t j = n; j < stride; ++j) ASSERT_EQ(labels[i * stride + j], 0xBEEF) << "past the labels";
+                }
+                EXPECT_EQ(batch, one) << threads << " threads, stride " << stride << ", cell.time " << c.cell_time
+                                      << ", grow " << c.grow;
+                if (stride == 4096) {
+                    if (threads == 1) reference = one;
+                    EXPECT_EQ(one, reference) << threads << " threads against one";
+                }
+            }
+        }
+    }
+}
+
 // Small work stays on the calling thread: a word stream's step (one cell)
 // and a step of fewer than 256 words.
 TEST(ParallelMeasure, SmallStepsAndOneCellAreMeasuredSerially) {

@@ -307,6 +307,16 @@ public:
     // Maximum-likelihood topic of each kept word (argmax of the left-out
     // conditional, ties to the lowest topic), in input order.
     void observationLabels(uint64_t frame, std::span<uint16_t> out) const noexcept;
+    // The final measurements of `perplexity.size()` observations from
+    // `first` at once (the end of a stream): perplexity[i] is
+    // stepPerplexity() of observation first + i's step, and labels[i *
+    // stride, ...) its observationLabels(), the first min(stride,
+    // observationSize()) of them; the same bits. With workers, one pool job
+    // a task per observation, so the workers have whole observations to
+    // take instead of a job of a few microseconds a measurement.
+    // labels.size() >= perplexity.size() * stride. No allocation.
+    void finalMeasurements(uint64_t first, std::span<double> perplexity, std::span<uint16_t> labels,
+                           std::size_t stride) const noexcept;
     // The current Gibbs sample z_i of each kept word, in input order; a word
     // its cell had no room for (never in the counts) gets its ML label.
     void observationSamples(uint64_t frame, std::span<uint16_t> out) const noexcept;
@@ -447,7 +457,21 @@ private:
     const double* surpriseTermsOnPool(int64_t step, std::size_t slot, const uint32_t* firstNew,
                                       double globalSum) noexcept;
     bool parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexcept;
-    void groupInputsByCell(std::size_t base, uint32_t n) const noexcept;
+    // An observation's inputs grouped by cell (a counting sort): cell c's are
+    // by_cell[begin[c], begin[c + 1]); cursor (cells) and cell_of (an entry
+    // an input) are scratch.
+    struct CellGroups {
+        uint32_t* begin;
+        uint32_t* cursor;
+        uint32_t* cell_of;
+        uint32_t* by_cell;
+    };
+    void groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g) const noexcept;
+    // The left-out log loss of a step computed here, cell by cell (stepLogLoss's bits).
+    LogLoss serialStepLogLoss(int64_t step) const noexcept;
+    // finalMeasurements' task: observation first + i (worker's scratch).
+    void finalTask(int worker, uint64_t first, uint32_t i, double* perplexity, uint16_t* labels,
+                   std::size_t stride) const noexcept;
     // G(c) of a cell of `step`, cached for the current output call (epoch).
     const int32_t* cachedNeighbourhood(int64_t step, int cell) const noexcept;
     template <typename F>

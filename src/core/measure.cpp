@@ -46,7 +46,8 @@ void Model::sizeMeasure() {
     memory_bytes_ -= measure_->bytes();
     const bool pooled = pool_ != nullptr;
     measure_->size(pooled ? static_cast<std::size_t>(cells_) : 0, pooled ? static_cast<std::size_t>(cap_) : 0,
-                   pooled ? static_cast<std::size_t>(maxw_) : 0);
+                   pooled ? static_cast<std::size_t>(maxw_) : 0,
+                   pooled ? static_cast<std::size_t>(pool_->workers()) : 0);
     memory_bytes_ += measure_->bytes();
 }
 
@@ -146,9 +147,10 @@ bool Model::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexce
     const int64_t step = stepOfObservation(frame);
     const std::size_t slot = slotOf(step);
     const std::size_t base = (slot * ct_ + frame % static_cast<uint64_t>(ct_)) * static_cast<std::size_t>(maxw_);
-    groupInputsByCell(base, n);
-    const uint32_t* begin = measure_->cell_begin.data();
-    const uint32_t* byCell = measure_->by_cell.data();
+    const CellGroups groups = measure_->groups();
+    groupInputsByCell(base, n, groups);
+    const uint32_t* begin = groups.begin;
+    const uint32_t* byCell = groups.by_cell;
     Reciprocals r;
     reciprocals(r);
     const uint16_t* z = cell_z_.data() + slot * cells_ * cap_;
@@ -168,20 +170,87 @@ bool Model::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexce
 
 // Inputs [base, base + n) of an observation grouped by cell (a counting
 // sort), so that a task takes its cell's inputs.
-void Model::groupInputsByCell(std::size_t base, uint32_t n) const noexcept {
-    Measure& m = *measure_;
-    uint32_t* cellOf = m.input_cell.data();
-    std::fill_n(m.cell_begin.data(), cells_ + 1, 0u);
+void Model::groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g) const noexcept {
+    std::fill_n(g.begin, cells_ + 1, 0u);
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t s = in_slot_[base + i];
-        cellOf[i] = (s & kDropped) ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
-        ++m.cell_begin[cellOf[i] + 1];
+        g.cell_of[i] = (s & kDropped) ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
+        ++g.begin[g.cell_of[i] + 1];
     }
     for (int c = 0; c < cells_; ++c) {
-        m.cell_begin[c + 1] += m.cell_begin[c];
-        m.cursor[c] = m.cell_begin[c];
+        g.begin[c + 1] += g.begin[c];
+        g.cursor[c] = g.begin[c];
     }
-    for (uint32_t i = 0; i < n; ++i) m.by_cell[m.cursor[cellOf[i]]++] = i;
+    for (uint32_t i = 0; i < n; ++i) g.by_cell[g.cursor[g.cell_of[i]]++] = i;
+}
+
+// ---- the final pass: many observations, a task each ---------------------------
+
+// Observation first + i: its step's perplexity when it is the first of the
+// batch in its step (the others copy it after the job), and its labels, each
+// word's cell's neighbourhood computed once (as parallelLabels does, the same
+// mlTopic of the same counts, so the same labels).
+void Model::finalTask(int worker, uint64_t first, uint32_t i, double* perplexity, uint16_t* labels,
+                      std::size_t stride) const noexcept {
+    const uint64_t frame = first + i;
+    const int64_t step = stepOfObservation(frame);
+    if (i == 0 || stepOfObservation(frame - 1) != step) perplexity[i] = serialStepLogLoss(step).perplexity();
+    if (!observationInWindow(frame)) return;
+    const auto n = static_cast<uint32_t>(std::min<std::size_t>(stride, observationSize(frame)));
+    const std::size_t slot = slotOf(step);
+    const std::size_t base = (slot * ct_ + frame % static_cast<uint64_t>(ct_)) * static_cast<std::size_t>(maxw_);
+    const CellGroups groups = measure_->workerGroups(worker, static_cast<std::size_t>(cells_), static_cast<std::size_t>(maxw_));
+    groupInputsByCell(base, n, groups);
+    Reciprocals r;
+    reciprocals(r);
+    const uint16_t* z = cell_z_.data() + slot * cells_ * cap_;
+    uint16_t* out = labels + static_cast<std::size_t>(i) * stride;
+    alignas(64) int32_t g[kMaxKp];
+    for (int c = 0; c < cells_; ++c) {
+        if (groups.begin[c] == groups.begin[c + 1]) continue;
+        neighbourhood(step, c, g, false);
+        for (uint32_t j = groups.begin[c]; j < groups.begin[c + 1]; ++j) {
+            const uint32_t in = groups.by_cell[j], s = in_slot_[base + in];
+            out[in] = static_cast<uint16_t>(mlTopic(in_word_[base + in], (s & kDropped) ? -1 : z[s], g, r));
+        }
+    }
+    renumber(frame, {out, n});
+}
+
+void Model::finalMeasurements(uint64_t first, std::span<double> perplexity, std::span<uint16_t> labels,
+                              std::size_t stride) const noexcept {
+    const auto count = static_cast<uint32_t>(perplexity.size());
+    if (count == 0) return;
+    uint64_t words = 0;
+    for (uint32_t i = 0; i < count; ++i) words += observationSize(first + i);
+    if (count > 1 && claimMeasure(words)) {
+        struct FinalJob final : detail::WorkerPool::Job {
+            const Model& m;
+            uint64_t first;
+            double* perplexity;
+            uint16_t* labels;
+            std::size_t stride;
+            FinalJob(const Model& model, uint64_t f, double* p, uint16_t* l, std::size_t s) noexcept
+                : m(model), first(f), perplexity(p), labels(l), stride(s) {}
+            void task(int worker, uint32_t i) noexcept override {
+                m.finalTask(worker, first, i, perplexity, labels, stride);
+            }
+        } job(*this, first, perplexity.data(), labels.data(), stride);
+        pool_->run(job, count);
+        releaseMeasure();
+        for (uint32_t i = 1; i < count; ++i)
+            if (stepOfObservation(first + i) == stepOfObservation(first + i - 1)) perplexity[i] = perplexity[i - 1];
+        return;
+    }
+    // Serially (no workers, or the pool is another measurement's), one
+    // measurement at a time: each may still use the pool itself.
+    for (uint32_t i = 0; i < count; ++i) {
+        const uint64_t frame = first + i;
+        const int64_t step = stepOfObservation(frame);
+        perplexity[i] = i > 0 && stepOfObservation(frame - 1) == step ? perplexity[i - 1] : stepPerplexity(step);
+        const std::size_t n = std::min<std::size_t>(stride, observationSize(frame));
+        observationLabels(frame, labels.subspan(static_cast<std::size_t>(i) * stride, n));
+    }
 }
 
 } // namespace rost

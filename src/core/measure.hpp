@@ -28,16 +28,31 @@ struct Model::Measure {
     // thread's measurement finds it taken and computes serially.
     std::atomic<bool> busy{false};
 
-    void size(std::size_t cells, std::size_t cap, std::size_t maxWords) {
+    // finalMeasurements: each worker's own grouping scratch, one stride a
+    // worker (cell_begin, cursor, input_cell, by_cell as above).
+    AlignedBuffer<uint32_t> worker_groups;
+    std::size_t group_stride = 0;
+
+    void size(std::size_t cells, std::size_t cap, std::size_t maxWords, std::size_t workers) {
         terms.reset(cells * cap);
         cell_begin.reset(cells + 1);
         cursor.reset(cells);
         input_cell.reset(maxWords);
         by_cell.reset(maxWords);
+        // Each worker's part starts on a cache line of its own.
+        group_stride = (2 * cells + 1 + 2 * maxWords + 15) / 16 * 16;
+        worker_groups.reset(workers * group_stride);
+    }
+    Model::CellGroups groups() noexcept {
+        return {cell_begin.data(), cursor.data(), input_cell.data(), by_cell.data()};
+    }
+    Model::CellGroups workerGroups(int worker, std::size_t cells, std::size_t maxWords) noexcept {
+        uint32_t* p = worker_groups.data() + static_cast<std::size_t>(worker) * group_stride;
+        return {p, p + cells + 1, p + 2 * cells + 1, p + 2 * cells + 1 + maxWords};
     }
     std::size_t bytes() const noexcept {
         return terms.bytes() + cell_begin.bytes() + cursor.bytes() + input_cell.bytes() + by_cell.bytes() +
-               sizeof(Measure);
+               worker_groups.bytes() + sizeof(Measure);
     }
 };
 

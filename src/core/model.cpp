@@ -595,6 +595,12 @@ LogLoss Model::cellLogLoss(int64_t step, int cell) const noexcept {
 LogLoss Model::stepLogLoss(int64_t step) const noexcept {
     LogLoss out;
     if (!inWindow(step) || parallelStepLogLoss(step, out)) return out;
+    return serialStepLogLoss(step);
+}
+
+LogLoss Model::serialStepLogLoss(int64_t step) const noexcept {
+    LogLoss out;
+    if (!inWindow(step)) return out;
     const std::size_t slot = slotOf(step);
     Reciprocals r;
     reciprocals(r);

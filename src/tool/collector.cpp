@@ -1,5 +1,6 @@
 #include "collector.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -58,14 +59,15 @@ void Collector::fromPublished() {
         for (auto& s : o.topic_share) s = static_cast<float>(s / total);
 }
 
-void Collector::fillFinal(const WindowObservation& w, const Model& m) noexcept {
+void Collector::fillFinal(const WindowObservation& w, const Model& m, double perplexity,
+                          const uint16_t* labels) noexcept {
     FinalLabels& f = final_;
     f.where = w;
-    f.perplexity = m.stepPerplexity(w.step);
+    f.perplexity = perplexity;
     f.n = std::min<uint32_t>(m.observationSize(w.observation), static_cast<uint32_t>(f.labels.size()));
     if (words_.file) m.observationWords(w.observation, {f.words.data(), f.n});
     if (positions_.file) m.observationPositions(w.observation, {f.positions.data(), f.n});
-    m.observationLabels(w.observation, {f.labels.data(), f.n});
+    std::copy_n(labels, f.n, f.labels.data());
 }
 
 Collector::~Collector() { (void)closeStreams(); }
@@ -179,10 +181,25 @@ void Collector::finish(int sweeps) {
         }
     }
     if (sweeps > 0) engine_.finalPass(sweeps);
-    engine_.visitWindow([&](const WindowObservation& w, const Model& model) {
-        fillFinal(w, model);
-        takeFinal(final_);
-    });
+    // The window's observations in batches of consecutive ones: a batch's
+    // perplexities and labels in one go (on the workers, a task an
+    // observation), then its lines, in order.
+    std::vector<WindowObservation> window;
+    engine_.visitWindow([&](const WindowObservation& w, const Model&) { window.push_back(w); });
+    constexpr std::size_t kBatch = 128;
+    const std::size_t stride = final_.labels.size();
+    std::vector<double> perplexity(std::min(kBatch, window.size()));
+    std::vector<uint16_t> labels(perplexity.size() * stride);
+    for (std::size_t b = 0; b < window.size();) {
+        std::size_t n = 1;
+        while (n < kBatch && b + n < window.size() && window[b + n].observation == window[b].observation + n) ++n;
+        m.finalMeasurements(window[b].observation, {perplexity.data(), n}, labels, stride);
+        for (std::size_t i = 0; i < n; ++i) {
+            fillFinal(window[b + i], m, perplexity[i], labels.data() + i * stride);
+            takeFinal(final_);
+        }
+        b += n;
+    }
 }
 
 std::string Collector::perplexityCsv() const {

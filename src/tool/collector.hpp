@@ -89,7 +89,8 @@ public:
 private:
     void fromPublished();  // published_ -> record_
     void takeObservation(const ObservationRecord& o);
-    void fillFinal(const WindowObservation& w, const Model& m) noexcept;
+    // final_ for observation w, with its measurements (Model::finalMeasurements).
+    void fillFinal(const WindowObservation& w, const Model& m, double perplexity, const uint16_t* labels) noexcept;
     void takeFinal(const FinalLabels& f);
 
     Engine& engine_;
