@@ -123,8 +123,9 @@ std::string wrongAt(std::string text, const std::string& from, const std::string
     return at == std::string::npos ? text : text.replace(at, from.size(), to);
 }
 
-// Part of the positions file parsed on a second thread: the serial result, and the
-// serial pass's first error, for valid files and for each kind of error.
+// Pieces of the positions file parsed on both threads (the words first here,
+// the positions' read there): the serial result, and the serial pass's first
+// error, for valid files and for each kind of error, wherever it lies.
 TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
     std::string bigWords, bigPositions;
     uint64_t x = 12345;
@@ -156,11 +157,13 @@ TEST(WordStreamCsv, TwoThreadsGiveTheSerialStreamAndErrors) {
         {"1,2\n", " \n"},
         {"1,2\n", "<missing>"},
         {"1,200\n", "1,x\n"},  // both wrong: the words' error first
+        {"1,x\n", " \n"},      // the words wrong, the positions empty: the positions' error first
+        {"1,x\n", "<missing>"},  // the words wrong, the positions missing: the positions' error first
         {bigWords + "300,1\n", bigPositions + "300,3,4\n"},
         {bigWords, bigPositions + "300,3,4\n"},
         {bigWords, "# head\n\n" + bigPositions},
-        {bigWords, wrongAt(bigPositions, "\n20,", "\n21,")},    // in the head of the cut
-        {bigWords, wrongAt(bigPositions, "\n250,", "\n251,")},  // in the tail
+        {bigWords, wrongAt(bigPositions, "\n20,", "\n21,")},    // in an early piece
+        {bigWords, wrongAt(bigPositions, "\n250,", "\n251,")},  // in a late piece
         {bigWords, wrongAt(bigPositions, "\n260,", "\n260,700,")},
         {"", ""},
         {"", " \n"},

@@ -1,6 +1,7 @@
 #include "rost/word_stream.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -268,39 +269,69 @@ Status readFile(const std::string& path, std::string& out) {
 
 namespace {
 
-// Where the positions text is cut so that both threads parse about as many
-// bytes: one the words and the positions' head, the other the tail.
-std::size_t positionsCut(std::size_t wordsBytes, std::string_view positions) {
-    const std::size_t half = (wordsBytes + positions.size()) / 2;
-    if (half <= wordsBytes) return 0;
-    const std::size_t nl = positions.find('\n', half - wordsBytes);
-    return nl == std::string_view::npos ? positions.size() : nl + 1;
-}
+// The positions text cut at line ends into pieces that the two threads
+// claim: this thread from the front once it has parsed the words, the
+// other from the back once it has read the file. Which thread parses a
+// piece changes nothing in the result, and neither waits for the other
+// while a piece is left (a fixed cut left one thread idle whenever the
+// other was slower: a longer file to read, a core the host took away).
+constexpr std::size_t kPositionPieces = 32;
 
-// The positions file read, and its tail parsed, on a thread of its own.
+struct PositionPieces {
+    std::size_t begin[kPositionPieces + 1] = {};  // piece i is text[begin[i], begin[i + 1])
+    std::vector<PositionsLine> lines[kPositionPieces];
+    bool ok[kPositionPieces] = {};
+    // front (low 32 bits): the next piece from the front; back: one past
+    // the next piece from the back. A piece is claimed once, by a CAS.
+    std::atomic<uint64_t> ends{0};
+
+    void cut(std::string_view text) {
+        begin[0] = 0;
+        for (std::size_t i = 1; i < kPositionPieces; ++i) {
+            const std::size_t at = std::max(begin[i - 1], text.size() * i / kPositionPieces);
+            const std::size_t nl = at == 0 ? 0 : text.find('\n', at - 1);
+            begin[i] = nl == std::string_view::npos ? text.size() : (at == 0 ? 0 : nl + 1);
+        }
+        begin[kPositionPieces] = text.size();
+        ends.store(uint64_t{kPositionPieces} << 32, std::memory_order_release);
+    }
+    // Parses pieces from the front (or the back) until none is left.
+    // Exceptions (out of memory) propagate; the other thread finishes the pieces.
+    void parse(std::string_view text, bool fromFront) {
+        uint64_t e = ends.load(std::memory_order_acquire);
+        for (;;) {
+            const auto front = static_cast<uint32_t>(e), back = static_cast<uint32_t>(e >> 32);
+            if (front >= back) return;
+            const uint64_t claimed = fromFront ? e + 1 : e - (uint64_t{1} << 32);
+            if (!ends.compare_exchange_weak(e, claimed, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
+            const std::size_t i = fromFront ? front : back - 1;
+            ok[i] = parsePositionLines(text.substr(begin[i], begin[i + 1] - begin[i]), lines[i]);
+            e = ends.load(std::memory_order_acquire);
+        }
+    }
+};
+
+// The positions file read, and pieces of it parsed from the back, on a thread of its own.
 struct PositionsTail {
     const std::string* path = nullptr;
-    std::size_t wordsBytes = 0;  // for the cut; any value gives the same result
     Status read;
     std::string text;
-    std::size_t cut = 0;
-    std::latch readDone{1};  // `read`, `text` and `cut` are set
+    PositionPieces pieces;
+    std::latch readDone{1};  // `read`, `text` and the pieces' bounds are set
     bool readFailed = false;  // an exception while reading (out of memory): before readDone
-    bool parsed = false;
     bool parseFailed = false;  // an exception while parsing: read after the join
-    std::vector<PositionsLine> lines;
 
     void operator()() noexcept {
         try {
             read = readFile(*path, text);
-            if (read.ok()) cut = positionsCut(wordsBytes, text);
+            if (read.ok()) pieces.cut(text);
         } catch (...) {
             readFailed = true;
         }
         readDone.count_down();
         if (readFailed || !read.ok()) return;
         try {
-            parsed = parsePositionLines(std::string_view(text).substr(cut), lines);
+            pieces.parse(text, false);
         } catch (...) {
             parseFailed = true;
         }
@@ -334,16 +365,14 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
                       const WordStreamLimits& limits, WordStream& out) {
     if (positionsPath.empty() || limits.threads < 2 || !regularFiles(wordsPath, positionsPath))
         return readSerially(wordsPath, positionsPath, limits, out);
-    // Two threads: beside this one the positions file is read and its tail
-    // parsed; here the words file, the words and the positions' head (whole
-    // lines each, about half the bytes each). The result and the first error
-    // are the serial path's: positions that do not fit the words as parsed
-    // go through the serial pass, which names the first error exactly.
+    // Two threads: beside this one the positions file is read; here the
+    // words file is read and its words parsed; then both parse pieces of the
+    // positions until none is left (PositionPieces). The result and the
+    // first error are the serial path's: positions that do not fit the
+    // words as parsed go through the serial pass, which names the first
+    // error exactly.
     PositionsTail tail;
     tail.path = &positionsPath;
-    std::error_code sizeError;
-    const auto wordsBytes = std::filesystem::file_size(wordsPath, sizeError);
-    tail.wordsBytes = sizeError ? 0 : static_cast<std::size_t>(wordsBytes);
     std::jthread thread;  // joined on every way out
     try {
         thread = std::jthread(std::ref(tail));
@@ -352,24 +381,31 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     }
     std::string words;
     Status st = readFile(wordsPath, words);
-    tail.readDone.wait();
     if (!st.ok()) return st;
+    out.observations.clear();
+    // Parsed before the positions are known; its error is reported after
+    // theirs, in the serial path's order.
+    const Status wordsParsed = parseWords(words, limits, out, wordsPath);
+    tail.readDone.wait();
     if (tail.readFailed) throw std::bad_alloc();
     if (!tail.read.ok()) return tail.read;
     const std::string_view text = tail.text;
-    if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+    if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty()) {
+        out.observations.clear();
         return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
-    out.observations.clear();
+    }
+    if (!wordsParsed.ok()) return wordsParsed;
     out.has_positions = !text.empty();
-    if (st = parseWords(words, limits, out, wordsPath); !st.ok()) return st;
-    std::vector<PositionsLine> lines;
-    const bool head = parsePositionLines(text.substr(0, tail.cut), lines);
+    tail.pieces.parse(text, true);
     thread.join();
     if (tail.parseFailed) throw std::bad_alloc();
     if (!out.has_positions) return {};  // both files empty: no observations
-    if (head && tail.parsed) {
-        lines.reserve(lines.size() + tail.lines.size());
-        std::move(tail.lines.begin(), tail.lines.end(), std::back_inserter(lines));
+    if (std::all_of(std::begin(tail.pieces.ok), std::end(tail.pieces.ok), [](bool ok) { return ok; })) {
+        std::vector<PositionsLine> lines;
+        std::size_t n = 0;
+        for (const auto& piece : tail.pieces.lines) n += piece.size();
+        lines.reserve(n);
+        for (auto& piece : tail.pieces.lines) std::move(piece.begin(), piece.end(), std::back_inserter(lines));
         if (attachPositions(lines, limits, out)) return {};
     }
     return parsePositions(text, limits, out, positionsPath, wordsPath);
