@@ -441,9 +441,10 @@ TEST(ParallelMeasure, TwoThreadsMeasuringAtOnceGetTheSerialBits) {
 // observation on the workers): each observation's step perplexity and
 // labels are the bits stepPerplexity and observationLabels give one at a
 // time, on one thread or several, with several observations a step (the
-// step's perplexity computed once and copied), with growth, and with a
-// stride shorter than an observation (its first labels only, the rest of
-// the buffer untouched). One pool job a call.
+// step's perplexity computed once and copied), with growth, on a word
+// stream (steps of one cell, which the per-cell measurements leave
+// serial), and with a stride shorter than an observation (its first labels
+// only, the rest of the buffer untouched). One pool job a call.
 TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     const syn::Data d = measureData();
     Config twoPerStep = d.config();
@@ -452,14 +453,19 @@ TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     growing.K = 12;
     growing.grow = true;
     growing.gamma = 0.5;
-    for (const Config& base : {d.config(), twoPerStep, growing}) {
+    Config oneCell = d.config();  // a word stream: a step is one cell
+    oneCell.frame_width = 1;
+    oneCell.frame_height = 1;
+    oneCell.cell_capacity = 4096;
+    for (const Config& base : {d.config(), twoPerStep, growing, oneCell}) {
         std::vector<uint64_t> reference;  // one thread, one measurement at a time
         for (const int threads : {1, 2, 3}) {
             Config c = base;
             c.threads = threads;
             Model m(c);
             for (int t = 0; t < d.spec.steps; ++t) {
-                ASSERT_TRUE(m.addObservation(d.words[t], d.positions[t]).ok());
+                const std::vector<Position> atOrigin(d.words[t].size());
+                ASSERT_TRUE(m.addObservation(d.words[t], c.frame_width == 1 ? atOrigin : d.positions[t]).ok());
                 Sweep sweep(m);
                 RefineLimits limits;
                 limits.steps = 2;

@@ -223,7 +223,8 @@ void Model::finalMeasurements(uint64_t first, std::span<double> perplexity, std:
     if (count == 0) return;
     uint64_t words = 0;
     for (uint32_t i = 0; i < count; ++i) words += observationSize(first + i);
-    if (count > 1 && claimMeasure(words)) {
+    // Tasks are observations here, so a step of one cell (a word stream) is worth a job too.
+    if (count > 1 && pool_ && words >= kParallelWords && !measure_->busy.exchange(true, std::memory_order_acquire)) {
         struct FinalJob final : detail::WorkerPool::Job {
             const Model& m;
             uint64_t first;
