@@ -505,6 +505,37 @@ TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     }
 }
 
+// A batch larger than a pool job can hold (2^16 observations a part): the
+// same perplexities and labels as one at a time, across the parts' edges.
+TEST(ParallelMeasure, FinalMeasurementsOfMoreObservationsThanAJobHolds) {
+    Config c = streamConfig(2, 64);
+    c.V = 50;
+    c.K = 4;
+    c.cell_capacity = 4;
+    c.max_words_per_frame = 4;
+    c.ring_steps = 70000;
+    Model m(c);
+    uint64_t x = 99;
+    for (int t = 0; t < c.ring_steps; ++t) {
+        std::vector<uint32_t> w(3);
+        for (auto& v : w) v = static_cast<uint32_t>((x = x * 6364136223846793005ULL + 1) >> 59) % 50;
+        ASSERT_TRUE(m.addObservation(w, std::vector<Position>(3)).ok());
+    }
+    const std::size_t count = static_cast<std::size_t>(c.ring_steps), stride = 4;
+    std::vector<double> ppx(count);
+    std::vector<uint16_t> labels(count * stride, 0xBEEF);
+    const uint64_t jobs = m.poolJobs();
+    m.finalMeasurements(0, ppx, labels, stride);
+    EXPECT_EQ(m.poolJobs() - jobs, 2u) << "two parts";
+    std::vector<uint16_t> z(3);
+    for (std::size_t f = 0; f < count; f += f < 65530 || f > 65540 ? 997 : 1) {
+        ASSERT_EQ(std::bit_cast<uint64_t>(ppx[f]), std::bit_cast<uint64_t>(m.stepPerplexity(static_cast<int64_t>(f)))) << f;
+        m.observationLabels(f, z);
+        ASSERT_TRUE(std::equal(z.begin(), z.end(), labels.begin() + static_cast<std::ptrdiff_t>(f * stride))) << f;
+        ASSERT_EQ(labels[f * stride + 3], 0xBEEF) << f;
+    }
+}
+
 // Small work stays on the calling thread: a word stream's step (one cell)
 // and a step of fewer than 256 words.
 TEST(ParallelMeasure, SmallStepsAndOneCellAreMeasuredSerially) {

@@ -48,7 +48,8 @@ private:
 };
 
 // A fixed-size, zero-initialised, cache-line-aligned array. Allocates once in
-// its constructor (set-up time) and never again; not copyable.
+// its constructor or reset() (set-up time) and never again; not copyable.
+// reset(n, zeroer) leaves the zeroing to the zeroer's run().
 template <typename T>
 class AlignedBuffer {
 public:

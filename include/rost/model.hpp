@@ -250,7 +250,8 @@ public:
     // workers, a task per cell, and sum them on the calling thread in the
     // serial order: the results are the same bits for any number of threads
     // (src/core/measure.cpp). Only a measurement of at least 256 words, on a
-    // grid of more than one cell, does (a word stream's step is one cell).
+    // grid of more than one cell, does (a word stream's step is one cell);
+    // finalMeasurements (below) has a task per observation instead, on any grid.
     // The calling thread drives the pool, as refine() does, so call these
     // where a reader may call them: on the refining thread, or while nothing
     // refines. Two threads may measure at once (the const functions): the

@@ -6,7 +6,9 @@
 // Each task computes the per-word terms of one cell (the same functions the
 // serial code calls, -ffp-contract=off) into a buffer of one step's words;
 // the sums are then made on the calling thread in the serial order, word by
-// word and cell by cell in one double, so not one bit changes.
+// word and cell by cell in one double, so not one bit changes. The final
+// pass (finalMeasurements) is cut the other way: a task per observation,
+// which sums its step in the serial order itself.
 
 #include <algorithm>
 
@@ -22,7 +24,8 @@ constexpr int kMaxKp = 1024;
 
 // Fewer words are measured serially: a job costs a futex wake and the
 // barrier (microseconds), what about 256 words' terms cost (about 40 ns each
-// at K = 16). A step of one cell (a word stream) is always serial: the tasks are cells.
+// at K = 16). A step of one cell (a word stream) is measured serially: the
+// tasks are cells (except finalMeasurements', which are observations).
 constexpr uint64_t kParallelWords = 256;
 
 // One task per cell: f(cell).
@@ -219,6 +222,16 @@ void Model::finalTask(int worker, uint64_t first, uint32_t i, double* perplexity
 
 void Model::finalMeasurements(uint64_t first, std::span<double> perplexity, std::span<uint16_t> labels,
                               std::size_t stride) const noexcept {
+    // A pool job holds fewer than 2^20 tasks: larger batches go in parts
+    // (each part's first observation computes its step's perplexity again, the same bits).
+    constexpr std::size_t kPart = std::size_t{1} << 16;
+    if (perplexity.size() > kPart) {
+        for (std::size_t at = 0; at < perplexity.size(); at += kPart) {
+            const std::size_t n = std::min(kPart, perplexity.size() - at);
+            finalMeasurements(first + at, perplexity.subspan(at, n), labels.subspan(at * stride), stride);
+        }
+        return;
+    }
     const auto count = static_cast<uint32_t>(perplexity.size());
     if (count == 0) return;
     uint64_t words = 0;

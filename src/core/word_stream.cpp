@@ -295,8 +295,11 @@ struct PositionPieces {
         begin[kPositionPieces] = text.size();
         ends.store(uint64_t{kPositionPieces} << 32, std::memory_order_release);
     }
+    // No piece left to claim (after cut(): an error found elsewhere makes the pieces useless).
+    void abandon() noexcept { ends.store(0, std::memory_order_release); }
     // Parses pieces from the front (or the back) until none is left.
-    // Exceptions (out of memory) propagate; the other thread finishes the pieces.
+    // Exceptions (out of memory) propagate; the other thread parses the
+    // pieces not yet claimed (the result is then not used).
     void parse(std::string_view text, bool fromFront) {
         uint64_t e = ends.load(std::memory_order_acquire);
         for (;;) {
@@ -382,20 +385,25 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     std::string words;
     Status st = readFile(wordsPath, words);
     if (!st.ok()) return st;
-    out.observations.clear();
-    // Parsed before the positions are known; its error is reported after
-    // theirs, in the serial path's order.
-    const Status wordsParsed = parseWords(words, limits, out, wordsPath);
+    // Parsed before the positions are known, aside: `out` and the errors are
+    // then as the serial path leaves and reports them (its read and
+    // emptiness errors before the words' error, `out` untouched by them).
+    WordStream parsed;
+    const Status wordsParsed = parseWords(words, limits, parsed, wordsPath);
     tail.readDone.wait();
     if (tail.readFailed) throw std::bad_alloc();
     if (!tail.read.ok()) return tail.read;
     const std::string_view text = tail.text;
     if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty()) {
-        out.observations.clear();
+        tail.pieces.abandon();
         return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
     }
-    if (!wordsParsed.ok()) return wordsParsed;
+    out.observations = std::move(parsed.observations);
     out.has_positions = !text.empty();
+    if (!wordsParsed.ok()) {
+        tail.pieces.abandon();
+        return wordsParsed;
+    }
     tail.pieces.parse(text, true);
     thread.join();
     if (tail.parseFailed) throw std::bad_alloc();
