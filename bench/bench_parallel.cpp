@@ -1,8 +1,9 @@
 // Refinement on every core (issue 13, bench/RESULTS.md "Every core"): token
 // updates per second of batch refinement (Model::refineAll, windows of W cell
 // picks, rounds on `threads` threads) on a real word stream, against the
-// number of threads and W. Wall-clock time (UseRealTime): the point of
-// threads is the time a sweep takes, not its CPU time.
+// number of threads and W; and the rest of a command on 1 and 2 threads
+// (reading, set-up, the final pass). Wall-clock time (UseRealTime): the
+// point of threads is the time a sweep takes, not its CPU time.
 //
 //   build/bench/bench_parallel WORDS.csv POSITIONS.csv --benchmark_repetitions=5
 //       --benchmark_report_aggregates_only=true
@@ -14,7 +15,12 @@
 #include <cstdio>
 #include <memory>
 #include <cstdlib>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+#include <span>
 #include <string>
+#include <vector>
 
 #include "rost/model.hpp"
 #include "rost/word_stream.hpp"
@@ -59,9 +65,76 @@ BENCHMARK(BM_RefineAll)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
+// The rest of `rost refine` on `threads` threads (bench/RESULTS.md, "Every
+// core: the rest of the command"): reading the word stream, constructing
+// the model (its ring's tables zeroed, so faulted in), and the final pass's
+// measurements, in one pool job (Model::finalMeasurements) or one
+// observation at a time (stepPerplexity and observationLabels, as before).
+std::string g_words, g_positions;
+
+void BM_ReadWordStream(benchmark::State& state) {
+    rost::WordStreamLimits limits;
+    limits.threads = static_cast<int>(state.range(0));
+    for (auto _ : state) {
+        rost::WordStream ws;
+        if (!rost::readWordStream(g_words, g_positions, limits, ws).ok()) state.SkipWithError("read failed");
+        benchmark::DoNotOptimize(ws.observations.data());
+    }
+}
+BENCHMARK(BM_ReadWordStream)->ArgNames({"threads"})->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+// Each model's tables are fresh pages, as in a new process: glibc's mmap
+// threshold is pinned (main), so every large table is mapped anew and
+// faulted in when zeroed, not taken from memory the last model freed.
+void BM_ModelSetUp(benchmark::State& state) {
+    rost::Config c;
+    c.K = 16;
+    c.V = g_V;
+    c.frame_width = g_width;
+    c.frame_height = g_height;
+    c.ring_steps = static_cast<int>(g_stream.observations.size()) + 1;
+    c.threads = static_cast<int>(state.range(0));
+    for (auto _ : state) {
+        rost::Model m(c);
+        benchmark::DoNotOptimize(&m);
+    }
+}
+BENCHMARK(BM_ModelSetUp)->ArgNames({"threads"})->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+
+void BM_FinalPass(benchmark::State& state) {
+    const auto threads = static_cast<int>(state.range(0));
+    const bool batch = state.range(1) != 0;
+    auto m = loadedModel(threads, 256);
+    const std::size_t n = static_cast<std::size_t>(m->observations()), stride = static_cast<std::size_t>(m->config().max_words_per_frame);
+    std::vector<double> ppx(n);
+    std::vector<uint16_t> labels(n * stride);
+    for (auto _ : state) {
+        if (batch) {
+            m->finalMeasurements(0, ppx, labels, stride);
+        } else {
+            for (std::size_t f = 0; f < n; ++f) {
+                ppx[f] = m->stepPerplexity(m->stepOfObservation(f));
+                m->observationLabels(f, std::span<uint16_t>(labels).subspan(f * stride, std::min<std::size_t>(stride, m->observationSize(f))));
+            }
+        }
+        benchmark::DoNotOptimize(ppx.data());
+    }
+}
+BENCHMARK(BM_FinalPass)
+    ->ArgNames({"threads", "batch"})
+    ->Args({1, 0})
+    ->Args({2, 0})
+    ->Args({1, 1})
+    ->Args({2, 1})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
 } // namespace
 
 int main(int argc, char** argv) {
+#if defined(__GLIBC__)
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);  // BM_ModelSetUp: large tables mapped anew each time
+#endif
     benchmark::Initialize(&argc, argv);
     const char* w = argc > 1 ? argv[1] : std::getenv("ROST_BENCH_WORDS");
     const char* p = argc > 2 ? argv[2] : std::getenv("ROST_BENCH_POSITIONS");
@@ -69,6 +142,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "usage: bench_parallel WORDS.csv [POSITIONS.csv] [benchmark options]\n");
         return 2;
     }
+    g_words = w;
+    g_positions = p ? p : "";
     rost::WordStreamLimits limits;
     if (rost::Status st = rost::readWordStream(w, p ? p : "", limits, g_stream); !st.ok()) {
         std::fprintf(stderr, "bench_parallel: %s\n", st.message().c_str());
