@@ -30,7 +30,8 @@ namespace {
 rost::WordStream g_stream;
 int g_width = 0, g_height = 0, g_V = 0;
 
-std::unique_ptr<rost::Model> loadedModel(int threads, int window) {
+// K = 16 over the stream's vocabulary and frame, a ring that holds it all.
+rost::Config streamConfig(int threads, int window) {
     rost::Config c;
     c.K = 16;
     c.V = g_V;
@@ -39,7 +40,11 @@ std::unique_ptr<rost::Model> loadedModel(int threads, int window) {
     c.ring_steps = static_cast<int>(g_stream.observations.size()) + 1;
     c.threads = threads;
     c.refine_window = window;
-    auto m = std::make_unique<rost::Model>(c);
+    return c;
+}
+
+std::unique_ptr<rost::Model> loadedModel(int threads, int window) {
+    auto m = std::make_unique<rost::Model>(streamConfig(threads, window));
     for (const auto& o : g_stream.observations) (void)m->addObservation(o.words, o.positions);
     m->refineAll(2);  // past the random start
     return m;
@@ -87,13 +92,7 @@ BENCHMARK(BM_ReadWordStream)->ArgNames({"threads"})->Arg(1)->Arg(2)->UseRealTime
 // threshold is pinned (main), so every large table is mapped anew and
 // faulted in when zeroed, not taken from memory the last model freed.
 void BM_ModelSetUp(benchmark::State& state) {
-    rost::Config c;
-    c.K = 16;
-    c.V = g_V;
-    c.frame_width = g_width;
-    c.frame_height = g_height;
-    c.ring_steps = static_cast<int>(g_stream.observations.size()) + 1;
-    c.threads = static_cast<int>(state.range(0));
+    const rost::Config c = streamConfig(static_cast<int>(state.range(0)), 256);
     for (auto _ : state) {
         rost::Model m(c);
         benchmark::DoNotOptimize(&m);

@@ -468,6 +468,8 @@ private:
         uint32_t* by_cell;
     };
     void groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g) const noexcept;
+    void labelCell(int64_t step, int c, const CellGroups& groups, std::size_t base, const uint16_t* z,
+                   const Reciprocals& r, uint16_t* out) const noexcept;
     // The left-out log loss of a step computed here, cell by cell (stepLogLoss's bits).
     LogLoss serialStepLogLoss(int64_t step) const noexcept;
     // finalMeasurements' task: observation first + i (worker's scratch).

@@ -152,20 +152,10 @@ bool Model::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexce
     const std::size_t base = (slot * ct_ + frame % static_cast<uint64_t>(ct_)) * static_cast<std::size_t>(maxw_);
     const CellGroups groups = measure_->groups();
     groupInputsByCell(base, n, groups);
-    const uint32_t* begin = groups.begin;
-    const uint32_t* byCell = groups.by_cell;
     Reciprocals r;
     reciprocals(r);
     const uint16_t* z = cell_z_.data() + slot * cells_ * cap_;
-    runCells(*pool_, cells_, [&](int c) {
-        if (begin[c] == begin[c + 1]) return;
-        alignas(64) int32_t g[kMaxKp];
-        neighbourhood(step, c, g, false);
-        for (uint32_t j = begin[c]; j < begin[c + 1]; ++j) {
-            const uint32_t i = byCell[j], s = in_slot_[base + i];
-            out[i] = static_cast<uint16_t>(mlTopic(in_word_[base + i], (s & kDropped) ? -1 : z[s], g, r));
-        }
-    });
+    runCells(*pool_, cells_, [&](int c) { labelCell(step, c, groups, base, z, r, out.data()); });
     releaseMeasure();
     renumber(frame, out);
     return true;
@@ -185,6 +175,19 @@ void Model::groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g)
         g.cursor[c] = g.begin[c];
     }
     for (uint32_t i = 0; i < n; ++i) g.by_cell[g.cursor[g.cell_of[i]]++] = i;
+}
+
+// The ML labels of an observation's inputs in cell c (grouped by
+// groupInputsByCell), its neighbourhood computed once; z: the step's labels.
+void Model::labelCell(int64_t step, int c, const CellGroups& groups, std::size_t base, const uint16_t* z,
+                      const Reciprocals& r, uint16_t* out) const noexcept {
+    if (groups.begin[c] == groups.begin[c + 1]) return;
+    alignas(64) int32_t g[kMaxKp];
+    neighbourhood(step, c, g, false);
+    for (uint32_t j = groups.begin[c]; j < groups.begin[c + 1]; ++j) {
+        const uint32_t i = groups.by_cell[j], s = in_slot_[base + i];
+        out[i] = static_cast<uint16_t>(mlTopic(in_word_[base + i], (s & kDropped) ? -1 : z[s], g, r));
+    }
 }
 
 // ---- the final pass: many observations, a task each ---------------------------
@@ -208,15 +211,7 @@ void Model::finalTask(int worker, uint64_t first, uint32_t i, double* perplexity
     reciprocals(r);
     const uint16_t* z = cell_z_.data() + slot * cells_ * cap_;
     uint16_t* out = labels + static_cast<std::size_t>(i) * stride;
-    alignas(64) int32_t g[kMaxKp];
-    for (int c = 0; c < cells_; ++c) {
-        if (groups.begin[c] == groups.begin[c + 1]) continue;
-        neighbourhood(step, c, g, false);
-        for (uint32_t j = groups.begin[c]; j < groups.begin[c + 1]; ++j) {
-            const uint32_t in = groups.by_cell[j], s = in_slot_[base + in];
-            out[in] = static_cast<uint16_t>(mlTopic(in_word_[base + in], (s & kDropped) ? -1 : z[s], g, r));
-        }
-    }
+    for (int c = 0; c < cells_; ++c) labelCell(step, c, groups, base, z, r, out);
     renumber(frame, {out, n});
 }
 

@@ -61,6 +61,10 @@ void PageZeroer::run(int threads) {
 }
 
 void zeroPages(void* p, std::size_t bytes, int threads) {
+    if (threads <= 1 || bytes < kParallelZeroBytes) {  // as run() would, without its list
+        std::memset(p, 0, bytes);
+        return;
+    }
     PageZeroer z;
     z.add(p, bytes);
     z.run(threads);
