@@ -346,6 +346,11 @@ TEST(AlignedBuffer, ZeroPagesClearsEveryByteOnAnyNumberOfThreads) {
                 << bytes << " bytes, " << threads << " threads";
         }
     }
+    rost::zeroPages(nullptr, 0, 1);  // an empty buffer's null data: nothing to touch
+    rost::zeroPages(nullptr, 0, 2);
+    rost::AlignedBuffer<uint32_t> empty;
+    empty.reset(0, 1);
+    EXPECT_EQ(empty.data(), nullptr);
     rost::AlignedBuffer<uint32_t> b;
     b.reset((std::size_t{10} << 20) / 4 + 3, 2);
     EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));

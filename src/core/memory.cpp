@@ -61,6 +61,7 @@ void PageZeroer::run(int threads) {
 }
 
 void zeroPages(void* p, std::size_t bytes, int threads) {
+    if (bytes == 0) return;  // an empty buffer: p may be null
     if (threads <= 1 || bytes < kParallelZeroBytes) {  // as run() would, without its list
         std::memset(p, 0, bytes);
         return;
