@@ -124,7 +124,7 @@ TEST(ConfigFile, ErrorsNameTheFileLineAndKey) {
     EXPECT_EQ(parseError("alpha = x\n"), "rost.conf:1: key 'alpha': expected a finite number, found 'x'");
     EXPECT_EQ(parseError("alpha = nan\n"), "rost.conf:1: key 'alpha': expected a finite number, found 'nan'");
     EXPECT_EQ(parseError("K = 1.5\n"), "rost.conf:1: key 'K': expected an integer, found '1.5'");
-    EXPECT_EQ(parseError("K = 99999999999\n"), "rost.conf:1: key 'K': integer out of range, found '99999999999'");
+    EXPECT_EQ(parseError("K = 99999999999\n"), "rost.conf:1: key 'K' = 99999999999, allowed [1, 1024]");
     EXPECT_EQ(parseError("seed = -1\n"), "rost.conf:1: key 'seed': expected a non-negative integer, found '-1'");
     EXPECT_EQ(parseError("thread.fifo = maybe\n"), "rost.conf:1: key 'thread.fifo': expected true or false, found 'maybe'");
     EXPECT_EQ(parseError("sampler = best\n"),
@@ -139,16 +139,16 @@ TEST(ConfigFile, ErrorsNameTheFileLineAndKey) {
               "budget.refines, budget.tokens, budget.ms)");
     // Values in range for their type but not for the model: the line that set them.
     EXPECT_EQ(parseError("V = 5436\nK = 0\n"), "rost.conf:2: key 'K': invalid configuration: K = 0, allowed [1, 1024]");
-    EXPECT_EQ(parseError("# x\neta = 1.5\n"),
-              "rost.conf:2: key 'eta': strategy.eta = 1.500000 is out of range (expected 0 <= eta <= 1)");
+    EXPECT_EQ(parseError("# x\neta = 1.5\n"), "rost.conf:2: key 'eta': invalid configuration: eta = 1.5, allowed [0, 1]");
     EXPECT_EQ(parseError("queue.slots = 0\n"),
-              "rost.conf:1: key 'queue.slots': queue_slots = 0 is out of range (expected 1..65536)");
+              "rost.conf:1: key 'queue.slots': invalid configuration: queue.slots = 0, allowed [1, 65536]");
     EXPECT_EQ(parseError("budget.ms = 0\n"),
-              "rost.conf:1: key 'budget.ms': budget.ms = 0.000000 is out of range (expected 0 < ms <= 3600000)");
-    // A grid whose cell count overflows an int is refused, not computed.
+              "rost.conf:1: key 'budget.ms': invalid configuration: budget.ms = 0, allowed (0, 3600000]");
+    // A grid whose cell count overflows an int is refused, not computed, and
+    // blamed on the cell size, with the least that fits.
     EXPECT_EQ(parseError("frame.width = 65536\nframe.height = 65536\ncell.space = 1\n"),
-              "rost.conf: invalid configuration: frame.width x frame.height / cell.space^2 = 4294967296 cells per "
-              "step, allowed at most 1048576; raise cell.space");
+              "rost.conf:3: key 'cell.space': invalid configuration: cell.space = 1, allowed at least 64 for "
+              "frame.width = 65536 by frame.height = 65536; 4294967296 cells a step, at most 1048576");
     EXPECT_EQ(parseError("K = 16\nx\0y = 1\n"), "rost.conf:2: expected 'key = value', found 'x'");
     EXPECT_EQ(parseError(std::string("K = 16\nx\0y = 1\n", 15)), "rost.conf:2: NUL byte in the text");
 }
@@ -202,7 +202,7 @@ TEST(ConfigFile, ReadsAFileAndNamesAMissingOne) {
     EXPECT_EQ(c.model.K, 12);
     ASSERT_TRUE(writeFileAtomic(path, "K = 12\nbeta = 0\n").ok());
     EXPECT_EQ(readConfigFile(path, c).message(),
-              path + ":2: key 'beta': invalid configuration: beta = 0, allowed (0, 1e+06]");
+              path + ":2: key 'beta': invalid configuration: beta = 0, allowed (0, 1000000]");
     EXPECT_EQ(readConfigFile("/nonexistent/x.conf", c).message(), "/nonexistent/x.conf: cannot open: No such file or directory");
     std::filesystem::remove_all(dir);
 }

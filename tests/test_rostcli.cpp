@@ -408,11 +408,13 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
 TEST_F(RostCli, FlagsGoThroughTheSchema) {
     Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 0");
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("-K"), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("[1, 1024]"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("topics.refine.t: -K/--ntopics = 0, allowed [1, 1024]"), std::string::npos) << r.err;
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --alpha=x");
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("key 'alpha': expected a finite number, found 'x'"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("topics.refine.t: -a/--alpha: expected a finite number, found 'x'"), std::string::npos) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -n -1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("topics.refine.t: -n/--iter = -1, allowed [0, 1000000]"), std::string::npos) << r.err;
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --g.sigma 0.5");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("--g.sigma is not supported"), std::string::npos) << r.err;

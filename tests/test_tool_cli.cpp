@@ -106,7 +106,7 @@ TEST(ToolCli, InvalidOptionValuesAreNamed) {
     TempDir t;
     cv::imwrite(t / "a.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 20, 30)));
     const std::string in = t.path() + "/a.png --out " + (t / "o");
-    expectError(runRost("run " + in + " -K 0"), "K = 0", t / "o");
+    expectError(runRost("run " + in + " -K 0"), "rost: error: -K/--topics = 0, allowed [1, 1024]", t / "o");
     expectError(runRost("run " + in + " --sampler fastest"), "--sampler", t / "o");
     expectError(runRost("run " + in + " --alpha -1"), "alpha", t / "o");
     expectError(runRost("run " + in + " --cell.space 0"), "cell.space", t / "o");
@@ -279,9 +279,16 @@ TEST(ToolCli, ASettingsValueOnTheCommandLineIsCheckedByTheSchema) {
     cv::imwrite(t / "a.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 20, 30)));
     const std::string in = t.path() + "/a.png --out " + (t / "o");
     expectError(runRost("run " + in + " --orb.search fast"), "--orb.search: expected linear or tree, found 'fast'", t / "o");
-    expectError(runRost("run " + in + " --thumb.cell 0"), "thumb.cell = 0, allowed [1, 256]", t / "o");
-    expectError(runRost("run " + in + " --queue x"), "--queue.slots: expected an integer, found 'x'", t / "o");
-    expectError(runRost("config --alpha 0"), "alpha = 0, allowed (0, 1e+06]");
+    expectError(runRost("run " + in + " --thumb.cell 0"), "rost: error: --thumb.cell = 0, allowed [1, 256]", t / "o");
+    expectError(runRost("run " + in + " --queue x"), "--queue.slots/--queue: expected an integer, found 'x'", t / "o");
+    expectError(runRost("config --alpha 0"), "rost: error: --alpha = 0, allowed (0, 1000000]");
+    // Each setting by its option, never by an internal name (strategy.eta, queue_slots).
+    expectError(runRost("config --eta 2"), "rost: error: --eta = 2, allowed [0, 1]");
+    expectError(runRost("config --queue 0"), "rost: error: --queue.slots/--queue = 0, allowed [1, 65536]");
+    expectError(runRost("config --budget.ms 0"), "rost: error: --budget.ms = 0, allowed (0, 3600000]");
+    // A combination names every option involved.
+    expectError(runRost("config --g.time 9 --ring.steps 4"),
+                "rost: error: --g.time = 9, allowed [0, 3]; below --ring.steps = 4");
 }
 
 // ---- words an observation holds ----------------------------------------------------

@@ -8,8 +8,11 @@
 // Set-up code: allocates.
 
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "rost/engine.hpp"
@@ -19,6 +22,42 @@
 
 namespace rost {
 
+// A value a setting may not take, as data: which setting, the value, what
+// it may be. Every check of a setting's value (its type, its range or
+// choices from the schema, and the few combinations between settings)
+// gives one, and each face names the setting in its own spelling when it
+// prints it: `--eta` (the rost tool), `eta` (Python), `~eta` (the ROS
+// node), a rost-cli command's own flag, `key 'eta'` (a configuration file).
+struct SettingProblem {
+    enum class Kind : uint8_t {
+        Type,   // the text is not a value of the setting's type: "expected a finite number"
+        Range,  // a value of the type, outside what the setting allows
+    };
+    const SettingSpec* spec = nullptr;  // the setting (never null in a problem returned here)
+    Kind kind = Kind::Range;
+    std::string value;    // the value as text ("2", "0.5", "fast")
+    std::string allowed;  // Type: what the text should be; Range: "[0, 1]", "(0, 1000000]", "keep|subtract", ...
+    // For a combination: the other settings it involves and how to fix it.
+    // `allowed` and `note` name them as "{key}", which describe() spells.
+    std::vector<const SettingSpec*> involved;
+    std::string note;  // "raise {cell.space}"; may be empty
+
+    // The problem in one line, each setting spelled by `spell` (the face's
+    // spelling of a setting):
+    // Range: "NAME = VALUE, allowed ALLOWED[; NOTE]";
+    // Type:  "NAME: expected ALLOWED, found 'VALUE'".
+    template <class Spell>
+        requires std::is_invocable_v<const Spell&, const SettingSpec&>
+    std::string describe(const Spell& spell) const {
+        return compose(std::string(spell(*spec)), [&](const SettingSpec& s) { return std::string(spell(s)); });
+    }
+    // With the setting named `name` and the others by their keys.
+    std::string describe(std::string_view name) const;
+
+private:
+    std::string compose(std::string name, const std::function<std::string(const SettingSpec&)>& spell) const;
+};
+
 struct Settings {
     EngineConfig engine;
     WordSettings words;
@@ -27,8 +66,31 @@ struct Settings {
 
     // The engine's checks, then the range of every other number; the message
     // names the key, its value and the allowed range.
+    // (The message is checkSettings()'s problem with the key as its name,
+    // after "invalid configuration: ".)
     [[nodiscard]] Status validate() const;
 };
+
+// The first setting of `s` whose value is not allowed: every number's range
+// and every choice, as the schema declares them, in the schema's order; then
+// the combinations (g.time below ring.steps, the cells of a step, the ring's
+// memory), each blamed on the setting to change. nullopt when all are allowed.
+std::optional<SettingProblem> checkSettings(const Settings& s);
+// The same for one part, as its own validate() uses it: the model's fields
+// and combinations; the strategy's fields; everything of an EngineConfig.
+std::optional<SettingProblem> checkModelSettings(const Config& c);
+std::optional<SettingProblem> checkStrategySettings(const StrategyConfig& c);
+std::optional<SettingProblem> checkEngineSettings(const EngineConfig& c);
+// One number against `spec`'s declared range (for a struct that holds a
+// setting outside rost::Settings, as vision::ExtractorConfig does).
+std::optional<SettingProblem> checkSettingRange(const SettingSpec& spec, double value);
+
+// Sets `spec` on `s` from text; a Type problem (and `s` unchanged) when the
+// text is not a value of the setting's type. Ranges are checkSettings()'s.
+std::optional<SettingProblem> setSettingText(Settings& s, const SettingSpec& spec, std::string_view value);
+// The setting an unknown name most likely meant ("alfa" -> alpha, a
+// parameter name to its key), for a face's "did you mean"; nullptr if none.
+const SettingSpec* closestSetting(std::string_view name) noexcept;
 
 // The setting a name means: its key ("cell.space") or its parameter name
 // ("cell_space"); nullptr when there is none.

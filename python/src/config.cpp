@@ -22,24 +22,11 @@ std::string valueText(const SettingSpec& spec, const std::string& name, const py
     }
     if (py::isinstance<py::str>(v)) return v.cast<std::string>();
     if (py::isinstance<py::float_>(v)) return py::repr(v).cast<std::string>();
+    // numpy floating scalars (float32, float64) through Python's float: repr() of the nearest double.
+    if (!py::hasattr(v, "__index__") && py::hasattr(v, "__float__"))
+        return py::repr(py::float_(py::reinterpret_borrow<py::object>(v))).cast<std::string>();
     if (py::hasattr(v, "__index__")) return py::str(py::int_(py::reinterpret_borrow<py::object>(v))).cast<std::string>();  // int, numpy integers
     throw py::value_error("setting '" + name + "': expected a number, a bool or a string, found " + typeName(v));
-}
-
-// setSetting()'s messages name keys ("cell.space"); Python spells them cell_space.
-std::string pythonMessage(std::string msg) {
-    for (const SettingSpec& s : settingSpecs()) {
-        const std::string key = "'" + std::string(s.key) + "'";
-        const std::string param = "'" + paramName(s) + "'";
-        if (key == param) continue;
-        for (std::size_t at = msg.find(key); at != std::string::npos; at = msg.find(key, at + param.size()))
-            msg.replace(at, key.size(), param);
-        // Range messages: "budget.ms = 0 is out of range ..."
-        const std::string bare = std::string(s.key) + " = ", bareParam = paramName(s) + " = ";
-        for (std::size_t at = msg.find(bare); at != std::string::npos; at = msg.find(bare, at + bareParam.size()))
-            if (at == 0 || msg[at - 1] == ' ') msg.replace(at, bare.size(), bareParam);
-    }
-    return msg;
 }
 
 } // namespace
@@ -50,8 +37,9 @@ void applySettings(Settings& s, const py::kwargs& kwargs, const char* what, bool
         const std::string name = py::str(k);
         const SettingSpec* spec = findSetting(name);
         if (!spec) {
-            Status st = setSetting(s, name, "0");  // for its "did you mean" suggestion
-            throw py::value_error(std::string(what) + ": " + pythonMessage(st.message()));
+            std::string msg = std::string(what) + ": unknown setting '" + name + "'";
+            if (const SettingSpec* near = closestSetting(name)) msg += " (did you mean '" + paramName(*near) + "'?)";
+            throw py::value_error(msg);
         }
         if (wordsOnly && spec->group != SettingGroup::Words)
             throw py::value_error(std::string(what) + ": '" + name +
@@ -62,10 +50,11 @@ void applySettings(Settings& s, const py::kwargs& kwargs, const char* what, bool
                                       "' both set a budget (give one of budget_refines, budget_tokens, budget_ms)");
             budgetKey = name;
         }
-        if (Status st = setSetting(s, spec->key, valueText(*spec, name, v)); !st.ok())
-            throw py::value_error(std::string(what) + ": " + pythonMessage(st.message()));
+        if (auto p = setSettingText(s, *spec, valueText(*spec, name, v)))
+            throw py::value_error(std::string(what) + ": " + p->describe(paramName));
     }
-    if (Status st = s.validate(); !st.ok()) throw py::value_error(std::string(what) + ": " + pythonMessage(st.message()));
+    // Python names a setting by its keyword: eta, cell_space (never strategy.eta or cell.space).
+    if (auto p = checkSettings(s)) throw py::value_error(std::string(what) + ": " + p->describe(paramName));
 }
 
 py::object settingObject(const Settings& s, const SettingSpec& spec) {

@@ -68,6 +68,29 @@ def test_bad_settings_raise_value_error_naming_them(kwargs, names):
         assert n in str(e.value)
 
 
+# One structured error from the schema's check, spelled as Python spells the
+# settings: the keyword, never the library's key (strategy.eta, cell.space).
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(eta=2), "rost.Config: eta = 2, allowed [0, 1]"),
+    (dict(queue_slots=0), "rost.Config: queue_slots = 0, allowed [1, 65536]"),
+    (dict(budget_ms=0.0), "rost.Config: budget_ms = 0, allowed (0, 3600000]"),
+    (dict(thumb_cell=0), "rost.Config: thumb_cell = 0, allowed [1, 256]"),
+    (dict(alpha="x"), "rost.Config: alpha: expected a finite number, found 'x'"),
+    (dict(g_time=9, ring_steps=4), "rost.Config: g_time = 9, allowed [0, 3]; below ring_steps = 4"),
+    (dict(etta=0.5), "rost.Config: unknown setting 'etta' (did you mean 'eta'?)"),
+])
+def test_errors_name_the_keyword(kwargs, message):
+    with pytest.raises(ValueError) as e:
+        rost.Config(**kwargs)
+    assert str(e.value) == message
+
+
+def test_numpy_scalars_are_numbers():
+    import numpy as np
+    assert rost.Config(alpha=np.float32(0.25), K=np.int64(8)).alpha == 0.25
+    assert rost.Config(beta=np.float64(0.3)).beta == 0.3
+
+
 def test_unknown_attribute():
     with pytest.raises(AttributeError, match="no setting 'colour'"):
         rost.Config().colour

@@ -9,6 +9,7 @@
 
 #include "observation_queue.hpp"
 #include "rost/checkpoint.hpp"
+#include "rost/settings.hpp"
 #include "spsc_ring.hpp"
 
 namespace rost {
@@ -235,29 +236,8 @@ Status parseDropPolicy(const std::string& text, DropPolicy& out) {
 }
 
 Status EngineConfig::validate() const {
-    if (Status s = model.validate(); !s.ok()) return s;
-    if (Status s = strategy.validate(); !s.ok()) return s;
-    // The ranges are the settings schema's (rost/settings_schema.hpp).
-    constexpr double kMaxMs = settingSpec("budget.ms").hi;
-    constexpr double kMaxCount = settingSpec("budget.refines").hi;
-    constexpr auto kQueue = settingSpec("queue.slots");
-    constexpr auto kPriority = settingSpec("thread.priority");
-    constexpr auto kCpu = settingSpec("thread.cpu");
-    if (budget.kind == BudgetKind::Time && !(budget.ms > 0.0 && budget.ms <= kMaxMs))
-        return Status::error("budget.ms = " + std::to_string(budget.ms) +
-                             " is out of range (expected 0 < ms <= 3600000)");
-    if (budget.kind != BudgetKind::Time && static_cast<double>(budget.count) > kMaxCount)
-        return Status::error(std::string(budget.kind == BudgetKind::Steps ? "budget.refines" : "budget.tokens") +
-                             " = " + std::to_string(budget.count) + " is out of range (expected at most 2^40)");
-    if (queue_slots < kQueue.lo || queue_slots > kQueue.hi)
-        return Status::error("queue_slots = " + std::to_string(queue_slots) +
-                             " is out of range (expected 1..65536)");
-    if (thread.priority < kPriority.lo || thread.priority > kPriority.hi)
-        return Status::error("thread.priority = " + std::to_string(thread.priority) +
-                             " is out of range (expected 1..99 for SCHED_FIFO)");
-    if (thread.cpu < kCpu.lo || thread.cpu > kCpu.hi)
-        return Status::error("thread.cpu = " + std::to_string(thread.cpu) +
-                             " is out of range (expected -1 for none, or 0..1023)");
+    // Every field's range from the settings schema, then the model's combinations.
+    if (auto p = checkEngineSettings(*this)) return Status::error("invalid configuration: " + p->describe(p->spec->key));
     return {};
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <type_traits>
 
@@ -111,7 +112,7 @@ struct Codec<SettingType::Integer> {
         return {};
     }
     template <class F>
-    static double number(const F& f) { return static_cast<double>(f); }
+    static bool number(const F& f, double& out) { return out = static_cast<double>(f), true; }
 };
 
 template <>
@@ -120,7 +121,7 @@ struct Codec<SettingType::Real> {
     static std::string set(const SettingSpec&, std::string_view s, double& f) {
         return parseDouble(s, f) ? std::string() : "expected a finite number";
     }
-    static double number(double f) { return f; }
+    static bool number(double f, double& out) { return out = f, true; }
 };
 
 template <>
@@ -129,7 +130,7 @@ struct Codec<SettingType::Bool> {
     static std::string set(const SettingSpec&, std::string_view s, bool& f) {
         return parseBool(s, f) ? std::string() : "expected true or false";
     }
-    static double number(bool) { return std::nan(""); }
+    static bool number(bool, double&) { return false; }
 };
 
 template <>
@@ -148,7 +149,7 @@ struct Codec<SettingType::Choice> {
         return expectedChoice(spec.choices);
     }
     template <class E>
-    static double number(const E&) { return std::nan(""); }
+    static bool number(const E& f, double& out) { return out = static_cast<double>(f), true; }  // the choice's index
 };
 
 // The three budget keys share one Budget: the key sets its kind.
@@ -170,9 +171,10 @@ struct BudgetCodec {
         }
         return {};
     }
-    static double number(const Budget& b) {
-        if (b.kind != K) return std::nan("");
-        return K == BudgetKind::Time ? b.ms : static_cast<double>(b.count);
+    static bool number(const Budget& b, double& out) {
+        if (b.kind != K) return false;  // not the budget in force
+        out = K == BudgetKind::Time ? b.ms : static_cast<double>(b.count);
+        return true;
     }
 };
 template <>
@@ -186,10 +188,11 @@ struct Codec<SettingType::BudgetMs> : BudgetCodec<BudgetKind::Time> {};
 
 struct Binding {
     const SettingSpec& spec;
-    bool engine;  // a field of EngineConfig
+    std::string_view field;  // "engine.model.K": the part of Settings it lies in
     std::string (*get)(const SettingSpec&, const Settings&);
     std::string (*set)(const SettingSpec&, std::string_view, Settings&);
-    double (*number)(const Settings&);  // NaN: not a number or not in force
+    bool (*number)(const Settings&, double&);  // false: a Bool, or a budget not in force
+    bool engine() const noexcept { return field.starts_with("engine."); }
 };
 
 constexpr std::size_t specIndex(std::string_view key) {
@@ -199,12 +202,12 @@ constexpr std::size_t specIndex(std::string_view key) {
 }
 
 #define ROST_SETTING_BINDING(key, type, group, def, lo, hi, choices, cli, flags, field, doc)               \
-    Binding{detail::kSettingSpecs[specIndex(key)], std::string_view(#field).starts_with("engine."),          \
+    Binding{detail::kSettingSpecs[specIndex(key)], std::string_view(#field),                                 \
             [](const SettingSpec& sp, const Settings& s) { return Codec<SettingType::type>::get(sp, s.field); }, \
             [](const SettingSpec& sp, std::string_view v, Settings& s) {                                     \
                 return Codec<SettingType::type>::set(sp, v, s.field);                                        \
             },                                                                                               \
-            [](const Settings& s) { return Codec<SettingType::type>::number(s.field); }},
+            [](const Settings& s, double& out) { return Codec<SettingType::type>::number(s.field, out); }},
 const Binding kBindings[] = {ROST_SETTINGS(ROST_SETTING_BINDING)};
 #undef ROST_SETTING_BINDING
 
@@ -233,12 +236,7 @@ std::size_t editDistance(std::string_view a, std::string_view b) {
 // is pointed to its key.
 std::string unknownKey(std::string_view name) {
     std::string msg = "unknown key " + quoted(name);
-    const SettingSpec* best = findSetting(name);
-    std::size_t bestD = 3;
-    if (!best && name.size() <= 64)
-        for (const SettingSpec& c : settingSpecs())
-            if (const std::size_t d = editDistance(name, c.key); d < bestD) bestD = d, best = &c;
-    if (best) msg += " (did you mean '" + std::string(best->key) + "'?)";
+    if (const SettingSpec* best = closestSetting(name)) msg += " (did you mean '" + std::string(best->key) + "'?)";
     return msg;
 }
 
@@ -249,33 +247,86 @@ std::string_view trim(std::string_view s) {
     return s.substr(b, e - b);
 }
 
-// The key a validation message is about: "K = 0, allowed ..." names K; the
-// engine's messages use a few other spellings.
-bool messageNames(const std::string& msg, std::string_view key) {
-    auto names = [&](std::string_view field) {
-        const std::string pat = std::string(field) + " = ";
-        for (std::size_t at = msg.find(pat); at != std::string::npos; at = msg.find(pat, at + 1)) {
-            const char before = at == 0 ? ' ' : msg[at - 1];
-            if (before == ' ' || before == '.') return true;
-        }
-        return false;
-    };
-    if (names(key)) return true;
-    if (key == "queue.slots") return names("queue_slots");
-    if (key.starts_with("budget.")) return names("budget.count");
-    return false;
-}
-
 std::string formatBound(const SettingSpec& s, double v) {
     if (s.type == SettingType::Integer || s.type == SettingType::BudgetSteps || s.type == SettingType::BudgetTokens) {
         if (v >= 1.8e19) return "2^64-1";
         return formatInteger(static_cast<long long>(v));
     }
-    std::ostringstream os;
-    os << v;
-    return os.str();
+    if (v == std::floor(v) && std::abs(v) < 1e15) return formatInteger(static_cast<long long>(v));  // "1000000"
+    return formatDouble(v);  // shortest round trip: "0.5"
 }
 
+// A number against the schema's range (a Choice: its index among the names).
+std::optional<SettingProblem> rangeProblem(const SettingSpec& sp, double v, std::string text) {
+    bool bad;
+    if (sp.type == SettingType::Choice) {
+        bad = !(v >= 0 && v < static_cast<double>(choiceNames(sp.choices).size()));
+        if (bad) text = formatInteger(static_cast<long long>(v));
+    } else {
+        const bool low = sp.has(setting_flags::LoOpen) ? !(v > sp.lo) : !(v >= sp.lo);
+        bad = low || !(v <= sp.hi);  // NaN fails both
+    }
+    if (!bad) return std::nullopt;
+    return SettingProblem{&sp, SettingProblem::Kind::Range, std::move(text), settingRange(sp), {}, {}};
+}
+
+// The bindings whose field starts with `part` ("" : all), in schema order.
+std::optional<SettingProblem> checkPart(const Settings& s, std::string_view part) {
+    for (const Binding& b : kBindings) {
+        if (!b.field.starts_with(part)) continue;
+        double v = 0.0;
+        if (!b.number(s, v)) continue;
+        if (auto p = rangeProblem(b.spec, v, b.get(b.spec, s))) return p;
+    }
+    return std::nullopt;
+}
+
+const SettingSpec& specNamed(std::string_view key) { return *findSetting(key); }
+
+// The model's combinations, each blamed on one setting, the others involved named.
+std::optional<SettingProblem> modelCombinations(const Config& c) {
+    using K = SettingProblem::Kind;
+    const auto& spec = [](std::string_view key) { return &specNamed(key); };
+    const auto n = [](auto v) { return formatInteger(static_cast<long long>(v)); };
+    if (c.g_time >= c.ring_steps && c.ring_steps > 1)
+        return SettingProblem{spec("g.time"), K::Range, n(c.g_time), "[0, " + n(c.ring_steps - 1) + "]",
+                              {spec("ring.steps")}, "below {ring.steps} = " + n(c.ring_steps)};
+    // The grid in 64 bits first: cellsPerStep() multiplies ints, which a
+    // 65536 x 65536 frame of 1-pixel cells would overflow.
+    constexpr int64_t kMaxCells = int64_t{1} << 20;
+    auto cellsAt = [&](int64_t space) {
+        return ((c.frame_width + space - 1) / space) * ((c.frame_height + space - 1) / space);
+    };
+    const int64_t cells = cellsAt(c.cell_space);
+    const std::vector<const SettingSpec*> frame = {spec("frame.width"), spec("frame.height")};
+    const std::string frameText = "{frame.width} = " + n(c.frame_width) + " by {frame.height} = " + n(c.frame_height);
+    if (cells > kMaxCells) {
+        int64_t least = c.cell_space + 1;
+        while (cellsAt(least) > kMaxCells) ++least;
+        return SettingProblem{spec("cell.space"), K::Range, n(c.cell_space), "at least " + n(least) + " for " + frameText,
+                              frame, n(cells) + " cells a step, at most 1048576"};
+    }
+    constexpr double kMaxBytes = 64.0 * 1024 * 1024 * 1024;
+    const double stepBytes = static_cast<double>(cells) * c.cell_capacity * 8.0;  // a cell's words and labels
+    if (static_cast<double>(c.ring_steps) * stepBytes > kMaxBytes)
+        return SettingProblem{spec("ring.steps"), K::Range, n(c.ring_steps),
+                              "at most " + n(kMaxBytes / stepBytes) + " for " + n(cells) + " cells a step (" + frameText +
+                                  " in cells of {cell.space} = " + n(c.cell_space) + ") of {cell.capacity} = " +
+                                  n(c.cell_capacity) + " words",
+                              {spec("frame.width"), spec("frame.height"), spec("cell.space"), spec("cell.capacity")},
+                              "the ring would need more than 64 GiB; lower {ring.steps} or {cell.capacity}, or raise "
+                              "{cell.space}"};
+    // Each observation's kept inputs (word, position, cell slot: 12 bytes).
+    const double obsBytes = static_cast<double>(c.cell_time) * c.max_words_per_frame * 12.0;
+    if (static_cast<double>(c.ring_steps) * obsBytes > kMaxBytes)
+        return SettingProblem{spec("ring.steps"), K::Range, n(c.ring_steps),
+                              "at most " + n(kMaxBytes / obsBytes) + " with {cell.time} = " + n(c.cell_time) +
+                                  " and {max.words} = " + n(c.max_words_per_frame),
+                              {spec("cell.time"), spec("max.words")},
+                              "the observations' inputs would need more than 64 GiB; lower {ring.steps}, {cell.time} or "
+                              "{max.words}"};
+    return std::nullopt;
+}
 // Checks the line-by-line grammar and sets each key on `s`; `seen` gets the
 // keys with their lines.
 struct ParseState {
@@ -333,7 +384,7 @@ std::string paramName(const SettingSpec& spec) {
 
 bool isEngineSetting(const SettingSpec& spec) noexcept {
     const Binding* b = bindingOf(spec);
-    return b && b->engine;
+    return b && b->engine();
 }
 
 std::string settingRange(const SettingSpec& s) {
@@ -352,14 +403,71 @@ std::string settingRange(const SettingSpec& s) {
     }
 }
 
+std::string SettingProblem::compose(std::string name, const std::function<std::string(const SettingSpec&)>& spell) const {
+    // "{key}" -> the face's name of that setting.
+    auto spelled = [&](const std::string& text) {
+        std::string out;
+        for (std::size_t at = 0; at < text.size();) {
+            const std::size_t open = text.find('{', at), close = open == std::string::npos ? open : text.find('}', open);
+            const SettingSpec* named =
+                close == std::string::npos ? nullptr : findSetting(std::string_view(text).substr(open + 1, close - open - 1));
+            if (!named) {
+                const std::size_t to = open == std::string::npos ? text.size() : open + 1;
+                out.append(text, at, to - at);
+                at = to;
+                continue;
+            }
+            out.append(text, at, open - at);
+            out += spell(*named);
+            at = close + 1;
+        }
+        return out;
+    };
+    if (kind == Kind::Type) return name + ": expected " + spelled(allowed) + ", found " + quoted(value);
+    std::string out = name + " = " + value + ", allowed " + spelled(allowed);
+    if (!note.empty()) out += "; " + spelled(note);
+    return out;
+}
+
+std::string SettingProblem::describe(std::string_view name) const {
+    return compose(std::string(name), [&](const SettingSpec& s) {
+        return &s == spec ? std::string(name) : std::string(s.key);
+    });
+}
+
+const SettingSpec* closestSetting(std::string_view name) noexcept {
+    if (const SettingSpec* s = findSetting(name)) return s;
+    const SettingSpec* best = nullptr;
+    std::size_t bestD = 3;
+    if (name.size() <= 64)
+        for (const SettingSpec& c : settingSpecs()) {
+            // Against the key and the parameter name: "alfa", "cell_spac".
+            std::size_t d = editDistance(name, c.key);
+            std::string param(c.key);
+            std::replace_if(param.begin(), param.end(), [](char ch) { return ch == '.' || ch == '-'; }, '_');
+            d = std::min(d, editDistance(name, param));
+            if (d < bestD) bestD = d, best = &c;
+        }
+    return best;
+}
+
+std::optional<SettingProblem> setSettingText(Settings& s, const SettingSpec& spec, std::string_view value) {
+    Settings tmp = s;
+    std::string why = bindingOf(spec)->set(spec, value, tmp);
+    if (!why.empty()) {
+        if (why.rfind("expected ", 0) != 0)  // an integer beyond the field's type: the schema's range
+            return SettingProblem{&spec, SettingProblem::Kind::Range, std::string(value), settingRange(spec), {}, {}};
+        why.erase(0, 9);
+        return SettingProblem{&spec, SettingProblem::Kind::Type, std::string(value), std::move(why), {}, {}};
+    }
+    s = tmp;
+    return std::nullopt;
+}
+
 Status setSetting(Settings& s, std::string_view name, std::string_view value) {
     const SettingSpec* spec = findSetting(name);
     if (!spec) return Status::error(unknownKey(name));
-    Settings tmp = s;
-    const std::string why = bindingOf(*spec)->set(*spec, value, tmp);
-    if (!why.empty())
-        return Status::error("key '" + std::string(spec->key) + "': " + why + ", found " + quoted(value));
-    s = tmp;
+    if (auto p = setSettingText(s, *spec, value)) return Status::error(p->describe("key '" + std::string(spec->key) + "'"));
     return {};
 }
 
@@ -368,19 +476,39 @@ std::string settingValue(const Settings& s, std::string_view name) {
     return spec ? bindingOf(*spec)->get(*spec, s) : std::string();
 }
 
+std::optional<SettingProblem> checkSettings(const Settings& s) {
+    if (auto p = checkPart(s, "")) return p;
+    return modelCombinations(s.engine.model);
+}
+
+std::optional<SettingProblem> checkModelSettings(const Config& c) {
+    Settings s;
+    s.engine.model = c;
+    if (auto p = checkPart(s, "engine.model.")) return p;
+    return modelCombinations(c);
+}
+
+std::optional<SettingProblem> checkStrategySettings(const StrategyConfig& c) {
+    Settings s;
+    s.engine.strategy = c;
+    return checkPart(s, "engine.strategy.");
+}
+
+std::optional<SettingProblem> checkEngineSettings(const EngineConfig& c) {
+    Settings s;
+    s.engine = c;
+    if (auto p = checkPart(s, "engine.")) return p;
+    return modelCombinations(c.model);
+}
+
+std::optional<SettingProblem> checkSettingRange(const SettingSpec& spec, double value) {
+    return rangeProblem(spec, value, spec.type == SettingType::Real || spec.type == SettingType::BudgetMs
+                                         ? formatDouble(value)
+                                         : formatInteger(static_cast<long long>(value)));
+}
+
 Status Settings::validate() const {
-    if (Status st = engine.validate(); !st.ok()) return st;
-    // The rest: each number within its declared range (the engine's own
-    // checks above name its fields in their words).
-    for (const Binding& b : kBindings) {
-        if (b.engine) continue;
-        const double v = b.number(*this);
-        if (std::isnan(v)) continue;
-        const bool low = b.spec.has(setting_flags::LoOpen) ? !(v > b.spec.lo) : !(v >= b.spec.lo);
-        if (low || !(v <= b.spec.hi))
-            return Status::error("invalid configuration: " + std::string(b.spec.key) + " = " + b.get(b.spec, *this) +
-                                 ", allowed " + settingRange(b.spec));
-    }
+    if (auto p = checkSettings(*this)) return Status::error("invalid configuration: " + p->describe(p->spec->key));
     return {};
 }
 
@@ -404,13 +532,12 @@ Status parseSettingsText(std::string_view text, std::string_view name, Settings&
             if (Status st = parseLine(line, lineNo, name, tmp, ps); !st.ok()) return st;
         if (end == text.size()) break;
     }
-    if (Status st = tmp.validate(); !st.ok()) {
+    if (auto p = checkSettings(tmp)) {
         // Point at the line that set the offending key, when the text set it.
-        for (const auto& [key, line] : ps.seen)
-            if (messageNames(st.message(), key))
-                return Status::error(std::string(name) + ":" + std::to_string(line) + ": key '" + key + "': " +
-                                     st.message());
-        return Status::error(std::string(name) + ": " + st.message());
+        const std::string what = "invalid configuration: " + p->describe(p->spec->key);
+        if (auto it = ps.seen.find(p->spec->key); it != ps.seen.end())
+            return Status::error(std::string(name) + ":" + std::to_string(it->second) + ": key '" + it->first + "': " + what);
+        return Status::error(std::string(name) + ": " + what);
     }
     s = tmp;
     if (set) {

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <string>
 
+#include "rost/settings.hpp"
+
 namespace rost {
 
 namespace {
@@ -92,12 +94,7 @@ Status parseStrategy(const std::string& name, StrategyKind& out) {
 }
 
 Status StrategyConfig::validate() const {
-    constexpr auto kEta = settingSpec("eta");  // ranges: the settings schema's
-    constexpr auto kQ = settingSpec("q");
-    if (!(eta >= kEta.lo && eta <= kEta.hi))
-        return Status::error("strategy.eta = " + std::to_string(eta) + " is out of range (expected 0 <= eta <= 1)");
-    if (!(q > kQ.lo && q <= kQ.hi))
-        return Status::error("strategy.q = " + std::to_string(q) + " is out of range (expected 0 < q <= 1)");
+    if (auto p = checkStrategySettings(*this)) return Status::error("invalid configuration: " + p->describe(p->spec->key));
     return {};
 }
 

@@ -30,21 +30,9 @@ std::vector<ParamSpec> settingParams() {
     return out;
 }
 
-std::string paramNamedIn(const std::string& message) {
-    // The longest key the message names as a word ("g.time" and not "time").
-    const SettingSpec* best = nullptr;
-    for (const SettingSpec& s : settingSpecs()) {
-        const std::string key(s.key);
-        for (std::size_t at = message.find(key); at != std::string::npos; at = message.find(key, at + 1)) {
-            const auto isName = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_'; };
-            const bool before = at == 0 || !isName(message[at - 1]);
-            const std::size_t end = at + key.size();
-            const bool after = end >= message.size() || !isName(message[end]) ||
-                               (message[end] == '.' && (end + 1 >= message.size() || message[end + 1] == ' '));
-            if (before && after && (!best || s.key.size() > best->key.size())) best = &s;
-        }
-    }
-    return best ? paramName(*best) : std::string();
+std::string closestParam(const std::string& name) {
+    const SettingSpec* near = closestSetting(name);
+    return near ? paramName(*near) : std::string();
 }
 
 struct NodeSettings::Impl {
@@ -60,13 +48,28 @@ NodeSettings& NodeSettings::operator=(const NodeSettings& other) {
     return *this;
 }
 
+// The node names a setting by its private parameter: ~eta, ~cell_space.
+// (Appended, not "~" + name: GCC 12 at -O3 warns falsely on that; -Wrestrict.)
+namespace {
+std::string privateName(std::string_view param) {
+    std::string out(1, '~');
+    out += param;
+    return out;
+}
+std::string spelled(const SettingSpec& spec) { return privateName(paramName(spec)); }
+} // namespace
+
 std::string NodeSettings::set(const std::string& name, const std::string& value) {
-    const Status st = setSetting(impl_->settings, name, value);
-    if (!st.ok()) return st.message();
-    if (const SettingSpec* spec = findSetting(name)) impl_->given.emplace_back(spec->key);
+    const SettingSpec* spec = findSetting(name);
+    if (!spec) return privateName(name) + ": no such parameter";
+    if (auto p = setSettingText(impl_->settings, *spec, value)) return p->describe(spelled);
+    impl_->given.emplace_back(spec->key);
     return {};
 }
-std::string NodeSettings::validate() const { return impl_->settings.validate().message(); }
+std::string NodeSettings::validate() const {
+    const auto p = checkSettings(impl_->settings);
+    return p ? p->describe(spelled) : std::string();
+}
 std::string NodeSettings::value(const std::string& name) const { return settingValue(impl_->settings, name); }
 bool NodeSettings::given(const std::string& key) const {
     return std::find(impl_->given.begin(), impl_->given.end(), key) != impl_->given.end();
@@ -172,7 +175,7 @@ std::unique_ptr<Pipeline> Pipeline::create(const NodeSettings& settings, const O
     impl->settings = settings.impl().settings;
     impl->givenSettings = settings;
     impl->options = options;
-    if (Status st = impl->settings.validate(); !st.ok()) return error = st.message(), nullptr;
+    if (const std::string bad = settings.validate(); !bad.empty()) return error = bad, nullptr;
     if (error = impl->makeExtractor(); !error.empty()) return nullptr;
     return std::unique_ptr<Pipeline>(new Pipeline(std::move(impl)));
 }

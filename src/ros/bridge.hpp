@@ -31,9 +31,8 @@ struct ParamSpec {
 };
 // Every setting, in the schema's order.
 std::vector<ParamSpec> settingParams();
-// The parameter a message of the settings' checks names ("cell_space" for
-// "invalid configuration: cell.space = 0, ..."); "" when it names none.
-std::string paramNamedIn(const std::string& message);
+// The parameter an unknown name most likely meant ("etta" -> "eta"); "" if none.
+std::string closestParam(const std::string& name);
 
 // Every setting of rost in one value (rost::Settings), set by key or parameter name.
 class NodeSettings {
@@ -43,9 +42,11 @@ public:
     NodeSettings(const NodeSettings& other);
     NodeSettings& operator=(const NodeSettings& other);
 
-    // "" when set; else the error (naming the key and the value).
+    // "" when set; else the error, naming the parameter as the node spells
+    // it: "~alpha: expected a finite number, found 'x'".
     std::string set(const std::string& name, const std::string& value);
-    // "" when every value is in range and the combination is valid.
+    // "" when every value is in range and the combination is valid; else the
+    // first problem: "~eta = 2, allowed [0, 1]".
     std::string validate() const;
     std::string value(const std::string& name) const;
     // Keys set with set() (the node derives V and the frame size unless set).

@@ -1,8 +1,10 @@
 #include "node.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <std_msgs/Float32.h>
@@ -35,31 +37,69 @@ Node::Node(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(std::move(nh)), pnh_(s
 
 Node::~Node() { shutdown(); }
 
+// The node's own private parameters, beside one per setting of the schema.
+const char* const kNodeParams[] = {"compressed", "checkpoint", "resume", "vocabulary"};
+
 // Every setting of the schema as a private parameter (dots as underscores).
+// Errors name the parameter as the node spells it (~eta) and stop the node
+// before it subscribes; a private parameter that is no setting and none of
+// the node's own is logged at start-up, with the one it most likely meant.
 bool Node::readSettings() {
+    std::string budget;  // the budget parameter given, if any
     for (const rost::bridge::ParamSpec& p : rost::bridge::settingParams()) {
         XmlRpc::XmlRpcValue v;
         if (!pnh_.getParam(p.param, v)) continue;
         std::string text;
         if (!paramText(v, text)) {
-            ROS_FATAL("parameter ~%s: expected a number, a boolean or a string (%s)", p.param.c_str(), p.range.c_str());
+            ROS_FATAL("rost: ~%s: expected a number, a boolean or a string (%s)", p.param.c_str(), p.range.c_str());
             return false;
         }
+        if (p.key.rfind("budget.", 0) == 0) {
+            if (!budget.empty()) {
+                ROS_FATAL("rost: ~%s and ~%s both set a budget (give one of ~budget_refines, ~budget_tokens, "
+                          "~budget_ms)", budget.c_str(), p.param.c_str());
+                return false;
+            }
+            budget = p.param;
+        }
         if (const std::string err = settings_.set(p.key, text); !err.empty()) {
-            ROS_FATAL("parameter ~%s: %s", p.param.c_str(), err.c_str());
+            ROS_FATAL("rost: %s", err.c_str());
             return false;
         }
     }
     if (const std::string err = settings_.validate(); !err.empty()) {
-        const std::string param = rost::bridge::paramNamedIn(err);
-        ROS_FATAL("parameter ~%s: %s", param.empty() ? "?" : param.c_str(), err.c_str());
+        ROS_FATAL("rost: %s", err.c_str());
         return false;
     }
+    warnUnknownParams();
     pnh_.param("compressed", compressed_, false);
     pnh_.param("checkpoint", options_.checkpoint, std::string());
     pnh_.param("resume", options_.resume, std::string());
     pnh_.param("vocabulary", options_.vocabulary, std::string());
     return true;
+}
+
+void Node::warnUnknownParams() {
+    std::vector<std::string> names;
+    if (!ros::param::getParamNames(names)) return;
+    const std::string prefix = pnh_.getNamespace() + "/";
+    std::vector<std::string> known;
+    for (const rost::bridge::ParamSpec& p : rost::bridge::settingParams()) known.push_back(p.param);
+    for (const char* n : kNodeParams) known.emplace_back(n);
+    std::vector<std::string> warned;
+    for (const std::string& full : names) {
+        if (full.compare(0, prefix.size(), prefix) != 0) continue;
+        const std::string name = full.substr(prefix.size(), full.find('/', prefix.size()) - prefix.size());
+        if (std::find(known.begin(), known.end(), name) != known.end() ||
+            std::find(warned.begin(), warned.end(), name) != warned.end())
+            continue;
+        warned.push_back(name);
+        const std::string near = rost::bridge::closestParam(name);
+        if (!near.empty())
+            ROS_WARN("rost: ~%s is not a parameter of rost_node; ignored (did you mean ~%s?)", name.c_str(), near.c_str());
+        else
+            ROS_WARN("rost: ~%s is not a parameter of rost_node; ignored (rost_node --params lists them)", name.c_str());
+    }
 }
 
 void Node::advertise() {

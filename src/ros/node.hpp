@@ -47,6 +47,7 @@ public:
 
 private:
     bool readSettings();
+    void warnUnknownParams();
     void advertise();
     void onImage(const sensor_msgs::ImageConstPtr& msg);
     void onCompressed(const sensor_msgs::CompressedImageConstPtr& msg);

@@ -20,8 +20,8 @@ struct BincountOptions {
 
 Status bincount(const BincountOptions& o) {
     Settings s;  // -V through the schema: its range and message
-    if (Status st = setSetting(s, "V", o.V); !st.ok()) return Status::error("-V: " + st.message());
-    if (Status st = s.validate(); !st.ok()) return Status::error("-V: " + st.message());
+    if (auto p = setSettingText(s, settingSpec("V"), o.V)) return Status::error(p->describe("-V"));
+    if (auto p = checkSettings(s)) return Status::error(p->describe(p->spec->key == "V" ? "-V" : p->spec->key));
     const auto bins = static_cast<uint32_t>(s.engine.model.V);
     std::string text, name;
     if (Status st = readInput(o.in, text, name); !st.ok()) return st;

@@ -154,6 +154,22 @@ void addSettingFlags(CLI::App& app, Parsed& p, Command cmd) {
     }
 }
 
+// A setting flag as rost-cli spells it, every alias: "-K/--ntopics", "--gamma".
+std::string flagName(const Parsed&, std::size_t row) {
+    std::string names = kSettingFlags[row].names;
+    std::replace(names.begin(), names.end(), ',', '/');
+    return names;
+}
+
+// A setting's problem, each setting named by the flag that sets it (its key when no flag does).
+std::string problemText(const Parsed& p, const SettingProblem& problem) {
+    return problem.describe([&](const SettingSpec& spec) {
+        for (std::size_t i = 0; i < std::size(kSettingFlags); ++i)
+            if (spec.key == kSettingFlags[i].key) return flagName(p, i);
+        return std::string(spec.key);
+    });
+}
+
 // The setting flags through the schema (rost-cli's defaults where they
 // differ), then the limited flags checked.
 Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
@@ -169,10 +185,8 @@ Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
         // --online.mint is checked without --online too, but is the budget only with it.
         Settings checked = s;
         Settings& into = std::string(f.key) == "budget.ms" && !p.run.online ? checked : s;
-        if (Status st = setSetting(into, f.key, value); !st.ok())
-            return Status::error(p.setting_opts[i]->get_name(false, true) + ": " + st.message());
-        if (Status st = into.validate(); !st.ok())
-            return Status::error(p.setting_opts[i]->get_name(false, true) + ": " + st.message());
+        if (auto problem = setSettingText(into, *findSetting(f.key), value)) return Status::error(problemText(p, *problem));
+        if (auto problem = checkSettings(into)) return Status::error(problemText(p, *problem));
     }
     for (std::size_t i = 0; i < std::size(kLimitedFlags); ++i) {
         const LimitedFlag& f = kLimitedFlags[i];

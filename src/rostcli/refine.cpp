@@ -86,11 +86,7 @@ Status fitModel(const RunOptions& o, const Corpus& c, Settings& s) {
         cap = busiestCell(c, m);
     }
     if (Status st = set(s, "cell.capacity", std::to_string(std::max<uint32_t>(cap, 1))); !st.ok()) return st;
-    if (Status st = s.validate(); !st.ok()) {
-        std::string msg = "the model this input needs: ";
-        msg += st.message();
-        return Status::error(msg);
-    }
+    if (auto p = checkSettings(s)) return Status::error("the model this input needs: " + p->describe(p->spec->key));
     return {};
 }
 

@@ -64,7 +64,7 @@ Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int
         c.max_words_per_frame = static_cast<int>(std::min(max_words, hi));
     }
     e.flags = toolFlags(realtime);
-    if (Status st = e.validate(); !st.ok()) return st;  // messages use the keys (cell.space, g.time, ...)
+    if (auto p = checkEngineSettings(e)) return Status::error(settingProblemText(m, *p));
     out = e;
     return {};
 }
@@ -76,6 +76,38 @@ bool ModelOptions::isGiven(std::string_view key) const {
 std::string optionName(const SettingSpec& spec) {
     if (spec.cli.empty()) return "--" + std::string(spec.key);
     return std::string(spec.cli.substr(0, spec.cli.find(',')));
+}
+
+std::string settingProblemText(const ModelOptions& m, const SettingProblem& p) {
+    for (const auto& [key, where] : m.given_by_file)  // "FILE:LINE: key 'K' = ", set by the file alone
+        if (key == p.spec->key)
+            return where.substr(0, where.size() - 3) + ": " + p.describe(std::string(p.spec->key));
+    return p.describe([](const SettingSpec& spec) {
+        // The frame size is the input's (--width/--height resize it): no option of its own.
+        // (Appended piece by piece: GCC 12 at -O3 warns falsely on "lit" + string; -Wrestrict.)
+        std::string names;
+        if (spec.key == "frame.width" || spec.key == "frame.height") {
+            names = "the input's ";
+            names += spec.key;
+            return names;
+        }
+        if (spec.cli.empty()) {
+            names = "--";
+            names += spec.key;
+            return names;
+        }
+        // Every name the option answers to ("--queue.slots/--queue"), whichever was typed.
+        for (std::size_t at = 0; at <= spec.cli.size();) {
+            std::size_t end = spec.cli.find(',', at);
+            if (end == std::string_view::npos) end = spec.cli.size();
+            if (const std::string_view n = spec.cli.substr(at, end - at); !n.starts_with('!')) {
+                if (!names.empty()) names += '/';
+                names += n;
+            }
+            at = end + 1;
+        }
+        return names;
+    });
 }
 
 Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool realtime, EngineConfig& out,
@@ -126,7 +158,7 @@ Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool
     e.thread = m.settings.engine.thread;
     e.model.threads = toolThreads(m, realtime);
     e.flags = toolFlags(realtime);
-    if (Status st = e.validate(); !st.ok()) return st;
+    if (auto p = checkEngineSettings(e)) return Status::error(settingProblemText(m, *p));
     out = e;
     return {};
 }

@@ -51,12 +51,6 @@ bool isOption(const SettingSpec& s, SettingsOptions::Command cmd) {
            (s.group != SettingGroup::Words && s.group != SettingGroup::Runtime);
 }
 
-// "key 'alpha': expected a finite number, found 'x'" -> "expected a finite number, found 'x'".
-std::string withoutKey(const std::string& message) {
-    const std::size_t at = message.find("': ");
-    return message.rfind("key '", 0) == 0 && at != std::string::npos ? message.substr(at + 3) : message;
-}
-
 } // namespace
 
 struct SettingsOptions::Impl {
@@ -169,17 +163,10 @@ Status SettingsOptions::apply(RunOptions* run, RefineOptions* ref) {
     for (const Impl::Entry& e : d.entries) {
         if (e.option->count() == 0) continue;
         const std::string value = e.spec->type == SettingType::Bool ? (e.flag ? "true" : "false") : e.text;
-        if (Status st = setSetting(s, e.spec->key, value); !st.ok())
-            return Status::error(optionName(*e.spec) + ": " + withoutKey(st.message()));
+        if (auto p = setSettingText(s, *e.spec, value)) return Status::error(settingProblemText(m, *p));
         m.given.emplace_back(e.spec->key);
     }
-    if (Status st = s.validate(); !st.ok()) {
-        // Name the option that set the value the message is about.
-        for (const Impl::Entry& e : d.entries)
-            if (e.option->count() > 0 && st.message().find(" " + std::string(e.spec->key) + " = ") != std::string::npos)
-                return Status::error(optionName(*e.spec) + ": " + st.message());
-        return st;
-    }
+    if (auto p = checkSettings(s)) return Status::error(settingProblemText(m, *p));
     m.settings = s;
     return {};
 }

@@ -54,6 +54,9 @@ int toolThreads(const ModelOptions& m, bool realtime);
 
 // The option that sets `key` on the command line ("-K", "--alpha").
 std::string optionName(const SettingSpec& spec);
+// A setting's problem in the tool's spelling: the option ("--eta = 2, allowed
+// [0, 1]"), or the --config file's line and key when the file set it.
+std::string settingProblemText(const ModelOptions& m, const SettingProblem& p);
 
 // Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
 // `V` is the caller's (what the words need, unless -V); ring.steps is the

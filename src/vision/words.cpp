@@ -5,26 +5,32 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "rost/settings.hpp"
+
 namespace rost::vision {
 
 Status ExtractorConfig::validate() const {
+    // The settings of the schema by its one range check (rost/settings.hpp);
+    // the fields the schema does not hold by their own ranges here.
+    auto schema = [](const SettingSpec& spec, double v) {
+        const auto p = checkSettingRange(spec, v);
+        return p ? Status::error("invalid configuration: " + p->describe(spec.key)) : Status();
+    };
     auto bad = [](const char* field, double v, const char* range) {
         return Status::error(std::string("extractor setting ") + field + " = " + std::to_string(v) + " outside " +
                              range);
     };
     if (!orb && !intensity && !hue) return Status::error("extractor settings: no extractor enabled (orb, intensity, hue)");
     if (orb) {
-        if (orb_features < 1 || orb_features > 100000) return bad("orb_features", orb_features, "1..100000");
+        if (Status st = schema(settingSpec("orb.features"), orb_features); !st.ok()) return st;
         if (!(orb_scale_factor > 1.0f && orb_scale_factor <= 4.0f))
             return bad("orb_scale_factor", orb_scale_factor, "(1, 4]");
         if (orb_levels < 1 || orb_levels > 32) return bad("orb_levels", orb_levels, "1..32");
-        if (orb_fast_threshold < 1 || orb_fast_threshold > 255)
-            return bad("orb_fast_threshold", orb_fast_threshold, "1..255");
-        if (search.probes < 1 || search.probes > 1024) return bad("search.probes", search.probes, "1..1024");
+        if (Status st = schema(settingSpec("orb.fast"), orb_fast_threshold); !st.ok()) return st;
+        if (Status st = schema(settingSpec("orb.probes"), search.probes); !st.ok()) return st;
     }
-    if (intensity || hue) {
-        if (thumb_cell < 1 || thumb_cell > 256) return bad("thumb_cell", thumb_cell, "1..256");
-    }
+    if (intensity || hue)
+        if (Status st = schema(settingSpec("thumb.cell"), thumb_cell); !st.ok()) return st;
     if (hue) {
         if (hue_min_saturation < 0 || hue_min_saturation > 255)
             return bad("hue_min_saturation", hue_min_saturation, "0..255");

@@ -195,8 +195,33 @@ def run():
     badnode = subprocess.run([os.path.join(build, "rost_node"), "__name:=rost_bad", "_cell_space:=0"],
                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ, timeout=30)
     out = badnode.stdout.decode(errors="replace")
-    check(badnode.returncode != 0 and "~cell_space" in out, "a bad parameter: exit %d, %s" %
+    check(badnode.returncode != 0 and "~cell_space = 0, allowed [1, 65536]" in out, "a bad parameter: exit %d, %s" %
           (badnode.returncode, out.strip().splitlines()[-1] if out.strip() else "(nothing)"))
+
+    def start_up(name, params):
+        """rost_node with these parameters on a topic no one publishes: its
+        exit code (None: still running after its start-up, then stopped) and log."""
+        p = subprocess.Popen([os.path.join(build, "rost_node"), "__name:=" + name, "image:=/nobody"] + params,
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ)
+        try:
+            out, _ = p.communicate(timeout=8)
+            return p.returncode, out.decode(errors="replace")
+        except subprocess.TimeoutExpired:
+            os.kill(p.pid, signal.SIGINT)
+            out, _ = p.communicate(timeout=10)
+            return None, out.decode(errors="replace")
+
+    # The settings' one check, spelled as the node spells parameters.
+    code, out = start_up("rost_eta", ["_eta:=2.0"])
+    check(code == 2 and "~eta = 2, allowed [0, 1]" in out and "strategy.eta" not in out,
+          "~eta out of range: exit %s, named ~eta" % code)
+    code, out = start_up("rost_budgets", ["_budget_refines:=4", "_budget_ms:=5.0"])
+    check(code == 2 and "~budget_ms" in out and "~budget_refines" in out and "listening" not in out,
+          "two budgets: exit %s at start-up, before subscribing" % code)
+    code, out = start_up("rost_unknown", ["_etta:=0.5", "_num_threads:=4"])
+    check(code is None and "~etta is not a parameter of rost_node; ignored (did you mean ~eta?)" in out and
+          "~num_threads is not a parameter" in out,
+          "unknown private parameters: a warning each at start-up, with the likeliest meant")
 
 
 try:
