@@ -126,6 +126,34 @@ TEST(ToolCli, UnreadableInputsAreNamed) {
     expectError(runRost("run '" + t.path() + "/*.jpg' --out " + (t / "o")), "no files match", t / "o");
 }
 
+// The frame size rule (rost/vision/frame_source.hpp) in the tool: an image too
+// small to extract words from is skipped with a line naming it and its size,
+// and never sizes the model; with nothing usable left the run exits 2.
+TEST(ToolCli, ImagesTooSmallAreSkippedNamedAndNeverSizeTheModel) {
+    TempDir t;
+    std::filesystem::create_directory(t / "in");
+    cv::imwrite(t / "in/a0.png", cv::Mat(1, 1, CV_8UC3, cv::Scalar(10, 20, 30)));
+    cv::imwrite(t / "in/a1.png", cv::Mat(1, 300, CV_8UC3, cv::Scalar(10, 20, 30)));
+    cv::Mat frame(240, 320, CV_8UC3);
+    cv::randu(frame, 0, 255);
+    cv::imwrite(t / "in/a2.png", frame);
+    cv::imwrite(t / "in/a3.png", cv::Mat(300, 1, CV_8UC3, cv::Scalar(10, 20, 30)));
+    cv::imwrite(t / "in/a4.png", frame);
+    const RunResult r = runRost("run " + (t / "in") + " --out " + (t / "o") + " -q --no-overlay --no-summary");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("rost: " + (t / "in/a0.png") + ": a 1x1 frame is too small to extract words from"),
+              std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("in/a1.png: a 300x1 frame is too small"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("in/a3.png: a 1x300 frame is too small"), std::string::npos) << r.err;
+    EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/frames.csv")).size(), 3u) << "a header and 2 frames";
+    EXPECT_NE(rost::testing::readText(t / "o/run.txt").find("320x240"), std::string::npos);
+
+    std::filesystem::create_directory(t / "small");
+    cv::imwrite(t / "small/a.png", cv::Mat(2, 2, CV_8UC3, cv::Scalar(1, 2, 3)));
+    expectError(runRost("run " + (t / "small") + " --out " + (t / "o2")),
+                "rost: error: images in " + (t / "small") + ": no image large enough to extract words from", t / "o2");
+}
+
 TEST(ToolCli, NoCameraSaysSoAndWhatItSees) {
     TempDir t;
     const RunResult r = runRost("run camera:7 --out " + (t / "o"));

@@ -146,3 +146,82 @@ TEST(VisionSources, CameraIndexBeyondTheCamerasSaysNoCameraFoundAndWhatItSees) {
         EXPECT_NE(m.find("libcamera sees"), std::string::npos) << m;
     }
 }
+
+// ---- the frame size rule (rost/vision/frame_source.hpp) -------------------------
+
+TEST(VisionFrameSize, FramesUnderSixteenPixelsASideAreTooSmallNamingTheSize) {
+    for (auto [w, h] : {std::pair{0, 0}, {1, 1}, {1, 300}, {300, 1}, {15, 480}, {640, 15}})
+        EXPECT_EQ(frameTooSmall(w, h), "a " + std::to_string(w) + "x" + std::to_string(h) +
+                                           " frame is too small to extract words from (each side at least 16 pixels)");
+    EXPECT_EQ(frameTooSmall(16, 16), "");
+    EXPECT_EQ(frameTooSmall(640, 480), "");
+}
+
+TEST(VisionFrameSize, AModelIsSizedAtMost1920PixelsOnTheLongerSide) {
+    const auto size = [](int w, int h) {
+        const FrameSize s = modelFrameSize(w, h);
+        return std::pair{s.width, s.height};
+    };
+    EXPECT_EQ(size(640, 480), std::pair(640, 480));
+    EXPECT_EQ(size(1920, 1080), std::pair(1920, 1080));
+    EXPECT_EQ(size(4000, 3000), std::pair(1920, 1440));
+    EXPECT_EQ(size(3000, 4000), std::pair(1440, 1920));
+    EXPECT_EQ(size(8000, 6000), std::pair(1920, 1440));
+    EXPECT_EQ(size(65535, 16), std::pair(1920, 1));  // a strip keeps a row
+}
+
+// Images too small to extract words from are skipped with a note naming each
+// file and its size, never fix the size, and leave no gap in the frame numbers.
+TEST(VisionFrameSize, ImagesTooSmallAreSkippedAndNeverSizeTheSource) {
+    TempDir t;
+    ASSERT_TRUE(cv::imwrite(t / "a0.png", patterned(1, 1, 0)));
+    ASSERT_TRUE(cv::imwrite(t / "a1.png", patterned(300, 1, 0)));
+    ASSERT_TRUE(cv::imwrite(t / "a2.png", patterned(40, 30, 2)));
+    ASSERT_TRUE(cv::imwrite(t / "a3.png", patterned(1, 300, 0)));
+    ASSERT_TRUE(cv::imwrite(t / "a4.png", patterned(40, 30, 4)));
+    Status st;
+    auto src = openFrameSource(t.path(), {}, st);
+    ASSERT_TRUE(src) << st.message();
+    EXPECT_EQ(src->info().width, 40);
+    EXPECT_EQ(src->info().height, 30);
+    std::vector<std::string> notes = src->takeNotes();
+    ASSERT_EQ(notes.size(), 2u);
+    EXPECT_EQ(notes[0], (t / "a0.png") + ": a 1x1 frame is too small to extract words from (each side at least 16 pixels); skipped");
+    EXPECT_NE(notes[1].find("a1.png: a 300x1 frame"), std::string::npos) << notes[1];
+    EXPECT_TRUE(src->takeNotes().empty()) << "taken once";
+    const std::vector<Frame> frames = readAll(*src);
+    ASSERT_EQ(frames.size(), 2u);
+    EXPECT_EQ(frames[0].index, 0);
+    EXPECT_EQ(frames[1].index, 1);
+    EXPECT_EQ(cv::norm(frames[1].image, patterned(40, 30, 4), cv::NORM_INF), 0.0) << "a3.png skipped, a4.png read";
+    notes = src->takeNotes();
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_NE(notes[0].find("a3.png: a 1x300 frame"), std::string::npos) << notes[0];
+
+    TempDir small;
+    ASSERT_TRUE(cv::imwrite(small / "a.png", patterned(2, 2, 0)));
+    ASSERT_TRUE(cv::imwrite(small / "b.png", patterned(8, 40, 0)));
+    EXPECT_EQ(openError(small.path()), "images in " + small.path() +
+                                           ": no image large enough to extract words from (each side at least 16 pixels)");
+}
+
+TEST(VisionFrameSize, AHugeFirstImageIsScaledWithANote) {
+    TempDir t;
+    ASSERT_TRUE(cv::imwrite(t / "a.png", patterned(4000, 3000, 1)));
+    Status st;
+    auto src = openFrameSource(t.path(), {}, st);
+    ASSERT_TRUE(src) << st.message();
+    EXPECT_EQ(src->info().width, 1920);
+    EXPECT_EQ(src->info().height, 1440);
+    const std::vector<std::string> notes = src->takeNotes();
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_EQ(notes[0], "frames of 4000x3000 are scaled to 1920x1440 (at most 1920 pixels on the longer side unless a "
+                        "size is given)");
+    // A size the caller gives is kept as given.
+    SourceOptions o;
+    o.width = 4000;
+    src = openFrameSource(t.path(), o, st);
+    ASSERT_TRUE(src) << st.message();
+    EXPECT_EQ(src->info().width, 4000);
+    EXPECT_TRUE(src->takeNotes().empty());
+}

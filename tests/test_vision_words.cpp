@@ -47,6 +47,21 @@ TEST(VisionWords, DefaultVocabularyIsBuiltInWithFiveThousandWordsAndANote) {
     EXPECT_NE(v->note().find("k-majority"), std::string::npos) << v->note();
 }
 
+// ORB's pyramid shrinks a frame under 4 pixels a side to nothing (OpenCV
+// then throws): the extractor refuses every frame the size rule calls too small.
+TEST(VisionWords, FramesTooSmallAreRefusedWithoutWords) {
+    Status st;
+    auto e = WordExtractor::create({}, vocabulary(), st);
+    ASSERT_TRUE(e) << st.message();
+    FrameWords w;
+    for (auto [cols, rows] : {std::pair{1, 1}, {1, 300}, {300, 1}, {2, 2}, {15, 64}}) {
+        EXPECT_FALSE(e->extract(cv::Mat(rows, cols, CV_8UC3, cv::Scalar(90, 20, 200)), w)) << cols << "x" << rows;
+        EXPECT_EQ(w.size(), 0u);
+    }
+    EXPECT_TRUE(e->extract(cv::Mat(16, 16, CV_8UC3, cv::Scalar(90, 20, 200)), w));
+    EXPECT_GT(w.size(), 0u);
+}
+
 TEST(VisionWords, LayoutOffsetsTheExtractorsIntoOneVocabularyOf5436) {
     ExtractorConfig c;
     const WordLayout l = makeLayout(c, 5000);

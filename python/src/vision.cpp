@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bindings.hpp"
+#include "rost/vision/frame_source.hpp"
 #include "rost/vision/vocabulary.hpp"
 #include "rost/vision/words.hpp"
 
@@ -39,6 +40,10 @@ cv::Mat viewFrame(const py::handle& h, py::array& keep) {
     if (keep.shape(0) < 1 || keep.shape(1) < 1 || keep.shape(0) > 65535 || keep.shape(1) > 65535)
         throw py::value_error("frame: " + py::str(keep.attr("shape")).cast<std::string>() +
                               " is empty or larger than 65535 pixels a side");
+    // rost::vision's frame size rule: the same refusal as the tool's and the node's.
+    if (const std::string why = vision::frameTooSmall(static_cast<int>(keep.shape(1)), static_cast<int>(keep.shape(0)));
+        !why.empty())
+        throw py::value_error("frame: " + why);
     const bool packed = keep.strides(1) == channels && (keep.ndim() == 2 || keep.strides(2) == 1) &&
                         keep.strides(0) >= keep.shape(1) * channels;
     if (!packed)

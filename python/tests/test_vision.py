@@ -96,3 +96,17 @@ def test_vocabulary_train_save_load(diver_frames, tmp_path):
         rost.vision.Vocabulary.load(tmp_path / "bad.rostvoc")
     with pytest.raises(ValueError, match="10 descriptors cannot make 100000 words"):
         rost.vision.Vocabulary.train(diver_frames[:1], words=100000, features=10)
+
+
+# rost::vision's frame size rule, as the tool and the node apply it: a frame
+# with a side under 16 pixels is refused with ValueError naming its size.
+@pytest.mark.parametrize("shape", [(1, 1, 3), (1, 300, 3), (300, 1, 3), (2, 2, 3), (15, 64), (64, 15, 3)])
+def test_frames_too_small_raise_naming_the_size(shape):
+    extractor = rost.vision.WordExtractor()
+    with pytest.raises(ValueError) as e:
+        extractor(np.zeros(shape, np.uint8))
+    w, h = shape[1], shape[0]
+    assert str(e.value) == ("frame: a %dx%d frame is too small to extract words from (each side at least 16 pixels)"
+                            % (w, h))
+    words, positions = extractor(np.full((16, 16, 3), 128, np.uint8))
+    assert len(words) > 0 and positions.shape == (len(words), 2)

@@ -41,13 +41,22 @@ public:
 private:
     bool decode(const rosbag::MessageInstance& m, cv::Mat& bgr, std::string& why, ImageStamp& stamp) const;
     vision::ReadStatus fail(const std::string& why);
+    // bgr_ too small to extract words from: a note naming the message (message_ - back), and true.
+    bool skipSmall(int64_t back = 0) {
+        const std::string why = vision::frameTooSmall(bgr_.cols, bgr_.rows);
+        if (why.empty()) return false;
+        notes_.push_back(path_ + ": topic " + topic_ + ", message " + std::to_string(message_ - back) + ": " + why +
+                         "; skipped");
+        return true;
+    }
 
     std::string path_, topic_;
     rosbag::Bag bag_;
     std::optional<rosbag::View> view_;
     rosbag::View::iterator it_;
     cv::Mat bgr_;
-    int64_t index_ = 0;
+    int64_t index_ = 0;    // frames delivered
+    int64_t message_ = 0;  // the topic's message it_ is at
     std::vector<ImageStamp> stamps_;
 };
 
@@ -86,15 +95,30 @@ Status Source::open(const std::string& path, const std::string& topic, const vis
         info_.fps = info_.frames > 1 && span > 0 ? static_cast<double>(info_.frames - 1) / span : 0.0;
         it_ = view_->begin();
         if (it_ == view_->end()) return Status::error(path + ": topic " + topic + " has no messages");
-        std::string why;
-        ImageStamp first;
-        if (!decode(*it_, bgr_, why, first))
-            return Status::error(path + ": topic " + topic + ", message 0: " + why);
+        // The first image words can be extracted from fixes the size; smaller ones are skipped (noted).
+        for (;; ++it_, ++message_) {
+            if (it_ == view_->end())
+                return Status::error(path + ": topic " + topic + ": no image large enough to extract words from");
+            std::string why;
+            ImageStamp first;
+            if (!decode(*it_, bgr_, why, first))
+                return Status::error(path + ": topic " + topic + ", message " + std::to_string(message_) + ": " + why);
+            if (!skipSmall()) break;
+        }
     } catch (const rosbag::BagException& e) {
-        return Status::error(path + ": topic " + topic + ", message 0: cannot read the bag: " + e.what());
+        return Status::error(path + ": topic " + topic + ", message " + std::to_string(message_) +
+                             ": cannot read the bag: " + e.what());
     }
     int w = options.width, h = options.height;
-    if (w <= 0 && h <= 0) w = bgr_.cols, h = bgr_.rows;
+    if (w <= 0 && h <= 0) {
+        const vision::FrameSize m = vision::modelFrameSize(bgr_.cols, bgr_.rows);
+        w = m.width;
+        h = m.height;
+        if (w != bgr_.cols || h != bgr_.rows)
+            notes_.push_back("frames of " + std::to_string(bgr_.cols) + "x" + std::to_string(bgr_.rows) +
+                             " are scaled to " + std::to_string(w) + "x" + std::to_string(h) +
+                             " (at most 1920 pixels on the longer side unless a size is given)");
+    }
     else if (w <= 0) w = std::max(1, static_cast<int>(static_cast<int64_t>(h) * bgr_.cols / bgr_.rows));
     else if (h <= 0) h = std::max(1, static_cast<int>(static_cast<int64_t>(w) * bgr_.rows / bgr_.cols));
     info_.width = w;
@@ -105,17 +129,20 @@ Status Source::open(const std::string& path, const std::string& topic, const vis
 }
 
 vision::ReadStatus Source::fail(const std::string& why) {
-    error_ = path_ + ": topic " + topic_ + ", message " + std::to_string(index_) + ": " + why;
+    error_ = path_ + ": topic " + topic_ + ", message " + std::to_string(message_) + ": " + why;
     return vision::ReadStatus::Error;
 }
 
 vision::ReadStatus Source::read(vision::Frame& out) {
     ImageStamp stamp;
     try {
-        if (it_ == view_->end()) return vision::ReadStatus::End;
-        std::string why;
-        if (!decode(*it_, bgr_, why, stamp)) return fail(why);
-        ++it_;
+        do {
+            if (it_ == view_->end()) return vision::ReadStatus::End;
+            std::string why;
+            if (!decode(*it_, bgr_, why, stamp)) return fail(why);
+            ++it_;
+            ++message_;
+        } while (skipSmall(1));
     } catch (const rosbag::BagException& e) {
         return fail(std::string("cannot read the bag: ") + e.what());
     } catch (const ros::Exception& e) {

@@ -11,6 +11,7 @@
 #include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
 #include "rost/settings.hpp"
+#include "rost/vision/frame_source.hpp"
 #include "rost/vision/words.hpp"
 
 namespace rost::bridge {

@@ -11,6 +11,7 @@
 
 #include "frame_msg.hpp"
 #include "image_convert.hpp"
+#include "rost/vision/frame_source.hpp"
 
 namespace rost_node {
 
@@ -176,7 +177,12 @@ void Node::onCompressed(const sensor_msgs::CompressedImageConstPtr& msg) {
 bool Node::ensureEngine(int width, int height) {
     if (pipeline_->opened()) return true;
     if (failed_) return false;
-    std::string err = pipeline_->open(width, height);
+    const rost::vision::FrameSize model = rost::vision::modelFrameSize(width, height);
+    if (!pipeline_->sizeGiven() && (model.width != width || model.height != height))
+        ROS_WARN("rost: images of %dx%d are modelled at %dx%d (at most %d pixels on the longer side unless "
+                 "~frame_width and ~frame_height are given)", width, height, model.width, model.height,
+                 rost::vision::kMaxModelSide);
+    std::string err = pipeline_->open(model.width, model.height);
     if (err.empty()) err = pipeline_->start();
     if (err.empty()) {
         ROS_INFO("rost: frames of %dx%d, %dx%d cells, K = %d, V = %d%s%s", pipeline_->width(), pipeline_->height(),
@@ -193,6 +199,14 @@ bool Node::ensureEngine(int width, int height) {
 }
 
 void Node::handle(const cv::Mat& bgr, const std_msgs::Header& header) {
+    // rost::vision's frame size rule: an image too small to extract words
+    // from is skipped (logged, at most every 5 s) and never sizes the model.
+    if (const std::string why = rost::vision::frameTooSmall(bgr.cols, bgr.rows); !why.empty()) {
+        ROS_WARN_THROTTLE(5.0, "rost: topic %s, message seq %u (stamp %u.%09u, frame_id '%s'): %s; skipping it",
+                          image_sub_.getTopic().c_str(), header.seq, header.stamp.sec, header.stamp.nsec,
+                          header.frame_id.c_str(), why.c_str());
+        return;
+    }
     if (paused_.load(std::memory_order_acquire) || !ensureEngine(bgr.cols, bgr.rows)) return;
     rememberStamp(header);
     const int64_t stamp = static_cast<int64_t>(header.stamp.toNSec());

@@ -130,6 +130,7 @@ int runCommand(const RunOptions& o) {
         return live;
     }();
     if (Status st = words.open(o); !st.ok()) return fail(st.message());
+    words.printNotes();
     if (Status st = engine.open(o, words, realtime); !st.ok()) return fail(st.message());
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());

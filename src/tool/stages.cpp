@@ -44,6 +44,10 @@ Status WordsStage::open(const RunOptions& o) {
     return {};
 }
 
+void WordsStage::printNotes() const {
+    for (const std::string& n : source->takeNotes()) std::fprintf(stderr, "rost: %s\n", n.c_str());
+}
+
 // A bag (its image topic, read with rosbag) or the vision library's sources.
 Status WordsStage::openSource(const RunOptions& o, const vision::SourceOptions& so) {
     const bool anyBag = std::any_of(o.inputs.begin(), o.inputs.end(), bag::isBagInput);
@@ -185,7 +189,9 @@ void Capture::pace(Clock::time_point t0) const {
 
 bool Capture::produceOne(bool pacing, Clock::time_point t0) {
     if (max_frames_ > 0 && e_.before + captured() >= max_frames_) return false;
-    if (!readNext()) return false;
+    const bool more = readNext();
+    w_.printNotes();  // images skipped as too small, on the way to this one
+    if (!more) return false;
     if (pacing && !w_.info.live) pace(t0);
     w_.extractor->extract(frame_.image, words_);
     captured_.fetch_add(1, std::memory_order_relaxed);

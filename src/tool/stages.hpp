@@ -48,6 +48,9 @@ struct WordsStage {
 
     Status open(const RunOptions& o);
     int wordsV() const { return static_cast<int>(extractor->vocabularySize()); }
+    // The source's notes (images skipped as too small, frames scaled), one
+    // "rost: " line each on stderr, even with -q: they say what was not modelled.
+    void printNotes() const;
 
 private:
     Status openSource(const RunOptions& o, const vision::SourceOptions& so);

@@ -68,7 +68,9 @@ Status checkReadable(const std::string& path) {
     return {};
 }
 
-void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info) {
+// The size of a source's frames: the options' (one alone keeps the aspect
+// ratio), else the first usable frame's within kMaxModelSide (a note when scaled).
+void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes) {
     if (o.width > 0 && o.height > 0) {
         info.width = o.width;
         info.height = o.height;
@@ -79,8 +81,13 @@ void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info) {
         info.height = o.height;
         info.width = std::max(1, static_cast<int>(std::lround(static_cast<double>(w) * o.height / h)));
     } else {
-        info.width = w;
-        info.height = h;
+        const FrameSize m = modelFrameSize(w, h);
+        info.width = m.width;
+        info.height = m.height;
+        if (m.width != w || m.height != h)
+            notes.push_back("frames of " + std::to_string(w) + "x" + std::to_string(h) + " are scaled to " +
+                            std::to_string(m.width) + "x" + std::to_string(m.height) + " (at most " +
+                            std::to_string(kMaxModelSide) + " pixels on the longer side unless a size is given)");
     }
 }
 
@@ -89,11 +96,18 @@ public:
     ImageSequenceSource(std::vector<std::string> files, std::string what) : files_(std::move(files)), what_(std::move(what)) {}
 
     Status open(const SourceOptions& o) {
-        // The first image fixes the size.
-        cv::Mat first = cv::imread(files_[0], cv::IMREAD_UNCHANGED);
-        if (first.empty()) return Status::error(files_[0] + ": cannot decode image");
-        chooseSize(o, first.cols, first.rows, info_);
-        info_.frames = static_cast<int64_t>(files_.size());
+        // The first usable image fixes the size; those too small before it are skipped.
+        cv::Mat first;
+        for (;;) {
+            if (next_ >= files_.size())
+                return Status::error(what_ + ": no image large enough to extract words from (each side at least " +
+                                     std::to_string(kMinFrameSide) + " pixels)");
+            first = cv::imread(files_[next_], cv::IMREAD_UNCHANGED);
+            if (first.empty()) return Status::error(files_[next_] + ": cannot decode image");
+            if (!skipSmall(first)) break;
+        }
+        chooseSize(o, first.cols, first.rows, info_, notes_);
+        info_.frames = static_cast<int64_t>(files_.size() - next_);
         info_.description = what_ + " (" + std::to_string(files_.size()) + " images, " + std::to_string(info_.width) +
                             "x" + std::to_string(info_.height) + ")";
         pending_ = first;
@@ -101,24 +115,36 @@ public:
     }
 
     ReadStatus read(Frame& out) override {
-        if (next_ >= files_.size()) return ReadStatus::End;
         cv::Mat img;
-        if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
-        else img = cv::imread(files_[next_], cv::IMREAD_UNCHANGED);
+        do {
+            if (next_ >= files_.size()) return ReadStatus::End;
+            if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
+            else img = cv::imread(files_[next_], cv::IMREAD_UNCHANGED);
+        } while (!img.empty() && skipSmall(img));
         if (!normalise(img, info_.width, info_.height, out.image)) {
             error_ = files_[next_] + ": cannot decode image";
             return ReadStatus::Error;
         }
-        out.index = static_cast<int64_t>(next_);
-        out.timestamp_us = static_cast<int64_t>(next_);
+        out.index = delivered_;  // in delivery order: skipped images leave no gap
+        out.timestamp_us = delivered_++;
         ++next_;
         return ReadStatus::Ok;
     }
 
 private:
+    // An image too small to extract words from: a note naming it, and the next file.
+    bool skipSmall(const cv::Mat& img) {
+        const std::string why = frameTooSmall(img.cols, img.rows);
+        if (why.empty()) return false;
+        notes_.push_back(files_[next_] + ": " + why + "; skipped");
+        ++next_;
+        return true;
+    }
+
     std::vector<std::string> files_;
     std::string what_;
     std::size_t next_ = 0;
+    int64_t delivered_ = 0;
     cv::Mat pending_;
 };
 
@@ -134,7 +160,9 @@ public:
             return Status::error(path_ + ": cannot decode video (OpenCV cannot open it)");
         if (!cap_.read(pending_) || pending_.empty())
             return Status::error(path_ + ": cannot decode video (no frame could be decoded)");
-        chooseSize(o, pending_.cols, pending_.rows, info_);
+        if (const std::string why = frameTooSmall(pending_.cols, pending_.rows); !why.empty())
+            return Status::error(path_ + ": " + why + " (every frame of a video has its size)");
+        chooseSize(o, pending_.cols, pending_.rows, info_, notes_);
         info_.fps = cap_.get(cv::CAP_PROP_FPS);
         if (!(info_.fps > 0.0 && info_.fps < 1000.0)) info_.fps = 0.0;
         const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
@@ -210,6 +238,12 @@ public:
 
     void interrupt() noexcept override {
         for (auto& p : parts_) p->interrupt();
+    }
+    std::vector<std::string> takeNotes() override {
+        std::vector<std::string> out = std::exchange(notes_, {});
+        for (auto& p : parts_)
+            for (std::string& n : p->takeNotes()) out.push_back(std::move(n));
+        return out;
     }
 
 private:

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "rost/settings.hpp"
+#include "rost/vision/frame_source.hpp"
 
 namespace rost::vision {
 
@@ -152,6 +153,7 @@ void WordExtractor::thumbnailWords(const cv::Mat& bgr, FrameWords& out) {
 bool WordExtractor::extract(const cv::Mat& image, FrameWords& out) {
     out.clear();
     if (image.empty() || image.depth() != CV_8U) return false;
+    if (image.cols < kMinFrameSide || image.rows < kMinFrameSide) return false;  // ORB would fail on it
     // bgr_ only ever holds our own conversions (never shares the caller's image).
     if (image.channels() == 1) cv::cvtColor(image, bgr_, cv::COLOR_GRAY2BGR);
     else if (image.channels() == 4) cv::cvtColor(image, bgr_, cv::COLOR_BGRA2BGR);

@@ -54,13 +54,23 @@ def write_bag(path):
     os.makedirs(jpegs)
     ffmpeg(["-q:v", "3", os.path.join(jpegs, "%03d.jpg")])
     stamps = []
+
+    def tiny(w, h, ns):  # an image too small to extract words from (rost::vision's frame size rule)
+        img = Image(height=h, width=w, encoding="bgr8", step=w * 3, data=bytes(w * h * 3))
+        img.header.stamp = rospy.Time(ns // 10**9, ns % 10**9)
+        return img
     with rosbag.Bag(path, "w") as bag:
+        bag.write("/cam/small", tiny(1, 1, STAMP0_NS - 2), tiny(1, 1, STAMP0_NS - 2).header.stamp)
+        bag.write("/cam/small", tiny(300, 1, STAMP0_NS - 1), tiny(300, 1, STAMP0_NS - 1).header.stamp)
         for i in range(N):
             ns = STAMP0_NS + i * 66666667
             t = rospy.Time(ns // 10**9, ns % 10**9)
             img = Image(height=H, width=W, encoding="bgr8", step=W * 3, data=raw[i * W * H * 3:(i + 1) * W * H * 3])
             img.header.stamp, img.header.frame_id = t, "cam"
             bag.write("/cam/image_raw", img, t)
+            bag.write("/cam/small", img, t)
+            if i == N // 2:
+                bag.write("/cam/small", tiny(1, 300, ns + 1), tiny(1, 300, ns + 1).header.stamp)
             jpg = CompressedImage(format="jpeg", data=open(os.path.join(jpegs, "%03d.jpg" % (i + 1)), "rb").read())
             jpg.header.stamp, jpg.header.frame_id = t, "cam"
             bag.write("/cam/image_raw/compressed", jpg, t)
@@ -93,6 +103,17 @@ def main():
     rows = list(csv.DictReader(open(os.path.join(out, "frames.csv"))))
     check([int(r["timestamp_us"]) for r in rows] == [s // 1000 for s in stamps],
           "frames.csv has the messages' stamps")
+
+    # Images too small to extract words from: skipped, each named, never sizing the model.
+    small = os.path.join(work, "small")
+    code, err = rost_run(bag, "--topic", "/cam/small", "--out", small, "-q", "--no-overlay")
+    rows = list(csv.DictReader(open(os.path.join(small, "frames.csv")))) if code == 0 else []
+    check(code == 0 and [int(r["timestamp_us"]) for r in rows] == [s // 1000 for s in stamps] and
+          "topic /cam/small, message 0: a 1x1 frame is too small to extract words from" in err and
+          "topic /cam/small, message 1: a 300x1 frame is too small" in err and
+          "topic /cam/small, message %d: a 1x300 frame is too small" % (2 + N // 2 + 1) in err and
+          "%dx%d" % (W, H) in open(os.path.join(small, "run.txt")).read(),
+          "images too small: skipped and named, the model sized by the first usable one: " + err.strip())
 
     import rosbag
     with rosbag.Bag(outbag) as b:

@@ -82,6 +82,10 @@ def write_bag(path):
     images = frames(mire, PER_SCENE) + frames(diver, PER_SCENE)
     stamps = []
     with rosbag.Bag(path, "w") as bag:
+        # First, an image too small to extract words from: skipped (logged), never sizing the model.
+        tiny = Image(height=1, width=1, encoding="bgr8", step=3, data=bytes(3))
+        tiny.header.stamp = rospy.Time(STAMP0 - 1, 0)
+        bag.write("/camera/image_raw", tiny, tiny.header.stamp)
         for i, data in enumerate(images):
             m = Image(height=H, width=W, encoding="bgr8", step=W * 3, data=data)
             m.header.seq = i
@@ -170,6 +174,8 @@ def run():
     log = open(os.path.join(work, "rost_node.log")).read()
     check(log.count("bayer_rggb8") == 1 and "/camera/image_raw" in log,
           "an image rost cannot read is logged once for its topic, and the next ones are read")
+    check("a 1x1 frame is too small to extract words from" in log,
+          "an image too small is logged and skipped; the model is sized by the next (%dx%d cells)" % (m0.cells_x, m0.cells_y))
 
     # ~resume: the model as it was saved (the node was paused: no frame since get_topic_model).
     sized = ["_frame_width:=%d" % W, "_frame_height:=%d" % H]

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -51,12 +52,56 @@ public:
     virtual void interrupt() noexcept {}
     // Why the last read() returned Error: one line naming the file or device.
     [[nodiscard]] const std::string& error() const noexcept { return error_; }
+    // What the source did that its caller should tell a user, one line each,
+    // taken (cleared) by this call: an image skipped as too small to extract
+    // words from (frameTooSmall()), frames scaled to the model's size.
+    // Set-up and file reading only (a camera's frames have the size asked for).
+    virtual std::vector<std::string> takeNotes() { return std::exchange(notes_, {}); }
 
 protected:
     FrameSource() = default;
     SourceInfo info_;
     std::string error_;
+    std::vector<std::string> notes_;
 };
+
+// The one rule on frame sizes, the same in every face (the rost tool, the
+// ROS node, Python; docs/vision.md, "Frame sizes"):
+// * a frame with a side under kMinFrameSide pixels is too small to extract
+//   words from (ORB's pyramid shrinks it to nothing; a thumbnail cell is 16
+//   pixels by default). It is refused: the tool and the node skip it with a
+//   message naming it and its size and never size a model from it; Python's
+//   WordExtractor raises ValueError;
+// * the size a model is made for, when the caller sets none, is the first
+//   usable frame's, scaled down (aspect ratio kept) so that its longer side
+//   is at most kMaxModelSide: a 4000x3000 first frame would otherwise fix a
+//   ring of 1.4 GB of cells. The frames are then resized, and a note says so.
+// Header-only: the ROS parts (C++17) use it too.
+inline constexpr int kMinFrameSide = 16;
+inline constexpr int kMaxModelSide = 1920;
+
+// "" for a frame words can be extracted from; else why not:
+// "a 1x300 frame is too small to extract words from (each side at least 16 pixels)".
+inline std::string frameTooSmall(int width, int height) {
+    if (width >= kMinFrameSide && height >= kMinFrameSide) return {};
+    return "a " + std::to_string(width) + "x" + std::to_string(height) +
+           " frame is too small to extract words from (each side at least " + std::to_string(kMinFrameSide) +
+           " pixels)";
+}
+
+struct FrameSize {
+    int width = 0, height = 0;
+};
+inline FrameSize modelFrameSize(int width, int height) noexcept {
+    const int longer = width > height ? width : height;
+    if (longer <= kMaxModelSide) return {width, height};
+    const double scale = static_cast<double>(kMaxModelSide) / longer;
+    const auto side = [&](int s) {
+        const int v = static_cast<int>(s * scale + 0.5);
+        return v < 1 ? 1 : v;
+    };
+    return {side(width), side(height)};
+}
 
 struct SourceOptions {
     // Output frame size; 0 keeps the (first) input's size, one of the two

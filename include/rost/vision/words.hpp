@@ -102,7 +102,7 @@ public:
     // Deterministic: the same image gives the same words in the same order
     // (ORB words first, strongest keypoint first; then intensity and hue
     // words in raster order of the thumbnail). Returns false for an empty or
-    // unsupported image.
+    // unsupported image, or one too small (frameTooSmall()).
     bool extract(const cv::Mat& image, FrameWords& out);
 
     // The intensity and hue words alone, for a given thumbnail (used by extract; exposed for tests).
