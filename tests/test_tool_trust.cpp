@@ -126,8 +126,14 @@ TEST(ToolTrust, CheckpointHoldsTheWholeRunAndResumesInTheLibrary) {
 TEST(ToolTrust, CheckpointErrorsNameThePathWithExitCode2) {
     TempDir t;
     writeStream(t);
+    // Probed before the input is read: nothing is written, not even the output directory.
     expectError(runRost(refine(t, "o", "--checkpoint /nonexistent/run.ckpt")),
-                "--checkpoint: /nonexistent/run.ckpt: directory /nonexistent does not exist", t / "o");
+                "--checkpoint: /nonexistent/run.ckpt: cannot write in /nonexistent: No such file or directory", t / "o");
+    EXPECT_FALSE(std::filesystem::exists(t / "o"));
+    std::filesystem::create_directory(t / "taken");
+    expectError(runRost(refine(t, "o/deeper", "--checkpoint " + (t / "taken"))),
+                "--checkpoint: " + (t / "taken") + ": is a directory, not a file that can be written", t / "o");
+    EXPECT_FALSE(std::filesystem::exists(t / "o")) << "the directories a failed run made are removed";
     expectError(runRost(refine(t, "o", "--checkpoint " + (t / "c.ckpt") + " --checkpoint.every 0")),
                 "--checkpoint.every", t / "o");
 }

@@ -214,3 +214,21 @@ TEST(WordStreamCsv, ADeviceAsPositionsOnTwoThreadsGivesTheSerialError) {
 }
 
 } // namespace
+
+// A directory is not a file to read (fopen opens it, and reading it failed
+// with std::length_error), nor a file to write over.
+TEST(TextFiles, ADirectoryIsNamedWhereAFileIsExpected) {
+    const std::string dir = std::filesystem::temp_directory_path() / ("rost-probe-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir + "/taken");
+    std::string text;
+    EXPECT_EQ(rost::readFile(dir, text).message(), dir + ": is a directory, not a file");
+    EXPECT_EQ(rost::probeOutputFile(dir + "/taken").message(), dir + "/taken: is a directory, not a file that can be written");
+    EXPECT_EQ(rost::probeOutputFile("/nonexistent-rost/x.csv").message(),
+              "/nonexistent-rost/x.csv: cannot write in /nonexistent-rost: No such file or directory");
+    // A writable path: probed without a trace, and writeFileAtomic then succeeds there.
+    EXPECT_TRUE(rost::probeOutputFile(dir + "/out.csv").ok());
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator()), 1)
+        << "only 'taken': the probe leaves nothing";
+    EXPECT_TRUE(rost::writeFileAtomic(dir + "/out.csv", "1,2\n").ok());
+    std::filesystem::remove_all(dir);
+}

@@ -49,8 +49,15 @@ Status parseWordStream(std::string_view wordsText, std::string_view positionsTex
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
                       const WordStreamLimits& limits, WordStream& out);
 
-// Reads a whole file; the error names the path and the system's reason.
+// Reads a whole file; the error names the path and the system's reason
+// ("PATH: is a directory, not a file").
 Status readFile(const std::string& path, std::string& out);
+
+// Checks, before any work, that writeFileAtomic(path, ...) can succeed: the
+// path is not a directory, and its directory exists and takes a new file
+// (one is created there and removed). The error names the path and why, so
+// a command refuses an unwritable output at once instead of after its work.
+Status probeOutputFile(const std::string& path);
 
 // Writes `content` to `path` atomically: a temporary file in the same
 // directory, flushed and fsync'ed, then renamed over `path`. A crash leaves

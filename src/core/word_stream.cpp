@@ -244,6 +244,11 @@ Status parseWordStream(std::string_view wordsText, std::string_view positionsTex
 Status readFile(const std::string& path, std::string& out) {
     FILE* f = std::fopen(path.c_str(), "rb");
     if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
+    struct stat st {};
+    if (::fstat(::fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {  // fopen opens a directory; reading it fails oddly
+        std::fclose(f);
+        return Status::error(path + ": is a directory, not a file");
+    }
     out.clear();
     // Read into place: sized once from the file's length when it has one
     // (a pipe grows it), not copied through a buffer and a doubling string.
@@ -418,12 +423,33 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     return parsePositions(text, limits, out, positionsPath, wordsPath);
 }
 
-Status writeFileAtomic(const std::string& path, std::string_view content) {
+namespace {
+// The temporary file beside `path` that writeFileAtomic renames over it ("DIR/.NAME.tmpXXXXXX", made).
+int makeTemporary(const std::string& path, std::string& dir, std::string& tmp) {
     const std::size_t slash = path.find_last_of('/');
-    const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+    dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
     const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
-    std::string tmp = dir + "/." + base + ".tmpXXXXXX";
-    const int fd = ::mkstemp(tmp.data());
+    tmp = dir + "/." + base + ".tmpXXXXXX";
+    return ::mkstemp(tmp.data());
+}
+} // namespace
+
+Status probeOutputFile(const std::string& path) {
+    if (path.empty()) return Status::error("an output path is empty");
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+        return Status::error(path + ": is a directory, not a file that can be written");
+    std::string dir, tmp;
+    const int fd = makeTemporary(path, dir, tmp);
+    if (fd < 0) return Status::error(path + ": cannot write in " + dir + ": " + std::strerror(errno));
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    return {};
+}
+
+Status writeFileAtomic(const std::string& path, std::string_view content) {
+    std::string dir, tmp;
+    const int fd = makeTemporary(path, dir, tmp);
     if (fd < 0) return Status::error(path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
     const char* p = content.data();
     std::size_t left = content.size();

@@ -22,6 +22,9 @@ Status bincount(const BincountOptions& o) {
     Settings s;  // -V through the schema: its range and message
     if (auto p = setSettingText(s, settingSpec("V"), o.V)) return Status::error(p->describe("-V"));
     if (auto p = checkSettings(s)) return Status::error(p->describe(p->spec->key == "V" ? "-V" : p->spec->key));
+    const bool toStdout = o.out.empty() || o.out == "-" || o.out == "/dev/stdout";
+    if (!toStdout)
+        if (Status st = probeOutputFile(o.out); !st.ok()) return st;  // before reading the input
     const auto bins = static_cast<uint32_t>(s.engine.model.V);
     std::string text, name;
     if (Status st = readInput(o.in, text, name); !st.ok()) return st;

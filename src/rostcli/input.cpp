@@ -91,6 +91,20 @@ Status parseCount(const Field& f, std::string_view name, int line, const char* w
     return {};
 }
 
+// A line that is one field holding spaces or tabs: its fields are separated
+// by something other than the delimiter. Refused, naming the file, the line
+// and the flag that sets the delimiter (reading it as one timestamp with no
+// words would give empty documents and nan perplexities).
+Status checkSeparated(const std::vector<Field>& fields, std::string_view line, std::string_view name, int number,
+                      std::string_view delim) {
+    if (fields.size() != 1 || fields[0].text.find_first_of(" \t") == std::string_view::npos) return {};
+    const bool tabs = line.find('\t') != std::string_view::npos;
+    std::string msg(name);
+    msg += ':' + std::to_string(number) + ": no '" + std::string(delim) + "' between the fields, but " +
+           (tabs ? "tabs" : "spaces") + " (--in.words.delim sets the delimiter)";
+    return Status::error(msg);
+}
+
 } // namespace
 
 Status readInput(const std::string& path, std::string& text, std::string& name) {
@@ -115,6 +129,7 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
     std::string_view line;
     while (nextLine(text, pos, number, line)) {
         splitLine(line, delim, fields);
+        if (Status st = checkSeparated(fields, line, name, number, delim); !st.ok()) return st;
         if (fields[0].text.empty()) return Status::error(where(name, number, fields[0].column) + "empty timestamp");
         Document d;
         d.timestamp = std::string(fields[0].text);
@@ -130,6 +145,12 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
         out.longest = std::max(out.longest, d.words.size());
         out.docs.push_back(std::move(d));
     }
+    // Nothing to model is an error, not empty outputs with nan perplexities.
+    if (out.docs.empty()) return Status::error(std::string(name) + ": no documents (the input is empty or blank)");
+    if (!out.any_word)
+        return Status::error(std::string(name) + ": no words in its " + std::to_string(out.docs.size()) +
+                             " documents (each line is timestamp" + std::string(delim) + "word" + std::string(delim) +
+                             "word...)");
     return {};
 }
 
@@ -141,6 +162,7 @@ Status parsePositions(std::string_view text, std::string_view name, std::string_
     const int64_t hi = std::numeric_limits<int32_t>::max();
     while (nextLine(text, pos, number, line)) {
         splitLine(line, delim, fields);
+        if (Status st = checkSeparated(fields, line, name, number, delim); !st.ok()) return st;
         if (index >= corpus.docs.size())
             return Status::error(where(name, number, 1) + "a position line beyond the " +
                                  std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);

@@ -2,6 +2,7 @@
 // from the input, batch or online refinement, and rost-cli's output files.
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <chrono>
 #include <cmath>
@@ -198,19 +199,31 @@ struct FileOut {
     const std::string* text;
 };
 
+// The files a run writes, each with its text, the log last (a null path: not this run's).
+std::array<FileOut, 8> outputFiles(const RunOptions& o, const Outputs& out, const std::string& model) {
+    return {{{&o.out_topics, &out.topics},
+             {&o.out_topics_ml, &out.topics_ml},
+             {&o.ppx_out, &out.ppx},
+             {&o.out_topicmodel, &model},
+             {o.cmd == Command::RefineTxy ? &o.out_position : nullptr, &out.position},
+             {o.online ? &o.out_topics_online : nullptr, &out.topics_online},
+             {o.online ? &o.out_ppx_online : nullptr, &out.ppx_online},
+             {&o.logfile, &out.log}}};
+}
+
+// Every output this run will write, probed before the input is read or a
+// sweep run: an unwritable one fails within a second and writes nothing.
+Status probeOutputs(const RunOptions& o) {
+    const Outputs none;
+    for (const FileOut& f : outputFiles(o, none, none.log))
+        if (f.path != nullptr && !f.path->empty())
+            if (Status st = probeOutputFile(*f.path); !st.ok()) return st;
+    return {};
+}
+
 // Writes each non-empty path (temporary file, then rename); the log last.
 Status writeOutputs(const RunOptions& o, const Outputs& out, const std::string& model) {
-    const FileOut files[] = {
-        {&o.out_topics, &out.topics},
-        {&o.out_topics_ml, &out.topics_ml},
-        {&o.ppx_out, &out.ppx},
-        {&o.out_topicmodel, &model},
-        {o.cmd == Command::RefineTxy ? &o.out_position : nullptr, &out.position},
-        {o.online ? &o.out_topics_online : nullptr, &out.topics_online},
-        {o.online ? &o.out_ppx_online : nullptr, &out.ppx_online},
-        {&o.logfile, &out.log},
-    };
-    for (const FileOut& f : files) {
+    for (const FileOut& f : outputFiles(o, out, model)) {
         if (f.path == nullptr || f.path->empty()) continue;
         if (Status st = writeFileAtomic(*f.path, *f.text); !st.ok()) return st;
     }
@@ -247,6 +260,7 @@ std::string settingsLog(const Settings& s) {
 } // namespace
 
 Status runRefine(const RunOptions& o, Settings& s) {
+    if (Status st = probeOutputs(o); !st.ok()) return st;
     Corpus c;
     if (Status st = readCorpus(o, s, c); !st.ok()) return st;
     if (Status st = fitModel(o, c, s); !st.ok()) return st;

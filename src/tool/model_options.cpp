@@ -8,6 +8,7 @@
 
 #include "rost/config_file.hpp"
 #include "rost/settings.hpp"
+#include "rost/word_stream.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -160,6 +161,14 @@ Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool
     e.flags = toolFlags(realtime);
     if (auto p = checkEngineSettings(e)) return Status::error(settingProblemText(m, *p));
     out = e;
+    return {};
+}
+
+Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag) {
+    if (!m.checkpoint.empty())
+        if (Status st = probeOutputFile(m.checkpoint); !st.ok()) return Status::error("--checkpoint: " + st.message());
+    if (!outBag.empty())
+        if (Status st = probeOutputFile(outBag); !st.ok()) return Status::error("--out.bag: " + st.message());
     return {};
 }
 

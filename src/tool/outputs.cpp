@@ -28,6 +28,11 @@ Status OutputDir::open(const std::string& dir) {
     if (dir.empty()) return Status::error("--out: no output directory given");
     std::error_code ec;
     if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) return Status::error(dir + ": exists and is not a directory");
+    // The directories this creates (outermost first), removed again if the run writes nothing.
+    for (fs::path p = fs::absolute(dir, ec); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+        created_.insert(created_.begin(), p.string());
+        if (p == p.parent_path()) break;
+    }
     fs::create_directories(dir, ec);
     if (ec) return Status::error(dir + ": cannot create the output directory: " + ec.message());
     if (::access(dir.c_str(), W_OK) != 0) return Status::error(dir + ": cannot write: " + std::strerror(errno));
@@ -68,6 +73,8 @@ void OutputDir::abandon() noexcept {
     std::error_code ec;
     fs::remove_all(staging_, ec);
     staging_.clear();
+    // Directories this run made and left empty (fs::remove keeps one that holds anything).
+    for (auto it = created_.rbegin(); it != created_.rend(); ++it) fs::remove(*it, ec);
 }
 
 void appendNumber(std::string& out, double v) {

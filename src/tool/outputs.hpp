@@ -25,7 +25,9 @@ public:
     OutputDir(const OutputDir&) = delete;
     OutputDir& operator=(const OutputDir&) = delete;
 
-    // Creates `dir` if needed and a fresh staging directory inside it.
+    // Creates `dir` if needed and a fresh staging directory inside it. A run
+    // that does not commit leaves nothing: staging and the directories made
+    // here are removed (those that hold anything else are kept).
     Status open(const std::string& dir);
     // Path of a file in the staging directory.
     std::string staged(const std::string& name) const { return staging_ + "/" + name; }
@@ -43,6 +45,7 @@ public:
 private:
     std::string dir_, staging_;
     std::vector<std::string> files_;
+    std::vector<std::string> created_;  // directories open() made, outermost first
     bool committed_ = false;
 };
 

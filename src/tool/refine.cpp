@@ -55,11 +55,13 @@ Status writeRefineSummary(OutputDir& out, const RefineOptions& o, const StreamSt
 
 int refineCommand(const RefineOptions& o) {
     const auto started = std::chrono::steady_clock::now();
+    // Outputs first: an unwritable one fails before the input is read (nothing written).
+    if (Status st = probeMissionOutputs(o.model, {}); !st.ok()) return fail(st.message());
+    OutputDir out;
+    if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
     // word stream -> engine -> sinks
     StreamStage in;
     if (Status st = in.open(o); !st.ok()) return fail(st.message());
-    OutputDir out;
-    if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
     Collector collector(*in.engine, 4);
     collector.setFirstObservation(in.resumed.observations);
     if (Status st = collector.streamTo(out, false); !st.ok()) return fail(st.message());

@@ -25,6 +25,9 @@ Status StreamStage::read(const RefineOptions& o) {
     limits.threads = toolThreads(o.model, false);  // the positions file read beside the words
     if (Status st = readWordStream(o.words, o.positions, limits, ws); !st.ok()) return st;
     if (ws.observations.empty()) return Status::error(o.words + ": no observations (the file has no data lines)");
+    if (std::all_of(ws.observations.begin(), ws.observations.end(), [](const auto& ob) { return ob.words.empty(); }))
+        return Status::error(o.words + ": no words in its " + std::to_string(ws.observations.size()) +
+                             " observations (each line is timestamp,word,word,...)");
     if (!ws.has_positions)  // no positions: every word at (0, 0)
         for (auto& ob : ws.observations) ob.positions.assign(ob.words.size(), Position{});
     return {};

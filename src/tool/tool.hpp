@@ -78,6 +78,11 @@ Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int
 Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool realtime, EngineConfig& out,
                     CheckpointInfo& info, bool& refinementChanged);
 
+// Every output file of a mission besides the output directory (--checkpoint,
+// --out.bag), probed before any work: an unwritable one fails at once and
+// nothing is written. Errors start with the option.
+Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag);
+
 // Loads the --resume checkpoint into `engine` (made with resumeConfig's
 // configuration). Errors start with "--resume: ".
 Status loadResumed(const ModelOptions& m, bool refinementChanged, Engine& engine);

@@ -1,0 +1,292 @@
+"""The hostile-input battery: one table of bad inputs, each sent through
+every face that can take it -- the rost tool (`rost run`, `rost refine`),
+rost-cli's commands (`topics.refine.t`) and Python (`import rost`) -- and
+refused the same way by each: a message naming what and where, exit 2 (an
+exception in Python, a logged skip for a frame in a stream), no crash, no
+partial file, nothing already written lost.
+
+rost_node's cases (two budgets, an unknown parameter, a bad value, an image
+too small as the first frame) need a ROS master: tests/ros/test_node.py runs
+them. The tool's and rost-cli's binaries come from ROST_TOOL and ROST_CLI_DIR
+(ctest sets both); a face whose binary is not built is skipped.
+"""
+
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import rost
+
+TOOL = os.environ.get("ROST_TOOL")
+CLI_DIR = os.environ.get("ROST_CLI_DIR")
+
+
+def cv2_or_skip():
+    return pytest.importorskip("cv2")
+
+
+def run(cmd, cwd):
+    p = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                       timeout=120)
+    return p.returncode, p.stderr.decode(errors="replace")
+
+
+def tool(tmp, *args):
+    if not TOOL:
+        pytest.skip("the rost tool is not built")
+    return run([TOOL] + [str(a) for a in args], tmp)
+
+
+def refine_t(tmp, *args):
+    if not CLI_DIR:
+        pytest.skip("rost-cli's commands are not built")
+    return run([os.path.join(CLI_DIR, "topics.refine.t")] + [str(a) for a in args], tmp)
+
+
+def files_under(path):
+    path = pathlib.Path(path)
+    return sorted(str(p.relative_to(path)) for p in path.rglob("*")) if path.exists() else []
+
+
+def refused(code, err, *needles, out=None):
+    """Exit 2, one line naming what and where, and nothing left in `out`."""
+    assert code == 2, "exit %d: %s" % (code, err)
+    assert all(n in err for n in needles), "%r not all in: %s" % (needles, err)
+    assert len(err.strip().splitlines()) == 1, "one line: " + err
+    assert "terminate called" not in err and "Assertion" not in err
+    if out is not None:
+        assert files_under(out) == [], "left behind: %s" % files_under(out)
+
+
+# ---- frames ----------------------------------------------------------------------------
+
+FIRST_FRAMES = [(1, 1), (300, 1), (1, 300), (2, 2)]  # width x height
+
+
+def image_dir(tmp, first, name="in"):
+    """A first image of `first` (w, h) pixels, then three 96x64 ones."""
+    cv2 = cv2_or_skip()
+    d = tmp / name
+    d.mkdir()
+    rng = np.random.default_rng(1)
+    w, h = first
+    cv2.imwrite(str(d / "a0.png"), rng.integers(0, 255, (h, w, 3), dtype=np.uint8))
+    for i in range(1, 4):
+        cv2.imwrite(str(d / ("a%d.png" % i)), rng.integers(0, 255, (64, 96, 3), dtype=np.uint8))
+    return d
+
+
+@pytest.mark.parametrize("first", FIRST_FRAMES, ids=lambda s: "%dx%d" % s)
+def test_first_frame_too_small_tool_skips_it_naming_it(tmp_path, first):
+    d = image_dir(tmp_path, first)
+    code, err = tool(tmp_path, "run", d, "--out", tmp_path / "o", "-q", "--no-overlay", "--no-summary")
+    assert code == 0, err
+    assert "%s: a %dx%d frame is too small to extract words from" % (d / "a0.png", first[0], first[1]) in err
+    assert "96x64" in (tmp_path / "o/run.txt").read_text(), "the model is sized by the first usable image"
+    assert len((tmp_path / "o/frames.csv").read_text().splitlines()) == 1 + 3
+
+
+@pytest.mark.parametrize("first", FIRST_FRAMES + [(0, 0)], ids=lambda s: "%dx%d" % s)
+def test_first_frame_too_small_python_raises_naming_it(first):
+    w, h = first
+    with pytest.raises(ValueError) as e:
+        rost.vision.WordExtractor()(np.zeros((h, w, 3), np.uint8))
+    assert "%dx%d" % (w, h) in str(e.value) or "empty" in str(e.value)
+
+
+def test_empty_image_file_tool_names_it(tmp_path):
+    d = image_dir(tmp_path, (40, 40))
+    (d / "a0.png").write_bytes(b"")
+    code, err = tool(tmp_path, "run", d, "--out", tmp_path / "o")
+    refused(code, err, str(d / "a0.png"), "cannot decode image", out=tmp_path / "o")
+
+
+def test_only_frames_too_small_tool_exits_2(tmp_path):
+    cv2 = cv2_or_skip()
+    d = tmp_path / "small"
+    d.mkdir()
+    for i in range(3):
+        cv2.imwrite(str(d / ("a%d.png" % i)), np.zeros((2, 2, 3), np.uint8))
+    code, err = tool(tmp_path, "run", d, "--out", tmp_path / "o")
+    refused(code, err, str(d), "no image large enough to extract words from", out=tmp_path / "o")
+
+
+def test_huge_first_frame_is_scaled_with_a_note(tmp_path):
+    cv2 = cv2_or_skip()
+    d = tmp_path / "big"
+    d.mkdir()
+    cv2.imwrite(str(d / "a.png"), np.random.default_rng(2).integers(0, 255, (6000, 8000, 3), dtype=np.uint8))
+    code, err = tool(tmp_path, "run", d, "--out", tmp_path / "o", "-q", "--no-overlay", "--no-summary")
+    assert code == 0, err
+    assert "frames of 8000x6000 are scaled to 1920x1440" in err
+    assert "1920x1440" in (tmp_path / "o/run.txt").read_text()
+
+
+@pytest.mark.parametrize("kind", ["grey16", "bgra", "grey"])
+def test_odd_encodings_are_read(tmp_path, kind):
+    cv2 = cv2_or_skip()
+    d = tmp_path / "in"
+    d.mkdir()
+    rng = np.random.default_rng(3)
+    for i in range(3):
+        if kind == "grey16":
+            img = rng.integers(0, 65535, (64, 96), dtype=np.uint16)
+        elif kind == "bgra":
+            img = rng.integers(0, 255, (64, 96, 4), dtype=np.uint8)
+        else:
+            img = rng.integers(0, 255, (64, 96), dtype=np.uint8)
+        cv2.imwrite(str(d / ("a%d.png" % i)), img)
+    code, err = tool(tmp_path, "run", d, "--out", tmp_path / "o", "-q", "--no-overlay", "--no-summary")
+    assert code == 0, err
+
+
+@pytest.mark.parametrize("frame, error", [
+    (np.zeros((64, 96, 3), np.uint16), TypeError),
+    (np.zeros((64, 96, 3), np.float32), TypeError),
+    (np.zeros((64, 96, 2), np.uint8), ValueError),
+    (np.zeros((64,), np.uint8), ValueError),
+])
+def test_odd_encodings_python_raises(frame, error):
+    with pytest.raises(error) as e:
+        rost.vision.WordExtractor()(frame)
+    assert str(e.value).startswith("frame: ")
+
+
+# ---- word streams ------------------------------------------------------------------------
+
+STREAMS = {
+    "empty": ("", "no observations", "no documents"),
+    "blank lines": ("\n\n\n", "no observations", "no documents"),
+    "spaces": ("0 1 2 3\n1 4 5 6\n", "expected an integer, found '0 1 2 3'", "no ',' between the fields, but spaces"),
+    "tabs": ("0\t1\t2\n", "expected an integer", "no ',' between the fields, but tabs"),
+    "no words": ("0,\n1,\n", "no words in its 2 observations", "no words in its 2 documents"),
+}
+
+
+@pytest.mark.parametrize("case", STREAMS)
+def test_bad_word_stream_tool_refine(tmp_path, case):
+    (tmp_path / "docs.csv").write_text(STREAMS[case][0])
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o")
+    refused(code, err, "docs.csv", STREAMS[case][1], out=tmp_path / "o")
+
+
+@pytest.mark.parametrize("case", STREAMS)
+def test_bad_word_stream_rostcli(tmp_path, case):
+    (tmp_path / "docs.csv").write_text(STREAMS[case][0])
+    code, err = refine_t(tmp_path, "-i", "docs.csv", "-n", "2")
+    refused(code, err, "docs.csv", STREAMS[case][2])
+    if case in ("spaces", "tabs"):
+        assert "docs.csv:1:" in err and "--in.words.delim" in err
+    assert sorted(os.listdir(tmp_path)) == ["docs.csv"], "no output written"
+
+
+def test_a_directory_as_input_is_named(tmp_path):
+    (tmp_path / "d").mkdir()
+    code, err = tool(tmp_path, "refine", tmp_path / "d", "--out", tmp_path / "o")
+    refused(code, err, str(tmp_path / "d") + ": is a directory, not a file", out=tmp_path / "o")
+    code, err = refine_t(tmp_path, "-i", "d")
+    refused(code, err, "d: is a directory, not a file")
+
+
+# ---- outputs -----------------------------------------------------------------------------
+
+def planted(tmp_path, n=60):
+    rng = np.random.default_rng(4)
+    lines = ["%d,%s" % (i, ",".join(str(w) for w in rng.integers((i // 20) * 10, (i // 20) * 10 + 10, 30)))
+             for i in range(n)]
+    (tmp_path / "docs.csv").write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("flag", ["--out.topics", "--out.topicmodel", "--logfile", "--ppx.out"])
+def test_unwritable_output_rostcli_fails_before_the_sweeps(tmp_path, flag):
+    planted(tmp_path)
+    (tmp_path / "taken").mkdir()
+    for target, why in (("/proc/x/t.csv", "cannot write in /proc/x"),
+                        ("taken", "taken: is a directory, not a file that can be written")):
+        code, err = refine_t(tmp_path, "-i", "docs.csv", "-n", "1000000", "%s=%s" % (flag, target))
+        refused(code, err, why)  # 10^6 sweeps would take minutes: the probe comes first
+        assert sorted(os.listdir(tmp_path)) == ["docs.csv", "taken"], "nothing written"
+
+
+def test_unwritable_output_tool_fails_before_the_work(tmp_path):
+    planted(tmp_path)
+    (tmp_path / "taken").mkdir()
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--checkpoint", "taken",
+                     "--final.sweeps", "1000000")
+    refused(code, err, "--checkpoint: taken: is a directory", out=tmp_path / "o")
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", "/proc/x/o")
+    refused(code, err, "/proc/x/o")
+    (tmp_path / "afile").write_text("kept")
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", "afile")
+    refused(code, err, "afile: exists and is not a directory")
+    assert (tmp_path / "afile").read_text() == "kept", "nothing already written is lost"
+
+
+def test_unwritable_output_python_raises(tmp_path):
+    m = rost.Model(rost.Config(V=10, frame_width=64, frame_height=64))
+    m.add_observation(0, np.arange(10, dtype=np.int32), np.zeros((10, 2), np.int32))
+    with pytest.raises(RuntimeError) as e:
+        m.save(str(tmp_path / "no/such/dir/m.ckpt"))
+    assert str(tmp_path / "no/such/dir/m.ckpt") + ": cannot create a temporary file" in str(e.value)
+
+
+# ---- settings ----------------------------------------------------------------------------
+
+def test_two_budgets_are_refused_by_every_face(tmp_path):
+    planted(tmp_path)
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--budget.refines", "3",
+                     "--budget.ms", "10")
+    refused(code, err, "--budget.refines", "--budget.ms", out=tmp_path / "o")
+    with pytest.raises(ValueError, match="budget_refines.*budget_ms|budget_ms.*budget_refines"):
+        rost.Config(budget_refines=4, budget_ms=5.0)
+
+
+def test_unknown_setting_is_an_error_on_the_command_line_and_in_python(tmp_path):
+    planted(tmp_path)
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--etta", "0.5")
+    refused(code, err, "--etta", out=tmp_path / "o")
+    code, err = refine_t(tmp_path, "-i", "docs.csv", "--etta", "0.5")
+    refused(code, err, "--etta")
+    with pytest.raises(ValueError, match=r"unknown setting 'etta' \(did you mean 'eta'\?\)"):
+        rost.Config(etta=0.5)
+
+
+@pytest.mark.parametrize("value", ["2", "-0.5"])
+def test_a_value_out_of_range_is_named_in_each_faces_spelling(tmp_path, value):
+    code, err = tool(tmp_path, "config", "--eta", value)
+    refused(code, err, "--eta = %s, allowed [0, 1]" % value)
+    with pytest.raises(ValueError) as e:
+        rost.Config(eta=float(value))
+    assert "eta = %s, allowed [0, 1]" % value in str(e.value) and "strategy" not in str(e.value)
+
+
+# ---- checkpoints -------------------------------------------------------------------------
+
+@pytest.fixture
+def checkpoint(tmp_path):
+    planted(tmp_path)
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "first", "-K", "4", "--checkpoint", "m.ckpt",
+                     "-q")
+    assert code == 0, err
+    return tmp_path / "m.ckpt"
+
+
+def test_a_checkpoint_of_another_K_or_V(tmp_path, checkpoint):
+    for option, value in (("-K", "8"), ("-V", "99")):
+        code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--resume", checkpoint, option, value)
+        refused(code, err, option, "differs from %s" % checkpoint, out=tmp_path / "o")
+
+
+def test_a_truncated_checkpoint_is_named(tmp_path, checkpoint):
+    data = checkpoint.read_bytes()
+    short = tmp_path / "short.ckpt"
+    short.write_bytes(data[:len(data) // 2])
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--resume", short)
+    refused(code, err, "--resume", str(short), out=tmp_path / "o")
+    with pytest.raises(ValueError) as e:
+        rost.Model.load(str(short))
+    assert str(short) in str(e.value)
+    assert checkpoint.read_bytes() == data, "the checkpoint the run started from is untouched"
