@@ -39,7 +39,8 @@ Node::Node(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(std::move(nh)), pnh_(s
 Node::~Node() { shutdown(); }
 
 // The node's own private parameters, beside one per setting of the schema.
-const char* const kNodeParams[] = {"compressed", "checkpoint", "resume", "vocabulary"};
+const char* const kNodeParams[] = {"compressed", "checkpoint", "resume", "vocabulary", "image_queue"};
+constexpr std::size_t kHeaderSlots = 4096;  // headers of images in flight, by number (more than any queue holds)
 
 // Every setting of the schema as a private parameter (dots as underscores).
 // Errors name the parameter as the node spells it (~eta) and stop the node
@@ -77,6 +78,11 @@ bool Node::readSettings() {
     pnh_.param("checkpoint", options_.checkpoint, std::string());
     pnh_.param("resume", options_.resume, std::string());
     pnh_.param("vocabulary", options_.vocabulary, std::string());
+    pnh_.param("image_queue", image_queue_, 4);
+    if (image_queue_ < 1 || image_queue_ > 1024) {
+        ROS_FATAL("rost: ~image_queue = %d, allowed [1, 1024]", image_queue_);
+        return false;
+    }
     return true;
 }
 
@@ -113,9 +119,9 @@ void Node::advertise() {
     pause_srv_ = pnh_.advertiseService("pause", &Node::onPause, this);
     get_srv_ = pnh_.advertiseService("get_topic_model", &Node::onGetModel, this);
     set_srv_ = pnh_.advertiseService("set_topic_model", &Node::onSetModel, this);
-    // Images waiting for the callback: as many as the engine's queue holds
-    // (the oldest go first when it is full, as with drop = oldest).
-    const uint32_t queue = static_cast<uint32_t>(std::stoul(settings_.value("queue.slots")));
+    // The callback only converts and queues an image (the words thread makes
+    // its words), so ROS's own queue rarely fills; ~image_queue bounds the rest.
+    const uint32_t queue = 64;
     if (compressed_)
         image_sub_ = nh_.subscribe("image", queue, &Node::onCompressed, this);
     else
@@ -131,6 +137,8 @@ bool Node::init() {
         return false;
     }
     if (pipeline_->sizeGiven() && !ensureEngine(0, 0)) return false;
+    headers_.resize(kHeaderSlots);
+    words_ = std::thread([this] { wordsMain(); });
     advertise();
     ROS_INFO("rost: listening on %s (%s); K = %s, cell.space = %s", image_sub_.getTopic().c_str(),
              compressed_ ? "sensor_msgs/CompressedImage" : "sensor_msgs/Image", settings_.value("K").c_str(),
@@ -140,43 +148,89 @@ bool Node::init() {
 
 void Node::shutdown() {
     image_sub_.shutdown();
-    if (pipeline_ && pipeline_->opened()) pipeline_->stop();  // the queued frames' results are still published
+    if (words_.joinable()) {  // the queued images are made words of first
+        {
+            std::lock_guard<std::mutex> lock(queue_mutex_);
+            stopping_ = true;
+        }
+        queue_cv_.notify_all();
+        words_.join();
+    }
+    if (pipeline_ && ready_.load(std::memory_order_acquire)) pipeline_->stop();  // the queued frames' results are still published
     if (publisher_.joinable()) {
         publishing_.store(false, std::memory_order_release);
         publisher_.join();
     }
-    if (pipeline_ && pipeline_->opened() && !options_.checkpoint.empty()) {
+    if (pipeline_ && ready_.load(std::memory_order_acquire) && !options_.checkpoint.empty()) {
         if (const std::string err = pipeline_->saveCheckpoint(); !err.empty())
             ROS_ERROR("rost: final checkpoint: %s", err.c_str());
     }
     pipeline_.reset();
 }
 
+// Each kind of bad image is logged, at most every 5 s per kind, and counted
+// as received and not modelled.
 void Node::badImage(const std::string& why, const std_msgs::Header& header) {
-    if (warned_bad_image_) return;  // once per topic
-    warned_bad_image_ = true;
-    ROS_ERROR("rost: topic %s, message seq %u (stamp %u.%09u): %s; skipping such messages", image_sub_.getTopic().c_str(),
-              header.seq, header.stamp.sec, header.stamp.nsec, why.c_str());
+    ++received_;
+    not_modelled_.fetch_add(1, std::memory_order_relaxed);
+    const ros::WallTime now = ros::WallTime::now();
+    auto it = bad_logged_.find(why);
+    if (it != bad_logged_.end() && (now - it->second).toSec() < 5.0) return;
+    bad_logged_[why] = now;
+    ROS_ERROR("rost: topic %s, message seq %u (stamp %u.%09u, frame_id '%s'): %s; skipping it",
+              image_sub_.getTopic().c_str(), header.seq, header.stamp.sec, header.stamp.nsec, header.frame_id.c_str(),
+              why.c_str());
 }
 
 void Node::onImage(const sensor_msgs::ImageConstPtr& msg) {
     cv::Mat bgr;
     std::string why;
     if (!rost::bridge::toBgr(*msg, bgr, why)) return badImage(why, msg->header);
-    handle(bgr, msg->header);
+    receive(bgr, msg->header);
 }
 
 void Node::onCompressed(const sensor_msgs::CompressedImageConstPtr& msg) {
     cv::Mat bgr;
     std::string why;
     if (!rost::bridge::toBgr(*msg, bgr, why)) return badImage(why, msg->header);
-    handle(bgr, msg->header);
+    receive(bgr, msg->header);
+}
+
+// The callback's part: the image numbered in the order received, then queued
+// for the words thread; a full queue drops its oldest image, so the newest
+// is always modelled.
+void Node::receive(const cv::Mat& bgr, const std_msgs::Header& header) {
+    // rost::vision's frame size rule: an image too small to extract words
+    // from is skipped and never sizes the model.
+    if (const std::string why = rost::vision::frameTooSmall(bgr.cols, bgr.rows); !why.empty())
+        return badImage(why, header);
+    if (paused_.load(std::memory_order_acquire)) {
+        ++received_;
+        not_modelled_.fetch_add(1, std::memory_order_relaxed);
+        return;
+    }
+    Received r{received_++, bgr.clone(), header};  // our own copy: the message's buffer goes with it
+    bool dropped = false;
+    {
+        std::lock_guard<std::mutex> lock(queue_mutex_);
+        if (queue_.size() >= static_cast<std::size_t>(image_queue_)) {
+            queue_.pop_front();
+            dropped = true;
+        }
+        queue_.push_back(std::move(r));
+    }
+    queue_cv_.notify_one();
+    if (dropped) {
+        const uint64_t n = not_modelled_.fetch_add(1, std::memory_order_relaxed) + 1;
+        ROS_WARN_THROTTLE(5.0, "rost: the image queue (~image_queue = %d) was full: its oldest image dropped; "
+                               "%llu images not modelled so far", image_queue_, static_cast<unsigned long long>(n));
+    }
 }
 
 // The first image fixes the frame size (unless ~frame_width and ~frame_height).
 bool Node::ensureEngine(int width, int height) {
-    if (pipeline_->opened()) return true;
-    if (failed_) return false;
+    if (ready_.load(std::memory_order_acquire)) return true;
+    if (failed_.load(std::memory_order_acquire)) return false;
     const rost::vision::FrameSize model = rost::vision::modelFrameSize(width, height);
     if (!pipeline_->sizeGiven() && (model.width != width || model.height != height))
         ROS_WARN("rost: images of %dx%d are modelled at %dx%d (at most %d pixels on the longer side unless "
@@ -190,59 +244,40 @@ bool Node::ensureEngine(int width, int height) {
                  options_.resume.empty() ? "" : ", resumed from ", options_.resume.c_str());
         publishing_.store(true, std::memory_order_release);
         publisher_ = std::thread([this] { publisherMain(); });
+        ready_.store(true, std::memory_order_release);
         return true;
     }
-    failed_ = true;
+    failed_.store(true, std::memory_order_release);
     ROS_FATAL("rost: %s", err.c_str());
     ros::shutdown();
     return false;
 }
 
-void Node::handle(const cv::Mat& bgr, const std_msgs::Header& header) {
-    // rost::vision's frame size rule: an image too small to extract words
-    // from is skipped (logged, at most every 5 s) and never sizes the model.
-    if (const std::string why = rost::vision::frameTooSmall(bgr.cols, bgr.rows); !why.empty()) {
-        ROS_WARN_THROTTLE(5.0, "rost: topic %s, message seq %u (stamp %u.%09u, frame_id '%s'): %s; skipping it",
-                          image_sub_.getTopic().c_str(), header.seq, header.stamp.sec, header.stamp.nsec,
-                          header.frame_id.c_str(), why.c_str());
-        return;
-    }
-    if (paused_.load(std::memory_order_acquire) || !ensureEngine(bgr.cols, bgr.rows)) return;
-    rememberStamp(header);
-    const int64_t stamp = static_cast<int64_t>(header.stamp.toNSec());
-    if (!pipeline_->push(bgr, stamp))
-        ROS_WARN_THROTTLE(5.0, "rost: frames dropped (the refiner is behind, or images without words): %llu so far",
-                          static_cast<unsigned long long>(pipeline_->dropped()));
-}
-
-void Node::rememberStamp(const std_msgs::Header& header) {
-    StampSlot& s = stamps_[stamp_next_++ % kStampSlots];
-    s.stamp_ns.store(-1, std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_release);
-    char buf[kFrameIdWords * 8] = {};
-    std::strncpy(buf, header.frame_id.c_str(), sizeof buf - 1);
-    for (std::size_t i = 0; i < kFrameIdWords; ++i) {
-        uint64_t w;
-        std::memcpy(&w, buf + 8 * i, 8);
-        s.frame_id[i].store(w, std::memory_order_relaxed);
-    }
-    s.stamp_ns.store(static_cast<int64_t>(header.stamp.toNSec()), std::memory_order_release);
-}
-
-std::string Node::frameIdOf(int64_t stamp_ns) const {
-    for (const StampSlot& s : stamps_) {
-        if (s.stamp_ns.load(std::memory_order_acquire) != stamp_ns) continue;
-        char buf[kFrameIdWords * 8];
-        for (std::size_t i = 0; i < kFrameIdWords; ++i) {
-            const uint64_t w = s.frame_id[i].load(std::memory_order_relaxed);
-            std::memcpy(buf + 8 * i, &w, 8);
+// The words thread: each queued image's words to the engine, its header kept
+// for the publisher under its number (the observation's time stamp).
+void Node::wordsMain() {
+    for (;;) {
+        Received r;
+        {
+            std::unique_lock<std::mutex> lock(queue_mutex_);
+            queue_cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+            if (queue_.empty()) return;  // stopping, and drained
+            r = std::move(queue_.front());
+            queue_.pop_front();
         }
-        std::atomic_thread_fence(std::memory_order_acquire);
-        if (s.stamp_ns.load(std::memory_order_relaxed) != stamp_ns) continue;  // rewritten meanwhile
-        buf[sizeof buf - 1] = '\0';
-        return buf;
+        if (!ensureEngine(r.bgr.cols, r.bgr.rows)) {
+            not_modelled_.fetch_add(1, std::memory_order_relaxed);
+            continue;
+        }
+        {
+            std::lock_guard<std::mutex> lock(headers_mutex_);
+            headers_[r.index % kHeaderSlots] = {r.index, r.header};
+        }
+        std::lock_guard<std::mutex> lock(pipeline_mutex_);  // the services stop and restart the engine
+        if (!pipeline_->push(r.bgr, static_cast<int64_t>(r.index)))
+            ROS_WARN_THROTTLE(5.0, "rost: frames dropped (the refiner is behind, or images without words): %llu so far",
+                              static_cast<unsigned long long>(pipeline_->dropped()));
     }
-    return {};
 }
 
 void Node::publisherMain() {
@@ -260,12 +295,21 @@ void Node::publisherMain() {
 }
 
 void Node::publish(const rost::bridge::FrameResult& r) {
+    // The observation's time stamp is the image's number in the order received.
+    const auto index = static_cast<uint64_t>(r.timestamp);
     std_msgs::Header header;
-    header.stamp.fromNSec(static_cast<uint64_t>(r.timestamp));
-    header.frame_id = frameIdOf(r.timestamp);
+    {
+        std::lock_guard<std::mutex> lock(headers_mutex_);
+        const auto& slot = headers_[index % kHeaderSlots];
+        if (slot.first == index) header = slot.second;
+    }
+    ++published_;
     rost_msgs::FrameTopics frame;
     rost::bridge::fillFrameTopics(r, frame);
     frame.header = header;
+    frame.frame = index;
+    // Images received up to this one that no message carries (dropped, bad, too small, paused).
+    frame.dropped = static_cast<uint32_t>(index + 1 > published_ ? index + 1 - published_ : 0);
     frame_pub_.publish(frame);
     if (topic_map_pub_.getNumSubscribers() > 0) {
         sensor_msgs::Image map;
@@ -287,7 +331,8 @@ void Node::publish(const rost::bridge::FrameResult& r) {
 }
 
 bool Node::onSave(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-    if (!pipeline_->opened()) {
+    std::lock_guard<std::mutex> lock(pipeline_mutex_);
+    if (!ready_.load(std::memory_order_acquire)) {
         res.success = false;
         res.message = "no image yet: nothing to save";
         return true;
@@ -306,7 +351,8 @@ bool Node::onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response&
 }
 
 bool Node::onGetModel(rost_msgs::GetTopicModel::Request&, rost_msgs::GetTopicModel::Response& res) {
-    if (!pipeline_->opened()) return false;  // no model before the first image
+    std::lock_guard<std::mutex> lock(pipeline_mutex_);
+    if (!ready_.load(std::memory_order_acquire)) return false;  // no model before the first image
     std::vector<int32_t> counts;
     if (const std::string err = pipeline_->getTopicModel(counts); !err.empty()) {
         ROS_ERROR("rost: get_topic_model: %s", err.c_str());
@@ -319,7 +365,8 @@ bool Node::onGetModel(rost_msgs::GetTopicModel::Request&, rost_msgs::GetTopicMod
 }
 
 bool Node::onSetModel(rost_msgs::SetTopicModel::Request& req, rost_msgs::SetTopicModel::Response& res) {
-    if (!pipeline_->opened()) {
+    std::lock_guard<std::mutex> lock(pipeline_mutex_);
+    if (!ready_.load(std::memory_order_acquire)) {
         res.success = false;
         res.message = "no image yet: the model is made on the first image";
         return true;

@@ -3,20 +3,29 @@
 // rost_node (C++17: ROS headers): a camera topic in; per-frame topics,
 // perplexity and surprise out, stamped like the images. docs/ros.md.
 //
-//   image callback (ros::spin's thread): image -> BGR -> words -> Engine::tryPush
-//                                        (never blocks; a full queue drops)
+//   image callback (ros::spin's thread): image -> BGR, numbered in the order
+//                                        received, into the image queue (~image_queue
+//                                        images; a full queue drops its oldest, counted)
+//   words thread:                        image -> words -> Engine::tryPush
 //   refiner thread (the engine's):       refine within the budget, publish results
 //   publisher thread:                    results -> ~frame, ~topic_map, ~surprise_map,
 //                                        ~perplexity, ~surprise
-// Services run on ros::spin's thread, between images.
+// The engine's time stamp of an observation is its number in the order
+// received: the publisher finds the image's header (stamp, whole frame_id)
+// by it. Services run on ros::spin's thread, between images.
 
-#include <array>
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <deque>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include <opencv2/core.hpp>
 #include <ros/ros.h>
 #include <rost_msgs/GetTopicModel.h>
 #include <rost_msgs/SetTopicModel.h>
@@ -43,7 +52,7 @@ public:
     // After ros::spin: stops the threads, saves the final checkpoint.
     void shutdown();
     // The pipeline could not be made (a fatal error was logged).
-    bool failed() const noexcept { return failed_; }
+    bool failed() const noexcept { return failed_.load(std::memory_order_acquire); }
 
 private:
     bool readSettings();
@@ -51,13 +60,12 @@ private:
     void advertise();
     void onImage(const sensor_msgs::ImageConstPtr& msg);
     void onCompressed(const sensor_msgs::CompressedImageConstPtr& msg);
-    void handle(const cv::Mat& bgr, const std_msgs::Header& header);
+    void receive(const cv::Mat& bgr, const std_msgs::Header& header);
     bool ensureEngine(int width, int height);
     void badImage(const std::string& why, const std_msgs::Header& header);
+    void wordsMain();
     void publisherMain();
     void publish(const rost::bridge::FrameResult& r);
-    void rememberStamp(const std_msgs::Header& header);
-    std::string frameIdOf(int64_t stamp_ns) const;
 
     bool onSave(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
     bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
@@ -68,24 +76,35 @@ private:
     rost::bridge::NodeSettings settings_;
     rost::bridge::Pipeline::Options options_;
     bool compressed_ = false;
-    std::unique_ptr<rost::bridge::Pipeline> pipeline_;  // made by init(); its engine on the first image
-    bool failed_ = false;                               // the engine could not be made
-    bool warned_bad_image_ = false;
+    int image_queue_ = 4;                               // ~image_queue: images waiting for the words thread
+    std::unique_ptr<rost::bridge::Pipeline> pipeline_;  // made on the words thread's first image
+    std::atomic<bool> failed_{false};                   // the engine could not be made
+    std::atomic<bool> ready_{false};                    // the engine is made and started
+    std::mutex pipeline_mutex_;                         // the words thread's push against the services
+    std::map<std::string, ros::WallTime> bad_logged_;   // kind of bad image -> when last logged (callback thread)
     std::atomic<bool> paused_{false};
     std::atomic<bool> publishing_{false};
-    std::thread publisher_;
+    std::thread words_, publisher_;
 
-    // Stamp -> frame_id of recent images, for the publisher thread: a ring
-    // written by the image callback (no lock, no allocation).
-    static constexpr std::size_t kStampSlots = 256;
-    static constexpr std::size_t kFrameIdWords = 8;  // frame ids up to 63 characters
-    struct StampSlot {
-        std::atomic<int64_t> stamp_ns{-1};
-        std::array<std::atomic<uint64_t>, kFrameIdWords> frame_id{};
+    // Images received and not yet made words of (callback -> words thread).
+    struct Received {
+        uint64_t index = 0;  // in the order received, from 0
+        cv::Mat bgr;
+        std_msgs::Header header;
     };
-    std::array<StampSlot, kStampSlots> stamps_;
-    std::size_t stamp_next_ = 0;
+    std::mutex queue_mutex_;
+    std::condition_variable queue_cv_;
+    std::deque<Received> queue_;
+    bool stopping_ = false;
+    uint64_t received_ = 0;                  // images received (callback thread)
+    std::atomic<uint64_t> not_modelled_{0};  // dropped by a queue, bad or too small, or while paused
 
+    // The header of each image handed to the engine, by its number (words
+    // thread -> publisher). As many as can be in flight: the engine's queue
+    // and results, and the image queue.
+    std::mutex headers_mutex_;
+    std::vector<std::pair<uint64_t, std_msgs::Header>> headers_;
+    uint64_t published_ = 0;  // publisher thread
     ros::Subscriber image_sub_;
     ros::Publisher frame_pub_, topic_map_pub_, surprise_map_pub_, perplexity_pub_, surprise_pub_;
     ros::ServiceServer save_srv_, pause_srv_, get_srv_, set_srv_;

@@ -174,6 +174,11 @@ def run():
     log = open(os.path.join(work, "rost_node.log")).read()
     check(log.count("bayer_rggb8") == 1 and "/camera/image_raw" in log,
           "an image rost cannot read is logged once for its topic, and the next ones are read")
+    total = len(stamps) + 3  # with the 1x1 image and the two bayer ones
+    check([m.frame for m in got] == sorted(set(m.frame for m in got)) and got[-1].frame == total - 1 and
+          len(got) + got[-1].dropped == total,
+          "~frame numbers images in the order received (the last is %d); messages + dropped = %d images received" %
+          (got[-1].frame, total))
     check("a 1x1 frame is too small to extract words from" in log,
           "an image too small is logged and skipped; the model is sized by the next (%dx%d cells)" % (m0.cells_x, m0.cells_y))
 
@@ -189,6 +194,41 @@ def run():
     out = clash.stdout.decode(errors="replace")
     check(clash.returncode == 2 and "~K = 8" in out and "K = 16" in out,
           "~resume with another ~K: exit %d, %s" % (clash.returncode, out.strip().splitlines()[-1] if out else ""))
+
+    # A bag played 100x faster than it was recorded (1 ms apart: faster than
+    # words are made), into a queue of two images:
+    # images are dropped, counted, and the newest is always modelled; each
+    # message has its own image's frame_id, whole, even where stamps repeat.
+    import rosbag
+    from sensor_msgs.msg import Image
+    fast, ids, fast_stamps = os.path.join(work, "fast.bag"), [], []
+    with rosbag.Bag(bag) as src, rosbag.Bag(fast, "w") as dst:
+        images = [m for _, m, _ in src.read_messages(topics=["/camera/image_raw"]) if m.encoding == "bgr8" and m.width > 1]
+        for i in range(60):
+            m = images[i % len(images)]
+            m.header.stamp = rospy.Time(STAMP0 + i // 2, 0)  # two images a stamp
+            m.header.frame_id = "vehicle_%02d_" % i + "camera_optical_frame/" * 5
+            ids.append(m.header.frame_id)
+            fast_stamps.append(m.header.stamp.to_nsec())
+            dst.write("/fast/image", m, rospy.Time(STAMP0, i * 100000000))  # recorded at 10 Hz
+    fast_got = []
+    rospy.Subscriber("/rost_fast/frame", FrameTopics, lambda m: fast_got.append(m), queue_size=1000)
+    fast_node = start([os.path.join(build, "rost_node"), "__name:=rost_fast", "image:=/fast/image", "_image_queue:=2",
+                       "_queue_slots:=1", "_budget_refines:=200"], "rost_fast.log")
+    start(["rosbag", "play", "--wait-for-subscribers", "-q", "-r", "100", fast], "rosbag_fast.log").wait(timeout=60)
+    quiet_since, seen = time.time(), -1
+    while time.time() < quiet_since + 5 and (not fast_got or fast_got[-1].frame != 59):
+        if len(fast_got) != seen:
+            quiet_since, seen = time.time(), len(fast_got)
+        time.sleep(0.1)
+    stop(fast_node)
+    last = fast_got[-1] if fast_got else None
+    check(last is not None and last.frame == 59 and len(fast_got) + last.dropped == 60 and last.dropped > 0,
+          "played 100x: %d messages, the last frame %s, dropped %s: the newest is modelled, every image counted" %
+          (len(fast_got), last.frame if last else "-", last.dropped if last else "-"))
+    check(all(m.header.frame_id == ids[m.frame] and m.header.stamp.to_nsec() == fast_stamps[m.frame]
+              for m in fast_got),
+          "each message has its image's frame_id (%d characters, whole) and stamp, where two share a stamp" % len(ids[0]))
 
     listed = subprocess.run([os.path.join(build, "rost_node"), "--params"], stdout=subprocess.PIPE,
                             check=True).stdout.decode()
