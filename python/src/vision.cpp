@@ -168,8 +168,10 @@ void bindVision(py::module_& m) {
     py::class_<PyVocabulary>(m, "Vocabulary", "ORB visual words (the .rostvoc format).")
         .def_static("load", [](const py::object& path) { return loadVocabulary(py::str(path)); }, py::arg("path"))
         .def_static("default", &defaultVocabulary, "The vocabulary shipped with rost.")
-        .def_static("train", &train, py::arg("frames"), py::arg("words") = 5000, py::arg("features") = 500,
-                    py::arg("iterations") = 25, py::arg("seed") = 1, py::arg("threads") = 2,
+        .def_static("train", &train, py::arg("frames"), py::arg("words") = vision::KMajorityOptions{}.words,
+                    py::arg("features") = vision::kTrainingFeatures,
+                    py::arg("iterations") = vision::KMajorityOptions{}.max_iterations,
+                    py::arg("seed") = vision::KMajorityOptions{}.seed, py::arg("threads") = vision::KMajorityOptions{}.threads,
                     "Trains a vocabulary (k-majority) on the ORB descriptors of frames (numpy BGR or grey).")
         .def("save", [](const PyVocabulary& v, const py::object& path) { check(v.vocabulary->save(py::str(path))); },
              py::arg("path"))

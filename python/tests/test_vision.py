@@ -110,3 +110,10 @@ def test_frames_too_small_raise_naming_the_size(shape):
                             % (w, h))
     words, positions = extractor(np.full((16, 16, 3), 128, np.uint8))
     assert len(words) > 0 and positions.shape == (len(words), 2)
+
+
+def test_vocabulary_training_defaults_are_the_tools():
+    # One set of defaults (the library's KMajorityOptions, which `rost vocab` uses): 40 iterations.
+    doc = rost.vision.Vocabulary.train.__doc__
+    for default in ("words: int = 5000", "features: int = 500", "iterations: int = 40", "seed: int = 1"):
+        assert default in doc, doc

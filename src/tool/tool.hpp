@@ -16,6 +16,7 @@
 #include "rost/engine.hpp"
 #include "rost/settings.hpp"
 #include "rost/vision/frame_source.hpp"
+#include "rost/vision/vocabulary.hpp"
 #include "rost/vision/words.hpp"
 
 namespace CLI {
@@ -133,14 +134,14 @@ struct RefineOptions {
 struct VocabOptions {
     std::vector<std::string> inputs;
     std::string out;
-    uint32_t words = 5000;
-    int features = 500;   // ORB keypoints per frame used for training
+    uint32_t words = vision::KMajorityOptions{}.words;  // training's defaults are the library's
+    int features = vision::kTrainingFeatures;           // ORB keypoints per frame used for training
     int every = 1;        // use every N-th frame
     int64_t max_frames = 0;
     int64_t max_descriptors = 400000;
-    int iterations = 40;
-    uint64_t seed = 1;
-    int threads = 2;
+    int iterations = vision::KMajorityOptions{}.max_iterations;
+    uint64_t seed = vision::KMajorityOptions{}.seed;
+    int threads = vision::KMajorityOptions{}.threads;
     int width = 0;
     bool quiet = false;
     std::string command_line;

@@ -137,9 +137,13 @@ uint32_t crc32(std::span<const uint8_t> bytes, uint32_t crc = 0) noexcept;
 
 // ---- training ---------------------------------------------------------------
 
+// Training's defaults, the same in every face (`rost vocab`, Python's
+// Vocabulary.train): those the shipped vocabulary was made with.
+inline constexpr int kTrainingFeatures = 500;  // ORB keypoints per frame collected for training
+
 struct KMajorityOptions {
     uint32_t words = 5000;      // vocabulary size
-    int max_iterations = 25;    // stop earlier when no assignment changes
+    int max_iterations = 40;    // stop earlier when no assignment changes
     uint64_t seed = 1;          // initial centres and re-seeding of empty clusters
     int threads = 2;            // assignment step in parallel; the result does not depend on it
 };
