@@ -10,6 +10,7 @@
 
 #include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
+#include "rost/mission.hpp"
 #include "rost/settings.hpp"
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/words.hpp"
@@ -89,9 +90,11 @@ struct Pipeline::Impl {
     cv::Mat resized;
     PublishedResult record;
 
+    MissionPlan plan;
+
     std::string makeExtractor();
+    MissionOptions missionOptions() const;
     std::string makeEngine(const NodeSettings& given, int width, int height);
-    std::string resumeInto(const NodeSettings& given, EngineConfig& ec);
 };
 
 std::string Pipeline::Impl::makeExtractor() {
@@ -111,36 +114,36 @@ std::string Pipeline::Impl::makeExtractor() {
     return extractor ? std::string() : st.message();
 }
 
-// ~resume: the checkpoint fixes the model; a model parameter given with
-// another value is an error naming it. Refinement and runtime settings are
-// the node's.
-std::string Pipeline::Impl::resumeInto(const NodeSettings& given, EngineConfig& out) {
-    CheckpointInfo info;
-    if (Status st = readCheckpointInfo(options.resume, info); !st.ok()) return "~resume: " + st.message();
-    Settings fromFile = settings;
-    fromFile.engine.model = info.config.model;
-    for (const SettingSpec& s : settingSpecs()) {
-        if (s.group != SettingGroup::Model || !given.given(std::string(s.key))) continue;
-        const std::string mine = settingValue(settings, s.key), theirs = settingValue(fromFile, s.key);
-        if (mine != theirs) {
-            std::string e = "~";
-            e += paramName(s);
-            e += " = " + mine + " but ~resume " + options.resume + " has " + std::string(s.key) + " = " + theirs;
-            return e;
-        }
-    }
-    out.model = info.config.model;
-    return {};
+// The library's mission session (rost/mission.hpp) decides, as for the rost
+// tool: ~resume's checkpoint fixes the model (checked at start-up, in
+// create()), its refinement settings stay unless given, the runtime ones
+// are the node's. The first image fixes the frame size of a new model unless
+// ~frame_width and ~frame_height are given; a resumed model keeps the
+// checkpoint's (images are resized to it).
+MissionOptions Pipeline::Impl::missionOptions() const {
+    MissionOptions m;
+    m.settings = settings;
+    m.given = givenSettings.impl().given;
+    m.resume = options.resume;
+    m.names.setting = spelled;
+    m.names.given = [](const SettingSpec& s, const std::string& v) { return spelled(s) + " = " + v; };
+    m.names.leave = spelled;
+    m.names.resume = "~resume";
+    return m;
 }
 
 std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int height) {
-    ec = settings.engine;
+    const MissionOptions mission = missionOptions();
+    MissionInput in;
+    in.width = given.given("frame.width") ? 0 : width;
+    in.height = given.given("frame.height") ? 0 : height;
+    if (!options.resume.empty()) in.width = in.height = 0;  // the checkpoint's
+    in.V = static_cast<int>(extractor->vocabularySize());
+    in.threads = settings.engine.model.threads;
+    in.flags = settings.engine.flags;
+    if (Status st = planMission(mission, in, plan); !st.ok()) return st.message();
+    ec = plan.config;
     const int wordsV = static_cast<int>(extractor->vocabularySize());
-    if (!given.given("V")) ec.model.V = wordsV;
-    if (!given.given("frame.width")) ec.model.frame_width = width;
-    if (!given.given("frame.height")) ec.model.frame_height = height;
-    if (!options.resume.empty())
-        if (std::string e = resumeInto(given, ec); !e.empty()) return e;
     if (ec.model.V < wordsV) {
         std::string e = "~V = ";
         e += std::to_string(ec.model.V) + " is smaller than the " + std::to_string(wordsV) +
@@ -148,13 +151,8 @@ std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int
         return e;
     }
     Status st;
-    engine = Engine::create(ec, st);
+    engine = openMission(mission, plan, st);
     if (!engine) return st.message();
-    if (!options.resume.empty()) {
-        CheckpointLoadOptions lo;
-        lo.allow_refinement_change = true;
-        if (Status ls = loadCheckpoint(options.resume, *engine, lo); !ls.ok()) return "~resume: " + ls.message();
-    }
     if (Status ps = engine->publishResults(options.result_slots); !ps.ok()) return ps.message();
     record = engine->makeResult();
     if (!options.checkpoint.empty()) {
@@ -177,6 +175,8 @@ std::unique_ptr<Pipeline> Pipeline::create(const NodeSettings& settings, const O
     impl->givenSettings = settings;
     impl->options = options;
     if (const std::string bad = settings.validate(); !bad.empty()) return error = bad, nullptr;
+    // ~resume: what the checkpoint fixes against the parameters, at start-up (not at the first image).
+    if (Status st = checkMission(impl->missionOptions(), impl->plan); !st.ok()) return error = st.message(), nullptr;
     if (error = impl->makeExtractor(); !error.empty()) return nullptr;
     return std::unique_ptr<Pipeline>(new Pipeline(std::move(impl)));
 }

@@ -118,33 +118,29 @@ Status RunEngine::countFrames(const RunOptions& o, const WordsStage& w) {
     return {};
 }
 
+// The library's mission session decides (rost/mission.hpp): the engine made
+// for the input, or the checkpoint's carried on, by one policy.
 Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) {
-    // --resume: the checkpoint's model, for frames of its size.
-    resuming = !o.model.resume.empty();
+    const MissionOptions mission = missionOptions(o.model);
+    MissionPlan plan;
+    if (Status st = checkMission(mission, plan); !st.ok()) return st;
+    resuming = plan.resuming;
+    resumed = plan.checkpoint;
+    V = resuming ? plan.config.model.V : o.model.isGiven("V") ? o.model.settings.engine.model.V : w.wordsV();
+    if (Status st = checkV(o, w); !st.ok()) return st;
+    if (Status st = countFrames(o, w); !st.ok()) return st;
+    MissionInput in = missionInput(o.model, realtime);
+    in.width = w.info.width;
+    in.height = w.info.height;
+    in.V = w.wordsV();
+    in.length = frames;
+    in.max_words = vision::maxWordsPerFrame(w.extractors, w.info.width, w.info.height);
+    if (Status st = planMission(mission, in, plan); !st.ok()) return st;
+    ec = plan.config;
+    refinementChanged = plan.refinement_changed;
     Status st;
-    if (resuming) {
-        st = resumeConfig(o.model, w.info.width, w.info.height, realtime, ec, resumed, refinementChanged);
-        if (!st.ok()) return st;
-    }
-    V = resuming ? ec.model.V : o.model.isGiven("V") ? o.model.settings.engine.model.V : w.wordsV();
-    if (st = checkV(o, w); !st.ok()) return st;
-    if (st = countFrames(o, w); !st.ok()) return st;
-    if (!resuming) {
-        const uint64_t maxWords = vision::maxWordsPerFrame(w.extractors, w.info.width, w.info.height);
-        st = makeEngineConfig(o.model, w.info.width, w.info.height, V, frames, maxWords, realtime, ec);
-        if (!st.ok()) return st;
-    }
-    engine = Engine::create(ec, st);
-    if (!engine) return st;
-    if (resuming) {
-        st = loadResumed(o.model, refinementChanged, *engine);
-        if (!st.ok()) return st;
-    }
-    if (!o.model.in_topicmodel.empty()) {
-        st = loadTopicModelCsv(o.model.in_topicmodel, engine->model());
-        if (!st.ok()) return Status::error("--in.topicmodel: " + st.message());
-    }
-    return {};
+    engine = openMission(mission, plan, st);
+    return st;
 }
 
 void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime) const {

@@ -112,6 +112,7 @@ private:
 // still has to play (those a checkpoint holds are skipped).
 struct StreamStage {
     WordStream ws;
+    MissionPlan plan;  // the library's mission session (rost/mission.hpp)
     EngineConfig ec;
     CheckpointInfo resumed;
     bool resuming = false;

@@ -76,40 +76,46 @@ Status StreamStage::configFromData(const RefineOptions& o) {
         for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
         for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
     }
-    const int V = o.model.isGiven("V") ? o.model.settings.engine.model.V : static_cast<int>(maxWord) + 1;
-    int width = o.width > 0 ? o.width : maxX + 1;
-    int height = o.height > 0 ? o.height : maxY + 1;
-    if (!ws.has_positions) width = height = 1;  // one cell per time step (a temporal topic model)
-    return makeEngineConfig(o.model, width, height, V, static_cast<int64_t>(ws.observations.size()), longest, false,
-                            ec);
+    MissionInput in = missionInput(o.model, false);
+    in.V = static_cast<int>(maxWord) + 1;
+    in.width = o.width > 0 ? o.width : maxX + 1;
+    in.height = o.height > 0 ? o.height : maxY + 1;
+    if (!ws.has_positions) in.width = in.height = 1;  // one cell per time step (a temporal topic model)
+    in.length = static_cast<int64_t>(ws.observations.size());
+    in.max_words = longest;
+    if (Status st = planMission(missionOptions(o.model), in, plan); !st.ok()) return st;
+    ec = plan.config;
+    return {};
 }
 
 Status StreamStage::makeEngine(const RefineOptions& o) {
     Status st;
-    engine = Engine::create(ec, st);
+    engine = openMission(missionOptions(o.model), plan, st);
     if (!engine) return st;
     if (resuming) {
-        if (st = loadResumed(o.model, refinementChanged, *engine); !st.ok()) return st;
         if (!o.quiet)
             std::fprintf(stderr, "rost: resuming %s at observation %llu (time stamp %lld); %zu observations skipped%s\n",
                          o.model.resume.c_str(), static_cast<unsigned long long>(resumed.observations),
                          static_cast<long long>(resumed.last_timestamp), skipped,
                          refinementChanged ? "; refinement settings changed (not bit for bit)" : "");
     }
-    if (!o.model.in_topicmodel.empty()) {
-        st = loadTopicModelCsv(o.model.in_topicmodel, engine->model());
-        if (!st.ok()) return Status::error("--in.topicmodel: " + st.message());
-    }
     return {};
 }
 
 Status StreamStage::open(const RefineOptions& o) {
-    // --resume: the checkpoint fixes V and the frame size before the words are read.
-    resuming = !o.model.resume.empty();
+    // --resume: the checkpoint fixes V and the frame size before the words are read
+    // (the library's mission session: rost/mission.hpp).
     Status st;
+    if (st = checkMission(missionOptions(o.model), plan); !st.ok()) return st;
+    resuming = plan.resuming;
     if (resuming) {
-        st = resumeConfig(o.model, o.width, o.height, false, ec, resumed, refinementChanged);
-        if (!st.ok()) return st;
+        MissionInput in = missionInput(o.model, false);
+        in.width = o.width;
+        in.height = o.height;
+        if (st = planMission(missionOptions(o.model), in, plan); !st.ok()) return st;
+        ec = plan.config;
+        resumed = plan.checkpoint;
+        refinementChanged = plan.refinement_changed;
     }
     if (st = read(o); !st.ok()) return st;
     st = resuming ? resumeSkip(o) : configFromData(o);

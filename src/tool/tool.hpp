@@ -14,6 +14,7 @@
 
 #include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
+#include "rost/mission.hpp"
 #include "rost/settings.hpp"
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/vocabulary.hpp"
@@ -55,38 +56,24 @@ int toolThreads(const ModelOptions& m, bool realtime);
 
 // The option that sets `key` on the command line ("-K", "--alpha").
 std::string optionName(const SettingSpec& spec);
+// Every name of a setting's option: "--queue.slots/--queue", "-K/--topics";
+// the frame size is "the input's frame.width".
+std::string optionNames(const SettingSpec& spec);
 // A setting's problem in the tool's spelling: the option ("--eta = 2, allowed
 // [0, 1]"), or the --config file's line and key when the file set it.
 std::string settingProblemText(const ModelOptions& m, const SettingProblem& p);
 
-// Fills an EngineConfig (model geometry comes from the caller). Errors name the option.
-// `V` is the caller's (what the words need, unless -V); ring.steps is the
-// input's length + 1 (up to 2048) when it is known and not set; max.words
-// is `max_words` (the most words the input gives an observation, up to the
-// setting's maximum) when that is known (> 0) and max.words is not set.
-Status makeEngineConfig(const ModelOptions& m, int width, int height, int V, int64_t frames_hint, uint64_t max_words,
-                        bool realtime, EngineConfig& out);
-
-// --resume FILE: the configuration to carry on with. The checkpoint fixes
-// the model (K, V, alpha, beta, cells, neighbourhood, ring, capacities,
-// eviction, seed) and the frame size: an option that sets one of these to a
-// different value is an error naming it, as are --in.topicmodel and frames
-// of another size. Refinement options given (sampler, eta, q, budget) replace
-// the checkpoint's (`refinementChanged`: the run then continues under them,
-// not bit for bit); runtime settings are the caller's to set. `info`
-// describes the checkpoint; `frameWidth`/`frameHeight` are the input's
-// (0: take the checkpoint's).
-Status resumeConfig(const ModelOptions& m, int frameWidth, int frameHeight, bool realtime, EngineConfig& out,
-                    CheckpointInfo& info, bool& refinementChanged);
+// The mission's options as the library's mission session takes them
+// (rost/mission.hpp: one policy for deriving and resuming), named in the
+// tool's spelling: options, or the --config file's line and key. The input's
+// part the tool decides: its threads (toolThreads) and engine flags.
+MissionOptions missionOptions(const ModelOptions& m);
+MissionInput missionInput(const ModelOptions& m, bool realtime);
 
 // Every output file of a mission besides the output directory (--checkpoint,
 // --out.bag), probed before any work: an unwritable one fails at once and
 // nothing is written. Errors start with the option.
 Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag);
-
-// Loads the --resume checkpoint into `engine` (made with resumeConfig's
-// configuration). Errors start with "--resume: ".
-Status loadResumed(const ModelOptions& m, bool refinementChanged, Engine& engine);
 
 // --checkpoint FILE: a writer the engine captures into every checkpoint_every
 // observations (Engine::captureCheckpoints: a copy on the refining thread at

@@ -1,0 +1,90 @@
+#pragma once
+
+// A mission's engine, made or resumed by one policy for every face (the rost
+// tool's `run` and `refine`, rost_node). A face parses its own arguments into
+// MissionOptions, says what its input decides (MissionInput), and the
+// library does the rest, once:
+//   * a new mission: V, the frame size, ring.steps, max.words and threads
+//     come from the input unless the user set them; the result is checked by
+//     the settings' one check and the problem named in the face's spelling;
+//   * a resumed one: the checkpoint fixes the model (K, V, alpha, ..., the
+//     frame size, the seed); a model setting given with another value is
+//     refused at start-up, naming it; refinement settings (sampler, eta, q,
+//     budget) are the checkpoint's unless given, and then the run continues
+//     under them (not bit for bit); runtime settings (queue, drop, threads,
+//     thread priority, engine flags) are this process's;
+//   * the engine: made from the plan, the checkpoint's state loaded, a
+//     starting topic model added.
+// Set-up code: allocates, reads files.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rost/checkpoint.hpp"
+#include "rost/engine.hpp"
+#include "rost/settings.hpp"
+#include "rost/status.hpp"
+
+namespace rost {
+
+// How a face names things in its messages.
+struct MissionNames {
+    // A setting in a problem: "-K/--topics" (the tool), "~K" (rost_node), "K" (a key).
+    std::function<std::string(const SettingSpec&)> setting = [](const SettingSpec& s) { return std::string(s.key); };
+    // A value the user gave, as they gave it: "-K 8", "k.conf:2: key 'K' = 8", "~K = 8".
+    std::function<std::string(const SettingSpec&, const std::string&)> given = [](const SettingSpec& s,
+                                                                                 const std::string& v) {
+        return std::string(s.key) + " = " + v;
+    };
+    // What to leave out to keep a resumed mission's value: "-K", "the key", "~K".
+    std::function<std::string(const SettingSpec&)> leave = [](const SettingSpec& s) { return std::string(s.key); };
+    std::string resume = "--resume";              // the option that names the checkpoint
+    std::string topicmodel = "--in.topicmodel";   // the option that names a starting topic model
+};
+
+struct MissionOptions {
+    Settings settings;               // validated
+    std::vector<std::string> given;  // keys the user set; the others the input may decide
+    std::string resume;              // a checkpoint to carry on ("": a new mission)
+    std::string in_topicmodel;       // a topicmodel.csv to start from ("": none)
+    MissionNames names;
+
+    bool isGiven(std::string_view key) const;
+};
+
+// What the input decides (each 0 or -1 when it does not know).
+struct MissionInput {
+    int width = 0, height = 0;  // the frames' size (resuming: must be the checkpoint's; 0: the checkpoint's)
+    int V = 0;                  // word ids the input needs (unless V is given)
+    int64_t length = -1;        // observations it holds, when known: ring.steps keeps them all (up to 2048)
+    uint64_t max_words = 0;     // the most words an observation can hold: max.words (0: the setting's)
+    int threads = 1;            // refinement threads unless `threads` is given
+    EngineFlags flags;          // what the face asks the engine to compute
+};
+
+struct MissionPlan {
+    EngineConfig config;
+    bool resuming = false;
+    CheckpointInfo checkpoint;        // what --resume holds (resuming)
+    bool refinement_changed = false;  // a refinement setting given differs from the checkpoint's
+};
+
+// Start-up, before any input is read: with `resume`, reads the checkpoint and
+// refuses what it cannot carry on (a model setting given with another value,
+// a starting topic model); `plan` then holds the checkpoint's model and
+// refinement. Without, nothing to do.
+Status checkMission(const MissionOptions& m, MissionPlan& plan);
+
+// The engine's configuration for this input: derived (a new mission) or the
+// checkpoint's (checkMission first, done here if not yet).
+Status planMission(const MissionOptions& m, const MissionInput& input, MissionPlan& plan);
+
+// The engine of a plan: made, the checkpoint's state loaded, the starting
+// topic model added. nullptr and `status` on failure, naming the option.
+std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& plan, Status& status);
+
+} // namespace rost

@@ -1,0 +1,134 @@
+#include "rost/mission.hpp"
+
+#include <algorithm>
+#include <filesystem>
+
+#include "rost/config_file.hpp"
+#include "rost/topic_model_csv.hpp"
+
+namespace rost {
+
+namespace {
+
+// A setting's problem in the face's spelling.
+Status problemStatus(const MissionOptions& m, const SettingProblem& p) {
+    return Status::error(p.describe([&](const SettingSpec& s) { return m.names.setting(s); }));
+}
+
+// "-K 8 differs from m.ckpt's K = 16 (a resumed mission keeps its model; leave -K out)".
+Status modelDiffers(const MissionOptions& m, const SettingSpec& spec, const std::string& mine, const std::string& theirs) {
+    return Status::error(m.names.given(spec, mine) + " differs from " + m.resume + "'s " + std::string(spec.key) +
+                         " = " + theirs + " (a resumed mission keeps its model; leave " + m.names.leave(spec) + " out)");
+}
+
+// The runtime part is this process's, whatever the checkpoint says.
+void applyRuntime(const MissionOptions& m, const MissionInput& in, EngineConfig& e) {
+    e.queue_slots = m.settings.engine.queue_slots;
+    e.drop = m.settings.engine.drop;
+    e.thread = m.settings.engine.thread;
+    e.model.threads = m.isGiven("threads") ? m.settings.engine.model.threads : in.threads;
+    e.flags = in.flags;
+}
+
+Status planResumed(const MissionOptions& m, const MissionInput& in, MissionPlan& plan) {
+    const Config& c = plan.checkpoint.config.model;
+    const std::string where = m.names.resume + " " + m.resume;
+    auto frames = [&] { return std::to_string(c.frame_width) + "x" + std::to_string(c.frame_height) + " frames"; };
+    if (in.width > 0 && in.width != c.frame_width)
+        return Status::error(where + ": the frames are " + std::to_string(in.width) + " pixels wide but " + m.resume +
+                             " models " + frames());
+    if (in.height > 0 && in.height != c.frame_height)
+        return Status::error(where + ": the frames are " + std::to_string(in.height) + " pixels high but " + m.resume +
+                             " models " + frames());
+    applyRuntime(m, in, plan.config);
+    if (auto p = checkEngineSettings(plan.config)) return problemStatus(m, *p);
+    return {};
+}
+
+Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& plan) {
+    EngineConfig e = m.settings.engine;
+    Config& c = e.model;
+    if (!m.isGiven("V") && in.V > 0) c.V = in.V;
+    if (in.width > 0) c.frame_width = in.width;
+    if (in.height > 0) c.frame_height = in.height;
+    if (!m.isGiven("ring.steps") && in.length > 0 && c.cell_time > 0) {
+        // Keep a short input whole, so every observation stays refinable to the end.
+        const int64_t steps = (in.length + c.cell_time - 1) / c.cell_time + 1;
+        c.ring_steps = static_cast<int>(std::clamp<int64_t>(steps, 2, 2048));
+    }
+    if (!m.isGiven("max.words") && in.max_words > 0) {
+        // Room for every word the input can give an observation (no silent subsampling).
+        const auto hi = static_cast<uint64_t>(settingSpec("max.words").hi);
+        c.max_words_per_frame = static_cast<int>(std::min(in.max_words, hi));
+    }
+    applyRuntime(m, in, e);
+    if (auto p = checkEngineSettings(e)) return problemStatus(m, *p);
+    plan.config = e;
+    plan.resuming = false;
+    return {};
+}
+
+} // namespace
+
+bool MissionOptions::isGiven(std::string_view key) const {
+    return std::find(given.begin(), given.end(), key) != given.end();
+}
+
+Status checkMission(const MissionOptions& m, MissionPlan& plan) {
+    plan.resuming = !m.resume.empty();
+    if (!plan.resuming) return {};
+    const std::string& name = m.names.resume;
+    std::error_code ec;
+    if (std::filesystem::is_directory(m.resume, ec))
+        return Status::error(name + ": " + m.resume + " is a directory, not a checkpoint file");
+    if (Status st = readCheckpointInfo(m.resume, plan.checkpoint); !st.ok()) return Status::error(name + ": " + st.message());
+    if (!m.in_topicmodel.empty())
+        return Status::error(m.names.topicmodel + " cannot be used with " + name +
+                             ": the checkpoint holds the mission's topic model");
+    Settings theirs;
+    theirs.engine = plan.checkpoint.config;
+    // The model: what was learned depends on it, so it cannot change.
+    for (const SettingSpec& spec : settingSpecs()) {
+        if (spec.group != SettingGroup::Model || !isEngineSetting(spec) || !m.isGiven(spec.key)) continue;
+        const std::string mine = settingValue(m.settings, spec.key), before = settingValue(theirs, spec.key);
+        if (mine != before) return modelDiffers(m, spec, mine, before);
+    }
+    // Refinement: the checkpoint's unless given; the run then continues under the new settings.
+    for (const SettingSpec& spec : settingSpecs())
+        if (spec.group == SettingGroup::Refinement && isEngineSetting(spec) && m.isGiven(spec.key) &&
+            !settingValue(m.settings, spec.key).empty())
+            if (Status st = setSetting(theirs, spec.key, settingValue(m.settings, spec.key)); !st.ok()) return st;
+    plan.refinement_changed =
+        !configDifferences(plan.checkpoint.config, theirs.engine, {SettingGroup::Refinement}, "a", "b").empty();
+    plan.config = theirs.engine;
+    return {};
+}
+
+Status planMission(const MissionOptions& m, const MissionInput& input, MissionPlan& plan) {
+    if (m.resume.empty()) return planNew(m, input, plan);
+    if (!plan.resuming)
+        if (Status st = checkMission(m, plan); !st.ok()) return st;
+    return planResumed(m, input, plan);
+}
+
+std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& plan, Status& status) {
+    std::unique_ptr<Engine> engine = Engine::create(plan.config, status);
+    if (!engine) return nullptr;
+    if (plan.resuming) {
+        CheckpointLoadOptions lo;
+        lo.allow_refinement_change = plan.refinement_changed;
+        if (Status st = loadCheckpoint(m.resume, *engine, lo); !st.ok()) {
+            status = Status::error(m.names.resume + ": " + st.message());
+            return nullptr;
+        }
+    }
+    if (!m.in_topicmodel.empty())
+        if (Status st = loadTopicModelCsv(m.in_topicmodel, engine->model()); !st.ok()) {
+            status = Status::error(m.names.topicmodel + ": " + st.message());
+            return nullptr;
+        }
+    status = {};
+    return engine;
+}
+
+} // namespace rost

@@ -1,0 +1,185 @@
+// The mission session's one policy (rost/mission.hpp): what a new mission
+// takes from its input, what a checkpoint fixes and what a resumed run may
+// change, refused at start-up and named in the face's spelling.
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "rost/checkpoint.hpp"
+#include "rost/mission.hpp"
+
+using namespace rost;
+
+namespace {
+
+// "~cell_space" (appended: GCC 12 at -O3 warns falsely on "~" + string; -Wrestrict).
+std::string tilde(const SettingSpec& s) {
+    std::string out(1, '~');
+    out += paramName(s);
+    return out;
+}
+
+// A face that spells settings as rost_node does (~K), with a --resume of its own.
+MissionOptions nodeLike() {
+    MissionOptions m;
+    m.names.setting = tilde;
+    m.names.given = [](const SettingSpec& s, const std::string& v) { return tilde(s) + " = " + v; };
+    m.names.leave = tilde;
+    m.names.resume = "~resume";
+    return m;
+}
+
+void give(MissionOptions& m, const char* key, const char* value) {
+    ASSERT_TRUE(setSetting(m.settings, key, value).ok()) << key;
+    m.given.emplace_back(key);
+}
+
+struct TempDir {
+    std::string path = std::filesystem::temp_directory_path() / ("rost-mission-" + std::to_string(::getpid()));
+    TempDir() { std::filesystem::create_directories(path); }
+    ~TempDir() { std::filesystem::remove_all(path); }
+};
+
+// A checkpoint of K = 6 on 64x48 frames, V = 30, sampler now, 5 observations.
+std::string makeCheckpoint(const TempDir& t) {
+    MissionOptions m;
+    give(m, "K", "6");
+    give(m, "sampler", "now");
+    give(m, "budget.refines", "3");
+    MissionInput in;
+    in.width = 64;
+    in.height = 48;
+    in.V = 30;
+    MissionPlan plan;
+    EXPECT_TRUE(planMission(m, in, plan).ok());
+    Status st;
+    auto engine = openMission(m, plan, st);
+    EXPECT_TRUE(engine) << st.message();
+    std::vector<uint32_t> words(20);
+    std::vector<Position> pos(20);
+    for (int f = 0; f < 5; ++f) {
+        for (int i = 0; i < 20; ++i) words[i] = static_cast<uint32_t>((f * 7 + i) % 30), pos[i] = {i * 3, i * 2};
+        engine->processNow({f, words, pos});
+    }
+    const std::string path = t.path + "/m.ckpt";
+    EXPECT_TRUE(saveCheckpoint(*engine, path).ok());
+    return path;
+}
+
+} // namespace
+
+TEST(Mission, ANewMissionTakesFromItsInputWhatTheUserDidNotSet) {
+    MissionOptions m;
+    MissionInput in;
+    in.width = 320;
+    in.height = 240;
+    in.V = 5436;
+    in.length = 99;
+    in.max_words = 1600;
+    in.threads = 3;
+    in.flags.snapshot_labels = false;
+    MissionPlan plan;
+    ASSERT_TRUE(planMission(m, in, plan).ok());
+    const Config& c = plan.config.model;
+    EXPECT_EQ(c.V, 5436);
+    EXPECT_EQ(c.frame_width, 320);
+    EXPECT_EQ(c.frame_height, 240);
+    EXPECT_EQ(c.ring_steps, 100) << "the whole input stays refinable";
+    EXPECT_EQ(c.max_words_per_frame, 1600);
+    EXPECT_EQ(c.threads, 3);
+    EXPECT_FALSE(plan.config.flags.snapshot_labels);
+    EXPECT_FALSE(plan.resuming);
+
+    // What the user set wins; a long input keeps 2048 steps at most.
+    give(m, "V", "6000");
+    give(m, "max.words", "500");
+    give(m, "threads", "2");
+    in.length = 1000000;
+    ASSERT_TRUE(planMission(m, in, plan).ok());
+    EXPECT_EQ(plan.config.model.V, 6000);
+    EXPECT_EQ(plan.config.model.max_words_per_frame, 500);
+    EXPECT_EQ(plan.config.model.threads, 2);
+    EXPECT_EQ(plan.config.model.ring_steps, 2048);
+}
+
+TEST(Mission, WhatTheInputDecidesIsCheckedAndNamedInTheFacesSpelling) {
+    MissionOptions m = nodeLike();
+    give(m, "cell.space", "1");
+    MissionInput in;
+    in.width = 4000;
+    in.height = 3000;
+    in.V = 10;
+    MissionPlan plan;
+    EXPECT_EQ(planMission(m, in, plan).message(),
+              "~cell_space = 1, allowed at least 4 for ~frame_width = 4000 by ~frame_height = 3000; "
+              "12000000 cells a step, at most 1048576");
+}
+
+TEST(Mission, ACheckpointFixesTheModelAtStartUpNamingWhatDiffers) {
+    TempDir t;
+    const std::string ckpt = makeCheckpoint(t);
+    MissionOptions m = nodeLike();
+    m.resume = ckpt;
+    give(m, "K", "8");
+    MissionPlan plan;
+    EXPECT_EQ(checkMission(m, plan).message(),
+              "~K = 8 differs from " + ckpt + "'s K = 6 (a resumed mission keeps its model; leave ~K out)");
+
+    // Repeating the checkpoint's value is fine; a starting topic model is not.
+    m = nodeLike();
+    m.resume = ckpt;
+    give(m, "K", "6");
+    m.in_topicmodel = t.path + "/topicmodel.csv";
+    EXPECT_EQ(checkMission(m, plan).message(),
+              "--in.topicmodel cannot be used with ~resume: the checkpoint holds the mission's topic model");
+    m.in_topicmodel.clear();
+    EXPECT_TRUE(checkMission(m, plan).ok());
+
+    m.resume = t.path;
+    EXPECT_EQ(checkMission(m, plan).message(), "~resume: " + t.path + " is a directory, not a checkpoint file");
+}
+
+TEST(Mission, AResumedMissionKeepsTheCheckpointsRefinementUnlessGivenAndTheRuntimeIsThisProcesss) {
+    TempDir t;
+    const std::string ckpt = makeCheckpoint(t);
+    MissionOptions m;
+    m.resume = ckpt;
+    give(m, "queue.slots", "3");
+    MissionInput in;
+    in.threads = 2;
+    MissionPlan plan;
+    ASSERT_TRUE(planMission(m, in, plan).ok());
+    EXPECT_TRUE(plan.resuming);
+    EXPECT_EQ(plan.config.model.K, 6);
+    EXPECT_EQ(plan.config.model.frame_width, 64) << "the checkpoint's frame size";
+    EXPECT_EQ(plan.config.strategy.kind, StrategyKind::Now) << "the checkpoint's sampler";
+    EXPECT_EQ(plan.config.budget.count, 3u);
+    EXPECT_FALSE(plan.refinement_changed);
+    EXPECT_EQ(plan.config.queue_slots, 3);
+    EXPECT_EQ(plan.config.model.threads, 2);
+    Status st;
+    auto engine = openMission(m, plan, st);
+    ASSERT_TRUE(engine) << st.message();
+    EXPECT_EQ(engine->model().observations(), 5u) << "the checkpoint's state";
+
+    // A refinement setting given replaces the checkpoint's: not bit for bit, and said so.
+    MissionOptions changed;
+    changed.resume = ckpt;
+    give(changed, "sampler", "uniform");
+    MissionPlan p2;
+    ASSERT_TRUE(planMission(changed, in, p2).ok());
+    EXPECT_EQ(p2.config.strategy.kind, StrategyKind::Uniform);
+    EXPECT_TRUE(p2.refinement_changed);
+    ASSERT_TRUE(openMission(changed, p2, st)) << st.message();
+
+    // Frames of another size than the checkpoint models are refused.
+    in.width = 80;
+    MissionPlan p3;
+    EXPECT_EQ(planMission(m, in, p3).message(),
+              "--resume " + ckpt + ": the frames are 80 pixels wide but " + ckpt + " models 64x48 frames");
+}
