@@ -149,3 +149,32 @@ TEST(Settings, TheEnginesPartIsTheCheckpointsConfigurationText) {
 
 } // namespace
 } // namespace rost
+
+namespace rost {
+// The schema's choices are the one table of names: the library's toString()
+// and parse functions of each Choice enum read it, index for index.
+TEST(Settings, ChoiceNamesComeFromTheSchemasRow) {
+    const SettingSpec& sampler = *findSetting("sampler");
+    const char* expected[] = {"now", "uniform", "agep", "exp", "uni+now", "agep+now", "uni+exp", "agep+exp"};
+    for (std::size_t i = 0; i < std::size(expected); ++i) {
+        EXPECT_STREQ(choiceName(sampler, i), expected[i]);
+        EXPECT_STREQ(toString(static_cast<StrategyKind>(i)), expected[i]);
+        EXPECT_EQ(choiceIndexOf(sampler, expected[i]), static_cast<int>(i));
+        StrategyKind k{};
+        ASSERT_TRUE(parseStrategy(expected[i], k).ok());
+        EXPECT_EQ(static_cast<std::size_t>(k), i);
+    }
+    EXPECT_STREQ(choiceName(sampler, 8), "?");
+    EXPECT_EQ(choiceIndexOf(sampler, "uni"), -1);
+    StrategyKind k{};
+    EXPECT_EQ(parseStrategy("unifrom", k).message(),
+              "unknown strategy 'unifrom' (expected one of now, uniform, agep, exp, uni+now, agep+now, uni+exp, agep+exp)");
+    EXPECT_STREQ(toString(EvictionPolicy::Subtract), "subtract");
+    EXPECT_STREQ(toString(DropPolicy::DropNewest), "newest");
+    EXPECT_STREQ(toString(DropPolicy::DropOldest), "oldest");
+    DropPolicy d{};
+    EXPECT_EQ(parseDropPolicy("last", d).message(), "unknown drop policy 'last' (expected newest or oldest)");
+    EXPECT_STREQ(choiceName(*findSetting("orb.search"), 1), "tree");
+    EXPECT_STREQ(choiceName(*findSetting("K"), 0), "?") << "not a Choice";
+}
+} // namespace rost

@@ -92,6 +92,16 @@ std::optional<SettingProblem> setSettingText(Settings& s, const SettingSpec& spe
 // parameter name to its key), for a face's "did you mean"; nullptr if none.
 const SettingSpec* closestSetting(std::string_view name) noexcept;
 
+// A Choice setting's names, in its enum's order, from its schema row (the one
+// table of them: the library's toString()/parse functions of StrategyKind,
+// EvictionPolicy, DropPolicy and SearchMethod read it).
+// choiceName(settingSpec("sampler"), 4) is "uni+now"; "?" out of range. No allocation.
+const char* choiceName(const SettingSpec& spec, std::size_t index) noexcept;
+// The index of `name` among the names; -1 when none.
+int choiceIndexOf(const SettingSpec& spec, std::string_view name) noexcept;
+// "expected one of now, uniform, ..." or "expected keep or subtract".
+std::string choiceExpected(const SettingSpec& spec);
+
 // The setting a name means: its key ("cell.space") or its parameter name
 // ("cell_space"); nullptr when there is none.
 const SettingSpec* findSetting(std::string_view name) noexcept;

@@ -9,20 +9,14 @@ Status Config::validate() const {
     return {};
 }
 
-const char* toString(EvictionPolicy p) noexcept {
-    return p == EvictionPolicy::Keep ? "keep" : "subtract";
-}
+// The names are the schema's (the `eviction` row's choices, in enum order).
+const char* toString(EvictionPolicy p) noexcept { return choiceName(settingSpec("eviction"), static_cast<std::size_t>(p)); }
 
 Status parseEvictionPolicy(const std::string& text, EvictionPolicy& out) {
-    if (text == "keep") {
-        out = EvictionPolicy::Keep;
-        return {};
-    }
-    if (text == "subtract") {
-        out = EvictionPolicy::Subtract;
-        return {};
-    }
-    return Status::error("invalid eviction policy '" + text + "', allowed keep|subtract");
+    const int i = choiceIndexOf(settingSpec("eviction"), text);
+    if (i < 0) return Status::error("invalid eviction policy '" + text + "', allowed " + std::string(settingSpec("eviction").choices));
+    out = static_cast<EvictionPolicy>(i);
+    return {};
 }
 
 } // namespace rost

@@ -219,20 +219,14 @@ bool SnapshotPublisher::read(Snapshot& out, int max_retries) const noexcept {
 
 // ---- configuration --------------------------------------------------------------
 
-const char* toString(DropPolicy p) noexcept {
-    return p == DropPolicy::DropNewest ? "newest" : "oldest";
-}
+// The names are the schema's (the `drop` row's choices, in enum order).
+const char* toString(DropPolicy p) noexcept { return choiceName(settingSpec("drop"), static_cast<std::size_t>(p)); }
 
 Status parseDropPolicy(const std::string& text, DropPolicy& out) {
-    if (text == "newest") {
-        out = DropPolicy::DropNewest;
-        return {};
-    }
-    if (text == "oldest") {
-        out = DropPolicy::DropOldest;
-        return {};
-    }
-    return Status::error("unknown drop policy '" + text + "' (expected newest or oldest)");
+    const int i = choiceIndexOf(settingSpec("drop"), text);
+    if (i < 0) return Status::error("unknown drop policy '" + text + "' (" + choiceExpected(settingSpec("drop")) + ")");
+    out = static_cast<DropPolicy>(i);
+    return {};
 }
 
 Status EngineConfig::validate() const {

@@ -403,6 +403,48 @@ std::string settingRange(const SettingSpec& s) {
     }
 }
 
+namespace {
+// Every Choice setting's names, NUL-terminated, built once without the heap.
+struct ChoiceTable {
+    static constexpr std::size_t kMaxNames = 16;
+    char text[1024] = {};
+    const char* names[std::size(detail::kSettingSpecs)][kMaxNames] = {};
+    std::size_t count[std::size(detail::kSettingSpecs)] = {};
+    ChoiceTable() noexcept {
+        std::size_t at = 0;
+        for (std::size_t i = 0; i < std::size(detail::kSettingSpecs); ++i) {
+            const std::string_view c = detail::kSettingSpecs[i].choices;
+            if (detail::kSettingSpecs[i].type != SettingType::Choice || c.size() + 1 > sizeof text - at) continue;
+            std::copy(c.begin(), c.end(), text + at);
+            names[i][count[i]++] = text + at;
+            for (std::size_t k = 0; k < c.size(); ++k)
+                if (text[at + k] == '|' && count[i] < kMaxNames) text[at + k] = '\0', names[i][count[i]++] = text + at + k + 1;
+            at += c.size() + 1;
+        }
+    }
+};
+const ChoiceTable& choiceTable() noexcept {
+    static const ChoiceTable table;
+    return table;
+}
+} // namespace
+
+const char* choiceName(const SettingSpec& spec, std::size_t index) noexcept {
+    const std::size_t i = static_cast<std::size_t>(&spec - detail::kSettingSpecs);
+    if (i >= std::size(detail::kSettingSpecs) || index >= choiceTable().count[i]) return "?";
+    return choiceTable().names[i][index];
+}
+
+int choiceIndexOf(const SettingSpec& spec, std::string_view name) noexcept {
+    const std::size_t i = static_cast<std::size_t>(&spec - detail::kSettingSpecs);
+    if (i >= std::size(detail::kSettingSpecs)) return -1;
+    for (std::size_t k = 0; k < choiceTable().count[i]; ++k)
+        if (name == choiceTable().names[i][k]) return static_cast<int>(k);
+    return -1;
+}
+
+std::string choiceExpected(const SettingSpec& spec) { return expectedChoice(spec.choices); }
+
 std::string SettingProblem::compose(std::string name, const std::function<std::string(const SettingSpec&)>& spell) const {
     // "{key}" -> the face's name of that setting.
     auto spelled = [&](const std::string& text) {

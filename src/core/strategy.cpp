@@ -59,38 +59,16 @@ double geometricMass(int64_t W, double log1mq) noexcept {
     return -std::expm1(static_cast<double>(W) * log1mq);
 }
 
-struct Names {
-    StrategyKind kind;
-    const char* name;
-};
-constexpr Names kNames[] = {
-    {StrategyKind::Now, "now"},
-    {StrategyKind::Uniform, "uniform"},
-    {StrategyKind::AgeProportional, "agep"},
-    {StrategyKind::Exponential, "exp"},
-    {StrategyKind::UniformNow, "uni+now"},
-    {StrategyKind::AgeProportionalNow, "agep+now"},
-    {StrategyKind::UniformExponential, "uni+exp"},
-    {StrategyKind::AgeProportionalExponential, "agep+exp"},
-};
-
 } // namespace
 
-const char* toString(StrategyKind k) noexcept {
-    for (const auto& n : kNames)
-        if (n.kind == k) return n.name;
-    return "?";
-}
+// The names are the schema's (the `sampler` row's choices, in enum order).
+const char* toString(StrategyKind k) noexcept { return choiceName(settingSpec("sampler"), static_cast<std::size_t>(k)); }
 
 Status parseStrategy(const std::string& name, StrategyKind& out) {
-    for (const auto& n : kNames) {
-        if (name == n.name) {
-            out = n.kind;
-            return {};
-        }
-    }
-    return Status::error("unknown strategy '" + name +
-                         "' (expected one of: now, uniform, agep, exp, uni+now, agep+now, uni+exp, agep+exp)");
+    const int i = choiceIndexOf(settingSpec("sampler"), name);
+    if (i < 0) return Status::error("unknown strategy '" + name + "' (" + choiceExpected(settingSpec("sampler")) + ")");
+    out = static_cast<StrategyKind>(i);
+    return {};
 }
 
 Status StrategyConfig::validate() const {

@@ -14,6 +14,7 @@
 #include <zlib.h>
 
 #include "rost/random.hpp"
+#include "rost/settings.hpp"
 
 #if defined(__ARM_NEON)
 #include <arm_neon.h>
@@ -112,18 +113,14 @@ void Descriptor::toBytes(uint8_t* bytes) const noexcept { std::memcpy(bytes, w.d
 
 int hammingDistance(const Descriptor& a, const Descriptor& b) noexcept { return distanceInline(a, b); }
 
-const char* toString(SearchMethod m) noexcept {
-    switch (m) {
-    case SearchMethod::Linear: return "linear";
-    case SearchMethod::Tree: return "tree";
-    }
-    return "?";
-}
+// The names are the schema's (the `orb.search` row's choices, in enum order).
+const char* toString(SearchMethod m) noexcept { return choiceName(settingSpec("orb.search"), static_cast<std::size_t>(m)); }
 
 Status parseSearchMethod(const std::string& text, SearchMethod& out) {
-    if (text == "linear") out = SearchMethod::Linear;
-    else if (text == "tree") out = SearchMethod::Tree;
-    else return Status::error("invalid search method '" + text + "', allowed linear|tree");
+    const int i = choiceIndexOf(settingSpec("orb.search"), text);
+    if (i < 0)
+        return Status::error("invalid search method '" + text + "', allowed " + std::string(settingSpec("orb.search").choices));
+    out = static_cast<SearchMethod>(i);
     return {};
 }
 
