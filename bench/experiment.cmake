@@ -26,7 +26,8 @@ add_library(rost_experiment_lib STATIC
 target_include_directories(rost_experiment_lib PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/experiment)
 target_link_libraries(rost_experiment_lib PUBLIC rost::core rost_internal PRIVATE rost_warnings)
 
-add_executable(rost_experiment ${CMAKE_CURRENT_SOURCE_DIR}/experiment/main.cpp)
+add_executable(rost_experiment ${CMAKE_CURRENT_SOURCE_DIR}/experiment/main.cpp
+                               ${CMAKE_CURRENT_SOURCE_DIR}/experiment/cli.cpp)
 target_link_libraries(rost_experiment PRIVATE rost_experiment_lib CLI11::CLI11 rost_warnings)
 
 # Word extraction from footage needs the vision library.

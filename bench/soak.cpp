@@ -54,19 +54,26 @@ struct Chunk {
     double seconds = 0;
 };
 
-} // namespace
-
-int main(int argc, char** argv) {
+// The command line: [observations=1000000] [--sync]; at least 1000 observations.
+struct SoakArgs {
     uint64_t total = 1000000;
     bool sync = false;
+};
+
+SoakArgs parseArgs(int argc, char** argv) {
+    SoakArgs a;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "--sync") == 0)
-            sync = true;
+            a.sync = true;
         else
-            total = std::strtoull(argv[i], nullptr, 10);
+            a.total = std::strtoull(argv[i], nullptr, 10);
     }
-    if (total < 1000) total = 1000;
+    if (a.total < 1000) a.total = 1000;
+    return a;
+}
 
+// The engine under soak: small frames, a short ring, a count budget.
+rost::EngineConfig soakConfig() {
     rost::EngineConfig cfg;
     rost::Config& c = cfg.model;
     c.K = 16;
@@ -81,46 +88,50 @@ int main(int argc, char** argv) {
     cfg.budget = rost::Budget::steps(2);
     cfg.queue_slots = 256;  // compressed time: the producer refills in bursts, few sleeps on either side
     cfg.drop = rost::DropPolicy::DropNewest;
+    return cfg;
+}
 
-    // Every buffer the bench itself needs, before the run.
-    std::vector<int32_t> cost(total, 0);  // ns per observation
-    constexpr uint32_t kWords = 60;
-    constexpr int kFrames = 256;  // a loop of distinct frames whose scene changes
-    std::vector<std::vector<uint32_t>> words(kFrames, std::vector<uint32_t>(kWords));
-    std::vector<std::vector<rost::Position>> pos(kFrames, std::vector<rost::Position>(kWords));
+// A loop of distinct frames whose scene changes, streamed over and over.
+constexpr uint32_t kWords = 60;
+constexpr int kFrames = 256;
+
+struct Frames {
+    std::vector<std::vector<uint32_t>> words;
+    std::vector<std::vector<rost::Position>> pos;
+};
+
+Frames makeFrames() {
+    Frames fr{std::vector<std::vector<uint32_t>>(kFrames, std::vector<uint32_t>(kWords)),
+              std::vector<std::vector<rost::Position>>(kFrames, std::vector<rost::Position>(kWords))};
     rost::Rng r(7);
     for (int f = 0; f < kFrames; ++f) {
         const uint32_t scene = static_cast<uint32_t>(f / 64);
         for (uint32_t j = 0; j < kWords; ++j) {
-            pos[f][j] = {static_cast<int32_t>(r.below(160)), static_cast<int32_t>(r.below(120))};
-            const uint32_t region = (pos[f][j].x < 80 ? 0u : 1u) + 2 * scene;
-            words[f][j] = r.below(10) == 0 ? r.below(1000) : (region * 100 + r.below(100)) % 1000;
+            fr.pos[f][j] = {static_cast<int32_t>(r.below(160)), static_cast<int32_t>(r.below(120))};
+            const uint32_t region = (fr.pos[f][j].x < 80 ? 0u : 1u) + 2 * scene;
+            fr.words[f][j] = r.below(10) == 0 ? r.below(1000) : (region * 100 + r.below(100)) % 1000;
         }
     }
+    return fr;
+}
 
-    rost::Engine engine(cfg);
-    engine.setObservationHook([&cost](const rost::ObservationResult& res, const rost::Model&) {
-        if (res.observation < cost.size()) cost[res.observation] = static_cast<int32_t>(std::min<int64_t>(res.elapsed_ns, INT32_MAX));
-    });
-    std::printf("soak: %llu observations, %s, K=%d V=%d %dx%d frames, %d cells, ring %d, %u words/frame, budget %llu refines\n",
-                static_cast<unsigned long long>(total), sync ? "synchronous" : "producer + refiner threads", c.K, c.V,
-                c.frame_width, c.frame_height, c.cellsPerStep(), c.ring_steps, kWords,
-                static_cast<unsigned long long>(cfg.budget.count));
-    std::printf("engine memory: %.2f MiB (fixed at construction)\n", mib(engine.memoryBytes()));
-
-    const uint64_t tenth = total / 10;
-    std::vector<Chunk> chunks(10);
+// Streams `total` observations through the engine (threaded, or
+// synchronously with `sync`), taking the resident memory and the time of
+// each tenth into `chunks`; the run time in `seconds`. False if the engine
+// does not start or a push fails.
+bool stream(rost::Engine& engine, const Frames& fr, const SoakArgs& a, std::vector<Chunk>& chunks, double& seconds) {
+    const uint64_t tenth = a.total / 10;
     const auto t0 = std::chrono::steady_clock::now();
     auto tChunk = t0;
-    if (!sync && !engine.start().ok()) return 1;
-    for (uint64_t i = 0; i < total; ++i) {
+    if (!a.sync && !engine.start().ok()) return false;
+    for (uint64_t i = 0; i < a.total; ++i) {
         const int f = static_cast<int>(i % kFrames);
-        const rost::ObservationView v{static_cast<int64_t>(i), words[f], pos[f]};
-        if (sync) {
+        const rost::ObservationView v{static_cast<int64_t>(i), fr.words[f], fr.pos[f]};
+        if (a.sync) {
             engine.processNow(v);
         } else if (!engine.pushWait(v)) {
             std::fprintf(stderr, "soak: push failed at %llu\n", static_cast<unsigned long long>(i));
-            return 1;
+            return false;
         }
         if ((i + 1) % tenth == 0 && (i + 1) / tenth <= 10) {
             const auto now = std::chrono::steady_clock::now();
@@ -130,9 +141,13 @@ int main(int argc, char** argv) {
             tChunk = now;
         }
     }
-    if (!sync) engine.stop(rost::Engine::StopMode::Drain);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (!a.sync) engine.stop(rost::Engine::StopMode::Drain);
+    seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return true;
+}
 
+// Median, p99 and worst per-observation cost of each tenth, from `cost` (ns).
+void costPerTenth(const std::vector<int32_t>& cost, uint64_t tenth, std::vector<Chunk>& chunks) {
     for (int k = 0; k < 10; ++k) {
         std::vector<int32_t> part(cost.begin() + static_cast<std::ptrdiff_t>(k * tenth),
                                   cost.begin() + static_cast<std::ptrdiff_t>((k + 1) * tenth));
@@ -141,7 +156,13 @@ int main(int argc, char** argv) {
         chunks[k].p99_us = part[part.size() * 99 / 100] / 1e3;
         chunks[k].max_us = part.back() / 1e3;
     }
+}
 
+// Prints the table of tenths, memory growth, cost drift, counters,
+// invariants and run time; true if the soak passed (invariants hold, memory
+// grew by at most 1 MiB after warm-up, nothing lost).
+bool report(const rost::Engine& engine, const std::vector<Chunk>& chunks, uint64_t total, double seconds) {
+    const uint64_t tenth = total / 10;
     std::string why;
     const bool invariants = engine.model().checkInvariants(&why);
     const rost::EngineCounters k = engine.counters();
@@ -162,6 +183,33 @@ int main(int argc, char** argv) {
                 static_cast<unsigned long long>(k.refinements), static_cast<unsigned long long>(k.tokens));
     std::printf("invariants at the end: %s\n", invariants ? "hold" : why.c_str());
     std::printf("run time: %.1f s (%.0f observations/s)\n", seconds, static_cast<double>(total) / seconds);
-    const bool ok = invariants && growth <= (1 << 20) && k.ingested == total && k.dropped() == 0 && k.rejected == 0;
-    return ok ? 0 : 1;
+    return invariants && growth <= (1 << 20) && k.ingested == total && k.dropped() == 0 && k.rejected == 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    const SoakArgs a = parseArgs(argc, argv);
+    const rost::EngineConfig cfg = soakConfig();
+    const rost::Config& c = cfg.model;
+
+    // Every buffer the bench itself needs, before the run.
+    std::vector<int32_t> cost(a.total, 0);  // ns per observation
+    const Frames frames = makeFrames();
+
+    rost::Engine engine(cfg);
+    engine.setObservationHook([&cost](const rost::ObservationResult& res, const rost::Model&) {
+        if (res.observation < cost.size()) cost[res.observation] = static_cast<int32_t>(std::min<int64_t>(res.elapsed_ns, INT32_MAX));
+    });
+    std::printf("soak: %llu observations, %s, K=%d V=%d %dx%d frames, %d cells, ring %d, %u words/frame, budget %llu refines\n",
+                static_cast<unsigned long long>(a.total), a.sync ? "synchronous" : "producer + refiner threads", c.K,
+                c.V, c.frame_width, c.frame_height, c.cellsPerStep(), c.ring_steps, kWords,
+                static_cast<unsigned long long>(cfg.budget.count));
+    std::printf("engine memory: %.2f MiB (fixed at construction)\n", mib(engine.memoryBytes()));
+
+    std::vector<Chunk> chunks(10);
+    double seconds = 0;
+    if (!stream(engine, frames, a, chunks, seconds)) return 1;
+    costPerTenth(cost, a.total / 10, chunks);
+    return report(engine, chunks, a.total, seconds) ? 0 : 1;
 }

@@ -30,6 +30,100 @@ namespace {
     std::exit(1);
 }
 
+// --check-vocabulary: says whether the built-in vocabulary exists; the exit code.
+int checkBuiltInVocabulary() {
+    Status s;
+    const auto v = vision::defaultVocabulary(s);
+    if (!v) {
+        std::printf("no built-in vocabulary: %s\n", s.message().c_str());
+        return 1;
+    }
+    std::printf("built-in vocabulary: %u words; %s\n", v->size(), v->note().c_str());
+    return 0;
+}
+
+// The ORB vocabulary: the file at `path`, or the built-in one if empty.
+std::shared_ptr<const vision::Vocabulary> loadVocabulary(const std::string& path) {
+    if (!path.empty()) {
+        auto v = std::make_shared<vision::Vocabulary>();
+        if (Status s = vision::Vocabulary::load(path, *v); !s.ok()) fail(s.message());
+        return v;
+    }
+    Status st;
+    auto v = vision::defaultVocabulary(st);
+    if (!st.ok()) fail(st.message());
+    return v;
+}
+
+// The words of every frame, as the word-stream CSVs, and their counts.
+struct Extraction {
+    std::string words, positions;  // words.csv and positions.csv
+    int64_t frames = 0;
+    uint64_t total = 0, orb = 0, intensity = 0, hue = 0;
+    uint32_t minWords = UINT32_MAX, maxWords = 0;
+    double seconds = 0.0;
+};
+
+// Extracts the words of at most `maxFrames` frames of `source` (0: all).
+Extraction extractAll(vision::FrameSource& source, vision::WordExtractor& extractor, const std::string& input,
+                      int64_t maxFrames) {
+    Extraction x;
+    vision::Frame frame;
+    vision::FrameWords fw;
+    const auto t0 = std::chrono::steady_clock::now();
+    while (maxFrames == 0 || x.frames < maxFrames) {
+        const vision::ReadStatus rs = source.read(frame);
+        if (rs == vision::ReadStatus::End) break;
+        if (rs == vision::ReadStatus::Error) fail(source.error());
+        if (!extractor.extract(frame.image, fw)) fail(input + ": frame " + std::to_string(frame.index) + ": cannot extract words");
+        appendCsvLine(x.words, x.frames, fw.words.data(), fw.words.size());
+        appendPositionsLine(x.positions, x.frames, fw.positions.data(), fw.positions.size());
+        x.total += fw.size();
+        x.orb += fw.orb;
+        x.intensity += fw.intensity;
+        x.hue += fw.hue;
+        x.minWords = std::min(x.minWords, fw.size());
+        x.maxWords = std::max(x.maxWords, fw.size());
+        ++x.frames;
+    }
+    if (x.frames == 0) fail(input + ": no frames");
+    x.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return x;
+}
+
+// What the cached stream is: OUT/dataset.txt.
+void writeMeta(const std::string& out, const std::string& name, const std::string& input,
+               const std::string& vocabularyPath, const vision::SourceInfo& info,
+               const vision::WordExtractor& extractor, const vision::ExtractorConfig& ec,
+               const vision::Vocabulary& vocabulary, const Extraction& x) {
+    auto per = [&](uint64_t n) { return std::to_string(static_cast<double>(n) / static_cast<double>(x.frames)); };
+    std::string note = vocabulary.note();
+    std::replace(note.begin(), note.end(), '\n', ' ');
+    if (Status s = experiment::writeDatasetMeta(
+            out, {{"name", name},
+                  {"source", input},
+                  {"source_description", info.description},
+                  {"width", std::to_string(info.width)},
+                  {"height", std::to_string(info.height)},
+                  {"V", std::to_string(extractor.vocabularySize())},
+                  {"frames", std::to_string(x.frames)},
+                  {"words", std::to_string(x.total)},
+                  {"words_per_frame", per(x.total)},
+                  {"words_per_frame_min", std::to_string(x.minWords)},
+                  {"words_per_frame_max", std::to_string(x.maxWords)},
+                  {"orb_per_frame", per(x.orb)},
+                  {"intensity_per_frame", per(x.intensity)},
+                  {"hue_per_frame", per(x.hue)},
+                  {"extractor", "orb_features=" + std::to_string(ec.orb_features) +
+                                    " thumb_cell=" + std::to_string(ec.thumb_cell) + " orb_vocabulary=" +
+                                    std::to_string(vocabulary.size())},
+                  {"vocabulary", vocabularyPath.empty() ? "built-in" : vocabularyPath},
+                  {"vocabulary_note", note},
+                  {"extract_seconds", std::to_string(x.seconds)}});
+        !s.ok())
+        fail(s.message());
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -45,29 +139,12 @@ int main(int argc, char** argv) {
     app.add_flag("--check-vocabulary", checkVocabulary,
                  "only check that the built-in vocabulary exists (exit 0) or not (exit 1), then exit");
     CLI11_PARSE(app, argc, argv);
-    if (checkVocabulary) {
-        Status s;
-        const auto v = vision::defaultVocabulary(s);
-        if (!v) {
-            std::printf("no built-in vocabulary: %s\n", s.message().c_str());
-            return 1;
-        }
-        std::printf("built-in vocabulary: %u words; %s\n", v->size(), v->note().c_str());
-        return 0;
-    }
+    if (checkVocabulary) return checkBuiltInVocabulary();
     if (input.empty() || out.empty()) fail("--input and --out are required");
     if (name.empty()) name = out.substr(out.find_last_of('/') + 1);
 
+    const std::shared_ptr<const vision::Vocabulary> vocabulary = loadVocabulary(vocabularyPath);
     Status st;
-    std::shared_ptr<const vision::Vocabulary> vocabulary;
-    if (!vocabularyPath.empty()) {
-        auto v = std::make_shared<vision::Vocabulary>();
-        if (Status s = vision::Vocabulary::load(vocabularyPath, *v); !s.ok()) fail(s.message());
-        vocabulary = std::move(v);
-    } else {
-        vocabulary = vision::defaultVocabulary(st);
-        if (!st.ok()) fail(st.message());
-    }
     const vision::ExtractorConfig ec;
     auto extractor = vision::WordExtractor::create(ec, vocabulary, st);
     if (!extractor) fail(st.message());
@@ -76,63 +153,15 @@ int main(int argc, char** argv) {
     const vision::SourceInfo& info = source->info();
 
     ::mkdir(out.c_str(), 0755);
-    std::string words, positions;
-    vision::Frame frame;
-    vision::FrameWords fw;
-    int64_t frames = 0;
-    uint64_t total = 0, orb = 0, intensity = 0, hue = 0;
-    uint32_t minWords = UINT32_MAX, maxWords = 0;
-    const auto t0 = std::chrono::steady_clock::now();
-    while (maxFrames == 0 || frames < maxFrames) {
-        const vision::ReadStatus rs = source->read(frame);
-        if (rs == vision::ReadStatus::End) break;
-        if (rs == vision::ReadStatus::Error) fail(source->error());
-        if (!extractor->extract(frame.image, fw)) fail(input + ": frame " + std::to_string(frame.index) + ": cannot extract words");
-        appendCsvLine(words, frames, fw.words.data(), fw.words.size());
-        appendPositionsLine(positions, frames, fw.positions.data(), fw.positions.size());
-        total += fw.size();
-        orb += fw.orb;
-        intensity += fw.intensity;
-        hue += fw.hue;
-        minWords = std::min(minWords, fw.size());
-        maxWords = std::max(maxWords, fw.size());
-        ++frames;
-    }
-    if (frames == 0) fail(input + ": no frames");
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (Status s = writeFileAtomic(out + "/words.csv", words); !s.ok()) fail(s.message());
-    if (Status s = writeFileAtomic(out + "/positions.csv", positions); !s.ok()) fail(s.message());
-    auto per = [&](uint64_t n) { return std::to_string(static_cast<double>(n) / static_cast<double>(frames)); };
-    std::string note = vocabulary->note();
-    std::replace(note.begin(), note.end(), '\n', ' ');
-    if (Status s = experiment::writeDatasetMeta(
-            out, {{"name", name},
-                  {"source", input},
-                  {"source_description", info.description},
-                  {"width", std::to_string(info.width)},
-                  {"height", std::to_string(info.height)},
-                  {"V", std::to_string(extractor->vocabularySize())},
-                  {"frames", std::to_string(frames)},
-                  {"words", std::to_string(total)},
-                  {"words_per_frame", per(total)},
-                  {"words_per_frame_min", std::to_string(minWords)},
-                  {"words_per_frame_max", std::to_string(maxWords)},
-                  {"orb_per_frame", per(orb)},
-                  {"intensity_per_frame", per(intensity)},
-                  {"hue_per_frame", per(hue)},
-                  {"extractor", "orb_features=" + std::to_string(ec.orb_features) +
-                                    " thumb_cell=" + std::to_string(ec.thumb_cell) + " orb_vocabulary=" +
-                                    std::to_string(vocabulary->size())},
-                  {"vocabulary", vocabularyPath.empty() ? "built-in" : vocabularyPath},
-                  {"vocabulary_note", note},
-                  {"extract_seconds", std::to_string(secs)}});
-        !s.ok())
-        fail(s.message());
+    const Extraction x = extractAll(*source, *extractor, input, maxFrames);
+    if (Status s = writeFileAtomic(out + "/words.csv", x.words); !s.ok()) fail(s.message());
+    if (Status s = writeFileAtomic(out + "/positions.csv", x.positions); !s.ok()) fail(s.message());
+    writeMeta(out, name, input, vocabularyPath, info, *extractor, ec, *vocabulary, x);
+    const double frames = static_cast<double>(x.frames);
     std::printf("%s: %lld frames %dx%d, %.0f words/frame (ORB %.0f, intensity %.0f, hue %.0f), V = %u, %.1f s\n",
-                name.c_str(), static_cast<long long>(frames), info.width, info.height,
-                static_cast<double>(total) / static_cast<double>(frames),
-                static_cast<double>(orb) / static_cast<double>(frames),
-                static_cast<double>(intensity) / static_cast<double>(frames),
-                static_cast<double>(hue) / static_cast<double>(frames), extractor->vocabularySize(), secs);
+                name.c_str(), static_cast<long long>(x.frames), info.width, info.height,
+                static_cast<double>(x.total) / frames, static_cast<double>(x.orb) / frames,
+                static_cast<double>(x.intensity) / frames, static_cast<double>(x.hue) / frames,
+                extractor->vocabularySize(), x.seconds);
     return 0;
 }

@@ -19,18 +19,15 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
-#include <ctime>
 #include <map>
 #include <mutex>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "cli.hpp"
 #include "dataset.hpp"
 #include "harness.hpp"
-#include "rost/settings.hpp"
 
 using namespace rost;
 using namespace rost::experiment;
@@ -39,121 +36,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-[[noreturn]] void fail(const std::string& what) {
-    std::fprintf(stderr, "rost_experiment: %s\n", what.c_str());
-    std::exit(1);
-}
-
-// The settings (rost/settings.hpp): the schema's defaults, then --config FILE, then --set KEY=VALUE.
-Settings gSettings;
-ModelParams modelParams() { return gSettings.engine.model; }
-
-void applySettings(const std::string& config, const std::vector<std::string>& sets) {
-    if (!config.empty())
-        if (Status st = readSettingsFile(config, gSettings); !st.ok()) fail("--config: " + st.message());
-    for (const std::string& kv : sets) {
-        const std::size_t eq = kv.find('=');
-        if (eq == std::string::npos) fail("--set " + kv + ": expected KEY=VALUE");
-        if (Status st = setSetting(gSettings, kv.substr(0, eq), kv.substr(eq + 1)); !st.ok()) fail("--set: " + st.message());
-    }
-    if (Status st = gSettings.validate(); !st.ok()) fail(st.message());
-}
-
-std::vector<std::string> splitList(const std::string& s) {
-    std::vector<std::string> out;
-    std::string cur;
-    std::istringstream is(s);
-    while (std::getline(is, cur, ','))
-        if (!cur.empty()) out.push_back(cur);
-    return out;
-}
-
-std::vector<double> parseDoubles(const std::string& s, const char* what) {
-    std::vector<double> out;
-    for (const auto& f : splitList(s)) {
-        char* end = nullptr;
-        const double v = std::strtod(f.c_str(), &end);
-        if (end == f.c_str() || *end != '\0' || !std::isfinite(v)) fail(std::string(what) + ": '" + f + "' is not a number");
-        out.push_back(v);
-    }
-    if (out.empty()) fail(std::string(what) + ": empty list");
-    return out;
-}
-
-std::vector<StrategyKind> parseStrategies(const std::string& s) {
-    if (s == "all") return paperOrder();
-    if (s == "mixed")
-        return {StrategyKind::UniformNow, StrategyKind::AgeProportionalNow, StrategyKind::UniformExponential,
-                StrategyKind::AgeProportionalExponential};
-    std::vector<StrategyKind> out;
-    for (const auto& name : splitList(s)) {
-        StrategyKind k{};
-        if (Status st = parseStrategy(name, k); !st.ok()) fail("--strategies: " + st.message());
-        out.push_back(k);
-    }
-    if (out.empty()) fail("--strategies: empty list");
-    return out;
-}
-
-// --budget LABEL=tokens:N | LABEL=time   (LABEL: T_R in ms)
-struct BudgetSpec {
-    double tr_ms = 0.0;
-    Budget budget;
-    std::string text;
-};
-BudgetSpec parseBudget(const std::string& s) {
-    const auto eq = s.find('=');
-    if (eq == std::string::npos) fail("--budget '" + s + "': expected TR_MS=tokens:N or TR_MS=time");
-    BudgetSpec b;
-    b.text = s;
-    b.tr_ms = parseDoubles(s.substr(0, eq), "--budget T_R")[0];
-    if (!(b.tr_ms > 0.0)) fail("--budget '" + s + "': T_R must be > 0 ms");
-    const std::string spec = s.substr(eq + 1);
-    if (spec == "time") {
-        b.budget = Budget::time(b.tr_ms);
-    } else if (spec.rfind("tokens:", 0) == 0) {
-        char* end = nullptr;
-        const unsigned long long n = std::strtoull(spec.c_str() + 7, &end, 10);
-        if (end == spec.c_str() + 7 || *end != '\0' || n == 0) fail("--budget '" + s + "': bad token count");
-        b.budget = Budget::tokens(n);
-    } else {
-        fail("--budget '" + s + "': expected tokens:N or time after '='");
-    }
-    return b;
-}
-
-std::string fmt(double v, const char* f = "%.6g") {
-    if (!std::isfinite(v)) return "nan";
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
-
-std::string nowText() {
-    const std::time_t t = std::time(nullptr);
-    char b[64];
-    std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
-    return b;
-}
-
 std::string joinArgs(int argc, char** argv) {
     std::string s;
     for (int i = 0; i < argc; ++i) s += (i ? " " : "") + std::string(argv[i]);
     return s;
-}
-
-std::string loadAverage() {
-    std::string s;
-    if (!readFile("/proc/loadavg", s).ok()) return "?";
-    std::size_t n = 0, at = 0;
-    while (n < 3 && (at = s.find(' ', at + 1)) != std::string::npos) ++n;
-    return s.substr(0, at);
-}
-
-Dataset load(const std::string& dir, int64_t frames) {
-    Dataset d;
-    if (Status s = loadDataset(dir, frames, d); !s.ok()) fail(s.message());
-    return d;
 }
 
 // ---- calibrate ---------------------------------------------------------------
@@ -226,20 +112,36 @@ struct BatchTask {
     BatchResult result;
 };
 
-int doRun(const RunArgs& a, const std::string& command) {
-    const Dataset d = load(a.dataset, a.frames);
-    const std::string tag = a.tag.empty() ? d.name : a.tag;
+// What a run does: its budgets, its online runs and their batch references.
+struct RunPlan {
     std::vector<BudgetSpec> budgets;
-    for (const auto& b : a.budgets) budgets.push_back(parseBudget(b));
-    if (budgets.empty()) fail("run: give at least one --budget TR_MS=tokens:N or TR_MS=time");
+    std::vector<OnlineTask> online;
+    std::vector<BatchTask> batches;
+    std::map<std::pair<uint64_t, int>, int> batchIndex;
+    std::vector<std::size_t> counted, timed;  // online runs with count / time budgets
+
+    // The batch reference with this seed and sweeps (shared by every run with
+    // the same), added if new; its index into batches.
+    int batchFor(uint64_t seed, int sweeps) {
+        const auto key = std::make_pair(seed, sweeps);
+        const auto it = batchIndex.find(key);
+        if (it != batchIndex.end()) return it->second;
+        batches.push_back(BatchTask{seed, sweeps, {}});
+        return batchIndex[key] = static_cast<int>(batches.size() - 1);
+    }
+    const BudgetSpec& budgetOf(const OnlineTask& t) const { return budgets[t.budget]; }
+};
+
+// The online runs: every budget x strategy x eta x q x seed (eta and q only
+// for the strategies that use them).
+void planOnline(const RunArgs& a, RunPlan& p) {
+    for (const auto& b : a.budgets) p.budgets.push_back(parseBudget(b));
+    if (p.budgets.empty()) fail("run: give at least one --budget TR_MS=tokens:N or TR_MS=time");
     if (a.seeds < 1) fail("--seeds must be >= 1");
     const auto kinds = parseStrategies(a.strategies);
     const auto etas = parseDoubles(a.eta, "--eta");
     const auto qs = parseDoubles(a.q, "--q");
-    const ModelParams params = modelParams();
-
-    std::vector<OnlineTask> online;
-    for (std::size_t b = 0; b < budgets.size(); ++b)
+    for (std::size_t b = 0; b < p.budgets.size(); ++b)
         for (StrategyKind k : kinds)
             for (double eta : usesEta(k) ? etas : std::vector<double>{etas.front()})
                 for (double q : usesQ(k) ? qs : std::vector<double>{qs.front()})
@@ -251,117 +153,147 @@ int doRun(const RunArgs& a, const std::string& command) {
                         if (Status st = t.strategy.validate(); !st.ok()) fail(st.message());
                         t.budget = b;
                         t.seed = a.seed_base + static_cast<uint64_t>(s);
-                        online.push_back(t);
+                        p.online.push_back(t);
                     }
+}
 
-    // Batch references, shared by every run with the same seed and sweeps.
-    std::vector<BatchTask> batches;
-    std::map<std::pair<uint64_t, int>, int> batchIndex;
-    auto batchFor = [&](uint64_t seed, int sweeps) {
-        const auto key = std::make_pair(seed, sweeps);
-        const auto it = batchIndex.find(key);
-        if (it != batchIndex.end()) return it->second;
-        batches.push_back(BatchTask{seed, sweeps, {}});
-        return batchIndex[key] = static_cast<int>(batches.size() - 1);
-    };
-    double estimate = 0.0;  // core-seconds of refinement the runs are budgeted
-    for (auto& t : online) {
-        const BudgetSpec& b = budgets[t.budget];
+// The batch references of the count-budget runs (those of the time-budget
+// runs follow their runs); returns the estimated core-seconds of refinement.
+double planBatches(const Dataset& d, RunPlan& p) {
+    double estimate = 0.0;
+    for (auto& t : p.online) {
+        const BudgetSpec& b = p.budgetOf(t);
         if (b.budget.kind == BudgetKind::Steps) fail("run: step budgets are not supported here; use tokens:N");
         // A run and its batch each cost about T x T_R of refinement.
         estimate += static_cast<double>(d.steps()) * b.tr_ms * 1e-3;
-        const std::size_t before = batches.size();
+        const std::size_t before = p.batches.size();
         if (b.budget.kind == BudgetKind::Tokens)
-            t.batch = batchFor(t.seed, sweepsFor(b.budget.count * static_cast<uint64_t>(d.steps()), d.words));
-        if (batches.size() != before || b.budget.kind == BudgetKind::Time)
+            t.batch = p.batchFor(t.seed, sweepsFor(b.budget.count * static_cast<uint64_t>(d.steps()), d.words));
+        if (p.batches.size() != before || b.budget.kind == BudgetKind::Time)
             estimate += static_cast<double>(d.steps()) * b.tr_ms * 1e-3;
     }
-    std::fprintf(stderr,
-                 "run %s: %lld frames, %.0f words/frame, %zu online runs, %zu batch runs (more for time budgets), "
-                 "about %.0f core-seconds of refinement\n",
-                 tag.c_str(), static_cast<long long>(d.steps()), d.wordsPerFrame(), online.size(), batches.size(),
-                 estimate);
-    if (a.dry_run) return 0;
+    for (std::size_t i = 0; i < p.online.size(); ++i)
+        (p.budgetOf(p.online[i]).budget.kind == BudgetKind::Time ? p.timed : p.counted).push_back(i);
+    return estimate;
+}
 
-    const auto t0 = Clock::now();
-    std::mutex logMutex;
+// Progress of a run's tasks on stderr, from any thread: "[done/total
+// elapsed] what (seconds)".
+struct RunLog {
+    const Clock::time_point t0 = Clock::now();
+    std::mutex mutex;
     std::size_t done = 0;
-    const std::size_t total = online.size() + batches.size();
-    auto progress = [&](const std::string& what, double secs) {
-        std::lock_guard<std::mutex> lock(logMutex);
+    std::size_t total = 0;
+
+    void progress(const std::string& what, double secs) {
+        std::lock_guard<std::mutex> lock(mutex);
         ++done;
         const double el = std::chrono::duration<double>(Clock::now() - t0).count();
         std::fprintf(stderr, "[%zu/%zu %.0fs] %s (%.1fs)\n", done, total, el, what.c_str(), secs);
-    };
-    auto fatal = [&](const std::string& m) {
-        std::lock_guard<std::mutex> lock(logMutex);
+    }
+    [[noreturn]] void fatal(const std::string& m) {
+        std::lock_guard<std::mutex> lock(mutex);
         fail(m);
-    };
+    }
+};
 
-    // Phase 1: count-budget runs and their batches, in parallel.
-    std::vector<std::size_t> counted, timed;
-    for (std::size_t i = 0; i < online.size(); ++i)
-        (budgets[online[i].budget].budget.kind == BudgetKind::Time ? timed : counted).push_back(i);
-    const std::size_t nb = batches.size();
-    const Config base = modelConfig(d, params, 1);
-    parallelFor(nb + counted.size(), a.jobs, [&](std::size_t i) {
+// One batch reference.
+void runBatchTask(const Dataset& d, const Config& base, BatchTask& bt, RunLog& log) {
+    Config c = base;
+    c.seed = bt.seed;
+    bt.result = runBatch(d, c, bt.sweeps);
+    log.progress("batch seed=" + std::to_string(bt.seed) + " sweeps=" + std::to_string(bt.sweeps), bt.result.seconds);
+}
+
+// One online run; `thread` schedules the refiner of a time-budget run.
+void runOnlineTask(const Dataset& d, const Config& base, const BudgetSpec& b, OnlineTask& t, RunLog& log,
+                   const ThreadSettings& thread = {}) {
+    Config c = base;
+    c.seed = t.seed;
+    Status st;
+    t.result = runOnline(d, c, t.strategy, b.budget, st, thread);
+    if (!st.ok()) log.fatal(d.name + " " + toString(t.strategy.kind) + ": " + st.message());
+    std::string what = std::string(toString(t.strategy.kind)) + " " + b.text + " seed=" + std::to_string(t.seed);
+    if (b.budget.kind == BudgetKind::Time)
+        what += " tokens/obs=" +
+                fmt(static_cast<double>(t.result.total_tokens) / static_cast<double>(d.steps()), "%.0f");
+    log.progress(what, t.result.seconds);
+}
+
+// Runs the plan: count-budget runs and their batches in parallel, then the
+// time-budget runs one at a time through the threaded engine (each needs a
+// core of its own for its deadlines to mean anything), then their batches
+// (same total refinement as each run). Returns how the refiner thread of the
+// time-budget runs was scheduled.
+std::string execute(const Dataset& d, const Config& base, const RunArgs& a, RunPlan& p, RunLog& log) {
+    const std::size_t nb = p.batches.size();
+    parallelFor(nb + p.counted.size(), a.jobs, [&](std::size_t i) {
         if (i < nb) {
-            BatchTask& bt = batches[i];
-            Config c = base;
-            c.seed = bt.seed;
-            bt.result = runBatch(d, c, bt.sweeps);
-            progress("batch seed=" + std::to_string(bt.seed) + " sweeps=" + std::to_string(bt.sweeps),
-                     bt.result.seconds);
-            return;
+            runBatchTask(d, base, p.batches[i], log);
+        } else {
+            OnlineTask& t = p.online[p.counted[i - nb]];
+            runOnlineTask(d, base, p.budgetOf(t), t, log);
         }
-        OnlineTask& t = online[counted[i - nb]];
-        Config c = base;
-        c.seed = t.seed;
-        Status st;
-        t.result = runOnline(d, c, t.strategy, budgets[t.budget].budget, st);
-        if (!st.ok()) fatal(d.name + " " + toString(t.strategy.kind) + ": " + st.message());
-        progress(std::string(toString(t.strategy.kind)) + " " + budgets[t.budget].text + " seed=" +
-                     std::to_string(t.seed),
-                 t.result.seconds);
     });
-    // Phase 2: time-budget runs through the threaded engine, one at a time
-    // (each needs a core of its own for its deadlines to mean anything).
     ThreadSettings thread;
     std::string sched = "default scheduler";
     if (a.realtime) {
         thread = ThreadSettings::onboard();
         thread.lock_memory = false;
     }
-    if (!timed.empty()) {
+    if (!p.timed.empty()) {
         sched = describeThreadSettings(thread);
         std::fprintf(stderr, "time budgets: refiner thread %s\n", sched.c_str());
     }
-    for (std::size_t i : timed) {
-        OnlineTask& t = online[i];
-        Config c = base;
-        c.seed = t.seed;
-        Status st;
-        t.result = runOnline(d, c, t.strategy, budgets[t.budget].budget, st, thread);
-        if (!st.ok()) fatal(d.name + " " + toString(t.strategy.kind) + ": " + st.message());
-        progress(std::string(toString(t.strategy.kind)) + " " + budgets[t.budget].text + " seed=" +
-                     std::to_string(t.seed) + " tokens/obs=" +
-                     fmt(static_cast<double>(t.result.total_tokens) / static_cast<double>(d.steps()), "%.0f"),
-                 t.result.seconds);
-    }
-    // Phase 3: batches for the time-budget runs (same total refinement as each run).
-    const std::size_t nb0 = batches.size();
-    for (std::size_t i : timed)
-        online[i].batch = batchFor(online[i].seed, sweepsFor(online[i].result.total_tokens, d.words));
-    parallelFor(batches.size() - nb0, a.jobs, [&](std::size_t j) {
-        BatchTask& bt = batches[nb0 + j];
-        Config c = base;
-        c.seed = bt.seed;
-        bt.result = runBatch(d, c, bt.sweeps);
-        progress("batch seed=" + std::to_string(bt.seed) + " sweeps=" + std::to_string(bt.sweeps), bt.result.seconds);
-    });
-    const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    for (std::size_t i : p.timed) runOnlineTask(d, base, p.budgetOf(p.online[i]), p.online[i], log, thread);
+    const std::size_t nb0 = p.batches.size();
+    for (std::size_t i : p.timed)
+        p.online[i].batch = p.batchFor(p.online[i].seed, sweepsFor(p.online[i].result.total_tokens, d.words));
+    parallelFor(p.batches.size() - nb0, a.jobs, [&](std::size_t j) { runBatchTask(d, base, p.batches[nb0 + j], log); });
+    return sched;
+}
 
-    // Outputs.
+// The rows of the online run `t`: one of TAG.runs.csv (against its batch
+// reference) and, with `withSteps`, one of TAG.steps.csv per time step.
+void appendRunRows(const Dataset& d, const RunPlan& p, const OnlineTask& t, const std::string& sched, bool withSteps,
+                   std::string& runs, std::string& steps) {
+    const BudgetSpec& b = p.budgetOf(t);
+    const BatchResult& br = p.batches[static_cast<std::size_t>(t.batch)].result;
+    const OnlineResult& r = t.result;
+    const std::string eta = usesEta(t.strategy.kind) ? fmt(t.strategy.eta) : "";
+    const std::string q = usesQ(t.strategy.kind) ? fmt(t.strategy.q) : "";
+    const char* kind = b.budget.kind == BudgetKind::Time ? "time" : "tokens";
+    uint64_t tmin = UINT64_MAX, tmax = 0;
+    for (uint64_t x : r.tokens) {
+        tmin = std::min(tmin, x);
+        tmax = std::max(tmax, x);
+    }
+    runs += d.name + "," + std::to_string(d.steps()) + "," + std::to_string(d.words) + "," +
+            toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," + kind + "," +
+            (b.budget.kind == BudgetKind::Tokens ? std::to_string(b.budget.count) : "") + "," +
+            std::to_string(t.seed) + "," + fmt(meanRatio(r.instantaneous, br.ppx)) + "," +
+            fmt(meanRatio(r.final_ppx, br.ppx)) + "," + fmt(meanFinite(r.instantaneous)) + "," +
+            fmt(meanFinite(r.final_ppx)) + "," + fmt(meanFinite(br.ppx)) + "," + std::to_string(r.total_tokens) +
+            "," + fmt(static_cast<double>(r.total_tokens) / static_cast<double>(d.steps()), "%.0f") + "," +
+            std::to_string(tmin) + "," + std::to_string(tmax) + "," + std::to_string(br.sweeps) + "," +
+            std::to_string(br.tokens) + "," + fmt(r.seconds, "%.3f") + "," + fmt(br.seconds, "%.3f") + "," +
+            std::to_string(r.overruns) + "," + fmt(static_cast<double>(r.max_overrun_ns) * 1e-6, "%.3f") + "," +
+            (b.budget.kind == BudgetKind::Time ? sched : std::string("synchronous")) + "," +
+            fmt(meanRatio(r.instantaneous_plugin, br.plugin)) + "," + fmt(meanRatio(r.final_plugin, br.plugin)) +
+            "," + fmt(meanFinite(r.instantaneous_plugin)) + "," + fmt(meanFinite(r.final_plugin)) + "," +
+            fmt(meanFinite(br.plugin)) + "\n";
+    if (!withSteps) return;
+    for (std::size_t s = 0; s < r.final_ppx.size(); ++s)
+        steps += d.name + "," + toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," +
+                 kind + "," + std::to_string(t.seed) + "," + std::to_string(s) + "," +
+                 std::to_string(d.frames[s].words.size()) + "," + fmt(r.instantaneous[s]) + "," +
+                 fmt(r.final_ppx[s]) + "," + fmt(br.ppx[s]) + "," + fmt(r.instantaneous_plugin[s]) + "," +
+                 fmt(r.final_plugin[s]) + "," + fmt(br.plugin[s]) + "\n";
+}
+
+// Writes TAG.runs.csv, TAG.steps.csv (unless --no-steps) and TAG.info.txt.
+void writeRunOutputs(const Dataset& d, const Config& base, const RunArgs& a, const RunPlan& p,
+                     const std::string& tag, const std::string& sched, double seconds, const std::string& command) {
     std::string runs =
         "dataset,frames,words,strategy,eta,q,tr_ms,budget_kind,budget_tokens,seed,inst_ratio,final_ratio,inst_ppx,"
         "final_ppx,batch_ppx,online_tokens,tokens_per_obs_mean,tokens_per_obs_min,tokens_per_obs_max,batch_sweeps,"
@@ -370,40 +302,7 @@ int doRun(const RunArgs& a, const std::string& command) {
     std::string steps =
         "dataset,strategy,eta,q,tr_ms,budget_kind,seed,step,words,inst_ppx,final_ppx,batch_ppx,inst_plugin,"
         "final_plugin,batch_plugin\n";
-    for (const auto& t : online) {
-        const BudgetSpec& b = budgets[t.budget];
-        const BatchResult& br = batches[static_cast<std::size_t>(t.batch)].result;
-        const OnlineResult& r = t.result;
-        const std::string eta = usesEta(t.strategy.kind) ? fmt(t.strategy.eta) : "";
-        const std::string q = usesQ(t.strategy.kind) ? fmt(t.strategy.q) : "";
-        const char* kind = b.budget.kind == BudgetKind::Time ? "time" : "tokens";
-        uint64_t tmin = UINT64_MAX, tmax = 0;
-        for (uint64_t x : r.tokens) {
-            tmin = std::min(tmin, x);
-            tmax = std::max(tmax, x);
-        }
-        runs += d.name + "," + std::to_string(d.steps()) + "," + std::to_string(d.words) + "," +
-                toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," + kind + "," +
-                (b.budget.kind == BudgetKind::Tokens ? std::to_string(b.budget.count) : "") + "," +
-                std::to_string(t.seed) + "," + fmt(meanRatio(r.instantaneous, br.ppx)) + "," +
-                fmt(meanRatio(r.final_ppx, br.ppx)) + "," + fmt(meanFinite(r.instantaneous)) + "," +
-                fmt(meanFinite(r.final_ppx)) + "," + fmt(meanFinite(br.ppx)) + "," + std::to_string(r.total_tokens) +
-                "," + fmt(static_cast<double>(r.total_tokens) / static_cast<double>(d.steps()), "%.0f") + "," +
-                std::to_string(tmin) + "," + std::to_string(tmax) + "," + std::to_string(br.sweeps) + "," +
-                std::to_string(br.tokens) + "," + fmt(r.seconds, "%.3f") + "," + fmt(br.seconds, "%.3f") + "," +
-                std::to_string(r.overruns) + "," + fmt(static_cast<double>(r.max_overrun_ns) * 1e-6, "%.3f") + "," +
-                (b.budget.kind == BudgetKind::Time ? sched : std::string("synchronous")) + "," +
-                fmt(meanRatio(r.instantaneous_plugin, br.plugin)) + "," + fmt(meanRatio(r.final_plugin, br.plugin)) +
-                "," + fmt(meanFinite(r.instantaneous_plugin)) + "," + fmt(meanFinite(r.final_plugin)) + "," +
-                fmt(meanFinite(br.plugin)) + "\n";
-        if (!a.steps_csv) continue;
-        for (std::size_t s = 0; s < r.final_ppx.size(); ++s)
-            steps += d.name + "," + toString(t.strategy.kind) + "," + eta + "," + q + "," + fmt(b.tr_ms, "%g") + "," +
-                     kind + "," + std::to_string(t.seed) + "," + std::to_string(s) + "," +
-                     std::to_string(d.frames[s].words.size()) + "," + fmt(r.instantaneous[s]) + "," +
-                     fmt(r.final_ppx[s]) + "," + fmt(br.ppx[s]) + "," + fmt(r.instantaneous_plugin[s]) + "," +
-                     fmt(r.final_plugin[s]) + "," + fmt(br.plugin[s]) + "\n";
-    }
+    for (const auto& t : p.online) appendRunRows(d, p, t, sched, a.steps_csv, runs, steps);
     const std::string prefix = a.out + "/" + tag;
     if (Status s = writeFileAtomic(prefix + ".runs.csv", runs); !s.ok()) fail(s.message());
     if (a.steps_csv)
@@ -414,12 +313,35 @@ int doRun(const RunArgs& a, const std::string& command) {
             "\nwords_per_frame=" + fmt(d.wordsPerFrame(), "%.1f") + "\n";
     info += "cell_capacity=" + std::to_string(base.cell_capacity) + "\nmax_words_per_frame=" +
             std::to_string(base.max_words_per_frame) + "\n";
-    info += "online_runs=" + std::to_string(online.size()) + "\nbatch_runs=" + std::to_string(batches.size()) + "\n";
-    if (!timed.empty()) info += "refiner_thread=" + sched + "\n";
+    info += "online_runs=" + std::to_string(p.online.size()) + "\nbatch_runs=" + std::to_string(p.batches.size()) +
+            "\n";
+    if (!p.timed.empty()) info += "refiner_thread=" + sched + "\n";
     info += "jobs=" + std::to_string(a.jobs) + "\nseconds=" + fmt(seconds, "%.1f") + "\n";
     if (Status s = writeFileAtomic(prefix + ".info.txt", info); !s.ok()) fail(s.message());
     std::fprintf(stderr, "run %s: done in %.1f s; wrote %s.runs.csv%s\n", tag.c_str(), seconds, prefix.c_str(),
                  a.steps_csv ? " and .steps.csv" : "");
+}
+
+int doRun(const RunArgs& a, const std::string& command) {
+    const Dataset d = load(a.dataset, a.frames);
+    const std::string tag = a.tag.empty() ? d.name : a.tag;
+    RunPlan p;
+    planOnline(a, p);
+    const ModelParams params = modelParams();
+    const double estimate = planBatches(d, p);  // core-seconds of refinement the runs are budgeted
+    std::fprintf(stderr,
+                 "run %s: %lld frames, %.0f words/frame, %zu online runs, %zu batch runs (more for time budgets), "
+                 "about %.0f core-seconds of refinement\n",
+                 tag.c_str(), static_cast<long long>(d.steps()), d.wordsPerFrame(), p.online.size(), p.batches.size(),
+                 estimate);
+    if (a.dry_run) return 0;
+
+    RunLog log;
+    log.total = p.online.size() + p.batches.size();
+    const Config base = modelConfig(d, params, 1);
+    const std::string sched = execute(d, base, a, p, log);
+    const double seconds = std::chrono::duration<double>(Clock::now() - log.t0).count();
+    writeRunOutputs(d, base, a, p, tag, sched, seconds, command);
     return 0;
 }
 

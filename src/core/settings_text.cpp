@@ -1,0 +1,121 @@
+// Settings as the text of a configuration file: `key = value` lines read
+// (errors name the file, the line and the key) and written with their
+// documentation (`rost config`). The bindings and the check: settings.cpp.
+
+#include <algorithm>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "rost/settings.hpp"
+#include "rost/word_stream.hpp"
+#include "settings_text.hpp"
+
+namespace rost {
+
+using settings_detail::quoted;
+using settings_detail::trim;
+using settings_detail::unknownKey;
+
+namespace {
+
+// Checks the line-by-line grammar and sets each key on `s`; `seen` gets the
+// keys with their lines.
+struct ParseState {
+    std::map<std::string, int, std::less<>> seen;  // key -> line
+    std::string budgetKey;
+};
+
+Status parseLine(std::string_view line, int lineNo, std::string_view name, Settings& s, ParseState& ps) {
+    auto where = [&] { return std::string(name) + ":" + std::to_string(lineNo) + ": "; };
+    const std::size_t eq = line.find('=');
+    if (eq == std::string_view::npos) return Status::error(where() + "expected 'key = value', found " + quoted(line));
+    const std::string_view key = trim(line.substr(0, eq));
+    const std::string_view value = trim(line.substr(eq + 1));
+    if (key.empty()) return Status::error(where() + "missing key before '='");
+    const SettingSpec* spec = findSetting(key);
+    if (!spec || spec->key != key) return Status::error(where() + unknownKey(key));
+    if (auto it = ps.seen.find(key); it != ps.seen.end())
+        return Status::error(where() + "key '" + std::string(key) + "' set again (first set on line " +
+                             std::to_string(it->second) + ")");
+    if (spec->isBudget()) {
+        if (!ps.budgetKey.empty())
+            return Status::error(where() + "key '" + std::string(key) + "': a budget was already set by '" +
+                                 ps.budgetKey + "' on line " + std::to_string(ps.seen[ps.budgetKey]) +
+                                 " (give one of budget.refines, budget.tokens, budget.ms)");
+        ps.budgetKey = std::string(key);
+    }
+    if (value.empty()) return Status::error(where() + "key '" + std::string(key) + "': missing value");
+    if (Status st = setSetting(s, key, value); !st.ok()) return Status::error(where() + st.message());
+    ps.seen.emplace(std::string(key), lineNo);
+    return {};
+}
+
+} // namespace
+
+Status parseSettingsText(std::string_view text, std::string_view name, Settings& s, std::vector<ConfigKeyLine>* set) {
+    Settings tmp = s;
+    ParseState ps;
+    int lineNo = 0;
+    std::size_t pos = 0;
+    while (pos <= text.size()) {
+        std::size_t end = text.find('\n', pos);
+        if (end == std::string_view::npos) end = text.size();
+        std::string_view line = text.substr(pos, end - pos);
+        pos = end + 1;
+        ++lineNo;
+        if (line.find('\0') != std::string_view::npos)
+            return Status::error(std::string(name) + ":" + std::to_string(lineNo) + ": NUL byte in the text");
+        // A comment runs from '#' to the end of the line (no value contains '#').
+        if (const std::size_t hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
+        line = trim(line);
+        if (!line.empty())
+            if (Status st = parseLine(line, lineNo, name, tmp, ps); !st.ok()) return st;
+        if (end == text.size()) break;
+    }
+    if (auto p = checkSettings(tmp)) {
+        // Point at the line that set the offending key, when the text set it.
+        const std::string what = "invalid configuration: " + p->describe(p->spec->key);
+        if (auto it = ps.seen.find(p->spec->key); it != ps.seen.end())
+            return Status::error(std::string(name) + ":" + std::to_string(it->second) + ": key '" + it->first + "': " + what);
+        return Status::error(std::string(name) + ": " + what);
+    }
+    s = tmp;
+    if (set) {
+        set->clear();
+        for (const auto& [key, line] : ps.seen) set->push_back({key, line});
+        std::sort(set->begin(), set->end(), [](const ConfigKeyLine& a, const ConfigKeyLine& b) { return a.line < b.line; });
+    }
+    return {};
+}
+
+Status readSettingsFile(const std::string& path, Settings& s, std::vector<ConfigKeyLine>* set) {
+    std::string text;
+    if (Status st = readFile(path, text); !st.ok()) return st;
+    return parseSettingsText(text, path, s, set);
+}
+
+std::string formatSettingsDocumented(const Settings& s) {
+    static const char* const kGroups[] = {"Model", "Refinement", "Runtime", "Mission", "Words"};
+    std::string out =
+        "# rost settings: every setting with its value, as `rost run --config FILE` reads them.\n"
+        "# Lines starting with '#' are comments. Settings the rost tool derives from its input or\n"
+        "# sets itself, and the budget keys not in force, are written commented out.\n";
+    int group = -1;
+    for (const SettingSpec& sp : settingSpecs()) {
+        if (static_cast<int>(sp.group) != group) {
+            group = static_cast<int>(sp.group);
+            out += "\n# ---- " + std::string(kGroups[group]) + "\n";
+        }
+        std::string value = settingValue(s, sp.key);
+        out += "# " + std::string(sp.doc) + "; " + settingRange(sp);
+        if (sp.has(setting_flags::Library)) out += " (the library and the ROS node; the rost tool sets it itself)";
+        out += "\n";
+        const bool commented = value.empty() || sp.has(setting_flags::Derived) || sp.has(setting_flags::Library);
+        if (value.empty()) value = std::string(sp.def.empty() ? "" : sp.def);
+        out += (commented ? "# " : "") + std::string(sp.key) + " =" + (value.empty() ? "" : " " + value) + "\n";
+    }
+    return out;
+}
+
+} // namespace rost
