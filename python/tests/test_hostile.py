@@ -225,6 +225,16 @@ def test_unwritable_output_tool_fails_before_the_work(tmp_path):
     assert (tmp_path / "afile").read_text() == "kept", "nothing already written is lost"
 
 
+def test_unwritable_vocabulary_fails_before_the_training(tmp_path):
+    d = image_dir(tmp_path, (96, 64))
+    (tmp_path / "taken").mkdir()
+    for target, why in (("/proc/x/v.rostvoc", "--out: /proc/x/v.rostvoc: cannot write in /proc/x"),
+                        ("taken", "--out: taken: is a directory, not a file that can be written")):
+        code, err = tool(tmp_path, "vocab", d, "--out", target, "--words", "100", "-q")
+        refused(code, err, why)  # before any frame is read
+    assert sorted(os.listdir(tmp_path)) == ["in", "taken"]
+
+
 def test_unwritable_output_python_raises(tmp_path):
     m = rost.Model(rost.Config(V=10, frame_width=64, frame_height=64))
     m.add_observation(0, np.arange(10, dtype=np.int32), np.zeros((10, 2), np.int32))

@@ -10,6 +10,7 @@
 
 #include "progress.hpp"
 #include "rost/random.hpp"
+#include "rost/word_stream.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -23,6 +24,8 @@ int vocabCommand(const VocabOptions& o) {
     if (o.features < 1) return fail("--features must be at least 1");
     if (o.every < 1) return fail("--every must be at least 1");
     if (o.max_descriptors < o.words) return fail("--max-descriptors must be at least --words");
+    // The output before the training (minutes on a long video): an unwritable one fails at once.
+    if (Status st = probeOutputFile(o.out); !st.ok()) return fail("--out: " + st.message());
 
     vision::ExtractorConfig ex;  // same ORB settings as the extractor's defaults
     cv::Ptr<cv::ORB> orb = cv::ORB::create(o.features, ex.orb_scale_factor, ex.orb_levels, 31, 0, 2,
