@@ -141,6 +141,22 @@ enum class SettingGroup : uint8_t {
     Words,       // visual word extraction (rost::vision)
 };
 
+// Each group's name (Python's `describe()`, lower case) and its title (the
+// tool's --help sections, `rost config`'s sections): the one table of them.
+struct SettingGroupNames {
+    std::string_view name, title;
+};
+inline constexpr SettingGroupNames kSettingGroupNames[] = {
+    {"model", "Model"},
+    {"refinement", "Refinement (paper section VI)"},
+    {"runtime", "Realtime"},
+    {"mission", "Missions (docs/trust.md)"},
+    {"words", "Words"},
+};
+constexpr const SettingGroupNames& settingGroupNames(SettingGroup g) {
+    return kSettingGroupNames[static_cast<int>(g)];
+}
+
 namespace setting_flags {
 inline constexpr unsigned Derived = 1u;  // the tool derives it from the input unless it is set
 inline constexpr unsigned Library = 2u;  // the library's and the node's; the tool sets it itself

@@ -118,7 +118,6 @@ const char* typeText(SettingType t) {
 
 // Every setting: name, key, type, group, default, range, documentation.
 py::list describe() {
-    static const char* const groups[] = {"model", "refinement", "runtime", "mission", "words"};
     const Settings defaults;
     py::list out;
     for (const SettingSpec& spec : settingSpecs()) {
@@ -126,7 +125,7 @@ py::list describe() {
         d["name"] = paramName(spec);
         d["key"] = std::string(spec.key);
         d["type"] = typeText(spec.type);
-        d["group"] = groups[static_cast<int>(spec.group)];
+        d["group"] = std::string(settingGroupNames(spec.group).name);
         d["default"] = settingObject(defaults, spec);
         d["range"] = settingRange(spec);
         d["doc"] = std::string(spec.doc);

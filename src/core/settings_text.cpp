@@ -96,7 +96,6 @@ Status readSettingsFile(const std::string& path, Settings& s, std::vector<Config
 }
 
 std::string formatSettingsDocumented(const Settings& s) {
-    static const char* const kGroups[] = {"Model", "Refinement", "Runtime", "Mission", "Words"};
     std::string out =
         "# rost settings: every setting with its value, as `rost run --config FILE` reads them.\n"
         "# Lines starting with '#' are comments. Settings the rost tool derives from its input or\n"
@@ -105,7 +104,7 @@ std::string formatSettingsDocumented(const Settings& s) {
     for (const SettingSpec& sp : settingSpecs()) {
         if (static_cast<int>(sp.group) != group) {
             group = static_cast<int>(sp.group);
-            out += "\n# ---- " + std::string(kGroups[group]) + "\n";
+            out += "\n# ---- " + std::string(settingGroupNames(sp.group).title) + "\n";
         }
         std::string value = settingValue(s, sp.key);
         out += "# " + std::string(sp.doc) + "; " + settingRange(sp);

@@ -94,7 +94,7 @@ void addRun(CLI::App& app, RunCli& r) {
                        "stamped like the images")
         ->type_name("FILE")
         ->group(bags);
-    const char* rt = "Realtime";
+    const std::string rt(rost::settingGroupNames(rost::SettingGroup::Runtime).title);  // with the Runtime settings
     runCmd->add_flag("--realtime", run.realtime,
                      "run as onboard: a capture thread (a file paced at its frame rate) and the refiner thread; "
                      "frames are dropped when the refiner falls behind. Always on for camera:N")

@@ -14,16 +14,7 @@ namespace rost::tool {
 
 namespace {
 
-const char* groupTitle(SettingGroup g) {
-    switch (g) {
-    case SettingGroup::Model: return "Model";
-    case SettingGroup::Refinement: return "Refinement (paper section VI)";
-    case SettingGroup::Runtime: return "Realtime";
-    case SettingGroup::Mission: return "Missions (docs/trust.md)";
-    case SettingGroup::Words: return "Words";
-    }
-    return "Settings";
-}
+std::string groupTitle(SettingGroup g) { return std::string(settingGroupNames(g).title); }
 
 std::string typeName(const SettingSpec& s) {
     switch (s.type) {
