@@ -183,3 +183,31 @@ TEST(Mission, AResumedMissionKeepsTheCheckpointsRefinementUnlessGivenAndTheRunti
     EXPECT_EQ(planMission(m, in, p3).message(),
               "--resume " + ckpt + ": the frames are 80 pixels wide but " + ckpt + " models 64x48 frames");
 }
+
+// Words from a fixed vocabulary (an extractor's): a resumed model must have
+// that V unless V is given, and a V the user gives must hold the words.
+TEST(Mission, WordsOfAVocabularyNeedTheirV) {
+    TempDir t;
+    const std::string ckpt = makeCheckpoint(t);  // V = 30
+    MissionOptions m = nodeLike();
+    m.resume = ckpt;
+    MissionInput in;
+    in.V = 40;
+    in.vocabulary = true;
+    MissionPlan plan;
+    EXPECT_EQ(planMission(m, in, plan).message(),
+              "~resume " + ckpt + ": its model has V = 30 words but the input's words are 40 (use the vocabulary and "
+              "word settings of the run that made it)");
+    in.V = 20;  // fewer words: their ids would mean other words
+    MissionPlan p2;
+    EXPECT_FALSE(planMission(m, in, p2).ok());
+    give(m, "V", "30");  // said so: fine
+    MissionPlan p3;
+    EXPECT_TRUE(planMission(m, in, p3).ok());
+
+    MissionOptions fresh = nodeLike();
+    give(fresh, "V", "100");
+    in.V = 5436;
+    MissionPlan p4;
+    EXPECT_EQ(planMission(fresh, in, p4).message(), "~V = 100 is smaller than the 5436 words the input's vocabulary holds");
+}

@@ -42,6 +42,9 @@ struct MissionNames {
     };
     // What to leave out to keep a resumed mission's value: "-K", "the key", "~K".
     std::function<std::string(const SettingSpec&)> leave = [](const SettingSpec& s) { return std::string(s.key); };
+    // A whole setting's problem, when the face says more than `setting` can (the tool
+    // names a --config file's line); unset: the problem with each setting spelled by `setting`.
+    std::function<std::string(const SettingProblem&)> problem;
     std::string resume = "--resume";              // the option that names the checkpoint
     std::string topicmodel = "--in.topicmodel";   // the option that names a starting topic model
 };
@@ -60,6 +63,10 @@ struct MissionOptions {
 struct MissionInput {
     int width = 0, height = 0;  // the frames' size (resuming: must be the checkpoint's; 0: the checkpoint's)
     int V = 0;                  // word ids the input needs (unless V is given)
+    // The input's words come from a fixed vocabulary of V words (an extractor):
+    // a resumed model's V must be exactly V unless V is given (its ids would
+    // mean other words), and a V the user gives must hold them.
+    bool vocabulary = false;
     int64_t length = -1;        // observations it holds, when known: ring.steps keeps them all (up to 2048)
     uint64_t max_words = 0;     // the most words an observation can hold: max.words (0: the setting's)
     int threads = 1;            // refinement threads unless `threads` is given

@@ -300,3 +300,25 @@ def test_a_truncated_checkpoint_is_named(tmp_path, checkpoint):
         rost.Model.load(str(short))
     assert str(short) in str(e.value)
     assert checkpoint.read_bytes() == data, "the checkpoint the run started from is untouched"
+
+
+def test_a_run_resumed_on_frames_of_another_size_says_so_first(tmp_path):
+    cv2 = cv2_or_skip()
+    a = image_dir(tmp_path, (96, 64), "a")
+    code, err = tool(tmp_path, "run", a, "--out", tmp_path / "first", "--checkpoint", "a.ckpt", "-q", "--no-overlay",
+                     "--no-summary")
+    assert code == 0, err
+    b = tmp_path / "b"
+    b.mkdir()
+    for i in range(2):  # fewer frames than the checkpoint holds, and of another size: the size is the error
+        cv2.imwrite(str(b / ("b%d.png" % i)), np.zeros((48, 64, 3), np.uint8))
+    code, err = tool(tmp_path, "run", b, "--out", tmp_path / "o", "--resume", "a.ckpt")
+    refused(code, err, "--resume a.ckpt: the frames are 64 pixels wide but a.ckpt models 96x64 frames",
+            out=tmp_path / "o")
+
+
+def test_a_value_a_config_file_set_is_named_by_its_line(tmp_path):
+    (tmp_path / "docs.csv").write_text("0,1,2\n1,2,3\n")
+    (tmp_path / "k.conf").write_text("# mission\ng.time = 5\n")
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--config", "k.conf")
+    refused(code, err, "k.conf:2: key 'g.time': g.time = 5, allowed [0, 2]; below ring.steps = 3", out=tmp_path / "o")

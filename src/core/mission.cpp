@@ -12,6 +12,7 @@ namespace {
 
 // A setting's problem in the face's spelling.
 Status problemStatus(const MissionOptions& m, const SettingProblem& p) {
+    if (m.names.problem) return Status::error(m.names.problem(p));
     return Status::error(p.describe([&](const SettingSpec& s) { return m.names.setting(s); }));
 }
 
@@ -40,6 +41,9 @@ Status planResumed(const MissionOptions& m, const MissionInput& in, MissionPlan&
     if (in.height > 0 && in.height != c.frame_height)
         return Status::error(where + ": the frames are " + std::to_string(in.height) + " pixels high but " + m.resume +
                              " models " + frames());
+    if (in.vocabulary && in.V > 0 && (c.V < in.V || (c.V != in.V && !m.isGiven("V"))))
+        return Status::error(where + ": its model has V = " + std::to_string(c.V) + " words but the input's words are " +
+                             std::to_string(in.V) + " (use the vocabulary and word settings of the run that made it)");
     applyRuntime(m, in, plan.config);
     if (auto p = checkEngineSettings(plan.config)) return problemStatus(m, *p);
     return {};
@@ -61,6 +65,9 @@ Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& pla
         const auto hi = static_cast<uint64_t>(settingSpec("max.words").hi);
         c.max_words_per_frame = static_cast<int>(std::min(in.max_words, hi));
     }
+    if (in.vocabulary && in.V > c.V)
+        return Status::error(m.names.given(settingSpec("V"), std::to_string(c.V)) + " is smaller than the " +
+                             std::to_string(in.V) + " words the input's vocabulary holds");
     applyRuntime(m, in, e);
     if (auto p = checkEngineSettings(e)) return problemStatus(m, *p);
     plan.config = e;

@@ -139,17 +139,11 @@ std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int
     in.height = given.given("frame.height") ? 0 : height;
     if (!options.resume.empty()) in.width = in.height = 0;  // the checkpoint's
     in.V = static_cast<int>(extractor->vocabularySize());
+    in.vocabulary = true;
     in.threads = settings.engine.model.threads;
     in.flags = settings.engine.flags;
     if (Status st = planMission(mission, in, plan); !st.ok()) return st.message();
     ec = plan.config;
-    const int wordsV = static_cast<int>(extractor->vocabularySize());
-    if (ec.model.V < wordsV) {
-        std::string e = "~V = ";
-        e += std::to_string(ec.model.V) + " is smaller than the " + std::to_string(wordsV) +
-             " words the extractors produce";
-        return e;
-    }
     Status st;
     engine = openMission(mission, plan, st);
     if (!engine) return st.message();

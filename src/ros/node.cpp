@@ -40,7 +40,6 @@ Node::~Node() { shutdown(); }
 
 // The node's own private parameters, beside one per setting of the schema.
 const char* const kNodeParams[] = {"compressed", "checkpoint", "resume", "vocabulary", "image_queue"};
-constexpr std::size_t kHeaderSlots = 4096;  // headers of images in flight, by number (more than any queue holds)
 
 // Every setting of the schema as a private parameter (dots as underscores).
 // Errors name the parameter as the node spells it (~eta) and stop the node
@@ -115,10 +114,14 @@ void Node::advertise() {
     surprise_map_pub_ = pnh_.advertise<sensor_msgs::Image>("surprise_map", 4);
     perplexity_pub_ = pnh_.advertise<std_msgs::Float32>("perplexity", 16);
     surprise_pub_ = pnh_.advertise<std_msgs::Float32>("surprise", 16);
-    save_srv_ = pnh_.advertiseService("save_checkpoint", &Node::onSave, this);
-    pause_srv_ = pnh_.advertiseService("pause", &Node::onPause, this);
-    get_srv_ = pnh_.advertiseService("get_topic_model", &Node::onGetModel, this);
-    set_srv_ = pnh_.advertiseService("set_topic_model", &Node::onSetModel, this);
+    ros::NodeHandle services(pnh_);
+    services.setCallbackQueue(&service_queue_);
+    save_srv_ = services.advertiseService("save_checkpoint", &Node::onSave, this);
+    pause_srv_ = services.advertiseService("pause", &Node::onPause, this);
+    get_srv_ = services.advertiseService("get_topic_model", &Node::onGetModel, this);
+    set_srv_ = services.advertiseService("set_topic_model", &Node::onSetModel, this);
+    service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
+    service_spinner_->start();
     // The callback only converts and queues an image (the words thread makes
     // its words), so ROS's own queue rarely fills; ~image_queue bounds the rest.
     const uint32_t queue = 64;
@@ -137,7 +140,6 @@ bool Node::init() {
         return false;
     }
     if (pipeline_->sizeGiven() && !ensureEngine(0, 0)) return false;
-    headers_.resize(kHeaderSlots);
     words_ = std::thread([this] { wordsMain(); });
     advertise();
     ROS_INFO("rost: listening on %s (%s); K = %s, cell.space = %s", image_sub_.getTopic().c_str(),
@@ -147,6 +149,7 @@ bool Node::init() {
 }
 
 void Node::shutdown() {
+    if (service_spinner_) service_spinner_->stop();
     image_sub_.shutdown();
     if (words_.joinable()) {  // the queued images are made words of first
         {
@@ -271,7 +274,7 @@ void Node::wordsMain() {
         }
         {
             std::lock_guard<std::mutex> lock(headers_mutex_);
-            headers_[r.index % kHeaderSlots] = {r.index, r.header};
+            headers_[r.index] = r.header;
         }
         std::lock_guard<std::mutex> lock(pipeline_mutex_);  // the services stop and restart the engine
         if (!pipeline_->push(r.bgr, static_cast<int64_t>(r.index)))
@@ -300,8 +303,11 @@ void Node::publish(const rost::bridge::FrameResult& r) {
     std_msgs::Header header;
     {
         std::lock_guard<std::mutex> lock(headers_mutex_);
-        const auto& slot = headers_[index % kHeaderSlots];
-        if (slot.first == index) header = slot.second;
+        const auto it = headers_.find(index);
+        if (it != headers_.end()) header = it->second;
+        else ROS_ERROR_THROTTLE(5.0, "rost: no header for image %llu (a bug): published without stamp and frame_id",
+                                static_cast<unsigned long long>(index));
+        headers_.erase(headers_.begin(), headers_.upper_bound(index));  // those before were dropped by the engine
     }
     ++published_;
     rost_msgs::FrameTopics frame;

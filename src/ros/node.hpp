@@ -26,6 +26,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <rost_msgs/GetTopicModel.h>
 #include <rost_msgs/SetTopicModel.h>
@@ -100,11 +101,16 @@ private:
     std::atomic<uint64_t> not_modelled_{0};  // dropped by a queue, bad or too small, or while paused
 
     // The header of each image handed to the engine, by its number (words
-    // thread -> publisher). As many as can be in flight: the engine's queue
-    // and results, and the image queue.
+    // thread -> publisher); the publisher removes those up to the one it
+    // publishes (the others were dropped by the engine's queue).
     std::mutex headers_mutex_;
-    std::vector<std::pair<uint64_t, std_msgs::Header>> headers_;
+    std::map<uint64_t, std_msgs::Header> headers_;
     uint64_t published_ = 0;  // publisher thread
+
+    // The services on their own queue and thread: a checkpoint's write must
+    // not hold up the image callbacks (ROS's queue would drop images unseen).
+    ros::CallbackQueue service_queue_;
+    std::unique_ptr<ros::AsyncSpinner> service_spinner_;
     ros::Subscriber image_sub_;
     ros::Publisher frame_pub_, topic_map_pub_, surprise_map_pub_, perplexity_pub_, surprise_pub_;
     ros::ServiceServer save_srv_, pause_srv_, get_srv_, set_srv_;

@@ -111,6 +111,7 @@ MissionOptions missionOptions(const ModelOptions& m) {
         return std::nullopt;
     };
     mo.names.setting = optionNames;
+    mo.names.problem = [copy = m](const SettingProblem& p) { return settingProblemText(copy, p); };
     mo.names.given = [fromFile](const SettingSpec& spec, const std::string& value) {
         const std::optional<std::string> file = fromFile(spec);
         return file ? *file + value : optionName(spec) + " " + value;

@@ -126,16 +126,19 @@ Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) 
     if (Status st = checkMission(mission, plan); !st.ok()) return st;
     resuming = plan.resuming;
     resumed = plan.checkpoint;
-    V = resuming ? plan.config.model.V : o.model.isGiven("V") ? o.model.settings.engine.model.V : w.wordsV();
-    if (Status st = checkV(o, w); !st.ok()) return st;
-    if (Status st = countFrames(o, w); !st.ok()) return st;
     MissionInput in = missionInput(o.model, realtime);
     in.width = w.info.width;
     in.height = w.info.height;
+    if (resuming)  // frames of the checkpoint's size first: nothing else about them matters otherwise
+        if (Status st = planMission(mission, in, plan); !st.ok()) return st;
+    V = resuming ? plan.config.model.V : o.model.isGiven("V") ? o.model.settings.engine.model.V : w.wordsV();
+    if (Status st = checkV(o, w); !st.ok()) return st;
+    if (Status st = countFrames(o, w); !st.ok()) return st;
     in.V = w.wordsV();
     in.length = frames;
     in.max_words = vision::maxWordsPerFrame(w.extractors, w.info.width, w.info.height);
-    if (Status st = planMission(mission, in, plan); !st.ok()) return st;
+    if (!resuming)
+        if (Status st = planMission(mission, in, plan); !st.ok()) return st;
     ec = plan.config;
     refinementChanged = plan.refinement_changed;
     Status st;
