@@ -1,7 +1,8 @@
 # Checks that the installed headers (include/, installed as is) are only the
 # public API: none includes an intrinsics header (<immintrin.h>, <arm_neon.h>,
 # ...) and every quoted include names another installed header, never one of
-# src/ (the kernel, the rings and queues are internal).
+# src/ (the kernel, the rings and queues are internal); only an adaptor
+# header whose name says Eigen (rost/model_eigen.hpp) includes Eigen.
 #   cmake -DINCLUDE_DIR=<source>/include -P check_public_headers.cmake
 if(NOT INCLUDE_DIR)
   message(FATAL_ERROR "usage: cmake -DINCLUDE_DIR=<dir> -P check_public_headers.cmake")
@@ -16,6 +17,8 @@ foreach(h IN LISTS headers)
   foreach(line IN LISTS lines)
     if(line MATCHES "<(${intrinsics})>" OR line MATCHES "\"(${intrinsics})\"")
       string(APPEND problems "\n  ${h}: intrinsics header: ${line}")
+    elseif(line MATCHES "<Eigen/" AND NOT h MATCHES "eigen")
+      string(APPEND problems "\n  ${h}: includes Eigen (only an adaptor header named *eigen*.hpp may): ${line}")
     elseif(line MATCHES "\"([^\"]+)\"")
       set(target ${CMAKE_MATCH_1})
       if(NOT EXISTS ${INCLUDE_DIR}/${target})
@@ -34,4 +37,4 @@ endif()
 if(problems)
   message(FATAL_ERROR "installed headers must be public API only:${problems}")
 endif()
-message(STATUS "${checked} installed headers: no intrinsics, no internal includes")
+message(STATUS "${checked} installed headers: no intrinsics, no internal includes, Eigen only in its adaptor")

@@ -7,6 +7,7 @@
 
 #include "rost/aligned_buffer.hpp"
 #include "rost/model.hpp"
+#include "rost/model_eigen.hpp"
 
 namespace {
 
@@ -399,4 +400,26 @@ TEST(AlignedBuffer, PageZeroerClearsEveryRangeAndNothingElse) {
     z.run(2);
     EXPECT_EQ(std::count(a.data(), a.data() + a.size(), 0u), static_cast<std::ptrdiff_t>(a.size()));
     EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));
+}
+
+// The Eigen adaptor (rost/model_eigen.hpp; model.hpp has no Eigen): each
+// topic's distribution over words, smoothed by beta, from the counts.
+TEST(ModelEigen, TopicModelMatrixIsTheSmoothedCountsAndEachRowSumsToOne) {
+    const rost::Config c = smallConfig();
+    rost::Model m(c);
+    rost::Rng r(3);
+    std::vector<uint32_t> w;
+    std::vector<rost::Position> p;
+    for (int f = 0; f < 5; ++f) {
+        randomFrame(r, c, 30, w, p);
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+    }
+    const Eigen::MatrixXd phi = rost::topicModelMatrix(m);
+    ASSERT_EQ(phi.rows(), c.K);
+    ASSERT_EQ(phi.cols(), c.V);
+    for (int k = 0; k < c.K; ++k) {
+        EXPECT_NEAR(phi.row(k).sum(), 1.0, 1e-12) << k;
+        for (int v = 0; v < c.V; ++v)
+            EXPECT_DOUBLE_EQ(phi(k, v), (m.topicWordCount(k, v) + c.beta) / (m.topicCount(k) + c.V * c.beta));
+    }
 }

@@ -10,7 +10,6 @@
 #include <span>
 #include <string>
 
-#include <Eigen/Core>
 
 #include "rost/aligned_buffer.hpp"
 #include "rost/config.hpp"
@@ -329,8 +328,7 @@ public:
     int32_t topicCount(int k) const noexcept { return nk_[k]; }
     // Words counted in n_k^v (with EvictionPolicy::Keep this includes evicted steps).
     uint64_t wordsInModel() const noexcept { return words_in_model_; }
-    // phi (K x V): phi_k(v) = (n_k^v + beta) / (n_k + V beta).
-    Eigen::MatrixXd topicModel() const;
+    // phi as an Eigen matrix: topicModelMatrix() in rost/model_eigen.hpp (this header has no Eigen).
     // Adds K x V counts (row-major, topic by word) learned elsewhere to n_k^v and n_k;
     // they act as a prior that refinement never removes. Set-up only.
     Status addTopicCounts(std::span<const int32_t> counts);

@@ -724,14 +724,6 @@ uint32_t Model::cellWordCount(int64_t step, int cell) const noexcept {
     return cell_n_[slotOf(step) * cells_ + cell];
 }
 
-Eigen::MatrixXd Model::topicModel() const {
-    Eigen::MatrixXd phi(K_, V_);
-    const double vb = V_ * cfg_.beta;
-    for (int v = 0; v < V_; ++v)
-        for (int k = 0; k < K_; ++k) phi(k, v) = (topicWordCount(k, v) + cfg_.beta) / (nk_[k] + vb);
-    return phi;
-}
-
 Status Model::addTopicCounts(std::span<const int32_t> counts) {
     const std::size_t expect = static_cast<std::size_t>(K_) * static_cast<std::size_t>(V_);
     if (counts.size() != expect)
