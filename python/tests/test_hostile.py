@@ -219,6 +219,10 @@ def test_unwritable_output_tool_fails_before_the_work(tmp_path):
     refused(code, err, "--checkpoint: taken: is a directory", out=tmp_path / "o")
     code, err = tool(tmp_path, "refine", "docs.csv", "--out", "/proc/x/o")
     refused(code, err, "/proc/x/o")
+    (tmp_path / "o2/topics.csv").mkdir(parents=True)  # an output file's name taken by a directory
+    code, err = tool(tmp_path, "refine", "docs.csv", "--out", "o2", "--final.sweeps", "1000000")
+    refused(code, err, "o2/topics.csv: is a directory, not a file that can be written")
+    assert files_under(tmp_path / "o2") == ["topics.csv"], "nothing written beside it"
     (tmp_path / "afile").write_text("kept")
     code, err = tool(tmp_path, "refine", "docs.csv", "--out", "afile")
     refused(code, err, "afile: exists and is not a directory")

@@ -45,6 +45,15 @@ Status OutputDir::open(const std::string& dir) {
     return {};
 }
 
+Status OutputDir::probe(std::initializer_list<std::string_view> names) const {
+    for (std::string_view name : names) {
+        const std::string path = final(std::string(name));
+        std::error_code ec;
+        if (fs::is_directory(path, ec)) return Status::error(path + ": is a directory, not a file that can be written");
+    }
+    return {};
+}
+
 Status OutputDir::write(const std::string& name, const std::string& content) {
     const std::string path = staged(name);
     std::ofstream f(path, std::ios::binary | std::ios::trunc);

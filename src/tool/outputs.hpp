@@ -7,7 +7,9 @@
 
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 #include <span>
+#include <string_view>
 #include <string>
 #include <vector>
 
@@ -32,6 +34,9 @@ public:
     // Path of a file in the staging directory.
     std::string staged(const std::string& name) const { return staging_ + "/" + name; }
     std::string final(const std::string& name) const { return dir_ + "/" + name; }
+    // Before any work: the files this run will move into place there, none
+    // taken by a directory (the move would fail after the work).
+    Status probe(std::initializer_list<std::string_view> names) const;
     // Writes a whole file into staging.
     Status write(const std::string& name, const std::string& content);
     // Renames every staged file into the output directory; removes staging.

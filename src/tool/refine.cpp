@@ -59,6 +59,10 @@ int refineCommand(const RefineOptions& o) {
     if (Status st = probeMissionOutputs(o.model, {}); !st.ok()) return fail(st.message());
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
+    if (Status st = out.probe({"topics.csv", "perplexity.csv", "surprise.csv", "surprise_cells.csv", "topicmodel.csv",
+                               "summary.png"});
+        !st.ok())
+        return fail(st.message());
     // word stream -> engine -> sinks
     StreamStage in;
     if (Status st = in.open(o); !st.ok()) return fail(st.message());

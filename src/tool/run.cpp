@@ -135,6 +135,11 @@ int runCommand(const RunOptions& o) {
     if (Status st = engine.open(o, words, realtime); !st.ok()) return fail(st.message());
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
+    if (Status st = out.probe({"frames.csv", "run.txt", "words.csv", "positions.csv", "topics.csv", "perplexity.csv",
+                               "surprise.csv", "surprise_cells.csv", "topicmodel.csv", "summary.png", "overlay.mp4",
+                               "overlay.avi"});
+        !st.ok())
+        return fail(st.message());
     RunSinks sinks(o, words, engine, realtime);
     if (Status st = sinks.open(o, words, engine, out); !st.ok()) return fail(st.message());
     if (!o.quiet) engine.describe(o, words, realtime);
