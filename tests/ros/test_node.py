@@ -230,6 +230,15 @@ def run():
               for m in fast_got),
           "each message has its image's frame_id (%d characters, whole) and stamp, where two share a stamp" % len(ids[0]))
 
+    short = os.path.join(work, "short.ckpt")  # a truncated checkpoint: refused at start-up, named
+    with open(ckpt, "rb") as f, open(short, "wb") as g:
+        g.write(f.read()[:4096])
+    trunc = subprocess.run([os.path.join(build, "rost_node"), "__name:=rost4", "_resume:=" + short],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ, timeout=60)
+    out = trunc.stdout.decode(errors="replace")
+    check(trunc.returncode == 2 and "~resume: " + short in out and "listening" not in out,
+          "~resume of a truncated checkpoint: exit %d at start-up, naming it" % trunc.returncode)
+
     listed = subprocess.run([os.path.join(build, "rost_node"), "--params"], stdout=subprocess.PIPE,
                             check=True).stdout.decode()
     conf = subprocess.run([os.path.join(build, "rost"), "config"], stdout=subprocess.PIPE, check=True).stdout.decode()
