@@ -215,7 +215,7 @@ constexpr std::size_t specIndex(std::string_view key) {
     return std::size(detail::kSettingSpecs);
 }
 
-#define ROST_SETTING_BINDING(key, type, group, def, lo, hi, choices, cli, flags, field, doc)               \
+#define ROST_SETTING_BINDING(key, type, group, def, lo, hi, choices, cli, rostcli, flags, field, doc)               \
     Binding{detail::kSettingSpecs[specIndex(key)], std::string_view(#field),                                 \
             [](const SettingSpec& sp, const Settings& s) { return Codec<SettingType::type>::get(sp, s.field); }, \
             [](const SettingSpec& sp, std::string_view v, Settings& s) {                                     \

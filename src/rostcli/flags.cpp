@@ -1,11 +1,13 @@
 // The flags of topics.refine.t and topics.refine.txy, spelled as rost-cli
-// spells them. A flag that is a rost setting is one row of kSettingFlags (its
-// schema key and, where rost-cli's default differs from the schema's,
-// rost-cli's default as text): its range, documentation and error messages
-// come from the settings schema. docs/rost-cli.md has the whole table.
+// spells them. A flag that is a rost setting is the `rostcli` column of its
+// row of the settings schema (flag names and, where rost-cli's default
+// differs from the schema's, rost-cli's default): its range, documentation
+// and error messages come from the schema too. docs/rost-cli.md has the
+// whole table.
 
 #include <sched.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <deque>
 #include <thread>
@@ -18,32 +20,35 @@ namespace rost::cli {
 
 namespace {
 
+// A flag that is a rost setting: the schema row's `rostcli` column (flag
+// names, and rost-cli's default where it differs from the schema's).
 struct SettingFlag {
-    const char* names;            // CLI11 option names
-    const char* key;              // the schema key it sets
-    const char* rostcli_default;  // rost-cli's default when it differs from the schema's (nullptr: the schema's)
+    std::string names;            // CLI11 option names ("-K,--ntopics")
+    std::string key;              // the schema key it sets
+    const char* rostcli_default;  // rost-cli's default (nullptr: the schema's)
     bool spatial = false;         // topics.refine.t accepts it with any value and ignores it
+    std::string def_storage;
 };
 
-// clang-format off
-constexpr SettingFlag kSettingFlags[] = {
-    {"-K,--ntopics", "K", "100"},
-    {"-V,--vocabsize", "V", nullptr},  // unless given: the largest word id + 1
-    {"-a,--alpha", "alpha", nullptr},
-    {"-b,--beta", "beta", "1.0"},
-    {"--gamma", "gamma", "1e-5"},
-    {"--grow.topics.size", "topics.grow", nullptr},
-    {"--threads", "threads", nullptr},  // unless given: the cores this process may use
-    {"--g.time", "g.time", nullptr},
-    {"--g.space", "g.space", nullptr, true},
-    {"--cell.time", "cell.time", nullptr},
-    {"--cell.space", "cell.space", "32", true},
-    {"-n,--iter", "final.sweeps", "100"},
-    {"--online.mint", "budget.ms", "50"},
-    {"--seed", "seed", nullptr},
-    {"--refine.window", "refine.window", nullptr},  // rost's own: part of what a seed reproduces
-};
-// clang-format on
+// Every rost-cli setting flag, in the schema's order.
+const std::vector<SettingFlag>& settingFlags() {
+    static const std::vector<SettingFlag> flags = [] {
+        std::vector<SettingFlag> out;
+        for (const SettingSpec& spec : settingSpecs()) {
+            if (spec.rostcli.empty()) continue;
+            SettingFlag f;
+            const std::size_t eq = spec.rostcli.find('=');
+            f.names = std::string(spec.rostcli.substr(0, eq));
+            f.key = std::string(spec.key);
+            if (eq != std::string_view::npos) f.def_storage = std::string(spec.rostcli.substr(eq + 1));
+            f.spatial = spec.key == "g.space" || spec.key == "cell.space";  // cells in space: txy's only
+            out.push_back(std::move(f));
+        }
+        for (SettingFlag& f : out) f.rostcli_default = f.def_storage.empty() ? nullptr : f.def_storage.c_str();
+        return out;
+    }();
+    return flags;
+}
 
 // rost-cli flags rost cannot reproduce: accepted only with the value that
 // changes nothing (`ok`, "" for never), else refused by name.
@@ -96,7 +101,7 @@ std::string defaultOf(const SettingFlag& f) {
 
 struct Parsed {
     RunOptions run;
-    std::deque<std::string> setting_text;  // one per kSettingFlags row (stable addresses)
+    std::deque<std::string> setting_text;  // one per settingFlags() row (stable addresses)
     std::vector<CLI::Option*> setting_opts;
     std::deque<std::string> limited_text;
     std::vector<CLI::Option*> limited_opts;
@@ -129,7 +134,7 @@ void addFileFlags(CLI::App& app, Parsed& p) {
 }
 
 void addSettingFlags(CLI::App& app, Parsed& p, Command cmd) {
-    for (const SettingFlag& f : kSettingFlags) {
+    for (const SettingFlag& f : settingFlags()) {
         std::string& text = p.setting_text.emplace_back();
         const SettingType type = findSetting(f.key)->type;
         CLI::Option* opt = app.add_option(f.names, text, helpOf(f, cmd));
@@ -156,7 +161,7 @@ void addSettingFlags(CLI::App& app, Parsed& p, Command cmd) {
 
 // A setting flag as rost-cli spells it, every alias: "-K/--ntopics", "--gamma".
 std::string flagName(const Parsed&, std::size_t row) {
-    std::string names = kSettingFlags[row].names;
+    std::string names = settingFlags()[row].names;
     std::replace(names.begin(), names.end(), ',', '/');
     return names;
 }
@@ -164,8 +169,8 @@ std::string flagName(const Parsed&, std::size_t row) {
 // A setting's problem, each setting named by the flag that sets it (its key when no flag does).
 std::string problemText(const Parsed& p, const SettingProblem& problem) {
     return problem.describe([&](const SettingSpec& spec) {
-        for (std::size_t i = 0; i < std::size(kSettingFlags); ++i)
-            if (spec.key == kSettingFlags[i].key) return flagName(p, i);
+        for (std::size_t i = 0; i < settingFlags().size(); ++i)
+            if (spec.key == settingFlags()[i].key) return flagName(p, i);
         return std::string(spec.key);
     });
 }
@@ -173,8 +178,8 @@ std::string problemText(const Parsed& p, const SettingProblem& problem) {
 // The setting flags through the schema (rost-cli's defaults where they
 // differ), then the limited flags checked.
 Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
-    for (std::size_t i = 0; i < std::size(kSettingFlags); ++i) {
-        const SettingFlag& f = kSettingFlags[i];
+    for (std::size_t i = 0; i < settingFlags().size(); ++i) {
+        const SettingFlag& f = settingFlags()[i];
         const bool given = p.setting_opts[i]->count() > 0;
         if (f.spatial && cmd == Command::RefineT) continue;
         std::string value = given ? p.setting_text[i] : (f.rostcli_default ? f.rostcli_default : "");
@@ -235,7 +240,8 @@ int topicsRefineMain(Command cmd, int argc, char** argv) {
     }
     Settings s;
     Status st = applyFlags(p, cmd, s);
-    p.run.v_given = p.setting_opts[1]->count() > 0;
+    for (std::size_t i = 0; i < settingFlags().size(); ++i)
+        if (settingFlags()[i].key == "V") p.run.v_given = p.setting_opts[i]->count() > 0;
     for (int i = 0; i < argc; ++i) {
         if (i) p.run.command_line += ' ';
         p.run.command_line += argv[i];
