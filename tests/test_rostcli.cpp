@@ -199,16 +199,23 @@ void checkTopicModel(const std::string& path, std::size_t rows, long long words)
     EXPECT_EQ(total, words);
 }
 
-void checkPerplexity(const std::string& path, const Planted& p) {
+// `timed`: each document was refined for a time budget (--online), so one the
+// machine starved (a sanitizer build, a busy host) may not have learned yet:
+// nine in ten must have, not every one.
+void checkPerplexity(const std::string& path, const Planted& p, bool timed = false) {
     const auto rows = csv(path);
     ASSERT_EQ(rows.size(), p.words.size());
+    std::size_t learned = 0;
     for (std::size_t d = 0; d < rows.size(); ++d) {
         ASSERT_EQ(rows[d].size(), 2u);
         EXPECT_EQ(rows[d][0], p.stamp[d]);
         const double ppx = std::stod(rows[d][1]);
+        EXPECT_TRUE(std::isfinite(ppx) && ppx >= 1.0) << "line " << d + 1 << ": " << ppx;
         // A document of one planted topic: about kWordsPerTopic equally likely words.
-        EXPECT_TRUE(std::isfinite(ppx) && ppx >= 1.0 && ppx < kV) << "line " << d + 1 << ": " << ppx;
+        if (ppx < kV) ++learned;
+        else if (!timed) ADD_FAILURE() << "line " << d + 1 << ": perplexity " << ppx << " of " << kV << " words";
     }
+    EXPECT_GE(learned * 10, rows.size() * 9) << learned << " of " << rows.size() << " documents below " << kV;
 }
 
 const std::string kRefineFlags =
@@ -252,7 +259,7 @@ TEST_F(RostCli, OnlineWritesEachDocumentAsItArrivedAndTheFinalFiles) {
                          " --online.mint 5");
     ASSERT_EQ(r.status, 0) << r.err;
     const auto online = labels(dir + "/topics.online.csv", planted, 4);
-    checkPerplexity(dir + "/perplexity.online.csv", planted);
+    checkPerplexity(dir + "/perplexity.online.csv", planted, true);
     labels(dir + "/topics.maxlikelihood.csv", planted, 4);
     checkTopicModel(dir + "/topicmodel.csv", 4, static_cast<long long>(kDocs) * kDocWords);
     // Each document's labels as they stood when it arrived still follow the planted topics.
