@@ -196,8 +196,8 @@ TEST(Mission, WordsOfAVocabularyNeedTheirV) {
     in.vocabulary = true;
     MissionPlan plan;
     EXPECT_EQ(planMission(m, in, plan).message(),
-              "~resume " + ckpt + ": its model has V = 30 words but the input's words are 40 (use the vocabulary and "
-              "word settings of the run that made it)");
+              "~resume " + ckpt + ": its model has V = 30 words but the extractors produce 40 (use the vocabulary and "
+              "word options of the run that made it)");
     in.V = 20;  // fewer words: their ids would mean other words
     MissionPlan p2;
     EXPECT_FALSE(planMission(m, in, p2).ok());
@@ -209,5 +209,7 @@ TEST(Mission, WordsOfAVocabularyNeedTheirV) {
     give(fresh, "V", "100");
     in.V = 5436;
     MissionPlan p4;
-    EXPECT_EQ(planMission(fresh, in, p4).message(), "~V = 100 is smaller than the 5436 words the input's vocabulary holds");
+    in.words_detail = "ORB 5000 + intensity 256 + hue 180";
+    EXPECT_EQ(planMission(fresh, in, p4).message(),
+              "~V = 100 is smaller than the 5436 words the extractors produce (ORB 5000 + intensity 256 + hue 180)");
 }

@@ -67,6 +67,7 @@ struct MissionInput {
     // a resumed model's V must be exactly V unless V is given (its ids would
     // mean other words), and a V the user gives must hold them.
     bool vocabulary = false;
+    std::string words_detail;  // what makes the words, for messages: "ORB 5000 + intensity 256 + hue 180"
     int64_t length = -1;        // observations it holds, when known: ring.steps keeps them all (up to 2048)
     uint64_t max_words = 0;     // the most words an observation can hold: max.words (0: the setting's)
     int threads = 1;            // refinement threads unless `threads` is given

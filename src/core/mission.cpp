@@ -42,8 +42,8 @@ Status planResumed(const MissionOptions& m, const MissionInput& in, MissionPlan&
         return Status::error(where + ": the frames are " + std::to_string(in.height) + " pixels high but " + m.resume +
                              " models " + frames());
     if (in.vocabulary && in.V > 0 && (c.V < in.V || (c.V != in.V && !m.isGiven("V"))))
-        return Status::error(where + ": its model has V = " + std::to_string(c.V) + " words but the input's words are " +
-                             std::to_string(in.V) + " (use the vocabulary and word settings of the run that made it)");
+        return Status::error(where + ": its model has V = " + std::to_string(c.V) + " words but the extractors produce " +
+                             std::to_string(in.V) + " (use the vocabulary and word options of the run that made it)");
     applyRuntime(m, in, plan.config);
     if (auto p = checkEngineSettings(plan.config)) return problemStatus(m, *p);
     return {};
@@ -67,7 +67,8 @@ Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& pla
     }
     if (in.vocabulary && in.V > c.V)
         return Status::error(m.names.given(settingSpec("V"), std::to_string(c.V)) + " is smaller than the " +
-                             std::to_string(in.V) + " words the input's vocabulary holds");
+                             std::to_string(in.V) + " words the extractors produce" +
+                             (in.words_detail.empty() ? std::string() : " (" + in.words_detail + ")"));
     applyRuntime(m, in, e);
     if (auto p = checkEngineSettings(e)) return problemStatus(m, *p);
     plan.config = e;

@@ -79,25 +79,6 @@ Status WordsStage::openSource(const RunOptions& o, const vision::SourceOptions& 
 #endif
 }
 
-Status RunEngine::checkV(const RunOptions& o, const WordsStage& w) const {
-    const int wordsV = w.wordsV();
-    const bool vGiven = o.model.isGiven("V");
-    // The word ids must mean what they meant: the extractors must produce the
-    // checkpoint's V (unless -V, then equal to it, made room for more). The
-    // checkpoint does not record which vocabulary made them: a different one
-    // of the same size is not detected (docs/tool.md).
-    if (resuming && (V < wordsV || (V != wordsV && !vGiven)))
-        return Status::error("--resume " + o.model.resume + ": its model has V = " + std::to_string(V) +
-                             " words but the extractors produce " + std::to_string(wordsV) +
-                             " (use the vocabulary and word options of the run that made it)");
-    if (V < wordsV)
-        return Status::error("-V " + std::to_string(V) + " is smaller than the " + std::to_string(wordsV) +
-                             " words the extractors produce (ORB " + std::to_string(w.extractor->layout().orb_size) +
-                             " + intensity " + std::to_string(w.extractor->layout().intensity_size) + " + hue " +
-                             std::to_string(w.extractor->layout().hue_size) + ")");
-    return {};
-}
-
 // Frames the checkpoint already has: a file's are skipped (its frame index
 // is at most the checkpoint's last time stamp); a camera's are numbered
 // after them. --max-frames counts the whole mission: with --resume, the
@@ -129,12 +110,19 @@ Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) 
     MissionInput in = missionInput(o.model, realtime);
     in.width = w.info.width;
     in.height = w.info.height;
-    if (resuming)  // frames of the checkpoint's size first: nothing else about them matters otherwise
+    // The words' ids must mean what they meant: the extractors' V (the
+    // checkpoint's unless -V; a -V must hold them). A checkpoint does not
+    // record which vocabulary made its words: another of the same size is not
+    // detected (docs/tool.md).
+    in.V = w.wordsV();
+    in.vocabulary = true;
+    const vision::WordLayout& l = w.extractor->layout();
+    in.words_detail = "ORB " + std::to_string(l.orb_size) + " + intensity " + std::to_string(l.intensity_size) +
+                      " + hue " + std::to_string(l.hue_size);
+    if (resuming)  // frames of the checkpoint's size and words of its V first: nothing else matters otherwise
         if (Status st = planMission(mission, in, plan); !st.ok()) return st;
     V = resuming ? plan.config.model.V : o.model.isGiven("V") ? o.model.settings.engine.model.V : w.wordsV();
-    if (Status st = checkV(o, w); !st.ok()) return st;
     if (Status st = countFrames(o, w); !st.ok()) return st;
-    in.V = w.wordsV();
     in.length = frames;
     in.max_words = vision::maxWordsPerFrame(w.extractors, w.info.width, w.info.height);
     if (!resuming)

@@ -74,7 +74,6 @@ struct RunEngine {
     void describe(const RunOptions& o, const WordsStage& w, bool realtime) const;
 
 private:
-    Status checkV(const RunOptions& o, const WordsStage& w) const;
     Status countFrames(const RunOptions& o, const WordsStage& w);
 };
 
