@@ -15,6 +15,7 @@
 #include "bindings.hpp"
 #include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
+#include "rost/mission.hpp"
 
 namespace rost::python {
 
@@ -140,12 +141,28 @@ public:
         check(saveCheckpoint(out, path));
     }
 
-    static std::unique_ptr<PyModel> load(const std::string& path) {
+    // The library's mission session decides what the checkpoint fixes and what
+    // `settings` (rost.Config keywords) may change (rost/mission.hpp): a model
+    // setting given with another value is refused, naming the keyword;
+    // refinement settings given replace the checkpoint's.
+    static std::unique_ptr<PyModel> load(const std::string& path, const py::kwargs& settings) {
         fileMustExist(path);
-        CheckpointInfo info;
-        if (Status st = readCheckpointInfo(path, info); !st.ok()) throw py::value_error(st.message());
+        MissionOptions mission;
+        applySettings(mission.settings, settings, "rost.Model.load");
+        for (const auto& [k, v] : settings) mission.given.emplace_back(findSetting(py::str(k).cast<std::string>())->key);
+        mission.resume = path;
+        mission.names.setting = [](const SettingSpec& s) { return paramName(s); };
+        mission.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
+        mission.names.leave = [](const SettingSpec& s) { return paramName(s); };
+        mission.names.resume = "rost.Model.load";
+        MissionPlan plan;
+        MissionInput in;
+        in.threads = mission.isGiven("threads") ? mission.settings.engine.model.threads : 1;
+        if (Status st = planMission(mission, in, plan); !st.ok()) throw py::value_error(st.message());
         Settings s;
-        s.engine = info.config;
+        s.engine = plan.config;
+        s.engine.model.threads = plan.checkpoint.config.model.threads;
+        if (mission.isGiven("threads")) s.engine.model.threads = mission.settings.engine.model.threads;
         auto m = std::make_unique<PyModel>(s);
         CheckpointLoadOptions options;
         options.allow_refinement_change = true;  // the internal budget is 0
@@ -295,7 +312,9 @@ void bindModelState(py::class_<PyModel>& c) {
         .def_property_readonly("_last_input_address", [](PyModel& m) { return reinterpret_cast<uintptr_t>(m.lastInput()); },
                                "Address of the last words buffer handed to the library (tests: no copy).")
         .def("save", &PyModel::save, py::arg("path"), "Writes a checkpoint (atomically); rost run --resume reads it.")
-        .def_static("load", &PyModel::load, py::arg("path"), "A Model from a checkpoint (Model.save, rost run --checkpoint).")
+        .def_static("load", &PyModel::load, py::arg("path"),
+                    "A Model from a checkpoint (Model.save, rost run --checkpoint). Keywords (rost.Config's) may change "
+                    "the refinement and runtime settings; a model setting must repeat the checkpoint's.")
         .def("__repr__", [](PyModel& m) {
             return "rost.Model(K=" + std::to_string(m.model().K()) + ", V=" + std::to_string(m.model().V()) +
                    ", observations=" + std::to_string(m.model().observations()) + ")";

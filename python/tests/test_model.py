@@ -279,3 +279,21 @@ def test_topics_grow_from_one_to_the_two_planted_and_labels_stay_compact():
     a = np.bincount(labels[words < 10]).argmax()
     b = np.bincount(labels[words >= 10]).argmax()
     assert a != b
+
+
+def test_load_takes_settings_by_the_missions_one_policy(tmp_path):
+    model = rost.Model(small_config(budget_refines=7, sampler="uni+exp"))
+    fill(model, np.random.default_rng(7), 5)
+    path = tmp_path / "m.ckpt"
+    model.save(str(path))
+    # A model setting must repeat the checkpoint's: it is named by its keyword.
+    with pytest.raises(ValueError) as e:
+        rost.Model.load(str(path), K=8)
+    assert str(e.value) == ("K=8 differs from %s's K = 4 (a resumed mission keeps its model; leave K out)" % path)
+    assert rost.Model.load(str(path), K=4).config.K == 4
+    # Refinement settings given replace the checkpoint's; the others stay.
+    loaded = rost.Model.load(str(path), sampler="now")
+    assert loaded.config.sampler == "now" and loaded.config.budget_refines == 7
+    assert (loaded.topic_model() == model.topic_model()).all()
+    with pytest.raises(ValueError, match=r"unknown setting 'samplr' \(did you mean 'sampler'\?\)"):
+        rost.Model.load(str(path), samplr="now")
