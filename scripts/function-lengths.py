@@ -110,10 +110,13 @@ def functions(text):
                 stack.append("block")
                 continue
             prefix = " ".join("".join(buf).split())
-            if CONTAINER.search(prefix):
+            if prefix.count("(") > prefix.count(")"):
+                stack.append("init")  # braces inside a parameter list: a default argument `= {}`
+                buf.append(c)
+            elif CONTAINER.search(prefix):
                 stack.append("container")
                 buf = []
-            elif re.search(r"(=|return|\[\])\s*$", prefix) or re.search(r"=\s*[^(]*$", prefix):
+            elif re.search(r"(=|return|\[\])\s*$", prefix) or re.search(r"=\s*[^()]*$", prefix):
                 stack.append("block")  # aggregate initialiser or lambda at namespace scope
                 buf = []
             elif "(" in prefix and SIGNATURE_END.search(prefix):
