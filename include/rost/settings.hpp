@@ -63,6 +63,7 @@ struct Settings {
     WordSettings words;
     int final_sweeps = settingDefault<int>("final.sweeps");
     uint64_t checkpoint_every = settingDefault<uint64_t>("checkpoint.every");
+    int image_queue = settingDefault<int>("image.queue");
 
     // The engine's checks, then the range of every other number; the message
     // names the key, its value and the allowed range.

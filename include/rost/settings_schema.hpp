@@ -110,6 +110,8 @@
       "publish the newest observation's labels and cell histograms in snapshots") \
     X("stop-on-arrival", Bool, Runtime, "false", 0, 0, "", "", "", Library, engine.flags.stop_on_arrival, \
       "time budget: stop refining as soon as a newer observation is queued (paper Algorithm 2)") \
+    X("image.queue", Integer, Runtime, "4", 1, 1024, "", "", "", Library, image_queue, \
+      "rost_node: images waiting for its words thread; a full queue drops its oldest") \
     X("checkpoint.every", Integer, Mission, "100", 1, 1099511627776.0, "", "", "", 0, checkpoint_every, \
       "observations between two checkpoints (with --checkpoint)") \
     X("words.orb", Bool, Words, "true", 0, 0, "", "--words.orb,!--no-orb", "", 0, words.orb, \

@@ -156,13 +156,12 @@ public:
         mission.names.leave = [](const SettingSpec& s) { return paramName(s); };
         mission.names.resume = "rost.Model.load";
         MissionPlan plan;
+        if (Status st = checkMission(mission, plan); !st.ok()) throw py::value_error(st.message());
         MissionInput in;
-        in.threads = mission.isGiven("threads") ? mission.settings.engine.model.threads : 1;
+        in.threads = plan.checkpoint.config.model.threads;  // the checkpoint's unless `threads` is given
         if (Status st = planMission(mission, in, plan); !st.ok()) throw py::value_error(st.message());
         Settings s;
         s.engine = plan.config;
-        s.engine.model.threads = plan.checkpoint.config.model.threads;
-        if (mission.isGiven("threads")) s.engine.model.threads = mission.settings.engine.model.threads;
         auto m = std::make_unique<PyModel>(s);
         CheckpointLoadOptions options;
         options.allow_refinement_change = true;  // the internal budget is 0

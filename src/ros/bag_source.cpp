@@ -114,10 +114,7 @@ Status Source::open(const std::string& path, const std::string& topic, const vis
         const vision::FrameSize m = vision::modelFrameSize(bgr_.cols, bgr_.rows);
         w = m.width;
         h = m.height;
-        if (w != bgr_.cols || h != bgr_.rows)
-            notes_.push_back("frames of " + std::to_string(bgr_.cols) + "x" + std::to_string(bgr_.rows) +
-                             " are scaled to " + std::to_string(w) + "x" + std::to_string(h) +
-                             " (at most 1920 pixels on the longer side unless a size is given)");
+        if (w != bgr_.cols || h != bgr_.rows) notes_.push_back(vision::scaledNote(bgr_.cols, bgr_.rows, m));
     }
     else if (w <= 0) w = std::max(1, static_cast<int>(static_cast<int64_t>(h) * bgr_.cols / bgr_.rows));
     else if (h <= 0) h = std::max(1, static_cast<int>(static_cast<int64_t>(w) * bgr_.rows / bgr_.cols));

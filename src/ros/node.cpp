@@ -39,7 +39,7 @@ Node::Node(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(std::move(nh)), pnh_(s
 Node::~Node() { shutdown(); }
 
 // The node's own private parameters, beside one per setting of the schema.
-const char* const kNodeParams[] = {"compressed", "checkpoint", "resume", "vocabulary", "image_queue"};
+const char* const kNodeParams[] = {"compressed", "checkpoint", "resume", "vocabulary"};
 
 // Every setting of the schema as a private parameter (dots as underscores).
 // Errors name the parameter as the node spells it (~eta) and stop the node
@@ -77,11 +77,7 @@ bool Node::readSettings() {
     pnh_.param("checkpoint", options_.checkpoint, std::string());
     pnh_.param("resume", options_.resume, std::string());
     pnh_.param("vocabulary", options_.vocabulary, std::string());
-    pnh_.param("image_queue", image_queue_, 4);
-    if (image_queue_ < 1 || image_queue_ > 1024) {
-        ROS_FATAL("rost: ~image_queue = %d, allowed [1, 1024]", image_queue_);
-        return false;
-    }
+    image_queue_ = std::stoi(settings_.value("image.queue"));  // a setting of the schema: checked above
     return true;
 }
 

@@ -12,15 +12,14 @@ namespace {
 // `rost_node --params`: every private parameter, made from the settings schema.
 void printParams() {
     std::printf("# rost_node's private parameters: every setting of the schema (`rost config`), dots and dashes as\n"
-                "# underscores, and compressed, checkpoint, resume, vocabulary, image_queue. ~name  default  range  meaning\n");
+                "# underscores, and compressed, checkpoint, resume, vocabulary. ~name  default  range  meaning\n");
     for (const rost::bridge::ParamSpec& p : rost::bridge::settingParams())
         std::printf("~%s  %s  %s  %s\n", p.param.c_str(), p.def.empty() ? "-" : p.def.c_str(), p.range.c_str(),
                     p.doc.c_str());
     std::printf("~compressed  false  true|false  subscribe sensor_msgs/CompressedImage on `image`\n"
                 "~checkpoint  -  FILE  save the state every checkpoint.every frames, at exit and on ~save_checkpoint\n"
                 "~resume  -  FILE  carry on the mission this checkpoint holds\n"
-                "~vocabulary  -  FILE  ORB vocabulary from `rost vocab` (default: the built-in one)\n"
-                "~image_queue  4  [1, 1024]  images waiting for the words thread; a full queue drops its oldest\n");
+                "~vocabulary  -  FILE  ORB vocabulary from `rost vocab` (default: the built-in one)\n");
 }
 } // namespace
 

@@ -25,9 +25,8 @@ namespace {
 struct SettingFlag {
     std::string names;            // CLI11 option names ("-K,--ntopics")
     std::string key;              // the schema key it sets
-    const char* rostcli_default;  // rost-cli's default (nullptr: the schema's)
+    std::string rostcli_default;  // rost-cli's default ("": the schema's)
     bool spatial = false;         // topics.refine.t accepts it with any value and ignores it
-    std::string def_storage;
 };
 
 // Every rost-cli setting flag, in the schema's order.
@@ -40,11 +39,10 @@ const std::vector<SettingFlag>& settingFlags() {
             const std::size_t eq = spec.rostcli.find('=');
             f.names = std::string(spec.rostcli.substr(0, eq));
             f.key = std::string(spec.key);
-            if (eq != std::string_view::npos) f.def_storage = std::string(spec.rostcli.substr(eq + 1));
+            if (eq != std::string_view::npos) f.rostcli_default = std::string(spec.rostcli.substr(eq + 1));
             f.spatial = spec.key == "g.space" || spec.key == "cell.space";  // cells in space: txy's only
             out.push_back(std::move(f));
         }
-        for (SettingFlag& f : out) f.rostcli_default = f.def_storage.empty() ? nullptr : f.def_storage.c_str();
         return out;
     }();
     return flags;
@@ -96,7 +94,7 @@ std::string defaultOf(const SettingFlag& f) {
     const std::string key = f.key;
     if (key == "V") return "the largest word id + 1";
     if (key == "threads") return "the cores this process may use";
-    return f.rostcli_default ? f.rostcli_default : std::string(findSetting(f.key)->def);
+    return f.rostcli_default.empty() ? std::string(findSetting(f.key)->def) : f.rostcli_default;
 }
 
 struct Parsed {
@@ -160,17 +158,17 @@ void addSettingFlags(CLI::App& app, Parsed& p, Command cmd) {
 }
 
 // A setting flag as rost-cli spells it, every alias: "-K/--ntopics", "--gamma".
-std::string flagName(const Parsed&, std::size_t row) {
+std::string flagName(std::size_t row) {
     std::string names = settingFlags()[row].names;
     std::replace(names.begin(), names.end(), ',', '/');
     return names;
 }
 
 // A setting's problem, each setting named by the flag that sets it (its key when no flag does).
-std::string problemText(const Parsed& p, const SettingProblem& problem) {
-    return problem.describe([&](const SettingSpec& spec) {
+std::string problemText(const SettingProblem& problem) {
+    return problem.describe([](const SettingSpec& spec) {
         for (std::size_t i = 0; i < settingFlags().size(); ++i)
-            if (spec.key == settingFlags()[i].key) return flagName(p, i);
+            if (spec.key == settingFlags()[i].key) return flagName(i);
         return std::string(spec.key);
     });
 }
@@ -182,7 +180,7 @@ Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
         const SettingFlag& f = settingFlags()[i];
         const bool given = p.setting_opts[i]->count() > 0;
         if (f.spatial && cmd == Command::RefineT) continue;
-        std::string value = given ? p.setting_text[i] : (f.rostcli_default ? f.rostcli_default : "");
+        std::string value = given ? p.setting_text[i] : f.rostcli_default;
         if (std::string(f.key) == "threads" && !given)
             value = std::to_string(usableCores());
         if (findSetting(f.key)->type == SettingType::Bool && given && value.empty()) value = "true";
@@ -190,8 +188,8 @@ Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
         // --online.mint is checked without --online too, but is the budget only with it.
         Settings checked = s;
         Settings& into = std::string(f.key) == "budget.ms" && !p.run.online ? checked : s;
-        if (auto problem = setSettingText(into, *findSetting(f.key), value)) return Status::error(problemText(p, *problem));
-        if (auto problem = checkSettings(into)) return Status::error(problemText(p, *problem));
+        if (auto problem = setSettingText(into, *findSetting(f.key), value)) return Status::error(problemText(*problem));
+        if (auto problem = checkSettings(into)) return Status::error(problemText(*problem));
     }
     for (std::size_t i = 0; i < std::size(kLimitedFlags); ++i) {
         const LimitedFlag& f = kLimitedFlags[i];

@@ -121,13 +121,13 @@ Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) 
                       " + hue " + std::to_string(l.hue_size);
     if (resuming)  // frames of the checkpoint's size and words of its V first: nothing else matters otherwise
         if (Status st = planMission(mission, in, plan); !st.ok()) return st;
-    V = resuming ? plan.config.model.V : o.model.isGiven("V") ? o.model.settings.engine.model.V : w.wordsV();
     if (Status st = countFrames(o, w); !st.ok()) return st;
     in.length = frames;
     in.max_words = vision::maxWordsPerFrame(w.extractors, w.info.width, w.info.height);
     if (!resuming)
         if (Status st = planMission(mission, in, plan); !st.ok()) return st;
     ec = plan.config;
+    V = ec.model.V;
     refinementChanged = plan.refinement_changed;
     Status st;
     engine = openMission(mission, plan, st);

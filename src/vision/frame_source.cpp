@@ -84,10 +84,7 @@ void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vec
         const FrameSize m = modelFrameSize(w, h);
         info.width = m.width;
         info.height = m.height;
-        if (m.width != w || m.height != h)
-            notes.push_back("frames of " + std::to_string(w) + "x" + std::to_string(h) + " are scaled to " +
-                            std::to_string(m.width) + "x" + std::to_string(m.height) + " (at most " +
-                            std::to_string(kMaxModelSide) + " pixels on the longer side unless a size is given)");
+        if (m.width != w || m.height != h) notes.push_back(scaledNote(w, h, m));
     }
 }
 

@@ -92,6 +92,12 @@ inline std::string frameTooSmall(int width, int height) {
 struct FrameSize {
     int width = 0, height = 0;
 };
+// "frames of 4000x3000 are scaled to 1920x1440 (...)": the note a source gives.
+inline std::string scaledNote(int width, int height, FrameSize model) {
+    return "frames of " + std::to_string(width) + "x" + std::to_string(height) + " are scaled to " +
+           std::to_string(model.width) + "x" + std::to_string(model.height) + " (at most " +
+           std::to_string(kMaxModelSide) + " pixels on the longer side unless a size is given)";
+}
 inline FrameSize modelFrameSize(int width, int height) noexcept {
     const int longer = width > height ? width : height;
     if (longer <= kMaxModelSide) return {width, height};
