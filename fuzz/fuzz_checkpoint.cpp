@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "rost/checkpoint.hpp"
-#include "rost/kernel_types.hpp"
+#include "kernel_tables.hpp"
 
 namespace {
 

@@ -2,7 +2,9 @@
 # public API: none includes an intrinsics header (<immintrin.h>, <arm_neon.h>,
 # ...) and every quoted include names another installed header, never one of
 # src/ (the kernel, the rings and queues are internal); only an adaptor
-# header whose name says Eigen (rost/model_eigen.hpp) includes Eigen.
+# header whose name says Eigen (rost/model_eigen.hpp) includes Eigen; and
+# none names the model's tables (AlignedBuffer, the kernel's Tables): the
+# Model, like the Engine, keeps them behind its implementation.
 #   cmake -DINCLUDE_DIR=<source>/include -P check_public_headers.cmake
 if(NOT INCLUDE_DIR)
   message(FATAL_ERROR "usage: cmake -DINCLUDE_DIR=<dir> -P check_public_headers.cmake")
@@ -13,6 +15,10 @@ set(problems "")
 set(checked 0)
 foreach(h IN LISTS headers)
   math(EXPR checked "${checked} + 1")
+  file(STRINGS ${INCLUDE_DIR}/${h} tables REGEX "(AlignedBuffer|kernel::Tables|struct Tables)")
+  foreach(line IN LISTS tables)
+    string(APPEND problems "\n  ${h}: names the model's tables (internal: src/core/model_core.hpp): ${line}")
+  endforeach()
   file(STRINGS ${INCLUDE_DIR}/${h} lines REGEX "^[ \t]*#[ \t]*include")
   foreach(line IN LISTS lines)
     if(line MATCHES "<(${intrinsics})>" OR line MATCHES "\"(${intrinsics})\"")
@@ -37,4 +43,4 @@ endif()
 if(problems)
   message(FATAL_ERROR "installed headers must be public API only:${problems}")
 endif()
-message(STATUS "${checked} installed headers: no intrinsics, no internal includes, Eigen only in its adaptor")
+message(STATUS "${checked} installed headers: no intrinsics, no internal includes, no model tables, Eigen only in its adaptor")

@@ -5,7 +5,7 @@
 #include <cstring>
 #include <vector>
 
-#include "rost/aligned_buffer.hpp"
+#include "aligned_buffer.hpp"
 #include "rost/model.hpp"
 #include "rost/model_eigen.hpp"
 
@@ -421,5 +421,98 @@ TEST(ModelEigen, TopicModelMatrixIsTheSmoothedCountsAndEachRowSumsToOne) {
         EXPECT_NEAR(phi.row(k).sum(), 1.0, 1e-12) << k;
         for (int v = 0; v < c.V; ++v)
             EXPECT_DOUBLE_EQ(phi(k, v), (m.topicWordCount(k, v) + c.beta) / (m.topicCount(k) + c.V * c.beta));
+    }
+}
+
+namespace {
+
+// A model of a few observations whose state is then edited through its
+// state sections, as a checkpoint file would write them back.
+struct RestoredModel {
+    rost::Config c = smallConfig();
+    rost::Model m{c};
+    rost::StateLayout layout;
+    RestoredModel() {
+        rost::Rng r(5);
+        std::vector<uint32_t> w;
+        std::vector<rost::Position> p;
+        for (int f = 0; f < 11; ++f) {  // 11 steps in a ring of 8: slots wrap
+            randomFrame(r, c, 30, w, p);
+            EXPECT_TRUE(m.addObservation(w, p).ok());
+            m.refineStep(m.steps() - 1);
+        }
+        m.describeState(layout);
+    }
+    template <typename T>
+    T* section(std::string_view name) {
+        const rost::StateSection* s = layout.find(name);
+        EXPECT_NE(s, nullptr) << name;
+        return static_cast<T*>(s->data);
+    }
+    // The first word slot of a cell that holds a word in the newest step's slot.
+    std::size_t firstWord() {
+        const std::size_t slot = static_cast<std::size_t>((m.steps() - 1) % c.ring_steps);
+        const auto* n = section<uint32_t>("ring.cell_n");
+        for (std::size_t cell = 0; cell < static_cast<std::size_t>(m.cellsPerStep()); ++cell)
+            if (n[slot * m.cellsPerStep() + cell] > 0) return (slot * m.cellsPerStep() + cell) * c.cell_capacity;
+        ADD_FAILURE() << "no word in the newest step";
+        return 0;
+    }
+};
+
+} // namespace
+
+// The store judges state written back from an untrusted checkpoint itself:
+// a value it would index with is refused by section and element before
+// anything reads it, and an untouched state passes.
+TEST(ModelRestoredState, RefusesEachOutOfRangeValueBySectionAndElement) {
+    {
+        RestoredModel r;
+        rost::StateProblem p;
+        EXPECT_TRUE(r.m.checkRestoredState(p)) << p.section << ": " << p.what;
+    }
+    {
+        RestoredModel r;
+        const std::size_t at = r.firstWord();
+        r.section<uint16_t>("ring.cell_z")[at] = static_cast<uint16_t>(r.c.K);
+        rost::StateProblem p;
+        EXPECT_FALSE(r.m.checkRestoredState(p));
+        EXPECT_EQ(p.section, "ring.cell_z");
+        EXPECT_EQ(p.element, at);
+        EXPECT_NE(p.what.find("topic label 6 out of range [0, 6)"), std::string::npos) << p.what;
+    }
+    {
+        RestoredModel r;
+        const std::size_t at = r.firstWord();
+        r.section<uint32_t>("ring.cell_words")[at] = 50;
+        rost::StateProblem p;
+        EXPECT_FALSE(r.m.checkRestoredState(p));
+        EXPECT_EQ(p.section, "ring.cell_words");
+        EXPECT_NE(p.what.find("word id 50 out of range [0, 50)"), std::string::npos) << p.what;
+    }
+    {
+        RestoredModel r;
+        r.section<int64_t>("counters.steps")[0] += 1;
+        rost::StateProblem p;
+        EXPECT_FALSE(r.m.checkRestoredState(p));
+        EXPECT_EQ(p.section, "counters.steps");
+        EXPECT_NE(p.what.find("does not follow from 11 observations"), std::string::npos) << p.what;
+    }
+    {
+        RestoredModel r;
+        r.section<int64_t>("ring.slot_step")[0] = 3;  // slot 0 holds step 8 of 11 steps in a ring of 8
+        rost::StateProblem p;
+        EXPECT_FALSE(r.m.checkRestoredState(p));
+        EXPECT_EQ(p.section, "ring.slot_step");
+        EXPECT_EQ(p.element, 0u);
+        EXPECT_NE(p.what.find("holds step 3, expected 8"), std::string::npos) << p.what;
+    }
+    {
+        RestoredModel r;
+        r.section<float>("ring.obs_surprise")[2] = -1.f;
+        rost::StateProblem p;
+        EXPECT_FALSE(r.m.checkRestoredState(p));
+        EXPECT_EQ(p.section, "ring.obs_surprise");
+        EXPECT_EQ(p.element, 2u);
     }
 }

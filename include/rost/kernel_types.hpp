@@ -1,51 +1,19 @@
 #pragma once
 
 // What the public Model names of the Gibbs kernel: the path selector (SIMD or
-// the scalar reference), the topic padding and the word-topic tables. The
-// kernel itself (SSE2/NEON intrinsics) is internal to the library and is
-// compiled with the library's flags (src/core/kernel.hpp); users never
-// instantiate it.
+// the scalar reference). The kernel itself (SSE2/NEON intrinsics), its topic
+// padding and its count tables are internal to the library and compiled with
+// the library's flags (src/core/kernel.hpp, src/core/kernel_tables.hpp);
+// users never instantiate them.
 
 #include <cstdint>
 
 namespace rost::kernel {
-
-inline constexpr int kBlock = 4;
-
-// Topics padded to a whole number of 4-lane blocks; padding lanes carry zero weight.
-constexpr int paddedK(int K) noexcept { return (K + kBlock - 1) / kBlock * kBlock; }
-// The kernels' KP for a model whose topics grow (runtime K, active topics only).
-constexpr int kGrow = -1;
 
 enum class Path : uint8_t { Scalar, Simd };
 
 // Name of the SIMD instruction set the library's Simd path was compiled to:
 // "sse2", "neon" or "scalar".
 const char* simdName() noexcept;
-
-// The word-topic side of the count tables, shared by every cell.
-struct Tables {
-    int32_t* nkv = nullptr;  // V x Kp, word-major: a word's K counts are contiguous
-    int32_t* nk = nullptr;   // Kp topic totals
-    float* inv = nullptr;    // Kp cached 1 / (n_k + V beta); 0 in padding lanes
-    float* dec = nullptr;    // Kp cached 1 / (n_k - 1 + V beta)
-    float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
-    int K = 0;
-    int Kp = 0;
-    // Topic growth (docs/design.md, "Topics that grow"). Without growth all
-    // K topics are open. With growth a topic is open while it holds a word
-    // (n_k > 0; inv is 0 for a closed one), `active` counts the open ones,
-    // `hi` is 1 + the highest open label, and a word opens topic `slot` (the
-    // lowest closed label; K when none is left) with weight `fresh` = gamma / V.
-    // The growth kernels are the KP = kGrow instances.
-    bool grow = false;
-    int active = 0;
-    int hi = 0;
-    int slot = 0;
-    float fresh = 0.f;
-    float alpha = 0.f;
-    float beta = 0.f;
-    float vbeta = 0.f;
-};
 
 } // namespace rost::kernel

@@ -3,6 +3,8 @@
 // The spatiotemporal topic model of the paper (sections III-V) over a fixed
 // ring of temporal cells. Single-threaded: exactly one thread (the refiner)
 // may call its mutating functions. Nothing allocates after construction.
+// The implementation (the ring store, refinement, measurements) is the
+// library's own: src/core/model_core.hpp.
 
 #include <cstddef>
 #include <cstdint>
@@ -10,8 +12,6 @@
 #include <span>
 #include <string>
 
-
-#include "rost/aligned_buffer.hpp"
 #include "rost/config.hpp"
 #include "rost/kernel_types.hpp"
 #include "rost/position.hpp"
@@ -23,7 +23,7 @@ namespace rost {
 
 struct ThreadSettings;
 namespace detail {
-class WorkerPool;
+class ModelCore;
 }
 
 enum class AddError : uint8_t {
@@ -42,36 +42,6 @@ struct AddResult {
     uint32_t dropped_cell = 0;   // words beyond a cell's capacity (uniformly subsampled away)
     [[nodiscard]] bool ok() const noexcept { return error == AddError::None; }
 };
-
-// ---- one observation's checks and subsampling ----------------------------------
-// Shared by Model::addObservation and the engine's queue (which subsamples a
-// long observation when it is pushed and checks the rest when it is taken
-// up), so an observation is judged and thinned the same way wherever it enters.
-
-// Words and positions must be as many: SizeMismatch at the shorter length otherwise.
-AddResult checkObservationSizes(std::size_t words, std::size_t positions) noexcept;
-
-// Uniform subsample of `keep` of `n` items in input order (selection
-// sampling, Knuth's algorithm S): calls kept(i) for each index kept and
-// returns how many. Keeps everything without a draw when n <= keep;
-// otherwise draws rng.below(n - i) for each item looked at.
-template <typename Kept>
-std::size_t selectUniform(std::size_t n, std::size_t keep, Rng& rng, Kept&& kept) noexcept {
-    if (n <= keep) {
-        for (std::size_t i = 0; i < n; ++i) kept(i);
-        return n;
-    }
-    std::size_t need = keep, j = 0;
-    for (std::size_t i = 0; i < n && need > 0; ++i) {
-        const uint64_t left = n - i;
-        const uint64_t pick = left > 0xFFFFFFFFull ? need : rng.below(static_cast<uint32_t>(left));
-        if (pick >= need) continue;
-        kept(i);
-        ++j;
-        --need;
-    }
-    return j;
-}
 
 // Sum of -log p(w) over some words; perplexity = exp(nll / words).
 struct LogLoss {
@@ -141,6 +111,18 @@ struct RefineCount {
     uint64_t caught_up = 0;
 };
 
+// What a checkpoint's state failed on (Model::checkRestoredState): the
+// state section (rost/state_layout.hpp) and element that hold the bad value,
+// and what is wrong with it.
+struct StateProblem {
+    std::string section;
+    std::size_t element = 0;
+    std::string what;
+};
+
+// The model's API. Its tables (the ring of cells, the count tables, the
+// kernel's view of them) live behind the implementation (src/core/model_core.hpp),
+// as the Engine's do: no installed header names a buffer.
 class Model {
 public:
     // Throws std::invalid_argument with Config::validate()'s message on a bad configuration.
@@ -152,25 +134,23 @@ public:
     Model(const Model&) = delete;
     Model& operator=(const Model&) = delete;
 
-    const Config& config() const noexcept { return cfg_; }
-    int K() const noexcept { return K_; }
+    const Config& config() const noexcept;
+    int K() const noexcept;
     // Active topics A: labels are 0..A-1. K without topic growth; with
     // topics.grow, the topics opened so far (1 at the start, at most K).
-    int activeTopics() const noexcept { return tables_.active; }
+    int activeTopics() const noexcept;
     // True when topics grow and every one of the K topics is open.
-    bool topicCapReached() const noexcept { return cfg_.grow && tables_.active >= K_; }
+    bool topicCapReached() const noexcept;
     // Whether topic k is open (holds a word; always, without growth).
-    bool topicOpen(int k) const noexcept { return !cfg_.grow || (k >= 0 && k < K_ && nk_[k] > 0); }
+    bool topicOpen(int k) const noexcept;
     // Output numbering of the topics (docs/design.md, "Topics that grow"):
     // map[k] = the number of open topics below k, so open topics are numbered
     // 0..A-1 in label order (0xFFFF for a closed one). Without growth the
     // identity. observationLabels and observationSamples are numbered this
     // way; cellHistogram, topicWordCount and topicCount take labels. map.size() >= K.
     void outputNumbering(std::span<uint16_t> map) const noexcept;
-    // Call after the state sections (describeState) were written back.
-    void stateRestored() noexcept;
-    int V() const noexcept { return V_; }
-    int cellsPerStep() const noexcept { return cells_; }
+    int V() const noexcept;
+    int cellsPerStep() const noexcept;
 
     // ---- ingest ---------------------------------------------------------
     // Adds one observation (the next time step). Words land in cell
@@ -183,16 +163,14 @@ public:
     // word ids < V, positions inside the frame): the first offending word.
     AddResult validateObservation(std::span<const uint32_t> words, std::span<const Position> positions) const noexcept;
 
-    uint64_t observations() const noexcept { return frames_; }
+    uint64_t observations() const noexcept;
     // Temporal cells so far (the paper's T, counting from 1). Step indices run 0..steps()-1.
-    int64_t steps() const noexcept { return steps_; }
+    int64_t steps() const noexcept;
     // Oldest step still in the ring (refinable).
-    int64_t oldestStep() const noexcept { return steps_ > ring_ ? steps_ - ring_ : 0; }
-    bool inWindow(int64_t step) const noexcept { return step >= oldestStep() && step < steps_; }
-    int64_t stepOfObservation(uint64_t frame) const noexcept { return static_cast<int64_t>(frame) / cfg_.cell_time; }
-    bool observationInWindow(uint64_t frame) const noexcept {
-        return frame < frames_ && inWindow(stepOfObservation(frame));
-    }
+    int64_t oldestStep() const noexcept;
+    bool inWindow(int64_t step) const noexcept;
+    int64_t stepOfObservation(uint64_t frame) const noexcept;
+    bool observationInWindow(uint64_t frame) const noexcept;
 
     // ---- refinement -------------------------------------------------------
     // Refines every word of one cell / one time step once, cells in index
@@ -227,20 +205,16 @@ public:
     // SCHED_FIFO, pinned to the CPUs below settings.cpu). Set-up code.
     void applyWorkerSettings(const ThreadSettings& settings);
     // Colours of the cell grid: (step + x + b y) mod colours() (b: colourStride()).
-    int colours() const noexcept { return colours_; }
-    int colourStride() const noexcept { return colour_b_; }
-    int colourOf(int64_t step, int cell) const noexcept {
-        return static_cast<int>((static_cast<uint64_t>(step) + static_cast<uint64_t>(cell % gw_) +
-                                 static_cast<uint64_t>(colour_b_) * static_cast<uint64_t>(cell / gw_)) %
-                                static_cast<uint64_t>(colours_));
-    }
-    uint64_t tokensRefined() const noexcept { return tokens_refined_; }
+    int colours() const noexcept;
+    int colourStride() const noexcept;
+    int colourOf(int64_t step, int cell) const noexcept;
+    uint64_t tokensRefined() const noexcept;
     // Words currently in cells of a step.
     uint32_t wordsInStep(int64_t step) const noexcept;
 
     // Selects the scalar reference or the SIMD kernel (default: SIMD).
-    void setKernelPath(kernel::Path p) noexcept { path_ = p; }
-    kernel::Path kernelPath() const noexcept { return path_; }
+    void setKernelPath(kernel::Path p) noexcept;
+    kernel::Path kernelPath() const noexcept;
 
     // ---- measurements on the workers ------------------------------------
     // With workers (threads > 1 and refine.window > 1), stepLogLoss,
@@ -324,10 +298,10 @@ public:
     std::span<const int32_t> cellHistogram(int64_t step, int cell) const noexcept;
     uint32_t cellWordCount(int64_t step, int cell) const noexcept;
 
-    int32_t topicWordCount(int k, int v) const noexcept { return nkv_[static_cast<std::size_t>(v) * Kp_ + k]; }
-    int32_t topicCount(int k) const noexcept { return nk_[k]; }
+    int32_t topicWordCount(int k, int v) const noexcept;
+    int32_t topicCount(int k) const noexcept;
     // Words counted in n_k^v (with EvictionPolicy::Keep this includes evicted steps).
-    uint64_t wordsInModel() const noexcept { return words_in_model_; }
+    uint64_t wordsInModel() const noexcept;
     // phi as an Eigen matrix: topicModelMatrix() in rost/model_eigen.hpp (this header has no Eigen).
     // Adds K x V counts (row-major, topic by word) learned elsewhere to n_k^v and n_k;
     // they act as a prior that refinement never removes. Set-up only.
@@ -337,10 +311,11 @@ public:
     bool checkInvariants(std::string* why = nullptr) const;
 
     // Bytes allocated for all tables and the ring; fixed at construction.
-    std::size_t memoryBytes() const noexcept { return memory_bytes_; }
+    std::size_t memoryBytes() const noexcept;
 
-    Rng& rng() noexcept { return rng_; }
+    Rng& rng() noexcept;
 
+    // ---- state --------------------------------------------------------------
     // Every part of the state that changes after construction, as named
     // sections in a fixed order (rost/state_layout.hpp): the counters, the
     // RNG, the count tables and cached reciprocals, the ring. Their sizes
@@ -348,207 +323,22 @@ public:
     // sections, and writing them back into a Model built from the same
     // Config resumes it exactly. Appends to `out`; allocates nothing.
     void describeState(StateLayout& out) noexcept;
+    // After the sections were written back from an untrusted source (a
+    // checkpoint file) and before anything reads them: every value the model
+    // could index with, divide by or count is in range (counters, which
+    // step each ring slot holds, word ids, labels, cell sizes, input slots,
+    // positions, surprises; n_k^v at least the window's own words). False
+    // and `problem` at the first bad value. Then stateRestored() and
+    // checkInvariants() compare the counts with the labels.
+    bool checkRestoredState(StateProblem& problem) const;
+    // Call after the state sections (describeState) were written back.
+    void stateRestored() noexcept;
+
+    // The implementation, for the library's own code (the engine, checkpoints).
+    detail::ModelCore& core() noexcept { return *core_; }
+    const detail::ModelCore& core() const noexcept { return *core_; }
 
 private:
-    std::size_t slotOf(int64_t step) const noexcept { return static_cast<std::size_t>(step % ring_); }
-    // The prior mass of opening a new topic: gamma while topics grow and
-    // there is room, else 0 (docs/design.md, "Topics that grow").
-    double freshMass() const noexcept { return cfg_.grow && tables_.active < K_ ? cfg_.gamma : 0.0; }
-    int32_t* nck(std::size_t slot, int cell) noexcept {
-        return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
-    }
-    const int32_t* nck(std::size_t slot, int cell) const noexcept {
-        return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
-    }
-    void neighbourhood(int64_t step, int cell, int32_t* out, bool pastOnly) const noexcept;
-    void renumber(uint64_t frame, std::span<uint16_t> out) const noexcept;
-    // Ring slots of a step and of its temporal neighbours in the window,
-    // computed once per step so a cell's refinement does no division.
-    struct StepSlots {
-        std::size_t self = 0;
-        int count = 0;
-        std::size_t temporal[2 * 64];
-    };
-    void stepSlots(int64_t step, StepSlots& out) const noexcept;
-    // Refines cells [c0, c1) of the step in `slots`; KP is the padded K
-    // when specialised at compile time (0: runtime).
-    template <int KP, kernel::Path P>
-    uint32_t refineCells(const StepSlots& slots, int c0, int c1) noexcept;
-    void evict(std::size_t slot) noexcept;
-    // Windows of cell picks (src/core/refine_windows.cpp).
-    struct Windows;
-    struct WindowPlan;
-    struct MoveLog;
-    struct WindowJob;
-    struct MergeJob;
-    struct CatchUpJob;
-    struct CopyJob;
-    bool fillWindow(WindowPlan& plan, StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept;
-    bool refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
-    bool refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept;
-    void groupWindow(WindowPlan& plan) noexcept;
-    void prepareWindow(WindowPlan& plan) noexcept;
-    void planNextWindow() noexcept;
-    void layoutRounds(WindowPlan& plan) noexcept;
-    // Round (colour) c of the current window; its last round may also plan the next window.
-    void runRound(int c) noexcept;
-    void takeMoves(const MoveLog& log, uint32_t copy) noexcept;
-    void takeMovesEverywhere(const MoveLog& log) noexcept;
-    void takePendingMoves() noexcept;
-    void runLiveRound(uint32_t task) noexcept;
-    void syncWorkerTables(bool copy) noexcept;
-    bool workerCopiesAgree(std::string* why) const;
-    void finishRound() noexcept;
-    void countStarted(RefineCount& rc) noexcept;
-    void allocateWindows();
-    void chooseColours() noexcept;
-    template <int KP>
-    void sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept;
-    template <int KP, kernel::Path P>
-    void frozenTask(int worker, uint32_t task) noexcept;
-    template <int KP, kernel::Path P>
-    void liveTask(int worker, uint32_t task) noexcept;
-    template <int KP>
-    void setTaskKernels() noexcept;
-    // The parts of addObservation, in order (ring slot `slot`, input row `obs`).
-    void openStep(int64_t step, std::size_t slot) noexcept;
-    uint32_t keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::size_t obs) noexcept;
-    void fillCells(std::size_t slot, std::size_t obs, uint32_t kept, AddResult& res) noexcept;
-    void observeSurprise(int64_t step, std::size_t slot, std::size_t obs, const uint32_t* firstNew) noexcept;
-    void drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexcept;
-    // The parts of the constructor.
-    void allocateState();
-    void buildNeighbourhoods();
-    void selectKernels() noexcept;
-    // 1 / (n_k + V beta) and 1 / (n_k - 1 + V beta) in double, computed once
-    // per call of an output function instead of K divisions per word.
-    struct Reciprocals {
-        double inv[1024];
-        double invLeftOut[1024];
-    };
-    void reciprocals(Reciprocals& r) const noexcept;
-    double logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum, const Reciprocals& r) const noexcept;
-    int mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& r) const noexcept;
-    // Per-cell parts of the plug-in perplexity and the surprise, called by
-    // the serial and the parallel code alike, so both compute the same bits:
-    // the plug-in weights theta_c(k) / (n_k + V beta) (returns the fresh
-    // topic's term), log p of one word; the surprise's prior (the past
-    // neighbourhood, summed into g, or n_k when that is empty; thetaNorm:
-    // 1 / its normaliser) and log(p * thetaNorm) of one word.
-    double pluginWeights(std::size_t slot, int cell, uint32_t n, double* weight) const noexcept;
-    double pluginLogProb(uint32_t v, const double* weight, double freshP) const noexcept;
-    const int32_t* surprisePrior(int64_t step, int cell, double globalSum, int32_t* g,
-                                 double& thetaNorm) const noexcept;
-    double surpriseLogProb(uint32_t v, const int32_t* prior, double thetaNorm) const noexcept;
-    // -log of the cell's new words, summed in order (terms: from the pool, or nullptr: computed here).
-    double cellSurpriseNll(int64_t step, std::size_t slot, int cell, uint32_t s0, double globalSum,
-                           const double* terms) const noexcept;
-    // Measurements on the workers (src/core/measure.cpp): each returns false
-    // (surpriseTermsOnPool nullptr) when the measurement is to be serial.
-    // The buffers they write sit behind measure_ (a pointer: const functions
-    // write them, under the claim).
-    struct Measure;
-    void sizeMeasure();
-    bool claimMeasure(uint64_t words) const noexcept;
-    void releaseMeasure() const noexcept;
-    bool parallelStepLogLoss(int64_t step, LogLoss& out) const noexcept;
-    bool parallelStepPluginLogLoss(int64_t step, LogLoss& out) const noexcept;
-    const double* surpriseTermsOnPool(int64_t step, std::size_t slot, const uint32_t* firstNew,
-                                      double globalSum) noexcept;
-    bool parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexcept;
-    // An observation's inputs grouped by cell (a counting sort): cell c's are
-    // by_cell[begin[c], begin[c + 1]); cursor (cells) and cell_of (an entry
-    // an input) are scratch.
-    struct CellGroups {
-        uint32_t* begin;
-        uint32_t* cursor;
-        uint32_t* cell_of;
-        uint32_t* by_cell;
-    };
-    void groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g) const noexcept;
-    void labelCell(int64_t step, int c, const CellGroups& groups, std::size_t base, const uint16_t* z,
-                   const Reciprocals& r, uint16_t* out) const noexcept;
-    // The left-out log loss of a step computed here, cell by cell (stepLogLoss's bits).
-    LogLoss serialStepLogLoss(int64_t step) const noexcept;
-    // finalMeasurements' task: observation first + i (worker's scratch).
-    void finalTask(int worker, uint64_t first, uint32_t i, double* perplexity, uint16_t* labels,
-                   std::size_t stride) const noexcept;
-    // G(c) of a cell of `step`, cached for the current output call (epoch).
-    const int32_t* cachedNeighbourhood(int64_t step, int cell) const noexcept;
-    template <typename F>
-    void forEachInput(uint64_t frame, F&& f) const noexcept;
-
-    Config cfg_;
-    int K_, Kp_, V_, gw_, gh_, cells_, cap_, maxw_, ct_;
-    int64_t ring_;
-    float alpha_f_, beta_f_, vbeta_f_;
-
-    // Topic model: n_k^v (V x Kp, word-major), n_k, cached reciprocals.
-    AlignedBuffer<int32_t> nkv_;
-    AlignedBuffer<int32_t> nk_;
-    AlignedBuffer<float> inv_;
-    AlignedBuffer<float> inv_dec_;
-    AlignedBuffer<float> inv_inc_;
-
-    // Ring of temporal cells (slot = step % ring_steps).
-    AlignedBuffer<int64_t> slot_step_;   // which step a slot holds, -1 when empty
-    AlignedBuffer<uint32_t> cell_n_;     // ring x cells: words in the cell
-    AlignedBuffer<uint32_t> cell_words_; // ring x cells x cap
-    AlignedBuffer<uint16_t> cell_z_;     // ring x cells x cap
-    AlignedBuffer<int32_t> nck_;         // ring x cells x Kp
-    AlignedBuffer<float> cell_surprise_; // ring x cells
-    // Inputs of each observation in arrival order (ring x cell.time x max words).
-    AlignedBuffer<uint32_t> in_word_;
-    AlignedBuffer<uint32_t> in_pos_;     // x | y << 16
-    AlignedBuffer<uint32_t> in_slot_;    // cell * cap + slot, or kDropped | cell
-    AlignedBuffer<uint32_t> in_n_;       // ring x cell.time
-    AlignedBuffer<float> obs_surprise_;  // ring x cell.time
-
-    // Neighbourhood geometry: spatial neighbours of each cell (itself first).
-    AlignedBuffer<uint32_t> nbr_begin_;  // cells + 1
-    AlignedBuffer<uint32_t> nbr_cell_;
-
-    // Scratch for ingest and refinement.
-    // A position's cell without a division per word: x / cell.space, and
-    // (y / cell.space) * grid width, for every x and y of the frame.
-    AlignedBuffer<uint32_t> cell_of_x_;
-    AlignedBuffer<uint32_t> cell_of_y_;
-    AlignedBuffer<uint32_t> scratch_cell_;   // per input: its cell
-    AlignedBuffer<uint32_t> scratch_count_;  // per cell
-    AlignedBuffer<uint32_t> scratch_need_;   // per cell
-    AlignedBuffer<int32_t> scratch_g_;       // Kp
-    AlignedBuffer<double> scratch_ll_;       // per cell (surprise)
-    AlignedBuffer<uint32_t> scratch_wn_;     // per cell (surprise word counts)
-    // Output-side cache of neighbourhood sums (cells x Kp) for const output
-    // functions; like everything else, a Model is used by one thread at a time.
-    mutable AlignedBuffer<int32_t> out_g_;
-    mutable AlignedBuffer<uint64_t> out_g_epoch_;
-    mutable uint64_t out_epoch_ = 0;
-
-    Rng rng_;
-    kernel::Path path_ = kernel::Path::Simd;
-    using CellsKernel = uint32_t (Model::*)(const StepSlots&, int, int) noexcept;
-    CellsKernel simd_kernel_;
-    CellsKernel scalar_kernel_;
-    using TaskKernel = void (Model::*)(int, uint32_t) noexcept;
-    TaskKernel frozen_kernel_[2] = {};  // [Scalar, Simd]
-    TaskKernel live_kernel_[2] = {};
-    std::unique_ptr<Windows> win_;
-    std::unique_ptr<detail::WorkerPool> pool_;
-    std::unique_ptr<Measure> measure_;
-    int colours_ = 1;
-    int colour_b_ = 0;
-    kernel::Tables tables_;
-
-    uint64_t frames_ = 0;
-    int64_t steps_ = 0;
-    uint64_t tokens_refined_ = 0;
-    uint64_t words_in_model_ = 0;
-    bool nkv_is_window_ = true;  // false once counts outside the window (prior, kept evictions) exist
-    std::size_t memory_bytes_ = 0;
-
-public:
-    static constexpr uint32_t kDropped = 0x80000000u;
+    std::unique_ptr<detail::ModelCore> core_;
 };
-
 } // namespace rost

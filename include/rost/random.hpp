@@ -67,6 +67,7 @@ public:
     }
     // The state words themselves (a checkpoint section).
     std::span<uint32_t, 4> stateWords() noexcept { return std::span<uint32_t, 4>(s_); }
+    std::span<const uint32_t, 4> stateWords() const noexcept { return std::span<const uint32_t, 4>(s_); }
 
 private:
     static uint32_t rotl(uint32_t x, int k) noexcept { return (x << k) | (x >> (32 - k)); }

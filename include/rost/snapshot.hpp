@@ -12,7 +12,7 @@
 #include <span>
 #include <vector>
 
-#include "rost/aligned_buffer.hpp"
+#include "rost/cache_line.hpp"
 #include "rost/config.hpp"
 #include "rost/model.hpp"
 

@@ -12,7 +12,7 @@
 #include <new>
 
 #include "rost/config_file.hpp"
-#include "rost/kernel_types.hpp"
+#include "kernel_tables.hpp"
 #include "rost/state_layout.hpp"
 #include "rost/word_stream.hpp"
 
@@ -511,186 +511,31 @@ void fillInfo(const Parsed& p, std::span<const uint8_t> bytes, CheckpointInfo& i
 
 // Every value a Model or Engine could index with, divide by or count must
 // be in range, so a file with valid checksums but hostile contents is
-// refused instead of loaded. The counts are then checked against the labels
-// by Model::checkInvariants on a scratch model.
-class Validator {
-public:
-    Validator(const Parsed& p, std::span<const uint8_t> bytes, std::string_view name, const Config& cfg)
-        : p_(p), b_(bytes.data()), name_(name), c_(cfg), ring_(static_cast<std::size_t>(cfg.ring_steps)),
-          cells_(static_cast<std::size_t>(cfg.cellsPerStep())), cap_(static_cast<std::size_t>(cfg.cell_capacity)),
-          ct_(static_cast<std::size_t>(cfg.cell_time)), maxw_(static_cast<std::size_t>(cfg.max_words_per_frame)),
-          K_(static_cast<std::size_t>(cfg.K)), Kp_(static_cast<std::size_t>(kernel::paddedK(cfg.K))),
-          V_(static_cast<std::size_t>(cfg.V)) {}
+// refused instead of loaded. The model's sections are the store's to judge
+// (Model::checkRestoredState, then Model::checkInvariants, on a scratch
+// model); the engine's cost estimates are checked here.
 
-    Status run() {
-        if (Status st = checkCounters(); !st.ok()) return st;
-        if (Status st = checkCells(); !st.ok()) return st;
-        if (Status st = checkInputs(); !st.ok()) return st;
-        return checkFloats();
+// A problem in section `section`, element `index`, named with its byte in the file.
+Status sectionProblem(const Parsed& p, std::string_view name, const std::string& section, std::size_t index,
+                      const std::string& what) {
+    const ParsedSection* s = findSection(p, section);
+    const std::size_t byte = s ? s->payload + index * s->width : 0;
+    return Status::error(prefix(name) + "section '" + section + "', element " + std::to_string(index) + " (byte " +
+                         std::to_string(byte) + "): " + what);
+}
+
+// The time-budget predictors: finite, non-negative cost estimates.
+Status checkPredictors(const Parsed& p, std::span<const uint8_t> bytes, std::string_view name) {
+    const ParsedSection* pred = findSection(p, "engine.predictors");
+    if (!pred) return {};
+    for (std::size_t i = 0; i < pred->bytes / 8; ++i) {
+        const double v = element<double>(bytes.data() + pred->payload, i);
+        if (!(v >= 0.0 && v < 1e12))
+            return sectionProblem(p, name, pred->name, i,
+                                  "cost estimate " + std::to_string(v) + " ns is out of range [0, 1e12)");
     }
-
-private:
-    // Observation and step counts, the n_kv flag and the generator.
-    Status checkCounters() {
-        const ParsedSection& framesS = sec("counters.frames");
-        frames_ = element<uint64_t>(pay(framesS), 0);
-        if (frames_ > (uint64_t{1} << 62))
-            return bad(framesS, 0, "observation count " + std::to_string(frames_) + " is implausible");
-        const ParsedSection& stepsS = sec("counters.steps");
-        steps_ = element<int64_t>(pay(stepsS), 0);
-        const auto expectSteps = static_cast<int64_t>((frames_ + ct_ - 1) / ct_);
-        if (steps_ != expectSteps)
-            return bad(stepsS, 0, "step count " + std::to_string(steps_) + " does not follow from " +
-                                      std::to_string(frames_) + " observations and cell.time " + std::to_string(ct_) +
-                                      " (expected " + std::to_string(expectSteps) + ")");
-        oldest_ = steps_ > c_.ring_steps ? steps_ - c_.ring_steps : 0;
-        const ParsedSection& win = sec("counters.nkv_is_window");
-        isWindow_ = pay(win)[0];
-        if (isWindow_ > 1) return bad(win, 0, "flag value " + std::to_string(isWindow_) + " (expected 0 or 1)");
-        const ParsedSection& rngS = sec("rng");
-        if (rngS.bytes != 16) return bad(rngS, 0, "expected 16 bytes of generator state");
-        if ((element<uint32_t>(pay(rngS), 0) | element<uint32_t>(pay(rngS), 1) | element<uint32_t>(pay(rngS), 2) |
-             element<uint32_t>(pay(rngS), 3)) == 0)
-            return bad(rngS, 0, "generator state is all zero (a stuck generator)");
-        return {};
-    }
-
-    // The step held by `slot` if one of the window's steps maps to it.
-    bool inWindowSlot(std::size_t slot, int64_t& step) const {
-        if (steps_ == 0) return false;
-        const int64_t newest = steps_ - 1;
-        const int64_t back =
-            (static_cast<int64_t>(newest % c_.ring_steps) - static_cast<int64_t>(slot) + c_.ring_steps) % c_.ring_steps;
-        step = newest - back;
-        return step >= oldest_;
-    }
-
-    // Which step each slot holds, the words and labels of every cell, and
-    // n_kv at least the window's own counts.
-    Status checkCells() {
-        const ParsedSection& slotStep = sec("ring.slot_step");
-        std::vector<int64_t> windowCounts(isWindow_ ? 0 : V_ * Kp_, 0);
-        for (std::size_t slot = 0; slot < ring_; ++slot) {
-            int64_t step = -1;
-            const bool used = inWindowSlot(slot, step);
-            const auto stored = element<int64_t>(pay(slotStep), slot);
-            if (stored != (used ? step : -1))
-                return bad(slotStep, slot, "slot " + std::to_string(slot) + " holds step " + std::to_string(stored) +
-                                               ", expected " + std::to_string(used ? step : -1));
-            for (std::size_t c = 0; c < cells_; ++c)
-                if (Status st = checkCell(slot, c, used, windowCounts); !st.ok()) return st;
-        }
-        // With counts kept from outside the window (a prior, or evicted
-        // steps), n_k^v must still hold at least the window's own words.
-        const ParsedSection& nkv = sec("n_kv");
-        for (std::size_t i = 0; i < windowCounts.size(); ++i)
-            if (element<int32_t>(pay(nkv), i) < windowCounts[i])
-                return bad(nkv, i, "count " + std::to_string(element<int32_t>(pay(nkv), i)) + " of word " +
-                                       std::to_string(i / Kp_) + ", topic " + std::to_string(i % Kp_) + " is below the " +
-                                       std::to_string(windowCounts[i]) + " words in the window");
-        return {};
-    }
-
-    Status checkCell(std::size_t slot, std::size_t c, bool used, std::vector<int64_t>& windowCounts) {
-        const ParsedSection& cellN = sec("ring.cell_n");
-        const ParsedSection& cellWords = sec("ring.cell_words");
-        const ParsedSection& cellZ = sec("ring.cell_z");
-        const ParsedSection& nck = sec("ring.n_ck");
-        const std::size_t ci = slot * cells_ + c;
-        const auto n = element<uint32_t>(pay(cellN), ci);
-        if (n > (used ? cap_ : 0))
-            return bad(cellN, ci, std::to_string(n) + " words in cell " + std::to_string(c) + " of slot " +
-                                      std::to_string(slot) +
-                                      (used ? ", capacity " + std::to_string(cap_) : ", which is not in the window"));
-        if (!used)
-            for (std::size_t k = 0; k < Kp_; ++k)
-                if (element<int32_t>(pay(nck), ci * Kp_ + k) != 0)
-                    return bad(nck, ci * Kp_ + k, "topic count in a slot outside the window");
-        for (std::size_t i = 0; i < n; ++i) {
-            const std::size_t wi = ci * cap_ + i;
-            const auto w = element<uint32_t>(pay(cellWords), wi);
-            if (w >= V_) return bad(cellWords, wi, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V_) + ")");
-            const auto z = element<uint16_t>(pay(cellZ), wi);
-            if (z >= K_) return bad(cellZ, wi, "topic label " + std::to_string(z) + " out of range [0, " + std::to_string(K_) + ")");
-            if (!isWindow_) ++windowCounts[w * Kp_ + z];
-        }
-        return {};
-    }
-
-    // Every observation's kept inputs: word ids, positions, where each went.
-    Status checkInputs() {
-        const ParsedSection& inN = sec("ring.in_n");
-        for (std::size_t o = 0; o < ring_ * ct_; ++o)
-            if (element<uint32_t>(pay(inN), o) > maxw_)
-                return bad(inN, o, std::to_string(element<uint32_t>(pay(inN), o)) + " words in an observation, at most " +
-                                       std::to_string(maxw_));
-        for (uint64_t f = static_cast<uint64_t>(oldest_) * ct_; f < frames_; ++f) {
-            const std::size_t slot = static_cast<std::size_t>((f / ct_) % ring_);
-            const std::size_t o = slot * ct_ + static_cast<std::size_t>(f % ct_);
-            const auto n = element<uint32_t>(pay(inN), o);
-            for (std::size_t i = 0; i < n; ++i)
-                if (Status st = checkInput(slot, o * maxw_ + i); !st.ok()) return st;
-        }
-        return {};
-    }
-
-    Status checkInput(std::size_t slot, std::size_t at) {
-        const ParsedSection& inWord = sec("ring.in_word");
-        const ParsedSection& inPos = sec("ring.in_pos");
-        const ParsedSection& inSlot = sec("ring.in_slot");
-        const auto w = element<uint32_t>(pay(inWord), at);
-        if (w >= V_) return bad(inWord, at, "word id " + std::to_string(w) + " out of range [0, " + std::to_string(V_) + ")");
-        const auto xy = element<uint32_t>(pay(inPos), at);
-        if ((xy & 0xFFFFu) >= static_cast<uint32_t>(c_.frame_width) || (xy >> 16) >= static_cast<uint32_t>(c_.frame_height))
-            return bad(inPos, at, "position (" + std::to_string(xy & 0xFFFFu) + ", " + std::to_string(xy >> 16) +
-                                      ") outside the " + std::to_string(c_.frame_width) + "x" +
-                                      std::to_string(c_.frame_height) + " frame");
-        const auto s = element<uint32_t>(pay(inSlot), at);
-        if (s & Model::kDropped) {
-            if ((s & ~Model::kDropped) >= cells_)
-                return bad(inSlot, at, "cell " + std::to_string(s & ~Model::kDropped) + " out of range");
-            return {};
-        }
-        const std::size_t cell = s / cap_, i2 = s % cap_;
-        if (cell >= cells_ || i2 >= element<uint32_t>(pay(sec("ring.cell_n")), slot * cells_ + cell))
-            return bad(inSlot, at, "word slot " + std::to_string(s) + " does not refer to a word in a cell");
-        return {};
-    }
-
-    // Surprises and the time-budget predictors.
-    Status checkFloats() {
-        for (const char* fname : {"ring.cell_surprise", "ring.obs_surprise"}) {
-            const ParsedSection& s = sec(fname);
-            for (std::size_t i = 0; i < s.bytes / 4; ++i) {
-                const float v = element<float>(pay(s), i);
-                if (std::isnan(v) || v < 0.f) return bad(s, i, "surprise " + std::to_string(v) + " is not a non-negative number");
-            }
-        }
-        const ParsedSection& pred = sec("engine.predictors");
-        for (std::size_t i = 0; i < pred.bytes / 8; ++i) {
-            const double v = element<double>(pay(pred), i);
-            if (!(v >= 0.0 && v < 1e12)) return bad(pred, i, "cost estimate " + std::to_string(v) + " ns is out of range [0, 1e12)");
-        }
-        return {};
-    }
-
-    const ParsedSection& sec(std::string_view n) const { return *findSection(p_, n); }
-    const uint8_t* pay(const ParsedSection& s) const { return b_ + s.payload; }
-    Status bad(const ParsedSection& s, std::size_t index, const std::string& what) const {
-        return Status::error(prefix(name_) + "section '" + s.name + "', element " + std::to_string(index) + " (byte " +
-                             std::to_string(s.payload + index * s.width) + "): " + what);
-    }
-
-    const Parsed& p_;
-    const uint8_t* b_;
-    std::string_view name_;
-    const Config& c_;
-    const std::size_t ring_, cells_, cap_, ct_, maxw_, K_, Kp_, V_;
-    uint64_t frames_ = 0;
-    int64_t steps_ = 0;
-    int64_t oldest_ = 0;
-    uint8_t isWindow_ = 1;
-};
+    return {};
+}
 
 // Copies the file's sections into the state sections of the same names.
 // The caller has checked that every section is there with the right size.
@@ -769,13 +614,20 @@ Status checkSections(const Parsed& p, const StateLayout& layout, const std::stri
     return {};
 }
 
-// The file's model sections in a scratch model, whose counts must agree with its labels.
-Status checkOnScratchModel(const Parsed& p, std::span<const uint8_t> bytes, const Config& cfg, const std::string& P) {
+// The file's model sections in a scratch model: every value in range
+// (Model::checkRestoredState; then the engine's predictors), then the
+// counts against the labels.
+Status checkOnScratchModel(const Parsed& p, std::span<const uint8_t> bytes, const Config& cfg, std::string_view name) {
+    const std::string P = prefix(name);
     try {
         Model scratch(cfg);
         StateLayout layout;
         scratch.describeState(layout);
         restoreLayout(layout, p, bytes.data());
+        StateProblem problem;
+        if (!scratch.checkRestoredState(problem))
+            return sectionProblem(p, name, problem.section, problem.element, problem.what);
+        if (Status st = checkPredictors(p, bytes, name); !st.ok()) return st;
         scratch.stateRestored();
         std::string why;
         if (!scratch.checkInvariants(&why)) return Status::error(P + "the model state is inconsistent: " + why);
@@ -801,8 +653,7 @@ Status loadCheckpoint(std::span<const uint8_t> bytes, std::string_view name, Eng
     if (Status st = engineLayout(engine, layout); !st.ok()) return st;
     if (Status st = checkSections(p, layout, P); !st.ok()) return st;
     // Every value in range, then every count against the labels.
-    if (Status st = Validator(p, bytes, name, engine.config().model).run(); !st.ok()) return st;
-    if (Status st = checkOnScratchModel(p, bytes, engine.config().model, P); !st.ok()) return st;
+    if (Status st = checkOnScratchModel(p, bytes, engine.config().model, name); !st.ok()) return st;
 
     // Everything checked: now the engine.
     restoreLayout(layout, p, bytes.data());

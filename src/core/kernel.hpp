@@ -25,7 +25,7 @@
 #include <algorithm>
 #include <cstdint>
 
-#include "rost/kernel_types.hpp"
+#include "kernel_tables.hpp"
 #include "rost/random.hpp"
 
 #if defined(__SSE2__) && !defined(ROST_FORCE_SCALAR)

@@ -13,14 +13,13 @@
 #include <algorithm>
 
 #include "measure.hpp"
-#include "rost/model.hpp"
+#include "model_core.hpp"
 #include "worker_pool.hpp"
 
 namespace rost {
 
 namespace {
 
-constexpr int kMaxKp = 1024;
 
 // Fewer words are measured serially: a job costs a futex wake and the
 // barrier (microseconds), what about 256 words' terms cost (about 40 ns each
@@ -44,7 +43,7 @@ void runCells(detail::WorkerPool& pool, int cells, const F& f) noexcept {
 
 } // namespace
 
-void Model::sizeMeasure() {
+void ModelCore::sizeMeasure() {
     if (!measure_) measure_ = std::make_unique<Measure>();
     memory_bytes_ -= measure_->bytes();
     const bool pooled = pool_ != nullptr;
@@ -54,18 +53,18 @@ void Model::sizeMeasure() {
     memory_bytes_ += measure_->bytes();
 }
 
-uint64_t Model::poolJobs() const noexcept { return pool_ ? pool_->jobs() : 0; }
+uint64_t ModelCore::poolJobs() const noexcept { return pool_ ? pool_->jobs() : 0; }
 
-bool Model::claimMeasure(uint64_t words) const noexcept {
+bool ModelCore::claimMeasure(uint64_t words) const noexcept {
     if (!pool_ || cells_ < 2 || words < kParallelWords) return false;
     return !measure_->busy.exchange(true, std::memory_order_acquire);
 }
 
-void Model::releaseMeasure() const noexcept { measure_->busy.store(false, std::memory_order_release); }
+void ModelCore::releaseMeasure() const noexcept { measure_->busy.store(false, std::memory_order_release); }
 
 // ---- left-out perplexity -------------------------------------------------------
 
-bool Model::parallelStepLogLoss(int64_t step, LogLoss& out) const noexcept {
+bool ModelCore::parallelStepLogLoss(int64_t step, LogLoss& out) const noexcept {
     if (!claimMeasure(wordsInStep(step))) return false;
     const std::size_t slot = slotOf(step);
     Reciprocals r;
@@ -95,7 +94,7 @@ bool Model::parallelStepLogLoss(int64_t step, LogLoss& out) const noexcept {
 
 // ---- plug-in perplexity --------------------------------------------------------
 
-bool Model::parallelStepPluginLogLoss(int64_t step, LogLoss& out) const noexcept {
+bool ModelCore::parallelStepPluginLogLoss(int64_t step, LogLoss& out) const noexcept {
     if (!claimMeasure(wordsInStep(step))) return false;
     const std::size_t slot = slotOf(step);
     double* terms = measure_->terms.data();
@@ -122,7 +121,7 @@ bool Model::parallelStepPluginLogLoss(int64_t step, LogLoss& out) const noexcept
 
 // ---- surprise ------------------------------------------------------------------
 
-const double* Model::surpriseTermsOnPool(int64_t step, std::size_t slot, const uint32_t* firstNew,
+const double* ModelCore::surpriseTermsOnPool(int64_t step, std::size_t slot, const uint32_t* firstNew,
                                          double globalSum) noexcept {
     const uint32_t* cellN = cell_n_.data() + slot * cells_;
     uint64_t words = 0;
@@ -144,7 +143,7 @@ const double* Model::surpriseTermsOnPool(int64_t step, std::size_t slot, const u
 
 // ---- maximum-likelihood labels -------------------------------------------------
 
-bool Model::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexcept {
+bool ModelCore::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexcept {
     const auto n = static_cast<uint32_t>(std::min<std::size_t>(out.size(), observationSize(frame)));
     if (!claimMeasure(n)) return false;
     const int64_t step = stepOfObservation(frame);
@@ -163,7 +162,7 @@ bool Model::parallelLabels(uint64_t frame, std::span<uint16_t> out) const noexce
 
 // Inputs [base, base + n) of an observation grouped by cell (a counting
 // sort), so that a task takes its cell's inputs.
-void Model::groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g) const noexcept {
+void ModelCore::groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g) const noexcept {
     std::fill_n(g.begin, cells_ + 1, 0u);
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t s = in_slot_[base + i];
@@ -179,7 +178,7 @@ void Model::groupInputsByCell(std::size_t base, uint32_t n, const CellGroups& g)
 
 // The ML labels of an observation's inputs in cell c (grouped by
 // groupInputsByCell), its neighbourhood computed once; z: the step's labels.
-void Model::labelCell(int64_t step, int c, const CellGroups& groups, std::size_t base, const uint16_t* z,
+void ModelCore::labelCell(int64_t step, int c, const CellGroups& groups, std::size_t base, const uint16_t* z,
                       const Reciprocals& r, uint16_t* out) const noexcept {
     if (groups.begin[c] == groups.begin[c + 1]) return;
     alignas(64) int32_t g[kMaxKp];
@@ -196,7 +195,7 @@ void Model::labelCell(int64_t step, int c, const CellGroups& groups, std::size_t
 // batch in its step (the others copy it after the job), and its labels, each
 // word's cell's neighbourhood computed once (as parallelLabels does, the same
 // mlTopic of the same counts, so the same labels).
-void Model::finalTask(int worker, uint64_t first, uint32_t i, double* perplexity, uint16_t* labels,
+void ModelCore::finalTask(int worker, uint64_t first, uint32_t i, double* perplexity, uint16_t* labels,
                       std::size_t stride) const noexcept {
     const uint64_t frame = first + i;
     const int64_t step = stepOfObservation(frame);
@@ -215,7 +214,7 @@ void Model::finalTask(int worker, uint64_t first, uint32_t i, double* perplexity
     renumber(frame, {out, n});
 }
 
-void Model::finalMeasurements(uint64_t first, std::span<double> perplexity, std::span<uint16_t> labels,
+void ModelCore::finalMeasurements(uint64_t first, std::span<double> perplexity, std::span<uint16_t> labels,
                               std::size_t stride) const noexcept {
     // A pool job holds fewer than 2^20 tasks: larger batches go in parts
     // (each part's first observation computes its step's perplexity again, the same bits).
@@ -234,12 +233,12 @@ void Model::finalMeasurements(uint64_t first, std::span<double> perplexity, std:
     // Tasks are observations here, so a step of one cell (a word stream) is worth a job too.
     if (count > 1 && pool_ && words >= kParallelWords && !measure_->busy.exchange(true, std::memory_order_acquire)) {
         struct FinalJob final : detail::WorkerPool::Job {
-            const Model& m;
+            const ModelCore& m;
             uint64_t first;
             double* perplexity;
             uint16_t* labels;
             std::size_t stride;
-            FinalJob(const Model& model, uint64_t f, double* p, uint16_t* l, std::size_t s) noexcept
+            FinalJob(const ModelCore& model, uint64_t f, double* p, uint16_t* l, std::size_t s) noexcept
                 : m(model), first(f), perplexity(p), labels(l), stride(s) {}
             void task(int worker, uint32_t i) noexcept override {
                 m.finalTask(worker, first, i, perplexity, labels, stride);

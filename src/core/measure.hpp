@@ -7,14 +7,14 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "rost/aligned_buffer.hpp"
-#include "rost/model.hpp"
+#include "aligned_buffer.hpp"
+#include "model_core.hpp"
 
 namespace rost {
 
 // Sized when the model has workers (construction, setThreads): nothing here
 // allocates afterwards.
-struct Model::Measure {
+struct ModelCore::Measure {
     // One step's per-word terms (-log p or log p of each word), at cell * cap + slot.
     AlignedBuffer<double> terms;
     // An observation's inputs grouped by cell: cell c's are
@@ -43,10 +43,10 @@ struct Model::Measure {
         group_stride = (2 * cells + 1 + 2 * maxWords + 15) / 16 * 16;
         worker_groups.reset(workers * group_stride);
     }
-    Model::CellGroups groups() noexcept {
+    ModelCore::CellGroups groups() noexcept {
         return {cell_begin.data(), cursor.data(), input_cell.data(), by_cell.data()};
     }
-    Model::CellGroups workerGroups(int worker, std::size_t cells, std::size_t maxWords) noexcept {
+    ModelCore::CellGroups workerGroups(int worker, std::size_t cells, std::size_t maxWords) noexcept {
         uint32_t* p = worker_groups.data() + static_cast<std::size_t>(worker) * group_stride;
         return {p, p + cells + 1, p + 2 * cells + 1, p + 2 * cells + 1 + maxWords};
     }

@@ -7,7 +7,7 @@
 #include <thread>
 #include <vector>
 
-#include "rost/aligned_buffer.hpp"
+#include "aligned_buffer.hpp"
 
 namespace rost {
 

@@ -32,8 +32,8 @@
 #include <cstring>
 #include <span>
 
-#include "rost/aligned_buffer.hpp"
-#include "rost/model.hpp"
+#include "aligned_buffer.hpp"
+#include "model_core.hpp"
 #include "rost/random.hpp"
 #include "spsc_ring.hpp"
 

@@ -1,7 +1,7 @@
 // The plug-in perplexity: the definition the public ROST code of the paper
 // used (ROST::estimate(cell, update_ppx = true) in yogeshgirdhar/rost-ros,
 // rost_topics/include/rost.hpp), computed beside the library's left-out one
-// (Model::cellLogLoss). For word i of cell c:
+// (ModelCore::cellLogLoss). For word i of cell c:
 //
 //   p(w_i) = sum_k (n_k^w + beta) / (n_k + V beta) * (n_c^k + alpha) / (n_c + K alpha)
 //
@@ -12,7 +12,7 @@
 
 #include <cmath>
 
-#include "rost/model.hpp"
+#include "model_core.hpp"
 
 namespace rost {
 
@@ -20,7 +20,7 @@ namespace {
 constexpr int kMaxK = 1024;
 } // namespace
 
-LogLoss Model::cellPluginLogLoss(int64_t step, int cell) const noexcept {
+LogLoss ModelCore::cellPluginLogLoss(int64_t step, int cell) const noexcept {
     LogLoss out;
     if (!inWindow(step) || cell < 0 || cell >= cells_) return out;
     const std::size_t slot = slotOf(step);
@@ -35,7 +35,7 @@ LogLoss Model::cellPluginLogLoss(int64_t step, int cell) const noexcept {
 }
 
 // weight[k] = theta_c(k) / (n_k + V beta): one multiply-add per topic and word.
-double Model::pluginWeights(std::size_t slot, int cell, uint32_t n, double* weight) const noexcept {
+double ModelCore::pluginWeights(std::size_t slot, int cell, uint32_t n, double* weight) const noexcept {
     const int32_t* h = nck(slot, cell);
     const double vbeta = V_ * cfg_.beta;
     const int A = tables_.active;
@@ -45,7 +45,7 @@ double Model::pluginWeights(std::size_t slot, int cell, uint32_t n, double* weig
     return fresh * thetaNorm / V_;  // a new topic, its words uniform
 }
 
-double Model::pluginLogProb(uint32_t v, const double* weight, double freshP) const noexcept {
+double ModelCore::pluginLogProb(uint32_t v, const double* weight, double freshP) const noexcept {
     const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
     double p = 0.0;
     for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * weight[k];
@@ -53,7 +53,7 @@ double Model::pluginLogProb(uint32_t v, const double* weight, double freshP) con
     return std::log(p);
 }
 
-LogLoss Model::stepPluginLogLoss(int64_t step) const noexcept {
+LogLoss ModelCore::stepPluginLogLoss(int64_t step) const noexcept {
     LogLoss out;
     if (!inWindow(step) || parallelStepPluginLogLoss(step, out)) return out;
     for (int c = 0; c < cells_; ++c) out += cellPluginLogLoss(step, c);

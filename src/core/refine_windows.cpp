@@ -1,6 +1,6 @@
 // Refinement in windows of cell picks, coloured into rounds and refined on
 // every core with the same result for any number of threads
-// (rost/model.hpp, Model::refine; docs/design.md, "Refinement on every core").
+// (rost/model.hpp, ModelCore::refine; docs/design.md, "Refinement on every core").
 
 #include <algorithm>
 #include <atomic>
@@ -11,7 +11,7 @@
 #include "kernel.hpp"
 #include "measure.hpp"
 #include "refine_windows.hpp"
-#include "rost/model.hpp"
+#include "model_core.hpp"
 #include "rost/realtime.hpp"
 #include "worker_pool.hpp"
 
@@ -20,8 +20,8 @@ namespace rost {
 // One round on the pool: a task per cell of the round. With merges
 // deferred, each worker first adds the previous round's moves to its own
 // copy of n_k^v (begin(): only a worker that takes part reads its copy).
-struct Model::WindowJob final : detail::WorkerPool::Job {
-    Model* model = nullptr;
+struct ModelCore::WindowJob final : detail::WorkerPool::Job {
+    ModelCore* model = nullptr;
     const uint32_t* tasks = nullptr;
     TaskKernel kernel = nullptr;
     const MoveLog* pending = nullptr;
@@ -41,8 +41,8 @@ struct Model::WindowJob final : detail::WorkerPool::Job {
 // The merge of a round on the pool (merges not deferred): task r adds the
 // round's moves to copy r of n_k^v (0: the model's), whoever runs it
 // (worker r first).
-struct Model::MergeJob final : detail::WorkerPool::Job {
-    Model* model = nullptr;
+struct ModelCore::MergeJob final : detail::WorkerPool::Job {
+    ModelCore* model = nullptr;
     const MoveLog* log = nullptr;
 
     void task(int /*worker*/, uint32_t copy) noexcept override { model->takeMoves(*log, copy); }
@@ -51,8 +51,8 @@ struct Model::MergeJob final : detail::WorkerPool::Job {
 // A round's moves given to the copies that have not taken them: task r for
 // copy r, whoever runs it (many copies behind: a round of fewer cells than
 // workers, or a live round after a deferred one).
-struct Model::CatchUpJob final : detail::WorkerPool::Job {
-    Model* model = nullptr;
+struct ModelCore::CatchUpJob final : detail::WorkerPool::Job {
+    ModelCore* model = nullptr;
     const MoveLog* log = nullptr;
 
     void task(int /*worker*/, uint32_t copy) noexcept override {
@@ -61,8 +61,8 @@ struct Model::CatchUpJob final : detail::WorkerPool::Job {
 };
 
 // The copies of n_k^v made equal to the model's: task r copies into copy r (task 0: nothing to do).
-struct Model::CopyJob final : detail::WorkerPool::Job {
-    Model* model = nullptr;
+struct ModelCore::CopyJob final : detail::WorkerPool::Job {
+    ModelCore* model = nullptr;
 
     void task(int /*worker*/, uint32_t copy) noexcept override {
         if (copy == 0) return;
@@ -90,11 +90,11 @@ private:
 
 } // namespace
 
-Model::~Model() = default;
+ModelCore::~ModelCore() = default;
 
-int Model::threads() const noexcept { return pool_ ? pool_->workers() : 1; }
+int ModelCore::threads() const noexcept { return pool_ ? pool_->workers() : 1; }
 
-void Model::setThreads(int n) {
+void ModelCore::setThreads(int n) {
     n = std::clamp(n, 1, static_cast<int>(settingSpec("threads").hi));
     if (n == threads() && n == cfg_.threads) return;
     Windows& w = *win_;
@@ -118,11 +118,11 @@ void Model::setThreads(int n) {
     }
 }
 
-void Model::applyWorkerSettings(const ThreadSettings& settings) {
+void ModelCore::applyWorkerSettings(const ThreadSettings& settings) {
     if (pool_) pool_->applySettings(settings);
 }
 
-void Model::chooseColours() noexcept {
+void ModelCore::chooseColours() noexcept {
     // The smallest M (and stride b) with (dt + dx + b dy) mod M != 0 for every
     // neighbour offset: same cell at 0 < |dt| <= g.time, or same step at
     // 0 < |dx| + |dy| <= g.space inside the grid. Radius 1 in space and time
@@ -145,7 +145,7 @@ void Model::chooseColours() noexcept {
         }
 }
 
-void Model::allocateWindows() {
+void ModelCore::allocateWindows() {
     chooseColours();
     win_ = std::make_unique<Windows>();
     Windows& w = *win_;
@@ -172,20 +172,20 @@ void Model::allocateWindows() {
 }
 
 template <int KP>
-void Model::setTaskKernels() noexcept {
-    frozen_kernel_[0] = &Model::frozenTask<KP, kernel::Path::Scalar>;
-    frozen_kernel_[1] = &Model::frozenTask<KP, kernel::Path::Simd>;
-    live_kernel_[0] = &Model::liveTask<KP, kernel::Path::Scalar>;
-    live_kernel_[1] = &Model::liveTask<KP, kernel::Path::Simd>;
+void ModelCore::setTaskKernels() noexcept {
+    frozen_kernel_[0] = &ModelCore::frozenTask<KP, kernel::Path::Scalar>;
+    frozen_kernel_[1] = &ModelCore::frozenTask<KP, kernel::Path::Simd>;
+    live_kernel_[0] = &ModelCore::liveTask<KP, kernel::Path::Scalar>;
+    live_kernel_[1] = &ModelCore::liveTask<KP, kernel::Path::Simd>;
 }
-template void Model::setTaskKernels<kernel::kGrow>() noexcept;
-template void Model::setTaskKernels<0>() noexcept;
-template void Model::setTaskKernels<16>() noexcept;
-template void Model::setTaskKernels<32>() noexcept;
-template void Model::setTaskKernels<64>() noexcept;
+template void ModelCore::setTaskKernels<kernel::kGrow>() noexcept;
+template void ModelCore::setTaskKernels<0>() noexcept;
+template void ModelCore::setTaskKernels<16>() noexcept;
+template void ModelCore::setTaskKernels<32>() noexcept;
+template void ModelCore::setTaskKernels<64>() noexcept;
 
 template <int KP>
-void Model::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept {
+void ModelCore::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept {
     // With growth only the live blocks can hold counts (every cell's count of
     // a closed topic is 0): the rest is zero, so the cost follows the open topics.
     const int Kp = kernel::liveLanes<KP>(tables_, KP > 0 ? KP : Kp_);
@@ -203,7 +203,7 @@ void Model::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const
 }
 
 template <int KP, kernel::Path P>
-void Model::frozenTask(int worker, uint32_t task) noexcept {
+void ModelCore::frozenTask(int worker, uint32_t task) noexcept {
     Windows& w = *win_;
     const Windows::Plan& plan = w.plan();
     const int64_t step = plan.task_step[task];
@@ -240,7 +240,7 @@ void Model::frozenTask(int worker, uint32_t task) noexcept {
 }
 
 template <int KP, kernel::Path P>
-void Model::liveTask(int worker, uint32_t task) noexcept {
+void ModelCore::liveTask(int worker, uint32_t task) noexcept {
     Windows& w = *win_;
     const Windows::Plan& plan = w.plan();
     const int64_t step = plan.task_step[task];
@@ -261,7 +261,7 @@ void Model::liveTask(int worker, uint32_t task) noexcept {
 
 // Adds the step's next non-empty cells to the window until it is full,
 // drawing steps as needed. False when the window stays empty (no more picks).
-bool Model::fillWindow(Windows::Plan& P, StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept {
+bool ModelCore::fillWindow(Windows::Plan& P, StepPicker& picker, const RefineLimits& limits, RefineCount& rc) noexcept {
     Windows& w = *win_;
     P.grouped = false;
     P.picks = 0;
@@ -299,7 +299,7 @@ bool Model::fillWindow(Windows::Plan& P, StepPicker& picker, const RefineLimits&
     return P.picks > 0;
 }
 
-bool Model::refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
+bool ModelCore::refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
     Windows::Plan& P = win_->plan();
     const int64_t step = P.pick_step[0];
     const int cell = P.pick_cell[0];
@@ -315,7 +315,7 @@ bool Model::refineSerialWindow(const RefineLimits& limits, RefineCount& rc) noex
 
 // Groups the window's picks into tasks (one per distinct cell) and the tasks
 // into rounds by colour.
-void Model::groupWindow(Windows::Plan& P) noexcept {
+void ModelCore::groupWindow(Windows::Plan& P) noexcept {
     Windows& w = *win_;
     if (++w.stamp == 0) {
         std::fill_n(w.hash_stamp.data(), w.hash_stamp.size(), 0u);
@@ -366,7 +366,7 @@ void Model::groupWindow(Windows::Plan& P) noexcept {
 // and the next window is then planned after it): worker 1 plans while the
 // others refine, and if it is late, the first to run out of its own tasks
 // takes the planning.
-void Model::layoutRounds(Windows::Plan& P) noexcept {
+void ModelCore::layoutRounds(Windows::Plan& P) noexcept {
     Windows& w = *win_;
     const uint32_t n = pool_ ? static_cast<uint32_t>(pool_->workers()) : 1;
     int last = colours_ - 1;  // the last non-empty round
@@ -411,7 +411,7 @@ void Model::layoutRounds(Windows::Plan& P) noexcept {
     P.owned_begin[colours_] = o;
 }
 
-void Model::runRound(int c) noexcept {
+void ModelCore::runRound(int c) noexcept {
     Windows& w = *win_;
     Windows::Plan& P = w.plan();
     const uint32_t b = P.colour_begin[c], e = P.colour_begin[c + 1];
@@ -462,7 +462,7 @@ void Model::runRound(int c) noexcept {
 
 // The live kernel refines one cell against the model's n_k^v: its moves go
 // to the workers' copies.
-void Model::runLiveRound(uint32_t task) noexcept {
+void ModelCore::runLiveRound(uint32_t task) noexcept {
     Windows& w = *win_;
     const Windows::Plan& P = w.plan();
     const int path = path_ == kernel::Path::Simd ? 1 : 0;
@@ -492,7 +492,7 @@ void Model::runLiveRound(uint32_t task) noexcept {
 // Adds a round's moves to copy `copy` of n_k^v (integer adds, in any order
 // the same) and records that the copy took them. Run by the copy's worker,
 // or by the calling thread between jobs.
-void Model::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
+void ModelCore::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
     Windows& w = *win_;
     int32_t* nkv = w.worker_tables[copy].nkv;
     for (uint32_t i = 0; i < log.n; ++i) {
@@ -511,7 +511,7 @@ void Model::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
 
 // The copies that have not taken the round's moves take them: on the
 // calling thread when one or two are behind, else on the pool, a copy a task.
-void Model::takeMovesEverywhere(const MoveLog& log) noexcept {
+void ModelCore::takeMovesEverywhere(const MoveLog& log) noexcept {
     Windows& w = *win_;
     const auto copies = static_cast<uint32_t>(w.worker_tables.size());
     uint32_t behind = 0;
@@ -532,7 +532,7 @@ void Model::takeMovesEverywhere(const MoveLog& log) noexcept {
 }
 
 // A deferred merge done now: every copy takes the last round's moves.
-void Model::takePendingMoves() noexcept {
+void ModelCore::takePendingMoves() noexcept {
     Windows& w = *win_;
     if (w.pending == 0) return;
     takeMovesEverywhere(w.logs[w.pending & 1]);
@@ -540,7 +540,7 @@ void Model::takePendingMoves() noexcept {
 }
 
 // After the merge: n_k, the reciprocals, the open topics, and the workers' tables.
-void Model::finishRound() noexcept {
+void ModelCore::finishRound() noexcept {
     Windows& w = *win_;
     int32_t* dnk = w.dnk.data();
     for (std::size_t r = 0; r < w.worker_tables.size(); ++r, dnk += Kp_)
@@ -554,7 +554,7 @@ void Model::finishRound() noexcept {
     syncWorkerTables(false);
 }
 
-bool Model::workerCopiesAgree(std::string* why) const {
+bool ModelCore::workerCopiesAgree(std::string* why) const {
     const Windows& w = *win_;
     if (!w.copies_synced) return true;
     const std::size_t table = static_cast<std::size_t>(V_) * static_cast<std::size_t>(Kp_);
@@ -577,7 +577,7 @@ bool Model::workerCopiesAgree(std::string* why) const {
 // the copies are made equal to the model's (when a refinement starts), on
 // the pool: worker r copies its own first, so the copy starts in its cache,
 // and the time is one copy's whatever the number of workers.
-void Model::syncWorkerTables(bool copy) noexcept {
+void ModelCore::syncWorkerTables(bool copy) noexcept {
     Windows& w = *win_;
     const std::size_t n = w.worker_tables.size(), table = static_cast<std::size_t>(V_) * static_cast<std::size_t>(Kp_);
     for (std::size_t r = 0; r < n; ++r) {
@@ -590,7 +590,7 @@ void Model::syncWorkerTables(bool copy) noexcept {
     pool_->run(job, static_cast<uint32_t>(n));
 }
 
-void Model::countStarted(RefineCount& rc) noexcept {
+void ModelCore::countStarted(RefineCount& rc) noexcept {
     Windows& w = *win_;
     const Windows::Plan& P = w.plan();
     for (uint32_t p = 0; p < P.picks; ++p)
@@ -602,7 +602,7 @@ void Model::countStarted(RefineCount& rc) noexcept {
 
 // Draws the window's key and groups its picks (the model's generator, in
 // the serial order: the picks, then the key).
-void Model::prepareWindow(Windows::Plan& P) noexcept {
+void ModelCore::prepareWindow(Windows::Plan& P) noexcept {
     P.key = (static_cast<uint64_t>(rng_.next()) << 32) | rng_.next();
     groupWindow(P);
     layoutRounds(P);
@@ -612,14 +612,14 @@ void Model::prepareWindow(Windows::Plan& P) noexcept {
 // The task of the current window's last round that plans the next window
 // (run by one worker while the others refine): the same draws, in the same
 // order, as planning it after the round.
-void Model::planNextWindow() noexcept {
+void ModelCore::planNextWindow() noexcept {
     Windows& w = *win_;
     Windows::Plan& next = w.spare();
     if (fillWindow(next, *w.picker, *w.limits, *w.count)) prepareWindow(next);
     w.planned = true;
 }
 
-bool Model::refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
+bool ModelCore::refineParallelWindow(const RefineLimits& limits, RefineCount& rc) noexcept {
     Windows& w = *win_;
     Windows::Plan& P = w.plan();
     if (!P.grouped) prepareWindow(P);
@@ -644,7 +644,7 @@ bool Model::refineParallelWindow(const RefineLimits& limits, RefineCount& rc) no
     return go;
 }
 
-RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
+RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
     RefineCount rc;
     if (steps_ == 0) return rc;
     Windows& w = *win_;
@@ -694,7 +694,7 @@ RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexce
     return rc;
 }
 
-uint64_t Model::refineAll(int sweeps) noexcept {
+uint64_t ModelCore::refineAll(int sweeps) noexcept {
     if (sweeps <= 0 || steps_ == 0) return 0;
     SweepPicker picker(oldestStep(), steps_);
     RefineLimits limits;

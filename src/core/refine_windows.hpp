@@ -1,13 +1,13 @@
 #pragma once
 
-// The state of Model::refine's windows (internal; src/core/refine_windows.cpp).
+// The state of ModelCore::refine's windows (internal; src/core/refine_windows.cpp).
 
 #include <cstddef>
 #include <cstdint>
 
-#include "rost/aligned_buffer.hpp"
+#include "aligned_buffer.hpp"
 #include "rost/kernel_types.hpp"
-#include "rost/model.hpp"
+#include "model_core.hpp"
 #include "worker_pool.hpp"
 
 namespace rost {
@@ -16,7 +16,7 @@ namespace rost {
 // Two plans: with workers and a budget known in advance, the next
 // window is planned by a task of the current window's last round while
 // the others refine (refine(); docs/design.md, "Refinement on every core").
-struct Model::WindowPlan {
+struct ModelCore::WindowPlan {
     // Picks, in draw order.
     uint32_t picks = 0;
     AlignedBuffer<int64_t> pick_step;
@@ -36,7 +36,7 @@ struct Model::WindowPlan {
     // Tasks ordered by colour; round c is order[colour_begin[c], colour_begin[c + 1]).
     AlignedBuffer<uint32_t> order;
     AlignedBuffer<uint32_t> colour_begin;
-    // Laid out with the grouping (Model::layoutRounds), so that whoever plans
+    // Laid out with the grouping (ModelCore::layoutRounds), so that whoever plans
     // the window does it, not the caller between rounds: each round's tokens
     // and, with workers, its tasks by owner (owned[owned_begin[c], ...)) and
     // the owners' ranges (round_cuts[c * (workers + 1), ...)). With planning
@@ -78,7 +78,7 @@ struct Model::WindowPlan {
 
 // The moves of a round's tasks, listed by each task: word | from << 32 |
 // to << 48 (a compact list the merge reads on every core).
-struct Model::MoveLog {
+struct ModelCore::MoveLog {
     AlignedBuffer<uint64_t> moves;
     AlignedBuffer<uint32_t> count;  // by task: how many
     // The round's n tasks (and the planning task) and, by task, its first
@@ -101,7 +101,7 @@ struct Model::MoveLog {
 
 // The windows: their two plans, the grouping table, the rounds' labels and moves, the workers' tables.
 // Sized at construction: nothing here allocates afterwards.
-struct Model::Windows {
+struct ModelCore::Windows {
     uint32_t W = 1;
     std::size_t colours = 1;
     using Plan = WindowPlan;

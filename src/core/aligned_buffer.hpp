@@ -1,21 +1,22 @@
 #pragma once
 
+// Cache-line (or huge-page) aligned, zeroed buffers for a model's tables
+// and the engine's queue: internal to the library (no installed header holds
+// one; the public Model keeps its tables behind its implementation).
+
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
 #include <new>
 #include <vector>
 
+#include "rost/cache_line.hpp"
+
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
 
 namespace rost {
-
-// Cache-line constant pinned here rather than taken from
-// std::hardware_destructive_interference_size, which differs between targets
-// and compilers and would change struct layouts across architectures.
-inline constexpr std::size_t kCacheLine = 64;
 
 // Buffers of at least this size are aligned to it and, on Linux, asked for
 // transparent huge pages: the ring's tables are touched once at set-up (one

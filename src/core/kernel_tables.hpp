@@ -1,0 +1,45 @@
+#pragma once
+
+// The Gibbs kernel's view of a model's word-topic counts, and the topic
+// padding of its 4-lane blocks. Internal to the library: the public Model
+// keeps these tables behind its implementation.
+
+#include <cstdint>
+
+#include "rost/kernel_types.hpp"
+
+namespace rost::kernel {
+
+inline constexpr int kBlock = 4;
+
+// Topics padded to a whole number of 4-lane blocks; padding lanes carry zero weight.
+constexpr int paddedK(int K) noexcept { return (K + kBlock - 1) / kBlock * kBlock; }
+// The kernels' KP for a model whose topics grow (runtime K, active topics only).
+constexpr int kGrow = -1;
+
+// The word-topic side of the count tables, shared by every cell.
+struct Tables {
+    int32_t* nkv = nullptr;  // V x Kp, word-major: a word's K counts are contiguous
+    int32_t* nk = nullptr;   // Kp topic totals
+    float* inv = nullptr;    // Kp cached 1 / (n_k + V beta); 0 in padding lanes
+    float* dec = nullptr;    // Kp cached 1 / (n_k - 1 + V beta)
+    float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
+    int K = 0;
+    int Kp = 0;
+    // Topic growth (docs/design.md, "Topics that grow"). Without growth all
+    // K topics are open. With growth a topic is open while it holds a word
+    // (n_k > 0; inv is 0 for a closed one), `active` counts the open ones,
+    // `hi` is 1 + the highest open label, and a word opens topic `slot` (the
+    // lowest closed label; K when none is left) with weight `fresh` = gamma / V.
+    // The growth kernels are the KP = kGrow instances.
+    bool grow = false;
+    int active = 0;
+    int hi = 0;
+    int slot = 0;
+    float fresh = 0.f;
+    float alpha = 0.f;
+    float beta = 0.f;
+    float vbeta = 0.f;
+};
+
+} // namespace rost::kernel

@@ -1,0 +1,108 @@
+// Refinement of the model's cells (rost/model.hpp, "refinement"): the
+// kernels chosen for K, a step's ring slots and its cells refined in turn.
+// Windows of picks on every core: refine_windows.cpp.
+
+
+#include "model_core.hpp"
+
+#include "kernel.hpp"
+
+namespace rost {
+
+void ModelCore::selectKernels() noexcept {
+    // Compile-time K for the common sizes (unrolled blocks, registers);
+    // growing topics take the runtime kernels that look at active topics only.
+    if (cfg_.grow) {
+        simd_kernel_ = &ModelCore::refineCells<kernel::kGrow, kernel::Path::Simd>;
+        scalar_kernel_ = &ModelCore::refineCells<kernel::kGrow, kernel::Path::Scalar>;
+        setTaskKernels<kernel::kGrow>();
+        return;
+    }
+    switch (Kp_) {
+    case 16:
+        simd_kernel_ = &ModelCore::refineCells<16, kernel::Path::Simd>;
+        scalar_kernel_ = &ModelCore::refineCells<16, kernel::Path::Scalar>;
+        setTaskKernels<16>();
+        break;
+    case 32:
+        simd_kernel_ = &ModelCore::refineCells<32, kernel::Path::Simd>;
+        scalar_kernel_ = &ModelCore::refineCells<32, kernel::Path::Scalar>;
+        setTaskKernels<32>();
+        break;
+    case 64:
+        simd_kernel_ = &ModelCore::refineCells<64, kernel::Path::Simd>;
+        scalar_kernel_ = &ModelCore::refineCells<64, kernel::Path::Scalar>;
+        setTaskKernels<64>();
+        break;
+    default:
+        simd_kernel_ = &ModelCore::refineCells<0, kernel::Path::Simd>;
+        scalar_kernel_ = &ModelCore::refineCells<0, kernel::Path::Scalar>;
+        setTaskKernels<0>();
+        break;
+    }
+}
+
+void ModelCore::stepSlots(int64_t step, StepSlots& out) const noexcept {
+    out.self = slotOf(step);
+    out.count = 0;
+    for (int dt = 1; dt <= cfg_.g_time; ++dt) {
+        if (inWindow(step - dt)) out.temporal[out.count++] = slotOf(step - dt);
+        if (inWindow(step + dt)) out.temporal[out.count++] = slotOf(step + dt);
+    }
+}
+
+template <int KP, kernel::Path P>
+uint32_t ModelCore::refineCells(const StepSlots& slots, int c0, int c1) noexcept {
+    const int Kp = KP > 0 ? KP : Kp_;
+    const std::size_t slot = slots.self;
+    int32_t* g = scratch_g_.data();
+    uint32_t total = 0;
+    for (int cell = c0; cell < c1; ++cell) {
+        const uint32_t n = cell_n_[slot * cells_ + cell];
+        if (n == 0) continue;
+        // G(c): the cell, its spatial neighbours, the same cell at t +- 1..g.time
+        // (with growth only the live blocks: a closed topic's counts are all 0).
+        const int L = kernel::liveLanes<KP>(tables_, Kp);
+        for (int k = L; k < Kp; ++k) g[k] = 0;
+        const int32_t* h = nck(slot, nbr_cell_[nbr_begin_[cell]]);
+        for (int k = 0; k < L; ++k) g[k] = h[k];
+        for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
+            h = nck(slot, static_cast<int>(nbr_cell_[j]));
+            for (int k = 0; k < L; ++k) g[k] += h[k];
+        }
+        for (int j = 0; j < slots.count; ++j) {
+            h = nck(slots.temporal[j], cell);
+            for (int k = 0; k < L; ++k) g[k] += h[k];
+        }
+        const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+        kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
+                                  rng_);
+        total += n;
+    }
+    tokens_refined_ += total;
+    return total;
+}
+
+uint32_t ModelCore::refineCell(int64_t step, int cell) noexcept {
+    if (!inWindow(step) || cell < 0 || cell >= cells_) return 0;
+    StepSlots slots;
+    stepSlots(step, slots);
+    return (this->*(path_ == kernel::Path::Simd ? simd_kernel_ : scalar_kernel_))(slots, cell, cell + 1);
+}
+
+uint32_t ModelCore::refineStep(int64_t step) noexcept {
+    if (!inWindow(step)) return 0;
+    StepSlots slots;
+    stepSlots(step, slots);
+    return (this->*(path_ == kernel::Path::Simd ? simd_kernel_ : scalar_kernel_))(slots, 0, cells_);
+}
+
+uint32_t ModelCore::wordsInStep(int64_t step) const noexcept {
+    if (!inWindow(step)) return 0;
+    const std::size_t slot = slotOf(step);
+    uint32_t total = 0;
+    for (int c = 0; c < cells_; ++c) total += cell_n_[slot * cells_ + c];
+    return total;
+}
+
+} // namespace rost
