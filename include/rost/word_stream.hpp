@@ -5,8 +5,9 @@
 //   words.csv      timestamp,w1,w2,...   one observation per line
 //   positions.csv  timestamp,x1,y1,x2,y2,...   the same observations, same order
 //   topics.csv     timestamp,z1,z2,...
-// Blank lines and lines starting with '#' are skipped. A line with only a
-// timestamp is an observation with no words. Set-up code: allocates.
+// Empty lines and lines starting with '#' are skipped (text::LineReader's
+// default rules). A line with only a timestamp is an observation with no
+// words. Set-up code: allocates.
 
 #include <cstdint>
 #include <string>
@@ -15,6 +16,7 @@
 
 #include "rost/model.hpp"
 #include "rost/status.hpp"
+#include "rost/text_io.hpp"
 
 namespace rost {
 
@@ -49,22 +51,13 @@ Status parseWordStream(std::string_view wordsText, std::string_view positionsTex
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
                       const WordStreamLimits& limits, WordStream& out);
 
-// Reads a whole file; the error names the path and the system's reason
-// ("PATH: is a directory, not a file").
-Status readFile(const std::string& path, std::string& out);
+// The file functions moved to the text I/O layer (rost/text_io.hpp); named
+// here too for the callers that know them from this header.
+using text::probeOutputFile;
+using text::readFile;
+using text::writeFileAtomic;
 
-// Checks, before any work, that writeFileAtomic(path, ...) can succeed: the
-// path is not a directory, and its directory exists and takes a new file
-// (one is created there and removed). The error names the path and why, so
-// a command refuses an unwritable output at once instead of after its work.
-Status probeOutputFile(const std::string& path);
-
-// Writes `content` to `path` atomically: a temporary file in the same
-// directory, flushed and fsync'ed, then renamed over `path`. A crash leaves
-// either the old file or the new one, never a torn one.
-Status writeFileAtomic(const std::string& path, std::string_view content);
-
-// Appends one "timestamp,v1,v2,..." line.
+// Appends one "timestamp,v1,v2,..." line (text::appendRow).
 void appendCsvLine(std::string& out, int64_t timestamp, const uint32_t* values, std::size_t n);
 void appendCsvLine(std::string& out, int64_t timestamp, const uint16_t* values, std::size_t n);
 void appendPositionsLine(std::string& out, int64_t timestamp, const Position* p, std::size_t n);

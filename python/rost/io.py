@@ -9,14 +9,20 @@ Table files:
     surprise_cells.csv          read_surprise_cells -> (frames int64 (F,), float64 (F, cells))
     topicmodel.csv              read_topicmodel  -> int64 (K, V) counts n_k^v
 
-The writers produce what ``rost refine`` (words, positions) and ``--in.topicmodel``
-read, through a temporary file renamed into place. Errors name the file and line.
+The reading, the lines and fields, the numbers and the writing are the core's
+text I/O layer (rost/text_io.hpp, through rost._rost.text): blank lines and
+lines starting with '#' are skipped, errors name the file, the line and the
+column ("words.csv:4:5: expected an integer, found 'x'"), a missing file or a
+directory raises OSError (FileNotFoundError, IsADirectoryError). The writers
+produce what ``rost refine`` (words, positions) and ``--in.topicmodel`` read,
+through a temporary file renamed into place: a failed write leaves the old file.
 """
 
 import os
-import tempfile
 
 import numpy as np
+
+from ._rost import text as _text
 
 __all__ = [
     "read_words", "read_topics", "read_positions", "read_perplexity", "read_surprise",
@@ -25,30 +31,11 @@ __all__ = [
 ]
 
 
-def _lines(path):
-    """(line number, text) of each line that is not blank or a '#' comment."""
-    with open(path, "r", encoding="utf-8") as f:
-        for number, line in enumerate(f, 1):
-            text = line.strip()
-            if text and not text.startswith("#"):
-                yield number, text
-
-
-def _integers(path, number, fields):
-    try:
-        return [int(x) for x in fields]
-    except ValueError:
-        bad = next(x for x in fields if not x.strip().lstrip("-").isdigit())
-        raise ValueError(f"{path}:{number}: expected an integer, found '{bad}'") from None
-
-
 def _rows(path):
-    timestamps, rows = [], []
-    for number, text in _lines(path):
-        values = _integers(path, number, text.split(","))
-        timestamps.append(values[0])
-        rows.append((number, values[1:]))
-    return np.asarray(timestamps, dtype=np.int64), rows
+    """(timestamps int64, [(line number, int64 values after the timestamp), ...])."""
+    rows, numbers = _text.TextFile(os.fspath(path)).integer_rows()
+    timestamps = np.asarray([r[0] for r in rows], dtype=np.int64)
+    return timestamps, [(n, r[1:]) for n, r in zip(numbers, rows)]
 
 
 def _as_int32(path, number, values):
@@ -80,20 +67,27 @@ def read_positions(path):
     return ts, out
 
 
+def _numbers(path, header_ok, header_text):
+    """A header line, then rows of an integer and numbers as wide as the header:
+    (header, line numbers, first column, the other columns, field counts)."""
+    f = _text.TextFile(os.fspath(path))
+    header = f.header()
+    if not header_ok(header):
+        raise ValueError(f"{path}:1: expected the header '{header_text}'")
+    numbers, first, values, counts = f.number_rows(len(header))
+    return header, numbers, first, values, counts
+
+
 def _table(path, names):
-    lines = list(_lines(path))
-    if not lines or lines[0][1].split(",") != list(names):
-        raise ValueError(f"{path}:1: expected the header '{','.join(names)}'")
+    _, numbers, first, values, counts = _numbers(path, lambda h: h == list(names), ",".join(names))
+    bad = np.flatnonzero(counts != len(names))
+    if bad.size:
+        raise ValueError(f"{path}:{numbers[bad[0]]}: {counts[bad[0]]} fields, expected {len(names)}")
     dtype = [(names[0], np.int64)] + [(n, np.float64) for n in names[1:]]
-    out = np.empty(len(lines) - 1, dtype=dtype)
-    for i, (number, text) in enumerate(lines[1:]):
-        fields = text.split(",")
-        if len(fields) != len(names):
-            raise ValueError(f"{path}:{number}: {len(fields)} fields, expected {len(names)}")
-        try:
-            out[i] = (int(fields[0]), *[float(x) for x in fields[1:]])
-        except ValueError:
-            raise ValueError(f"{path}:{number}: expected numbers, found '{text}'") from None
+    out = np.empty(len(first), dtype=dtype)
+    out[names[0]] = first
+    for i, n in enumerate(names[1:]):
+        out[n] = values[:, i]
     return out
 
 
@@ -111,78 +105,56 @@ def read_surprise(path):
 
 def read_surprise_cells(path):
     """surprise_cells.csv: (frames int64 (F,), surprise float64 (F, cells))."""
-    lines = list(_lines(path))
-    if not lines or lines[0][1].split(",")[0] != "frame":
-        raise ValueError(f"{path}:1: expected the header 'frame,cell0,cell1,...'")
-    cells = len(lines[0][1].split(",")) - 1
-    frames = np.empty(len(lines) - 1, dtype=np.int64)
-    values = np.empty((len(lines) - 1, cells), dtype=np.float64)
-    for i, (number, text) in enumerate(lines[1:]):
-        fields = text.split(",")
-        if len(fields) != cells + 1:
-            raise ValueError(f"{path}:{number}: {len(fields) - 1} cells, expected {cells}")
-        frames[i] = _integers(path, number, fields[:1])[0]
-        values[i] = [float(x) for x in fields[1:]]
+    header, numbers, frames, values, counts = _numbers(
+        path, lambda h: bool(h) and h[0] == "frame", "frame,cell0,cell1,...")
+    cells = len(header) - 1
+    bad = np.flatnonzero(counts != cells + 1)
+    if bad.size:
+        raise ValueError(f"{path}:{numbers[bad[0]]}: {counts[bad[0]] - 1} cells, expected {cells}")
     return frames, values
 
 
 def read_topicmodel(path):
     """topicmodel.csv: K x V counts (int64), topic k on line k+1."""
-    rows = [(n, _integers(path, n, text.split(","))) for n, text in _lines(path)]
+    rows, numbers = _text.TextFile(os.fspath(path)).integer_rows()
     if not rows:
         raise ValueError(f"{path}: no topic lines")
-    width = len(rows[0][1])
-    for n, r in rows:
+    width = len(rows[0])
+    for n, r in zip(numbers, rows):
         if len(r) != width:
             raise ValueError(f"{path}:{n}: {len(r)} counts, expected {width} (as on the first line)")
-        if min(r) < 0:
+        if r.min() < 0:
             raise ValueError(f"{path}:{n}: a count is negative")
-    return np.asarray([r for _, r in rows], dtype=np.int64)
+    return np.asarray(rows, dtype=np.int64)
 
 
-def _write(path, text):
-    """Writes text through a temporary file in the same directory, renamed into place."""
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".rost-io-")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def _row_text(timestamps, rows, width):
+def _write_rows(path, timestamps, rows, width):
     if len(timestamps) != len(rows):
         raise ValueError(f"{len(timestamps)} timestamps for {len(rows)} rows")
-    out = []
-    for t, r in zip(timestamps, rows):
+    flat = []
+    for r in rows:
         a = np.asarray(r)
         if a.dtype.kind not in "iu":
             raise TypeError(f"expected integer arrays, found dtype {a.dtype}")
         if width == 2 and (a.ndim != 2 or a.shape[1] != 2):
             raise ValueError(f"positions: expected shape (N, 2), found {a.shape}")
-        out.append(",".join([str(int(t))] + [str(int(x)) for x in a.reshape(-1)]))
-    return "\n".join(out) + ("\n" if out else "")
+        flat.append(a.reshape(-1).astype(np.int64))
+    _text.write_rows(os.fspath(path), np.asarray(timestamps, dtype=np.int64).reshape(-1), flat)
 
 
 def write_words(path, timestamps, words):
     """words.csv (``rost refine`` reads it): one line per observation."""
-    _write(path, _row_text(timestamps, words, 1))
+    _write_rows(path, timestamps, words, 1)
 
 
 def write_topics(path, timestamps, topics):
     """topics.csv: one line per observation."""
-    _write(path, _row_text(timestamps, topics, 1))
+    _write_rows(path, timestamps, topics, 1)
 
 
 def write_positions(path, timestamps, positions):
     """positions.csv (``rost refine --positions``): x,y pairs per observation."""
-    _write(path, _row_text(timestamps, positions, 2))
+    _write_rows(path, timestamps, positions, 2)
 
 
 def write_topicmodel(path, counts):
@@ -192,4 +164,4 @@ def write_topicmodel(path, counts):
         raise ValueError(f"counts: expected a K x V integer array, found {a.dtype} of shape {a.shape}")
     if a.size and a.min() < 0:
         raise ValueError("counts: a count is negative")
-    _write(path, "".join(",".join(str(int(x)) for x in row) + "\n" for row in a))
+    _text.write_matrix(os.fspath(path), a.astype(np.int64))

@@ -11,6 +11,8 @@ PYBIND11_MODULE(_rost, m) {
     rp::bindConfig(m);
     rp::bindModel(m);
     rp::bindEngine(m);
+    pybind11::module_ text = m.def_submodule("text", "The core's text I/O layer (rost/text_io.hpp), for rost.io");
+    rp::bindText(text);
 #ifdef ROST_PYTHON_VISION
     pybind11::module_ vision = m.def_submodule("vision", "Visual words of frames (OpenCV): rost.vision");
     rp::bindVision(vision);

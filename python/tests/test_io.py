@@ -2,6 +2,7 @@
 
 import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -24,13 +25,13 @@ def test_rows_round_trip(tmp_path):
     for a, b, p, q in zip(words, rwords, positions, rpos):
         assert b.dtype == np.int32 and (a == b).all()
         assert q.shape == p.shape and (p == q).all()
-    assert not [f for f in os.listdir(tmp_path) if f.startswith(".rost-io-")]  # no temporary file left
+    assert sorted(os.listdir(tmp_path)) == ["positions.csv", "words.csv"]  # no temporary file left
 
 
 def test_errors_name_file_and_line(tmp_path):
     f = tmp_path / "words.csv"
     f.write_text("# comment\n0,1,2\n\n1,3,x\n")
-    with pytest.raises(ValueError, match=r"words.csv:4: expected an integer, found 'x'"):
+    with pytest.raises(ValueError, match=r"words.csv:4:5: expected an integer, found 'x'"):
         rost.io.read_words(f)
     f.write_text("0,1,2,3\n")
     with pytest.raises(ValueError, match=r"positions.csv:1: 3 coordinates"):
@@ -97,3 +98,72 @@ def test_reads_what_rost_refine_writes_from_what_it_wrote(tmp_path):
     assert (loaded.topic_model() == tm).all()
     assert list(loaded.timestamps()) == list(ts)
     assert loaded.config.K == 4 and loaded.config.budget_refines == 40
+
+
+ERRORS = {  # reader, file, its text, the error
+    "overflow": ("read_words", "words.csv", "0,1\n1, 2,99999999999999999999\n",
+                 r"words.csv:2:6: number '99999999999999999999' out of range"),
+    "empty field": ("read_words", "words.csv", "# c\r\n\r\n0,1\r\n7,,3\r\n", r"words.csv:4:3: expected an integer, found ''"),
+    "not a number": ("read_surprise", "surprise.csv", "frame,surprise\n0,1.5\n1,x\n",
+                     r"surprise.csv:3:3: expected a number, found 'x'"),
+    "too many fields": ("read_surprise", "surprise.csv", "frame,surprise\n0,1.5,2\n", r"surprise.csv:2: 3 fields, expected 2"),
+    "too few cells": ("read_surprise_cells", "surprise_cells.csv", "frame,cell0,cell1\n# c\n4,0.5,nan\n5,1\n",
+                      r"surprise_cells.csv:4: 1 cells, expected 2"),
+    "a count too large": ("read_topicmodel", "topicmodel.csv", "1,2\n3,9223372036854775808\n",
+                          r"topicmodel.csv:2:3: number '9223372036854775808' out of range"),
+}
+
+
+@pytest.mark.parametrize("case", ERRORS)
+def test_errors_name_file_line_and_column(tmp_path, case):
+    reader, name, content, message = ERRORS[case]
+    (tmp_path / name).write_text(content)
+    with pytest.raises(ValueError, match=message):
+        getattr(rost.io, reader)(tmp_path / name)
+
+
+def test_comments_blank_lines_and_crlf_are_read_as_the_tool_reads_them(tmp_path):
+    f = tmp_path / "words.csv"
+    f.write_bytes(b"# made elsewhere\r\n0,3,4\r\n \t\r\n\r\n2\r\n5,1,\r\n")
+    ts, words = rost.io.read_words(f)
+    assert list(ts) == [0, 2, 5]
+    assert [list(w) for w in words] == [[3, 4], [], [1]]
+    c = tmp_path / "surprise_cells.csv"
+    c.write_text("frame,cell0,cell1\n4,0.5,nan\n5,1e-3,inf\n")
+    frames, cells = rost.io.read_surprise_cells(c)
+    assert list(frames) == [4, 5] and cells[0, 0] == 0.5 and np.isnan(cells[0, 1]) and cells[1, 1] == np.inf
+
+
+def test_a_directory_where_a_file_is_expected(tmp_path):
+    d = tmp_path / "words.csv"
+    d.mkdir()
+    with pytest.raises(IsADirectoryError, match="words.csv: is a directory, not a file"):
+        rost.io.read_words(d)
+    with pytest.raises(IsADirectoryError, match="words.csv: rename failed"):
+        rost.io.write_words(d, [0], [np.array([1], np.int32)])
+    with pytest.raises(FileNotFoundError, match="missing.csv: cannot open"):
+        rost.io.read_topicmodel(tmp_path / "missing.csv")
+    with pytest.raises(FileNotFoundError):
+        rost.io.write_topicmodel(tmp_path / "no" / "tm.csv", np.ones((2, 2), np.int32))
+    assert sorted(os.listdir(tmp_path)) == ["words.csv"] and not os.listdir(d)
+
+
+def test_a_failed_write_leaves_the_old_file(tmp_path):
+    f = tmp_path / "words.csv"
+    rost.io.write_words(f, [0], [np.array([1, 2], np.int32)])
+    # A child whose files may not grow past 1 KiB: a write of ~200 KiB fails part-way.
+    script = (
+        "import resource, signal, sys, numpy as np, rost\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (1024, 1024))\n"
+        "try:\n"
+        "    rost.io.write_words(sys.argv[1], np.arange(20000), [np.arange(5, dtype=np.int32)] * 20000)\n"
+        "except OSError as e:\n"
+        "    print(e)\n"
+        "    sys.exit(0)\n"
+        "sys.exit(1)\n")
+    r = subprocess.run([sys.executable, "-c", script, str(f)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "words.csv: write failed" in r.stdout
+    assert f.read_text() == "0,1,2\n"
+    assert os.listdir(tmp_path) == ["words.csv"]  # no temporary file left

@@ -14,9 +14,11 @@
 #include "rost/config_file.hpp"
 #include "kernel_tables.hpp"
 #include "rost/state_layout.hpp"
-#include "rost/word_stream.hpp"
+#include "rost/text_io.hpp"
 
 namespace rost {
+
+using text::readFile, text::writeFileAtomic;
 
 // ---- CRC-32C ----------------------------------------------------------------------
 
@@ -139,19 +141,16 @@ void putSectionHeader(uint8_t* h, std::string_view name, uint32_t version, uint3
 // checkpoint without the key means (written before refinement in windows
 // existed: the serial sampler).
 std::string checkpointConfigText(const EngineConfig& cfg) {
-    const std::string all = formatConfig(cfg);
+    const std::string all = formatConfig(cfg);  // a "key = value\n" line per setting
     std::string out;
-    std::size_t at = 0;
-    while (at < all.size()) {
-        std::size_t end = all.find('\n', at);
-        end = end == std::string::npos ? all.size() : end + 1;
-        const std::string_view line(all.data() + at, end - at);
+    text::LineReader lines(all, {}, text::kEveryLine);
+    for (text::Line l; lines.next(l);) {
+        const std::string_view line = l.text;
         // Left out: what does not change the state, and the defaults of
         // settings newer than format 1, so such checkpoints stay as they were.
-        const bool skip = line.starts_with("threads = ") || line == "refine.window = 1\n" ||
-                          (!cfg.model.grow && (line == "topics.grow = false\n" || line.starts_with("gamma = ")));
-        if (!skip) out += line;
-        at = end;
+        const bool skip = line.starts_with("threads = ") || line == "refine.window = 1" ||
+                          (!cfg.model.grow && (line == "topics.grow = false" || line.starts_with("gamma = ")));
+        if (!skip) (out += line) += '\n';
     }
     return out;
 }

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "rost/settings.hpp"
-#include "rost/word_stream.hpp"
+#include "rost/text_io.hpp"
 #include "settings_text.hpp"
 
 namespace rost {
@@ -27,7 +27,7 @@ struct ParseState {
 };
 
 Status parseLine(std::string_view line, int lineNo, std::string_view name, Settings& s, ParseState& ps) {
-    auto where = [&] { return std::string(name) + ":" + std::to_string(lineNo) + ": "; };
+    auto where = [&] { return text::where(name, lineNo); };
     const std::size_t eq = line.find('=');
     if (eq == std::string_view::npos) return Status::error(where() + "expected 'key = value', found " + quoted(line));
     const std::string_view key = trim(line.substr(0, eq));
@@ -53,31 +53,28 @@ Status parseLine(std::string_view line, int lineNo, std::string_view name, Setti
 
 } // namespace
 
-Status parseSettingsText(std::string_view text, std::string_view name, Settings& s, std::vector<ConfigKeyLine>* set) {
+Status parseSettingsText(std::string_view content, std::string_view name, Settings& s, std::vector<ConfigKeyLine>* set) {
     Settings tmp = s;
     ParseState ps;
-    int lineNo = 0;
-    std::size_t pos = 0;
-    while (pos <= text.size()) {
-        std::size_t end = text.find('\n', pos);
-        if (end == std::string_view::npos) end = text.size();
-        std::string_view line = text.substr(pos, end - pos);
-        pos = end + 1;
-        ++lineNo;
+    // Every line: blank lines and comments are the grammar's to skip ('#'
+    // starts a comment anywhere on a line).
+    text::LineReader lines(content, name, text::kEveryLine);
+    text::Line l;
+    while (lines.next(l)) {
+        std::string_view line = l.text;
         if (line.find('\0') != std::string_view::npos)
-            return Status::error(std::string(name) + ":" + std::to_string(lineNo) + ": NUL byte in the text");
+            return Status::error(text::where(name, l.number) + "NUL byte in the text");
         // A comment runs from '#' to the end of the line (no value contains '#').
         if (const std::size_t hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
         line = trim(line);
         if (!line.empty())
-            if (Status st = parseLine(line, lineNo, name, tmp, ps); !st.ok()) return st;
-        if (end == text.size()) break;
+            if (Status st = parseLine(line, l.number, name, tmp, ps); !st.ok()) return st;
     }
     if (auto p = checkSettings(tmp)) {
         // Point at the line that set the offending key, when the text set it.
         const std::string what = "invalid configuration: " + p->describe(p->spec->key);
         if (auto it = ps.seen.find(p->spec->key); it != ps.seen.end())
-            return Status::error(std::string(name) + ":" + std::to_string(it->second) + ": key '" + it->first + "': " + what);
+            return Status::error(text::where(name, it->second) + "key '" + it->first + "': " + what);
         return Status::error(std::string(name) + ": " + what);
     }
     s = tmp;
@@ -90,9 +87,9 @@ Status parseSettingsText(std::string_view text, std::string_view name, Settings&
 }
 
 Status readSettingsFile(const std::string& path, Settings& s, std::vector<ConfigKeyLine>* set) {
-    std::string text;
-    if (Status st = readFile(path, text); !st.ok()) return st;
-    return parseSettingsText(text, path, s, set);
+    std::string content;
+    if (Status st = text::readFile(path, content); !st.ok()) return st;
+    return parseSettingsText(content, path, s, set);
 }
 
 std::string formatSettingsDocumented(const Settings& s) {

@@ -1,88 +1,74 @@
 #include "rost/topic_model_csv.hpp"
 
-#include <charconv>
 #include <limits>
 
-#include "rost/word_stream.hpp"
+#include "rost/text_io.hpp"
 
 namespace rost {
 
 std::string formatTopicModelCsv(const Model& model) {
     std::string out;
     out.reserve(static_cast<std::size_t>(model.K()) * static_cast<std::size_t>(model.V()) * 3);
-    char buf[16];
+    text::TableWriter table(out);
     // The open topics in label order (all K without growth): row i is output topic i.
     for (int k = 0; k < model.K(); ++k) {
         if (!model.topicOpen(k)) continue;
-        for (int v = 0; v < model.V(); ++v) {
-            if (v) out.push_back(',');
-            const auto r = std::to_chars(buf, buf + sizeof buf, model.topicWordCount(k, v));
-            out.append(buf, r.ptr);
-        }
-        out.push_back('\n');
+        for (int v = 0; v < model.V(); ++v) table.cell(model.topicWordCount(k, v));
+        table.end();
     }
     return out;
 }
 
 Status writeTopicModelCsv(const Model& model, const std::string& path) {
-    return writeFileAtomic(path, formatTopicModelCsv(model));
+    return text::writeFileAtomic(path, formatTopicModelCsv(model));
 }
 
-Status parseTopicModelCsv(std::string_view text, int K, int V, std::vector<int32_t>& counts, std::string_view name) {
+namespace {
+
+// One topic's line: V counts into `row`, each in [0, 2^31), their total too.
+Status parseTopicLine(const text::Line& line, std::string_view name, int V, std::size_t topic,
+                      std::vector<text::Field>& fields, int32_t* row) {
+    using text::where;
+    text::splitFields(line.text, ",", fields);
+    int64_t total = 0;
+    std::size_t v = 0;
+    for (const text::Field& f : fields) {
+        if (f.text.empty()) return Status::error(where(name, line.number, f.column) + "empty field");
+        if (v >= static_cast<std::size_t>(V))
+            return Status::error(where(name, line.number, f.column) + "more than V = " + std::to_string(V) + " counts");
+        int64_t c = 0;
+        const text::NumberError e = text::toInteger(f.text, c);
+        if (e == text::NumberError::Overflow ||
+            (e == text::NumberError::None && (c < 0 || c > std::numeric_limits<int32_t>::max())))
+            return Status::error(where(name, line.number, f.column) + "count '" + std::string(f.text.substr(0, 24)) +
+                                 "' out of range [0, 2^31)");
+        if (e == text::NumberError::Syntax) return text::expected(name, line.number, f, "a count", 24);
+        total += c;
+        if (total > std::numeric_limits<int32_t>::max())
+            return Status::error(where(name, line.number, f.column) + "topic " + std::to_string(topic) +
+                                 "'s total count exceeds 2^31 - 1");
+        row[v++] = static_cast<int32_t>(c);
+    }
+    if (v != static_cast<std::size_t>(V))
+        return Status::error(where(name, line.number, 1) + std::to_string(v) + " counts, expected V = " +
+                             std::to_string(V));
+    return {};
+}
+
+} // namespace
+
+Status parseTopicModelCsv(std::string_view csv, int K, int V, std::vector<int32_t>& counts, std::string_view name) {
     if (K < 1 || V < 1) return Status::error(std::string(name) + ": K and V must be positive");
     const auto k = static_cast<std::size_t>(K), vocab = static_cast<std::size_t>(V);
     std::vector<int32_t> out(k * vocab, 0);
-    auto where = [&](std::size_t line, std::size_t col) {
-        return std::string(name) + ":" + std::to_string(line) + ":" + std::to_string(col) + ": ";
-    };
-    std::size_t pos = 0, lineNo = 0, topic = 0;
-    while (pos < text.size()) {
-        std::size_t end = text.find('\n', pos);
-        if (end == std::string_view::npos) end = text.size();
-        std::string_view line = text.substr(pos, end - pos);
-        pos = end + 1;
-        ++lineNo;
-        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-        if (line.empty() || line.front() == '#') continue;
+    std::vector<text::Field> fields;
+    text::LineReader lines(csv, name);
+    text::Line line;
+    std::size_t topic = 0;
+    while (lines.next(line)) {
         if (topic >= k)
-            return Status::error(where(lineNo, 1) + "more than K = " + std::to_string(K) + " topic lines");
-        int64_t total = 0;
-        std::size_t v = 0, at = 0;
-        while (true) {
-            std::size_t comma = line.find(',', at);
-            if (comma == std::string_view::npos) comma = line.size();
-            std::string_view f = line.substr(at, comma - at);
-            std::size_t lead = 0;
-            while (lead < f.size() && (f[lead] == ' ' || f[lead] == '\t')) ++lead;
-            std::size_t trail = f.size();
-            while (trail > lead && (f[trail - 1] == ' ' || f[trail - 1] == '\t')) --trail;
-            const std::size_t col = at + lead + 1;
-            f = f.substr(lead, trail - lead);
-            if (f.empty()) {
-                if (comma == line.size() && v > 0) break;  // a trailing comma
-                return Status::error(where(lineNo, col) + "empty field");
-            }
-            if (v >= vocab)
-                return Status::error(where(lineNo, col) + "more than V = " + std::to_string(V) + " counts");
-            int64_t c = 0;
-            const auto [ptr, ec] = std::from_chars(f.data(), f.data() + f.size(), c);
-            if (ec == std::errc::result_out_of_range || (ec == std::errc() && ptr == f.data() + f.size() &&
-                                                         (c < 0 || c > std::numeric_limits<int32_t>::max())))
-                return Status::error(where(lineNo, col) + "count '" + std::string(f.substr(0, 24)) +
-                                     "' out of range [0, 2^31)");
-            if (ec != std::errc() || ptr != f.data() + f.size())
-                return Status::error(where(lineNo, col) + "expected a count, found '" + std::string(f.substr(0, 24)) + "'");
-            total += c;
-            if (total > std::numeric_limits<int32_t>::max())
-                return Status::error(where(lineNo, col) + "topic " + std::to_string(topic) +
-                                     "'s total count exceeds 2^31 - 1");
-            out[topic * vocab + v] = static_cast<int32_t>(c);
-            ++v;
-            if (comma == line.size()) break;
-            at = comma + 1;
-        }
-        if (v != vocab)
-            return Status::error(where(lineNo, 1) + std::to_string(v) + " counts, expected V = " + std::to_string(V));
+            return Status::error(text::where(name, line.number, 1) + "more than K = " + std::to_string(K) + " topic lines");
+        if (Status st = parseTopicLine(line, name, V, topic, fields, out.data() + topic * vocab); !st.ok()) return st;
         ++topic;
     }
     if (topic != k)
@@ -93,10 +79,10 @@ Status parseTopicModelCsv(std::string_view text, int K, int V, std::vector<int32
 }
 
 Status loadTopicModelCsv(const std::string& path, Model& model) {
-    std::string text;
-    if (Status st = readFile(path, text); !st.ok()) return st;
+    std::string csv;
+    if (Status st = text::readFile(path, csv); !st.ok()) return st;
     std::vector<int32_t> counts;
-    if (Status st = parseTopicModelCsv(text, model.K(), model.V(), counts, path); !st.ok()) return st;
+    if (Status st = parseTopicModelCsv(csv, model.K(), model.V(), counts, path); !st.ok()) return st;
     const auto V = static_cast<std::size_t>(model.V());
     for (int k = 0; k < model.K(); ++k) {
         int64_t total = model.topicCount(k);

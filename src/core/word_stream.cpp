@@ -2,90 +2,34 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
-#include <charconv>
-#include <cstdio>
-#include <cstring>
-#include <fcntl.h>
 #include <functional>
 #include <iterator>
 #include <latch>
 #include <limits>
 #include <new>
+#include <span>
 #include <system_error>
 #include <thread>
 #include <sys/stat.h>
-#include <unistd.h>
 
 namespace rost {
 namespace {
 
-// Iterates the lines of a text, tracking 1-based line numbers.
-class Lines {
-public:
-    explicit Lines(std::string_view text) : text_(text) {}
-    bool next(std::string_view& line, int& number) {
-        while (pos_ < text_.size() || (pos_ == text_.size() && !done_)) {
-            if (pos_ == text_.size()) {
-                done_ = true;
-                return false;
-            }
-            std::size_t end = text_.find('\n', pos_);
-            if (end == std::string_view::npos) end = text_.size();
-            line = text_.substr(pos_, end - pos_);
-            pos_ = end + 1;
-            ++line_;
-            if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-            if (line.empty() || line.front() == '#') continue;
-            number = line_;
-            return true;
-        }
-        return false;
-    }
+using text::Field;
+using text::Line;
+using text::LineReader;
+using text::where;
 
-private:
-    std::string_view text_;
-    std::size_t pos_ = 0;
-    int line_ = 0;
-    bool done_ = false;
-};
-
-std::string where(std::string_view name, int line, std::size_t column) {
-    return std::string(name) + ":" + std::to_string(line) + ":" + std::to_string(column) + ": ";
-}
-
-// Splits a line at commas and parses each field as a signed 64-bit integer.
-// `columns` receives the 1-based column of each field's first character.
-Status parseFields(std::string_view line, std::string_view name, int number, std::vector<int64_t>& values,
-                   std::vector<std::size_t>& columns) {
+// Splits a line at commas and parses each field as a signed 64-bit integer
+// (`fields` keeps each field's column for the format's own errors).
+Status parseFields(const Line& line, std::string_view name, std::vector<Field>& fields, std::vector<int64_t>& values) {
+    text::splitFields(line.text, ",", fields);
     values.clear();
-    columns.clear();
-    std::size_t pos = 0;
-    while (true) {
-        std::size_t end = line.find(',', pos);
-        if (end == std::string_view::npos) end = line.size();
-        std::string_view field = line.substr(pos, end - pos);
-        std::size_t lead = 0;
-        while (lead < field.size() && (field[lead] == ' ' || field[lead] == '\t')) ++lead;
-        std::size_t trail = field.size();
-        while (trail > lead && (field[trail - 1] == ' ' || field[trail - 1] == '\t')) --trail;
-        const std::string_view f = field.substr(lead, trail - lead);
-        if (f.empty()) {
-            // A trailing comma after the last value is tolerated.
-            if (end == line.size() && !values.empty()) break;
-            return Status::error(where(name, number, pos + 1) + "empty field");
-        }
+    for (const Field& f : fields) {
+        if (f.text.empty()) return Status::error(where(name, line.number, f.start) + "empty field");
         int64_t v = 0;
-        const auto [ptr, ec] = std::from_chars(f.data(), f.data() + f.size(), v);
-        if (ec == std::errc::result_out_of_range)
-            return Status::error(where(name, number, pos + lead + 1) + "number '" + std::string(f) + "' out of range");
-        if (ec != std::errc() || ptr != f.data() + f.size())
-            return Status::error(where(name, number, pos + lead + 1) + "expected an integer, found '" +
-                                 std::string(f.substr(0, 32)) + "'");
+        if (Status st = text::integerField(name, line.number, f, "an integer", v); !st.ok()) return st;
         values.push_back(v);
-        columns.push_back(pos + lead + 1);
-        if (end == line.size()) break;
-        pos = end + 1;
     }
     return {};
 }
@@ -98,12 +42,12 @@ namespace {
 Status parseWords(std::string_view wordsText, const WordStreamLimits& limits, WordStream& out,
                   std::string_view wordsName) {
     std::vector<int64_t> values;
-    std::vector<std::size_t> columns;
-    Lines lines(wordsText);
-    std::string_view line;
-    int number = 0;
-    while (lines.next(line, number)) {
-        Status st = parseFields(line, wordsName, number, values, columns);
+    std::vector<Field> fields;
+    LineReader lines(wordsText);
+    Line line;
+    while (lines.next(line)) {
+        const int number = line.number;
+        Status st = parseFields(line, wordsName, fields, values);
         if (!st.ok()) return st;
         if (values.size() - 1 > limits.max_words)
             return Status::error(where(wordsName, number, 1) + std::to_string(values.size() - 1) +
@@ -115,7 +59,7 @@ Status parseWords(std::string_view wordsText, const WordStreamLimits& limits, Wo
             const int64_t w = values[i];
             if (w < 0 || w > std::numeric_limits<uint32_t>::max() ||
                 (limits.vocabulary != 0 && w >= static_cast<int64_t>(limits.vocabulary)))
-                return Status::error(where(wordsName, number, columns[i]) + "word id " + std::to_string(w) +
+                return Status::error(where(wordsName, number, fields[i].column) + "word id " + std::to_string(w) +
                                      " out of range [0, " +
                                      (limits.vocabulary ? std::to_string(limits.vocabulary) : std::string("2^32")) +
                                      ")");
@@ -131,13 +75,13 @@ Status parseWords(std::string_view wordsText, const WordStreamLimits& limits, Wo
 Status parsePositions(std::string_view positionsText, const WordStreamLimits& limits, WordStream& out,
                       std::string_view positionsName, std::string_view wordsName) {
     std::vector<int64_t> values;
-    std::vector<std::size_t> columns;
-    std::string_view line;
-    int number = 0;
-    Lines plines(positionsText);
+    std::vector<Field> fields;
+    LineReader plines(positionsText);
+    Line line;
     std::size_t index = 0;
-    while (plines.next(line, number)) {
-        Status st = parseFields(line, positionsName, number, values, columns);
+    while (plines.next(line)) {
+        const int number = line.number;
+        Status st = parseFields(line, positionsName, fields, values);
         if (!st.ok()) return st;
         if (index >= out.observations.size())
             return Status::error(where(positionsName, number, 1) + "more observations than " + std::string(wordsName) +
@@ -157,7 +101,7 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
             const bool badX = x < 0 || x > std::numeric_limits<int32_t>::max() || (limits.width > 0 && x >= limits.width);
             const bool badY = y < 0 || y > std::numeric_limits<int32_t>::max() || (limits.height > 0 && y >= limits.height);
             if (badX || badY) {
-                const std::size_t col = columns[badX ? 1 + 2 * i : 2 + 2 * i];
+                const std::size_t col = fields[badX ? 1 + 2 * i : 2 + 2 * i].column;
                 std::string msg = where(positionsName, number, col);
                 msg += "position (";
                 msg += std::to_string(x);
@@ -194,12 +138,11 @@ struct PositionsLine {
 // coordinate outside int32 (the serial pass then finds and words the error).
 bool parsePositionLines(std::string_view text, std::vector<PositionsLine>& out) {
     std::vector<int64_t> values;
-    std::vector<std::size_t> columns;
-    Lines lines(text);
-    std::string_view line;
-    int number = 0;
-    while (lines.next(line, number)) {
-        if (!parseFields(line, "", number, values, columns).ok() || values.size() % 2 != 1) return false;
+    std::vector<Field> fields;
+    LineReader lines(text);
+    Line line;
+    while (lines.next(line)) {
+        if (!parseFields(line, "", fields, values).ok() || values.size() % 2 != 1) return false;
         PositionsLine& p = out.emplace_back();
         p.timestamp = values[0];
         p.xy.resize(values.size() / 2);
@@ -239,36 +182,6 @@ Status parseWordStream(std::string_view wordsText, std::string_view positionsTex
         return {};
     }
     return parsePositions(positionsText, limits, out, positionsName, wordsName);
-}
-
-Status readFile(const std::string& path, std::string& out) {
-    FILE* f = std::fopen(path.c_str(), "rb");
-    if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
-    struct stat st {};
-    if (::fstat(::fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {  // fopen opens a directory; reading it fails oddly
-        std::fclose(f);
-        return Status::error(path + ": is a directory, not a file");
-    }
-    out.clear();
-    // Read into place: sized once from the file's length when it has one
-    // (a pipe grows it), not copied through a buffer and a doubling string.
-    std::size_t have = 0;
-    if (std::fseek(f, 0, SEEK_END) == 0) {
-        const long len = std::ftell(f);
-        if (len > 0) out.resize(static_cast<std::size_t>(len) + 1);
-        std::rewind(f);
-    }
-    for (;;) {
-        if (have == out.size()) out.resize(std::max<std::size_t>(out.size() * 2, std::size_t{1} << 16));
-        const std::size_t n = std::fread(out.data() + have, 1, out.size() - have, f);
-        have += n;
-        if (n == 0) break;
-    }
-    out.resize(have);
-    const bool failed = std::ferror(f) != 0;
-    std::fclose(f);
-    if (failed) return Status::error(path + ": read error");
-    return {};
 }
 
 namespace {
@@ -423,98 +336,21 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     return parsePositions(text, limits, out, positionsPath, wordsPath);
 }
 
-namespace {
-// The temporary file beside `path` that writeFileAtomic renames over it ("DIR/.NAME.tmpXXXXXX", made).
-int makeTemporary(const std::string& path, std::string& dir, std::string& tmp) {
-    const std::size_t slash = path.find_last_of('/');
-    dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
-    const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
-    tmp = dir + "/." + base + ".tmpXXXXXX";
-    return ::mkstemp(tmp.data());
-}
-} // namespace
-
-Status probeOutputFile(const std::string& path) {
-    if (path.empty()) return Status::error("an output path is empty");
-    struct stat st {};
-    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
-        return Status::error(path + ": is a directory, not a file that can be written");
-    std::string dir, tmp;
-    const int fd = makeTemporary(path, dir, tmp);
-    if (fd < 0) return Status::error(path + ": cannot write in " + dir + ": " + std::strerror(errno));
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    return {};
-}
-
-Status writeFileAtomic(const std::string& path, std::string_view content) {
-    std::string dir, tmp;
-    const int fd = makeTemporary(path, dir, tmp);
-    if (fd < 0) return Status::error(path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
-    const char* p = content.data();
-    std::size_t left = content.size();
-    while (left > 0) {
-        const ssize_t n = ::write(fd, p, left);
-        if (n < 0) {
-            if (errno == EINTR) continue;
-            const std::string why = std::strerror(errno);
-            ::close(fd);
-            ::unlink(tmp.c_str());
-            return Status::error(path + ": write failed: " + why);
-        }
-        p += n;
-        left -= static_cast<std::size_t>(n);
-    }
-    ::fchmod(fd, 0644);
-    if (::fsync(fd) != 0 || ::close(fd) != 0) {
-        const std::string why = std::strerror(errno);
-        ::unlink(tmp.c_str());
-        return Status::error(path + ": flush failed: " + why);
-    }
-    if (::rename(tmp.c_str(), path.c_str()) != 0) {
-        const std::string why = std::strerror(errno);
-        ::unlink(tmp.c_str());
-        return Status::error(path + ": rename failed: " + why);
-    }
-    // Make the rename itself durable.
-    const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
-    if (dfd >= 0) {
-        ::fsync(dfd);
-        ::close(dfd);
-    }
-    return {};
-}
-
-namespace {
-template <typename T>
-void appendValues(std::string& out, int64_t timestamp, const T* values, std::size_t n) {
-    char buf[24];
-    auto put = [&](int64_t v) {
-        const auto r = std::to_chars(buf, buf + sizeof buf, v);
-        out.append(buf, r.ptr);
-    };
-    put(timestamp);
-    for (std::size_t i = 0; i < n; ++i) {
-        out.push_back(',');
-        put(static_cast<int64_t>(values[i]));
-    }
-    out.push_back('\n');
-}
-} // namespace
-
 void appendCsvLine(std::string& out, int64_t timestamp, const uint32_t* values, std::size_t n) {
-    appendValues(out, timestamp, values, n);
+    text::appendRow(out, timestamp, std::span<const uint32_t>(values, n));
 }
 void appendCsvLine(std::string& out, int64_t timestamp, const uint16_t* values, std::size_t n) {
-    appendValues(out, timestamp, values, n);
+    text::appendRow(out, timestamp, std::span<const uint16_t>(values, n));
 }
 void appendPositionsLine(std::string& out, int64_t timestamp, const Position* p, std::size_t n) {
-    std::vector<int32_t> flat(2 * n);
+    text::appendInteger(out, timestamp);
     for (std::size_t i = 0; i < n; ++i) {
-        flat[2 * i] = p[i].x;
-        flat[2 * i + 1] = p[i].y;
+        out.push_back(',');
+        text::appendInteger(out, p[i].x);
+        out.push_back(',');
+        text::appendInteger(out, p[i].y);
     }
-    appendValues(out, timestamp, flat.data(), flat.size());
+    out.push_back('\n');
 }
 
 } // namespace rost

@@ -2,12 +2,11 @@
 // the histogram of the line's labels (e.g. topics.maxlikelihood.csv -> the
 // topic mix of each document). The timestamp is copied as the input wrote it.
 
-#include <charconv>
 #include <cstdio>
 
 #include <CLI/CLI.hpp>
 
-#include "rost/word_stream.hpp"
+#include "rost/text_io.hpp"
 #include "rostcli.hpp"
 
 namespace rost::cli {
@@ -24,32 +23,28 @@ Status bincount(const BincountOptions& o) {
     if (auto p = checkSettings(s)) return Status::error(p->describe(p->spec->key == "V" ? "-V" : p->spec->key));
     const bool toStdout = o.out.empty() || o.out == "-" || o.out == "/dev/stdout";
     if (!toStdout)
-        if (Status st = probeOutputFile(o.out); !st.ok()) return st;  // before reading the input
+        if (Status st = text::probeOutputFile(o.out); !st.ok()) return st;  // before reading the input
     const auto bins = static_cast<uint32_t>(s.engine.model.V);
     std::string text, name;
     if (Status st = readInput(o.in, text, name); !st.ok()) return st;
     Corpus c;
     if (Status st = parseDocuments(text, name, o.delim, bins, c); !st.ok()) return st;
     std::string out;
+    text::TableWriter table(out);
     std::vector<uint32_t> count(bins);
-    char buf[16];
     for (const Document& d : c.docs) {
         std::fill(count.begin(), count.end(), 0u);
         for (uint32_t w : d.words) ++count[w];
-        out += d.timestamp;
-        for (uint32_t n : count) {
-            out.push_back(',');
-            const auto r = std::to_chars(buf, buf + sizeof buf, n);
-            out.append(buf, r.ptr);
-        }
-        out.push_back('\n');
+        table.cell(d.timestamp);
+        for (uint32_t n : count) table.cell(n);
+        table.end();
     }
     if (o.out.empty() || o.out == "-" || o.out == "/dev/stdout") {
         if (std::fwrite(out.data(), 1, out.size(), stdout) != out.size() || std::fflush(stdout) != 0)
             return Status::error("<stdout>: write error");
         return {};
     }
-    return writeFileAtomic(o.out, out);
+    return text::writeFileAtomic(o.out, out);
 }
 
 } // namespace

@@ -2,93 +2,32 @@
 // `timestamp,w,w,...` and `timestamp,x,y,x,y,...`. Errors name the file, the
 // line and the column.
 
-#include <charconv>
 #include <iostream>
 #include <iterator>
 #include <limits>
 
-#include "rost/word_stream.hpp"
+#include "rost/text_io.hpp"
 #include "rostcli.hpp"
 
 namespace rost::cli {
 
 namespace {
 
-std::string where(std::string_view name, int line, std::size_t column) {
-    std::string s(name);
-    s += ':';
-    s += std::to_string(line);
-    s += ':';
-    s += std::to_string(column);
-    s += ": ";
-    return s;
-}
+using text::Field;
+using text::Line;
+using text::LineReader;
+using text::splitFields;
+using text::where;
 
-// One field of a line: its text (spaces and tabs trimmed) and 1-based column.
-struct Field {
-    std::string_view text;
-    std::size_t column = 1;
-};
+// Lines as rost-cli reads them: lines of only spaces and tabs are skipped,
+// '#' starts no comment (a line is a document whatever its timestamp).
+constexpr text::LineRules kLines{.skip_empty = true, .blank_is_empty = true, .skip_comments = false};
 
-// Splits a line at `delim`. A trailing delimiter after the last field is
-// tolerated (some writers end every line with one).
-void splitLine(std::string_view line, std::string_view delim, std::vector<Field>& out) {
-    out.clear();
-    std::size_t pos = 0;
-    while (true) {
-        std::size_t end = delim.empty() ? std::string_view::npos : line.find(delim, pos);
-        if (end == std::string_view::npos) end = line.size();
-        std::string_view f = line.substr(pos, end - pos);
-        std::size_t lead = 0;
-        while (lead < f.size() && (f[lead] == ' ' || f[lead] == '\t')) ++lead;
-        std::size_t trail = f.size();
-        while (trail > lead && (f[trail - 1] == ' ' || f[trail - 1] == '\t')) --trail;
-        const bool last = end == line.size();
-        if (!(last && trail == lead && !out.empty() && pos > 0)) out.push_back({f.substr(lead, trail - lead), pos + lead + 1});
-        if (last) break;
-        pos = end + delim.size();
-    }
-}
-
-// The next non-blank line (a trailing '\r' removed); false at the end.
-bool nextLine(std::string_view text, std::size_t& pos, int& number, std::string_view& line) {
-    while (pos < text.size()) {
-        std::size_t end = text.find('\n', pos);
-        if (end == std::string_view::npos) end = text.size();
-        line = text.substr(pos, end - pos);
-        pos = end + 1;
-        ++number;
-        if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-        if (line.find_first_not_of(" \t") != std::string_view::npos) return true;
-    }
-    return false;
-}
-
-// A non-negative integer field; `what` names it in the message.
-Status parseCount(const Field& f, std::string_view name, int line, const char* what, int64_t hi, int64_t& v) {
-    const char* b = f.text.data();
-    const char* e = b + f.text.size();
-    const auto [ptr, ec] = std::from_chars(b, e, v);
-    if (f.text.empty() || ec == std::errc::invalid_argument || ptr != e) {
-        std::string msg = where(name, line, f.column);
-        msg += "expected ";
-        msg += what;
-        msg += " (a non-negative integer), found '";
-        msg += f.text.substr(0, 32);
-        msg += "'";
-        return Status::error(msg);
-    }
-    if (ec == std::errc::result_out_of_range || v < 0 || v >= hi) {
-        std::string msg = where(name, line, f.column);
-        msg += what;
-        msg += ' ';
-        msg += f.text.substr(0, 32);
-        msg += " out of range [0, ";
-        msg += std::to_string(hi);
-        msg += ')';
-        return Status::error(msg);
-    }
-    return {};
+// A non-negative integer field below `hi`; `what` names it in the message
+// ("expected word id (a non-negative integer), found 'x'", "word id 40 out of range [0, 40)").
+Status parseCount(const Field& f, std::string_view name, int line, std::string_view what, int64_t hi, int64_t& v) {
+    if (text::toInteger(f.text, v) == text::NumberError::None && v >= 0 && v < hi) return {};
+    return text::integerField(name, line, f, std::string(what) + " (a non-negative integer)", what, 0, hi, v);
 }
 
 // A line that is one field holding spaces or tabs: its fields are separated
@@ -99,10 +38,22 @@ Status checkSeparated(const std::vector<Field>& fields, std::string_view line, s
                       std::string_view delim) {
     if (fields.size() != 1 || fields[0].text.find_first_of(" \t") == std::string_view::npos) return {};
     const bool tabs = line.find('\t') != std::string_view::npos;
-    std::string msg(name);
-    msg += ':' + std::to_string(number) + ": no '" + std::string(delim) + "' between the fields, but " +
-           (tabs ? "tabs" : "spaces") + " (--in.words.delim sets the delimiter)";
+    std::string msg = where(name, number);
+    msg += "no '";
+    msg += delim;
+    msg += "' between the fields, but ";
+    msg += tabs ? "tabs" : "spaces";
+    msg += " (--in.words.delim sets the delimiter)";
     return Status::error(msg);
+}
+
+// The next document line split at `delim` into `fields`; false at the end.
+// `st`: the error when the line's fields are separated by blanks instead.
+bool nextRow(LineReader& lines, std::string_view delim, Line& line, std::vector<Field>& fields, Status& st) {
+    if (!lines.next(line)) return false;
+    splitFields(line.text, delim, fields);
+    st = checkSeparated(fields, line.text, lines.name(), line.number, delim);
+    return true;
 }
 
 } // namespace
@@ -115,7 +66,7 @@ Status readInput(const std::string& path, std::string& text, std::string& name) 
         return {};
     }
     name = path;
-    return readFile(path, text);
+    return rost::text::readFile(path, text);
 }
 
 Status parseDocuments(std::string_view text, std::string_view name, std::string_view delim, uint32_t V,
@@ -124,12 +75,11 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
     out.words_name = std::string(name);
     const int64_t hi = V == 0 ? int64_t{std::numeric_limits<uint32_t>::max()} : int64_t{V};
     std::vector<Field> fields;
-    std::size_t pos = 0;
-    int number = 0;
-    std::string_view line;
-    while (nextLine(text, pos, number, line)) {
-        splitLine(line, delim, fields);
-        if (Status st = checkSeparated(fields, line, name, number, delim); !st.ok()) return st;
+    LineReader lines(text, name, kLines);
+    Line line;
+    for (Status separated; nextRow(lines, delim, line, fields, separated);) {
+        if (!separated.ok()) return separated;
+        const int number = line.number;
         if (fields[0].text.empty()) return Status::error(where(name, number, fields[0].column) + "empty timestamp");
         Document d;
         d.timestamp = std::string(fields[0].text);
@@ -156,13 +106,13 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
 
 Status parsePositions(std::string_view text, std::string_view name, std::string_view delim, Corpus& corpus) {
     std::vector<Field> fields;
-    std::size_t pos = 0, index = 0;
-    int number = 0;
-    std::string_view line;
+    std::size_t index = 0;
     const int64_t hi = std::numeric_limits<int32_t>::max();
-    while (nextLine(text, pos, number, line)) {
-        splitLine(line, delim, fields);
-        if (Status st = checkSeparated(fields, line, name, number, delim); !st.ok()) return st;
+    LineReader lines(text, name, kLines);
+    Line line;
+    for (Status separated; nextRow(lines, delim, line, fields, separated);) {
+        if (!separated.ok()) return separated;
+        const int number = line.number;
         if (index >= corpus.docs.size())
             return Status::error(where(name, number, 1) + "a position line beyond the " +
                                  std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
@@ -173,7 +123,7 @@ Status parsePositions(std::string_view text, std::string_view name, std::string_
                                  d.timestamp + "'");
         const std::size_t coords = fields.size() - 1;
         if (coords != 2 * d.words.size()) {
-            const std::size_t col = coords > 2 * d.words.size() ? fields[1 + 2 * d.words.size()].column : line.size() + 1;
+            const std::size_t col = coords > 2 * d.words.size() ? fields[1 + 2 * d.words.size()].column : line.text.size() + 1;
             return Status::error(where(name, number, col) + std::to_string(coords) + " coordinates for the " +
                                  std::to_string(d.words.size()) + " words of " + corpus.words_name + ":" +
                                  std::to_string(d.line) + " (expected x,y per word: " +
@@ -190,7 +140,7 @@ Status parsePositions(std::string_view text, std::string_view name, std::string_
         }
     }
     if (index != corpus.docs.size())
-        return Status::error(where(name, number + 1, 1) + std::to_string(index) + " position lines for the " +
+        return Status::error(where(name, lines.lines() + 1, 1) + std::to_string(index) + " position lines for the " +
                              std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
     return {};
 }

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,16 +13,15 @@
 #include "rost/engine.hpp"
 #include "rost/model.hpp"
 #include "rost/topic_model_csv.hpp"
-#include "rost/word_stream.hpp"
+#include "rost/text_io.hpp"
 #include "rostcli.hpp"
 
 namespace rost::cli {
 
 std::string formatDouble(double v) {
-    if (std::isnan(v)) return "nan";
-    char buf[32];
-    const auto r = std::to_chars(buf, buf + sizeof buf, v);
-    return std::string(buf, r.ptr);
+    std::string s;
+    text::appendNumber(s, v);
+    return s;
 }
 
 namespace {
@@ -97,14 +95,10 @@ struct Outputs {
 };
 
 void appendLabels(std::string& out, const std::string& timestamp, const std::vector<uint16_t>& z) {
-    out += timestamp;
-    char buf[8];
-    for (uint16_t k : z) {
-        out.push_back(',');
-        const auto r = std::to_chars(buf, buf + sizeof buf, k);
-        out.append(buf, r.ptr);
-    }
-    out.push_back('\n');
+    text::TableWriter t(out);
+    t.cell(timestamp);
+    for (uint16_t k : z) t.cell(k);
+    t.end();
 }
 
 // topics.csv (the Gibbs sample), topics.maxlikelihood.csv, perplexity.csv
@@ -119,19 +113,12 @@ void finalOutputs(const RunOptions& o, const Corpus& c, const Model& model, Outp
         appendLabels(out.topics, doc.timestamp, z);
         model.observationLabels(d, z);
         appendLabels(out.topics_ml, doc.timestamp, z);
-        out.ppx += doc.timestamp;
-        out.ppx += ',';
-        out.ppx += formatDouble(model.stepPluginPerplexity(model.stepOfObservation(d)));
-        out.ppx += '\n';
+        text::TableWriter(out.ppx).cell(doc.timestamp).cell(model.stepPluginPerplexity(model.stepOfObservation(d))).end();
         if (o.cmd == Command::RefineTxy) {
-            out.position += doc.timestamp;
-            for (const Position& p : doc.positions) {
-                out.position += ',';
-                out.position += std::to_string(p.x);
-                out.position += ',';
-                out.position += std::to_string(p.y);
-            }
-            out.position += '\n';
+            text::TableWriter t(out.position);
+            t.cell(doc.timestamp);
+            for (const Position& p : doc.positions) t.cell(p.x).cell(p.y);
+            t.end();
         }
     }
 }
@@ -186,7 +173,7 @@ Status runOnline(const Corpus& c, const Settings& s, Engine& engine, Outputs& ou
         z.resize(model.observationSize(r.observation));
         model.observationLabels(r.observation, z);
         appendLabels(out.topics_online, doc.timestamp, z);
-        out.ppx_online += doc.timestamp + "," + formatDouble(model.stepPluginPerplexity(r.step)) + "\n";
+        text::TableWriter(out.ppx_online).cell(doc.timestamp).cell(model.stepPluginPerplexity(r.step)).end();
     }
     const double secs = secondsSince(t0);
     logLine(out, std::string("online: ") + std::to_string(c.docs.size()) + " documents, " + formatDouble(s.engine.budget.ms) +
@@ -217,7 +204,7 @@ Status probeOutputs(const RunOptions& o) {
     const Outputs none;
     for (const FileOut& f : outputFiles(o, none, none.log))
         if (f.path != nullptr && !f.path->empty())
-            if (Status st = probeOutputFile(*f.path); !st.ok()) return st;
+            if (Status st = text::probeOutputFile(*f.path); !st.ok()) return st;
     return {};
 }
 
@@ -225,7 +212,7 @@ Status probeOutputs(const RunOptions& o) {
 Status writeOutputs(const RunOptions& o, const Outputs& out, const std::string& model) {
     for (const FileOut& f : outputFiles(o, out, model)) {
         if (f.path == nullptr || f.path->empty()) continue;
-        if (Status st = writeFileAtomic(*f.path, *f.text); !st.ok()) return st;
+        if (Status st = text::writeFileAtomic(*f.path, *f.text); !st.ok()) return st;
     }
     return {};
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "rost/text_io.hpp"
 #include "rost/word_stream.hpp"
 
 namespace rost::tool {
@@ -203,44 +204,31 @@ void Collector::finish(int sweeps) {
 }
 
 std::string Collector::perplexityCsv() const {
-    std::string s = "frame,instantaneous,final,plugin,topics\n";
-    for (const auto& r : rows_) {
-        s += std::to_string(r.frame);
-        s += ',';
-        appendNumber(s, r.instantaneous);
-        s += ',';
-        appendNumber(s, r.final);
-        s += ',';
-        appendNumber(s, r.plugin);
-        s += ',';
-        s += std::to_string(r.topics);
-        s += '\n';
-    }
+    std::string s;
+    text::TableWriter t(s);
+    t.header({"frame", "instantaneous", "final", "plugin", "topics"});
+    for (const auto& r : rows_) t.cell(r.frame).cell(r.instantaneous).cell(r.final).cell(r.plugin).cell(r.topics).end();
     return s;
 }
 
 std::string Collector::surpriseCsv() const {
-    std::string s = "frame,surprise\n";
-    for (const auto& r : rows_) {
-        s += std::to_string(r.frame);
-        s += ',';
-        appendNumber(s, r.surprise);
-        s += '\n';
-    }
+    std::string s;
+    text::TableWriter t(s);
+    t.header({"frame", "surprise"});
+    for (const auto& r : rows_) t.cell(r.frame).cell(r.surprise).end();
     return s;
 }
 
 std::string Collector::cellSurpriseCsv() const {
-    std::string s = "frame";
-    for (int c = 0; c < cells_; ++c) s += ",cell" + std::to_string(c);
-    s += '\n';
+    std::string s;
+    text::TableWriter t(s);
+    t.cell("frame");
+    for (int c = 0; c < cells_; ++c) t.cell("cell" + std::to_string(c));
+    t.end();
     for (const auto& r : rows_) {
-        s += std::to_string(r.frame);
-        for (float v : r.cell_surprise) {
-            s += ',';
-            appendNumber(s, v);
-        }
-        s += '\n';
+        t.cell(r.frame);
+        for (float v : r.cell_surprise) t.cell(v);
+        t.end();
     }
     return s;
 }

@@ -3,7 +3,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -84,26 +83,6 @@ void OutputDir::abandon() noexcept {
     staging_.clear();
     // Directories this run made and left empty (fs::remove keeps one that holds anything).
     for (auto it = created_.rbegin(); it != created_.rend(); ++it) fs::remove(*it, ec);
-}
-
-void appendNumber(std::string& out, double v) {
-    if (std::isnan(v)) {
-        out += "nan";
-        return;
-    }
-    char buf[32];
-    const auto [p, ec] = std::to_chars(buf, buf + sizeof buf, v);
-    out.append(buf, ec == std::errc() ? p : buf);
-}
-
-void appendNumber(std::string& out, float v) {
-    if (std::isnan(v)) {
-        out += "nan";
-        return;
-    }
-    char buf[32];
-    const auto [p, ec] = std::to_chars(buf, buf + sizeof buf, v);
-    out.append(buf, ec == std::errc() ? p : buf);
 }
 
 // ---- topic model -------------------------------------------------------------------

@@ -54,10 +54,6 @@ private:
     bool committed_ = false;
 };
 
-// Number formatting for CSV: shortest round-trip representation; NaN as "nan".
-void appendNumber(std::string& out, double v);
-void appendNumber(std::string& out, float v);
-
 // Per-frame results the tool collects (one row per ingested observation).
 struct FrameRow {
     int64_t frame = 0;          // input frame index (the observation's timestamp)

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "png_file.hpp"
+#include "rost/text_io.hpp"
 
 namespace rost::tool {
 
@@ -223,11 +224,12 @@ double FrameSink::wordsPerFrame() const noexcept {
 }
 
 std::string FrameSink::framesCsv() const {
-    std::string s = "frame,timestamp_us,words,orb,intensity,hue,ingested,kept\n";
+    std::string s;
+    text::TableWriter t(s);
+    t.header({"frame", "timestamp_us", "words", "orb", "intensity", "hue", "ingested", "kept"});
     for (const auto& r : capture_)
-        s += std::to_string(r.frame) + ',' + std::to_string(r.timestamp_us) + ',' + std::to_string(r.words) + ',' +
-             std::to_string(r.orb) + ',' + std::to_string(r.intensity) + ',' + std::to_string(r.hue) + ',' +
-             (r.ingested ? "1" : "0") + ',' + std::to_string(r.kept) + '\n';
+        t.cell(r.frame).cell(r.timestamp_us).cell(r.words).cell(r.orb).cell(r.intensity).cell(r.hue)
+            .cell(r.ingested ? 1 : 0).cell(r.kept).end();
     return s;
 }
 

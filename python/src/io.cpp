@@ -1,0 +1,168 @@
+// rost._rost.text: the core's text I/O layer (rost/text_io.hpp) for rost.io
+// (python/rost/io.py). The reading, the splitting into lines and fields, the
+// numbers and their errors ("PATH:LINE:COL: expected an integer, found 'x'"),
+// the writers and the atomic write are the core's; rost.io keeps the
+// formats' own checks and messages.
+
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "rost/text_io.hpp"
+
+namespace rost::python {
+
+namespace {
+
+// The Python exception a file's failed read or write is: FileNotFoundError
+// when the path (or, writing, its directory) is missing, IsADirectoryError
+// when it is a directory, OSError otherwise; the message is the core's.
+[[noreturn]] void raiseFileError(const std::string& path, const Status& st, bool writing) {
+    PyObject* type = PyExc_OSError;
+    struct stat s {};
+    if (::stat(path.c_str(), &s) == 0) {
+        if (S_ISDIR(s.st_mode)) type = PyExc_IsADirectoryError;
+    } else if (errno == ENOENT) {
+        const std::size_t slash = path.find_last_of('/');
+        const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+        if (!writing || ::stat(dir.c_str(), &s) != 0) type = PyExc_FileNotFoundError;
+    }
+    PyErr_SetString(type, st.message().c_str());
+    throw py::error_already_set();
+}
+
+void checkContent(const Status& st) {
+    if (!st.ok()) throw py::value_error(st.message());
+}
+
+// Lines that are blank (spaces and tabs) or start with '#' are skipped, as
+// rost.io has always read the tool's files.
+constexpr text::LineRules kRules{.skip_empty = true, .blank_is_empty = true, .skip_comments = true};
+
+// A file's text read whole, and a reader of its lines after the ones taken.
+class TextFile {
+public:
+    explicit TextFile(std::string path) : path_(std::move(path)) {
+        if (Status st = text::readFile(path_, content_); !st.ok()) raiseFileError(path_, st, false);
+        lines_ = std::make_unique<text::LineReader>(content_, path_, kRules);
+    }
+
+    // The next line's fields as strings; an empty list at the end.
+    std::vector<std::string> header() {
+        std::vector<std::string> out;
+        text::Line line;
+        if (!lines_->next(line)) return out;
+        text::splitFields(line.text, ",", fields_);
+        for (const text::Field& f : fields_) out.emplace_back(f.text);
+        return out;
+    }
+
+    // The lines left, each a row of integers: (rows as int64 arrays, their line numbers).
+    py::tuple integerRows() {
+        py::list rows, numbers;
+        text::Line line;
+        std::vector<int64_t> values;
+        while (lines_->next(line)) {
+            text::splitFields(line.text, ",", fields_);
+            values.resize(fields_.size());
+            for (std::size_t i = 0; i < fields_.size(); ++i)
+                checkContent(text::integerField(path_, line.number, fields_[i], "an integer", values[i]));
+            py::array_t<int64_t> a(static_cast<py::ssize_t>(values.size()));
+            std::copy(values.begin(), values.end(), a.mutable_data());
+            rows.append(std::move(a));
+            numbers.append(line.number);
+        }
+        return py::make_tuple(rows, numbers);
+    }
+
+    // The lines left, each an integer then numbers: (line numbers, first
+    // column int64, the next width - 1 columns float64 (nan where a row is
+    // short), each row's field count).
+    py::tuple numberRows(std::size_t width) {
+        std::vector<int64_t> numbers, first, counts;
+        std::vector<double> values;
+        const std::size_t rest = width > 0 ? width - 1 : 0;
+        text::Line line;
+        while (lines_->next(line)) {
+            text::splitFields(line.text, ",", fields_);
+            int64_t frame = 0;
+            checkContent(text::integerField(path_, line.number, fields_[0], "an integer", frame));
+            const std::size_t at = values.size();
+            values.resize(at + rest, std::numeric_limits<double>::quiet_NaN());
+            for (std::size_t i = 1; i < fields_.size(); ++i) {
+                double v = 0;
+                checkContent(text::doubleField(path_, line.number, fields_[i], "a number", v));
+                if (i <= rest) values[at + i - 1] = v;
+            }
+            numbers.push_back(line.number);
+            first.push_back(frame);
+            counts.push_back(static_cast<int64_t>(fields_.size()));
+        }
+        const auto rows = static_cast<py::ssize_t>(first.size());
+        py::array_t<double> table({rows, static_cast<py::ssize_t>(rest)});
+        std::copy(values.begin(), values.end(), table.mutable_data());
+        return py::make_tuple(py::array_t<int64_t>(rows, numbers.data()), py::array_t<int64_t>(rows, first.data()),
+                              table, py::array_t<int64_t>(rows, counts.data()));
+    }
+
+private:
+    std::string path_, content_;
+    std::unique_ptr<text::LineReader> lines_;  // over content_
+    std::vector<text::Field> fields_;
+};
+
+void writeText(const std::string& path, const std::string& content) {
+    if (Status st = text::writeFileAtomic(path, content); !st.ok()) raiseFileError(path, st, true);
+}
+
+using Int64s = py::array_t<int64_t, py::array::c_style | py::array::forcecast>;
+
+// "timestamp,v1,v2,...\n" per row, written atomically.
+void writeRows(const std::string& path, const Int64s& timestamps, const std::vector<Int64s>& rows) {
+    if (static_cast<std::size_t>(timestamps.size()) != rows.size())
+        throw py::value_error(std::to_string(timestamps.size()) + " timestamps for " + std::to_string(rows.size()) +
+                              " rows");
+    std::string out;
+    for (std::size_t i = 0; i < rows.size(); ++i)
+        text::appendRow(out, timestamps.at(static_cast<py::ssize_t>(i)),
+                        std::span<const int64_t>(rows[i].data(), static_cast<std::size_t>(rows[i].size())));
+    writeText(path, out);
+}
+
+// A 2-D integer array, a line per row, written atomically.
+void writeMatrix(const std::string& path, const Int64s& m) {
+    if (m.ndim() != 2) throw py::value_error("expected a 2-D array");
+    std::string out;
+    text::TableWriter table(out);
+    const auto r = m.unchecked<2>();
+    for (py::ssize_t i = 0; i < r.shape(0); ++i) {
+        for (py::ssize_t j = 0; j < r.shape(1); ++j) table.cell(r(i, j));
+        table.end();
+    }
+    writeText(path, out);
+}
+
+} // namespace
+
+void bindText(py::module_& m) {
+    py::class_<TextFile>(m, "TextFile",
+                         "A text file read whole; its lines (blank and '#' lines skipped) taken in order. "
+                         "Errors name PATH:LINE:COL.")
+        .def(py::init<std::string>(), py::arg("path"))
+        .def("header", &TextFile::header, "The next line's fields (strings); [] at the end.")
+        .def("integer_rows", &TextFile::integerRows,
+             "The lines left as rows of integers: (list of int64 arrays, list of line numbers).")
+        .def("number_rows", &TextFile::numberRows, py::arg("width"),
+             "The lines left as an integer then numbers: (line numbers, first column int64, "
+             "float64 (rows, width - 1) with nan where a row is short, field counts).");
+    m.def("write_rows", &writeRows, py::arg("path"), py::arg("timestamps"), py::arg("rows"),
+          "Writes 'timestamp,v1,v2,...' lines atomically (a temporary file renamed over PATH).");
+    m.def("write_matrix", &writeMatrix, py::arg("path"), py::arg("matrix"),
+          "Writes a 2-D integer array, a line per row, atomically.");
+}
+
+} // namespace rost::python

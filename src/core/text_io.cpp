@@ -1,0 +1,313 @@
+// The text I/O layer (rost/text_io.hpp): lines, fields, numbers, writers, files.
+
+#include "rost/text_io.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fcntl.h>
+#include <limits>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace rost::text {
+
+// ---- places -------------------------------------------------------------------------
+
+std::string where(std::string_view name, int line, std::size_t column) {
+    std::string s(name);
+    s += ':';
+    s += std::to_string(line);
+    s += ':';
+    s += std::to_string(column);
+    s += ": ";
+    return s;
+}
+
+std::string where(std::string_view name, int line) {
+    std::string s(name);
+    s += ':';
+    s += std::to_string(line);
+    s += ": ";
+    return s;
+}
+
+// ---- lines --------------------------------------------------------------------------
+
+bool LineReader::next(Line& line) noexcept {
+    while (pos_ < text_.size()) {
+        std::size_t end = text_.find('\n', pos_);
+        if (end == std::string_view::npos) end = text_.size();
+        std::string_view s = text_.substr(pos_, end - pos_);
+        pos_ = end + 1;
+        ++number_;
+        if (!s.empty() && s.back() == '\r') s.remove_suffix(1);
+        if (rules_.skip_empty &&
+            (s.empty() || (rules_.blank_is_empty && s.find_first_not_of(" \t") == std::string_view::npos)))
+            continue;
+        if (rules_.skip_comments && !s.empty() && s.front() == '#') continue;
+        line = {s, number_};
+        return true;
+    }
+    return false;
+}
+
+// ---- fields -------------------------------------------------------------------------
+
+void splitFields(std::string_view line, std::string_view separator, std::vector<Field>& out) {
+    out.clear();
+    std::size_t pos = 0;
+    while (true) {
+        std::size_t end = separator.empty() ? std::string_view::npos : line.find(separator, pos);
+        if (end == std::string_view::npos) end = line.size();
+        const std::string_view f = line.substr(pos, end - pos);
+        std::size_t lead = 0;
+        while (lead < f.size() && (f[lead] == ' ' || f[lead] == '\t')) ++lead;
+        std::size_t trail = f.size();
+        while (trail > lead && (f[trail - 1] == ' ' || f[trail - 1] == '\t')) --trail;
+        const bool last = end == line.size();
+        if (!(last && trail == lead && !out.empty())) out.push_back({f.substr(lead, trail - lead), pos + lead + 1, pos + 1});
+        if (last) break;
+        pos = end + separator.size();
+    }
+}
+
+// ---- numbers ------------------------------------------------------------------------
+
+namespace {
+template <typename T>
+NumberError parseWhole(std::string_view text, T& out) noexcept {
+    const char* b = text.data();
+    const char* e = b + text.size();
+    T v{};
+    const auto [ptr, ec] = std::from_chars(b, e, v);
+    if (text.empty() || ec == std::errc::invalid_argument) return NumberError::Syntax;
+    if (ec == std::errc::result_out_of_range) return NumberError::Overflow;
+    if (ptr != e) return NumberError::Syntax;
+    out = v;
+    return NumberError::None;
+}
+
+std::string cutText(std::string_view s, std::size_t cut) { return std::string(s.substr(0, cut)); }
+} // namespace
+
+NumberError toInteger(std::string_view text, int64_t& out) noexcept { return parseWhole(text, out); }
+NumberError toUnsigned(std::string_view text, uint64_t& out) noexcept { return parseWhole(text, out); }
+NumberError toDouble(std::string_view text, double& out) noexcept {
+    const NumberError e = parseWhole(text, out);
+    if (e != NumberError::Overflow) return e;
+    // Beyond double's range or below its smallest normal: strtod's value
+    // (an infinity, a subnormal, zero), as other readers of such text take it.
+    char buf[64];
+    if (text.size() >= sizeof buf) return NumberError::Syntax;
+    std::memcpy(buf, text.data(), text.size());
+    buf[text.size()] = '\0';
+    char* end = nullptr;
+    const double v = std::strtod(buf, &end);
+    if (end != buf + text.size()) return NumberError::Syntax;
+    out = v;
+    return NumberError::None;
+}
+
+Status expected(std::string_view name, int line, const Field& f, std::string_view what, std::size_t cut) {
+    std::string msg = where(name, line, f.column);
+    msg += "expected ";
+    msg += what;
+    msg += ", found '";
+    msg += cutText(f.text, cut);
+    msg += '\'';
+    return Status::error(std::move(msg));
+}
+
+Status integerField(std::string_view name, int line, const Field& f, std::string_view what, int64_t& out) {
+    const NumberError e = toInteger(f.text, out);
+    if (e == NumberError::Syntax) return expected(name, line, f, what);
+    if (e == NumberError::Overflow) {
+        std::string msg = where(name, line, f.column);
+        msg += "number '";
+        msg += f.text;
+        msg += "' out of range";
+        return Status::error(std::move(msg));
+    }
+    return {};
+}
+
+Status integerField(std::string_view name, int line, const Field& f, std::string_view what, std::string_view noun,
+                    int64_t lo, int64_t hi, int64_t& out) {
+    int64_t v = 0;
+    const NumberError e = toInteger(f.text, v);
+    if (e == NumberError::Syntax) return expected(name, line, f, what);
+    if (e == NumberError::Overflow || v < lo || v >= hi) {
+        std::string msg = where(name, line, f.column);
+        msg += noun;
+        msg += ' ';
+        msg += cutText(f.text, 32);
+        msg += " out of range [";
+        msg += std::to_string(lo);
+        msg += ", ";
+        msg += std::to_string(hi);
+        msg += ')';
+        return Status::error(std::move(msg));
+    }
+    out = v;
+    return {};
+}
+
+Status doubleField(std::string_view name, int line, const Field& f, std::string_view what, double& out) {
+    if (toDouble(f.text, out) != NumberError::None) return expected(name, line, f, what);
+    return {};
+}
+
+// ---- writing ------------------------------------------------------------------------
+
+namespace {
+template <typename F>
+void appendFloating(std::string& out, F v) {
+    if (std::isnan(v)) {
+        out += "nan";
+        return;
+    }
+    char buf[32];
+    const auto [p, ec] = std::to_chars(buf, buf + sizeof buf, v);
+    out.append(buf, ec == std::errc() ? p : buf);
+}
+} // namespace
+
+void appendNumber(std::string& out, double v) { appendFloating(out, v); }
+void appendNumber(std::string& out, float v) { appendFloating(out, v); }
+
+TableWriter& TableWriter::header(std::initializer_list<std::string_view> names) {
+    for (std::string_view n : names) cell(n);
+    return end();
+}
+
+TableWriter& TableWriter::cell(double v) {
+    separate();
+    appendNumber(out_, v);
+    return *this;
+}
+
+TableWriter& TableWriter::cell(float v) {
+    separate();
+    appendNumber(out_, v);
+    return *this;
+}
+
+TableWriter& TableWriter::cell(std::string_view v) {
+    separate();
+    out_ += v;
+    return *this;
+}
+
+TableWriter& TableWriter::end() {
+    out_.push_back('\n');
+    open_ = false;
+    return *this;
+}
+
+// ---- files --------------------------------------------------------------------------
+
+Status readFile(const std::string& path, std::string& out) {
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
+    struct stat st {};
+    if (::fstat(::fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {  // fopen opens a directory; reading it fails oddly
+        std::fclose(f);
+        return Status::error(path + ": is a directory, not a file");
+    }
+    out.clear();
+    // Read into place: sized once from the file's length when it has one
+    // (a pipe grows it), not copied through a buffer and a doubling string.
+    std::size_t have = 0;
+    if (std::fseek(f, 0, SEEK_END) == 0) {
+        const long len = std::ftell(f);
+        if (len > 0) out.resize(static_cast<std::size_t>(len) + 1);
+        std::rewind(f);
+    }
+    for (;;) {
+        if (have == out.size()) out.resize(std::max<std::size_t>(out.size() * 2, std::size_t{1} << 16));
+        const std::size_t n = std::fread(out.data() + have, 1, out.size() - have, f);
+        have += n;
+        if (n == 0) break;
+    }
+    out.resize(have);
+    const bool failed = std::ferror(f) != 0;
+    std::fclose(f);
+    if (failed) return Status::error(path + ": read error");
+    return {};
+}
+
+namespace {
+// The temporary file beside `path` that writeFileAtomic renames over it ("DIR/.NAME.tmpXXXXXX", made).
+int makeTemporary(const std::string& path, std::string& dir, std::string& tmp) {
+    const std::size_t slash = path.find_last_of('/');
+    dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+    const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
+    tmp = dir + "/." + base + ".tmpXXXXXX";
+    return ::mkstemp(tmp.data());
+}
+
+// Writes all of `content` to `fd`; false (errno set) on failure.
+bool writeAll(int fd, std::string_view content) {
+    const char* p = content.data();
+    std::size_t left = content.size();
+    while (left > 0) {
+        const ssize_t n = ::write(fd, p, left);
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            return false;
+        }
+        p += n;
+        left -= static_cast<std::size_t>(n);
+    }
+    return true;
+}
+} // namespace
+
+Status probeOutputFile(const std::string& path) {
+    if (path.empty()) return Status::error("an output path is empty");
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+        return Status::error(path + ": is a directory, not a file that can be written");
+    std::string dir, tmp;
+    const int fd = makeTemporary(path, dir, tmp);
+    if (fd < 0) return Status::error(path + ": cannot write in " + dir + ": " + std::strerror(errno));
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    return {};
+}
+
+Status writeFileAtomic(const std::string& path, std::string_view content) {
+    std::string dir, tmp;
+    const int fd = makeTemporary(path, dir, tmp);
+    if (fd < 0) return Status::error(path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
+    if (!writeAll(fd, content)) {
+        const std::string why = std::strerror(errno);
+        ::close(fd);
+        ::unlink(tmp.c_str());
+        return Status::error(path + ": write failed: " + why);
+    }
+    ::fchmod(fd, 0644);
+    if (::fsync(fd) != 0 || ::close(fd) != 0) {
+        const std::string why = std::strerror(errno);
+        ::unlink(tmp.c_str());
+        return Status::error(path + ": flush failed: " + why);
+    }
+    if (::rename(tmp.c_str(), path.c_str()) != 0) {
+        const std::string why = std::strerror(errno);
+        ::unlink(tmp.c_str());
+        return Status::error(path + ": rename failed: " + why);
+    }
+    // Make the rename itself durable.
+    const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
+    if (dfd >= 0) {
+        ::fsync(dfd);
+        ::close(dfd);
+    }
+    return {};
+}
+
+} // namespace rost::text

@@ -1,0 +1,276 @@
+// The text I/O layer (rost/text_io.hpp): lines, fields, numbers and their
+// errors, the writers read back, and the file functions.
+
+#include <gtest/gtest.h>
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <csignal>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "rost/text_io.hpp"
+
+namespace fs = std::filesystem;
+namespace text = rost::text;
+
+namespace {
+
+// Every line the reader gives: "NUMBER:TEXT".
+std::vector<std::string> lines(std::string_view s, text::LineRules rules = {}) {
+    text::LineReader r(s, "t", rules);
+    std::vector<std::string> out;
+    for (text::Line l; r.next(l);) out.push_back(std::to_string(l.number) + ":" + std::string(l.text));
+    return out;
+}
+
+using Strings = std::vector<std::string>;
+
+// Each field as "COLUMN:TEXT".
+Strings fields(std::string_view line, std::string_view sep = ",") {
+    std::vector<text::Field> f;
+    text::splitFields(line, sep, f);
+    Strings out;
+    for (const auto& x : f) out.push_back(std::to_string(x.column) + ":" + std::string(x.text));
+    return out;
+}
+
+std::string slurp(const fs::path& p) {
+    std::ifstream f(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+// A fresh directory under the temporary one, removed at the end.
+struct TempDir {
+    fs::path path = fs::temp_directory_path() / ("rost-text-io-" + std::to_string(::getpid()));
+    TempDir() {
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~TempDir() { fs::remove_all(path); }
+    // The files in it, temporary ones included.
+    Strings names() const {
+        Strings out;
+        for (const auto& e : fs::directory_iterator(path)) out.push_back(e.path().filename().string());
+        std::sort(out.begin(), out.end());
+        return out;
+    }
+};
+
+} // namespace
+
+TEST(TextLines, NumbersCountSkippedLinesAndStripCarriageReturns) {
+    EXPECT_EQ(lines("a\n\n# c\nb\r\n\r\nc"), (Strings{"1:a", "4:b", "6:c"}));
+    // The empty piece after a final newline is no line; a last line without one is.
+    EXPECT_EQ(lines("a\n"), (Strings{"1:a"}));
+    EXPECT_EQ(lines(""), Strings{});
+    // Blanks are a line unless the rules say otherwise.
+    EXPECT_EQ(lines(" \t\nx"), (Strings{"1: \t", "2:x"}));
+    EXPECT_EQ(lines(" \t\nx", {.skip_empty = true, .blank_is_empty = true}), (Strings{"2:x"}));
+    // A comment is a '#' first; with comments kept it is a line.
+    EXPECT_EQ(lines(" #x\n#y"), (Strings{"1: #x"}));
+    EXPECT_EQ(lines("#y\n", {.skip_comments = false}), (Strings{"1:#y"}));
+    // Nothing skipped: every line, empty ones too.
+    EXPECT_EQ(lines("a\n\n#b\r\n", {.skip_empty = false, .blank_is_empty = false, .skip_comments = false}),
+              (Strings{"1:a", "2:", "3:#b"}));
+}
+
+TEST(TextLines, CountsEveryLineReadForTheLineAfterTheLast) {
+    text::LineReader r("a\n\nb\n\n\n", "f.csv");
+    text::Line l;
+    while (r.next(l)) {
+    }
+    EXPECT_EQ(l.number, 3);
+    EXPECT_EQ(r.lines(), 5);
+    EXPECT_EQ(r.at(r.lines() + 1, 1), "f.csv:6:1: ");
+    EXPECT_EQ(r.at(2), "f.csv:2: ");
+}
+
+TEST(TextFields, ColumnsAreOneBasedAndBlanksAreTrimmed) {
+    EXPECT_EQ(fields("10,1,22"), (Strings{"1:10", "4:1", "6:22"}));
+    EXPECT_EQ(fields(" 7 ,\t8"), (Strings{"2:7", "6:8"}));
+    // One trailing separator is tolerated; an empty field elsewhere is kept.
+    EXPECT_EQ(fields("1,2,"), (Strings{"1:1", "3:2"}));
+    EXPECT_EQ(fields("1,,2"), (Strings{"1:1", "3:", "4:2"}));
+    EXPECT_EQ(fields(","), (Strings{"1:"}));
+    EXPECT_EQ(fields(""), (Strings{"1:"}));
+    // A separator of several characters, and none: the line is one field.
+    EXPECT_EQ(fields("a::b", "::"), (Strings{"1:a", "4:b"}));
+    EXPECT_EQ(fields("a b", ""), (Strings{"1:a b"}));
+    // The start of a blank field is where it begins, its column after the blanks.
+    std::vector<text::Field> f;
+    text::splitFields("1,  ,2", ",", f);
+    ASSERT_EQ(f.size(), 3u);
+    EXPECT_EQ(f[1].start, 3u);
+    EXPECT_EQ(f[1].column, 5u);
+}
+
+TEST(TextNumbers, ErrorsNameFileLineAndColumn) {
+    std::vector<text::Field> f;
+    text::splitFields("1, x3,99999999999999999999", ",", f);
+    int64_t v = 0;
+    EXPECT_TRUE(text::integerField("w.csv", 7, f[0], "an integer", v).ok());
+    EXPECT_EQ(v, 1);
+    EXPECT_EQ(text::integerField("w.csv", 7, f[1], "an integer", v).message(),
+              "w.csv:7:4: expected an integer, found 'x3'");
+    EXPECT_EQ(text::integerField("w.csv", 7, f[2], "an integer", v).message(),
+              "w.csv:7:7: number '99999999999999999999' out of range");
+    // The text found is cut after 32 characters (or as asked).
+    const std::string longText(40, 'z');
+    const text::Field lf{longText, 3, 3};
+    EXPECT_EQ(text::expected("n", 1, lf, "a count").message(), "n:1:3: expected a count, found '" + std::string(32, 'z') + "'");
+    EXPECT_EQ(text::expected("n", 1, lf, "a count", 5).message(), "n:1:3: expected a count, found 'zzzzz'");
+}
+
+TEST(TextNumbers, RangesAreHalfOpenAndNamed) {
+    const auto at = [](std::string_view s) { return text::Field{s, 2, 2}; };
+    int64_t v = -1;
+    EXPECT_TRUE(text::integerField("f", 1, at("39"), "word id", "word id", 0, 40, v).ok());
+    EXPECT_EQ(v, 39);
+    EXPECT_EQ(text::integerField("f", 1, at("40"), "word id", "word id", 0, 40, v).message(),
+              "f:1:2: word id 40 out of range [0, 40)");
+    EXPECT_EQ(text::integerField("f", 1, at("-1"), "word id", "word id", 0, 40, v).message(),
+              "f:1:2: word id -1 out of range [0, 40)");
+    EXPECT_EQ(v, 39);  // untouched by a failure
+    EXPECT_EQ(text::integerField("f", 1, at("99999999999999999999"), "x", "x", 0, 40, v).message(),
+              "f:1:2: x 99999999999999999999 out of range [0, 40)");
+    EXPECT_EQ(text::integerField("f", 1, at(""), "an x", "x", 0, 40, v).message(), "f:1:2: expected an x, found ''");
+    EXPECT_EQ(text::integerField("f", 1, at("+3"), "an x", "x", 0, 40, v).message(), "f:1:2: expected an x, found '+3'");
+}
+
+TEST(TextNumbers, WholeFieldsOnlyAndTheKindsOfFailure) {
+    int64_t i = 0;
+    uint64_t u = 0;
+    double d = 0;
+    EXPECT_EQ(text::toInteger("-9223372036854775808", i), text::NumberError::None);
+    EXPECT_EQ(i, std::numeric_limits<int64_t>::min());
+    EXPECT_EQ(text::toInteger("9223372036854775808", i), text::NumberError::Overflow);
+    EXPECT_EQ(text::toInteger("12x", i), text::NumberError::Syntax);
+    EXPECT_EQ(text::toInteger("1.0", i), text::NumberError::Syntax);
+    EXPECT_EQ(text::toInteger(" 1", i), text::NumberError::Syntax);
+    EXPECT_EQ(text::toUnsigned("18446744073709551615", u), text::NumberError::None);
+    EXPECT_EQ(u, std::numeric_limits<uint64_t>::max());
+    EXPECT_EQ(text::toUnsigned("-1", u), text::NumberError::Syntax);
+    EXPECT_EQ(text::toDouble("2.5e-3", d), text::NumberError::None);
+    EXPECT_EQ(d, 2.5e-3);
+    EXPECT_EQ(text::toDouble("nan", d), text::NumberError::None);
+    EXPECT_TRUE(std::isnan(d));
+    EXPECT_EQ(text::toDouble("1e999", d), text::NumberError::None);
+    EXPECT_EQ(d, std::numeric_limits<double>::infinity());
+    EXPECT_EQ(text::toDouble("1e-400", d), text::NumberError::None);
+    EXPECT_EQ(d, 0.0);
+    EXPECT_EQ(text::toDouble("1.5.2", d), text::NumberError::Syntax);
+    const text::Field f{"1,5", 4, 4};
+    EXPECT_EQ(text::doubleField("p.csv", 3, f, "a number", d).message(), "p.csv:3:4: expected a number, found '1,5'");
+}
+
+TEST(TextWriters, RowsAndTablesAsTheToolWritesThem) {
+    std::string s;
+    const uint16_t labels[] = {3, 0, 65535};
+    text::appendRow(s, -4, std::span<const uint16_t>(labels));
+    text::appendRow(s, 5, std::span<const uint16_t>());
+    EXPECT_EQ(s, "-4,3,0,65535\n5\n");
+    s.clear();
+    text::TableWriter t(s);
+    t.header({"frame", "surprise", "cell"});
+    t.cell(int64_t{7}).cell(0.1).cell(1.5f).end();
+    t.cell(uint32_t{8}).cell(std::nan("")).cell(-std::numeric_limits<float>::infinity()).end();
+    t.cell("a").cell(1e300).cell(2).end();
+    EXPECT_EQ(s, "frame,surprise,cell\n7,0.1,1.5\n8,nan,-inf\na,1e+300,2\n");
+}
+
+TEST(TextWriters, WhatIsWrittenReadsBackExactly) {
+    // Doubles written shortest read back to the same bits; integers at their limits too.
+    const double values[] = {0.1, 1.0 / 3.0, -2.5e-310, 6.02214076e23, std::numeric_limits<double>::max(),
+                             std::numeric_limits<double>::denorm_min(), -0.0};
+    const int64_t ints[] = {std::numeric_limits<int64_t>::min(), -1, 0, std::numeric_limits<int64_t>::max()};
+    std::string s;
+    text::TableWriter t(s);
+    for (double v : values) t.cell(v);
+    t.end();
+    text::appendRow(s, 42, std::span<const int64_t>(ints));
+    text::LineReader r(s, "rt");
+    std::vector<text::Field> f;
+    text::Line line;
+    ASSERT_TRUE(r.next(line));
+    text::splitFields(line.text, ",", f);
+    ASSERT_EQ(f.size(), std::size(values));
+    for (std::size_t i = 0; i < f.size(); ++i) {
+        double d = 1;
+        ASSERT_TRUE(text::doubleField(r.name(), line.number, f[i], "a number", d).ok()) << f[i].text;
+        EXPECT_EQ(std::signbit(d), std::signbit(values[i]));
+        EXPECT_EQ(d, values[i]) << f[i].text;
+    }
+    ASSERT_TRUE(r.next(line));
+    EXPECT_EQ(line.number, 2);
+    text::splitFields(line.text, ",", f);
+    ASSERT_EQ(f.size(), 5u);
+    for (std::size_t i = 0; i < 5; ++i) {
+        int64_t v = 0;
+        ASSERT_TRUE(text::integerField(r.name(), line.number, f[i], "an integer", v).ok());
+        EXPECT_EQ(v, i == 0 ? 42 : ints[i - 1]);
+    }
+    EXPECT_FALSE(r.next(line));
+}
+
+TEST(TextFiles, ReadWriteAndADirectoryRefusedByName) {
+    TempDir d;
+    const std::string path = (d.path / "a.csv").string();
+    ASSERT_TRUE(text::writeFileAtomic(path, "1,2\n").ok());
+    std::string got;
+    ASSERT_TRUE(text::readFile(path, got).ok());
+    EXPECT_EQ(got, "1,2\n");
+    EXPECT_EQ(d.names(), Strings{"a.csv"});  // no temporary file left
+    EXPECT_EQ(text::readFile(d.path.string(), got).message(), d.path.string() + ": is a directory, not a file");
+    EXPECT_EQ(text::probeOutputFile(d.path.string()).message(),
+              d.path.string() + ": is a directory, not a file that can be written");
+    EXPECT_TRUE(text::probeOutputFile(path).ok());
+    const std::string missing = (d.path / "no" / "b.csv").string();
+    EXPECT_EQ(text::readFile(missing, got).message(), missing + ": cannot open: No such file or directory");
+    EXPECT_NE(text::probeOutputFile(missing).message().find(missing + ": cannot write in "), std::string::npos);
+    EXPECT_EQ(d.names(), Strings{"a.csv"});
+}
+
+TEST(TextFiles, AFailedRenameLeavesTheOldContentAndNoTemporary) {
+    TempDir d;
+    // The target is a directory holding a file: the rename over it fails.
+    fs::create_directories(d.path / "out.csv");
+    std::ofstream(d.path / "out.csv" / "old") << "old";
+    const rost::Status st = text::writeFileAtomic((d.path / "out.csv").string(), "new\n");
+    ASSERT_FALSE(st.ok());
+    EXPECT_NE(st.message().find("out.csv: rename failed: "), std::string::npos) << st.message();
+    EXPECT_EQ(slurp(d.path / "out.csv" / "old"), "old");
+    EXPECT_EQ(d.names(), Strings{"out.csv"});
+}
+
+TEST(TextFiles, AFailedWriteLeavesTheOldFile) {
+    TempDir d;
+    const fs::path path = d.path / "words.csv";
+    ASSERT_TRUE(text::writeFileAtomic(path.string(), "old\n").ok());
+    // In a child limited to 1 KiB files, a 64 KiB write fails part-way.
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        std::signal(SIGXFSZ, SIG_IGN);
+        const rlimit lim{1024, 1024};
+        ::setrlimit(RLIMIT_FSIZE, &lim);
+        const rost::Status st = text::writeFileAtomic(path.string(), std::string(1 << 16, 'x'));
+        ::_exit(!st.ok() && st.message().find("words.csv: write failed: ") != std::string::npos ? 0 : 1);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    EXPECT_EQ(slurp(path), "old\n");
+    EXPECT_EQ(d.names(), Strings{"words.csv"});
+}
