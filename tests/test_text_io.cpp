@@ -3,7 +3,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -251,6 +253,28 @@ TEST(TextFiles, AFailedRenameLeavesTheOldContentAndNoTemporary) {
     EXPECT_NE(st.message().find("out.csv: rename failed: "), std::string::npos) << st.message();
     EXPECT_EQ(slurp(d.path / "out.csv" / "old"), "old");
     EXPECT_EQ(d.names(), Strings{"out.csv"});
+}
+
+// An output that is a device or a FIFO (`--logfile /dev/null`) is written
+// in place: renaming a temporary file over it would replace the node with a
+// regular file (as root, /dev/null itself). A FIFO stands in for the device.
+TEST(TextFiles, ADeviceOrFifoIsWrittenInPlaceNotReplaced) {
+    TempDir d;
+    const std::string fifo = (d.path / "pipe").string();
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    // A reader first (non-blocking), so the writer's open does not wait.
+    const int rd = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+    ASSERT_GE(rd, 0);
+    EXPECT_TRUE(text::probeOutputFile(fifo).ok());
+    ASSERT_TRUE(text::writeFileAtomic(fifo, "1,2\n").ok());
+    char buf[16] = {};
+    const ssize_t n = ::read(rd, buf, sizeof buf);
+    ::close(rd);
+    EXPECT_EQ(std::string(buf, n > 0 ? static_cast<std::size_t>(n) : 0), "1,2\n");
+    struct stat st {};
+    ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
+    EXPECT_TRUE(S_ISFIFO(st.st_mode)) << "the FIFO was replaced by a file";
+    EXPECT_EQ(d.names(), Strings{"pipe"});  // no temporary file left
 }
 
 TEST(TextFiles, AFailedWriteLeavesTheOldFile) {

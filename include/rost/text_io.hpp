@@ -213,12 +213,15 @@ Status readFile(const std::string& path, std::string& out);
 // path is not a directory, and its directory exists and takes a new file
 // (one is created there and removed). The error names the path and why, so
 // a command refuses an unwritable output at once instead of after its work.
+// A device or a FIFO (/dev/null, /dev/stdout) is probed for write permission.
 Status probeOutputFile(const std::string& path);
 
 // Writes `content` to `path` atomically: a temporary file in the same
 // directory ("DIR/.NAME.tmpXXXXXX"), flushed and fsync'ed, then renamed over
 // `path`. A crash or a failure leaves either the old file or the new one,
-// never a torn one, and no temporary file behind.
+// never a torn one, and no temporary file behind. A path that is a device
+// or a FIFO (`--logfile /dev/null`) is written in place: a rename would
+// replace the device node with a regular file.
 Status writeFileAtomic(const std::string& path, std::string_view content);
 
 } // namespace rost::text

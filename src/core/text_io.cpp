@@ -267,11 +267,38 @@ bool writeAll(int fd, std::string_view content) {
 }
 } // namespace
 
+namespace {
+
+// An existing path that is neither a regular file nor a directory: a device
+// (/dev/null, /dev/stdout) or a FIFO. Such an output is written in place: a
+// temporary file renamed over it would replace the device node itself (as
+// root, `--logfile /dev/null` would leave a regular file at /dev/null).
+bool isDeviceOrFifo(const std::string& path) {
+    struct stat st {};
+    return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+}
+
+Status writeInPlace(const std::string& path, std::string_view content) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd < 0) return Status::error(path + ": cannot open for writing: " + std::strerror(errno));
+    const bool ok = writeAll(fd, content);
+    const std::string why = std::strerror(errno);
+    ::close(fd);
+    if (!ok) return Status::error(path + ": write failed: " + why);
+    return {};
+}
+
+} // namespace
+
 Status probeOutputFile(const std::string& path) {
     if (path.empty()) return Status::error("an output path is empty");
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
         return Status::error(path + ": is a directory, not a file that can be written");
+    if (isDeviceOrFifo(path)) {
+        if (::access(path.c_str(), W_OK) != 0) return Status::error(path + ": cannot write: " + std::strerror(errno));
+        return {};
+    }
     std::string dir, tmp;
     const int fd = makeTemporary(path, dir, tmp);
     if (fd < 0) return Status::error(path + ": cannot write in " + dir + ": " + std::strerror(errno));
@@ -281,6 +308,7 @@ Status probeOutputFile(const std::string& path) {
 }
 
 Status writeFileAtomic(const std::string& path, std::string_view content) {
+    if (isDeviceOrFifo(path)) return writeInPlace(path, content);
     std::string dir, tmp;
     const int fd = makeTemporary(path, dir, tmp);
     if (fd < 0) return Status::error(path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
