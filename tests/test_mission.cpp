@@ -107,6 +107,41 @@ TEST(Mission, ANewMissionTakesFromItsInputWhatTheUserDidNotSet) {
     EXPECT_EQ(plan.config.model.ring_steps, 2048);
 }
 
+// A batch over the whole input (rost-cli's commands): every observation
+// stays refinable, with no 2048-step window, and cell.capacity comes from the
+// busiest cell under the planned geometry, unless the user set them; past
+// the schema's range the input is refused, naming the setting.
+TEST(Mission, ABatchOverTheWholeInputKeepsEveryObservationAndEveryWord) {
+    MissionOptions m;
+    MissionInput in;
+    in.width = 64;
+    in.height = 48;
+    in.V = 100;
+    in.length = 100000;
+    in.max_words = 9000;
+    in.keep_all = true;
+    Config seen;
+    in.busiest_cell = [&](const Config& c) -> uint64_t {
+        seen = c;
+        return 777;
+    };
+    MissionPlan plan;
+    ASSERT_TRUE(planMission(m, in, plan).ok());
+    EXPECT_EQ(plan.config.model.ring_steps, 100000) << "exactly the input's time steps, no cap at 2048";
+    EXPECT_EQ(plan.config.model.max_words_per_frame, 9000);
+    EXPECT_EQ(plan.config.model.cell_capacity, 777);
+    EXPECT_EQ(seen.frame_width, 64) << "the busiest cell is counted under the planned geometry";
+    EXPECT_EQ(seen.cell_space, plan.config.model.cell_space);
+
+    give(m, "cell.capacity", "50");
+    ASSERT_TRUE(planMission(m, in, plan).ok());
+    EXPECT_EQ(plan.config.model.cell_capacity, 50) << "what the user set wins";
+
+    in.length = 2200001;
+    m.names.problem = [](const SettingProblem& p) { return "needs: " + p.describe(p.spec->key); };
+    EXPECT_EQ(planMission(m, in, plan).message(), "needs: ring.steps = 2200001, allowed [1, 1048576]");
+}
+
 TEST(Mission, WhatTheInputDecidesIsCheckedAndNamedInTheFacesSpelling) {
     MissionOptions m = nodeLike();
     give(m, "cell.space", "1");

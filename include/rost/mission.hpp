@@ -69,6 +69,16 @@ struct MissionInput {
     bool vocabulary = false;
     std::string words_detail;  // what makes the words, for messages: "ORB 5000 + intensity 256 + hue 180"
     int64_t length = -1;        // observations it holds, when known: ring.steps keeps them all (up to 2048)
+    // A batch over the whole input (rost-cli's commands): every observation
+    // stays refinable to the end, so ring.steps is exactly the input's time
+    // steps, without the 2048 cap (the schema's range is the limit, and a
+    // longer input is refused naming it), and max.words is the longest
+    // observation, uncapped too (no word is subsampled away).
+    bool keep_all = false;
+    // The most words one cell receives under the planned geometry (frame
+    // size, cell.space, cell.time): cell.capacity unless given, so no word
+    // is subsampled away. Unset: the setting's cell.capacity.
+    std::function<uint64_t(const Config&)> busiest_cell;
     uint64_t max_words = 0;     // the most words an observation can hold: max.words (0: the setting's)
     int threads = 1;            // refinement threads unless `threads` is given
     EngineFlags flags;          // what the face asks the engine to compute

@@ -1,6 +1,7 @@
 #include "rost/mission.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <filesystem>
 
 #include "rost/config_file.hpp"
@@ -57,14 +58,17 @@ Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& pla
     if (in.height > 0) c.frame_height = in.height;
     if (!m.isGiven("ring.steps") && in.length > 0 && c.cell_time > 0) {
         // Keep a short input whole, so every observation stays refinable to the end.
-        const int64_t steps = (in.length + c.cell_time - 1) / c.cell_time + 1;
-        c.ring_steps = static_cast<int>(std::clamp<int64_t>(steps, 2, 2048));
+        const int64_t steps = (in.length + c.cell_time - 1) / c.cell_time;
+        c.ring_steps = in.keep_all ? static_cast<int>(std::min<int64_t>(steps, INT32_MAX))
+                                   : static_cast<int>(std::clamp<int64_t>(steps + 1, 2, 2048));
     }
     if (!m.isGiven("max.words") && in.max_words > 0) {
         // Room for every word the input can give an observation (no silent subsampling).
-        const auto hi = static_cast<uint64_t>(settingSpec("max.words").hi);
+        const auto hi = in.keep_all ? uint64_t{INT32_MAX} : static_cast<uint64_t>(settingSpec("max.words").hi);
         c.max_words_per_frame = static_cast<int>(std::min(in.max_words, hi));
     }
+    if (!m.isGiven("cell.capacity") && in.busiest_cell)
+        c.cell_capacity = static_cast<int>(std::clamp<uint64_t>(in.busiest_cell(c), 1, INT32_MAX));
     if (in.vocabulary && in.V > c.V)
         return Status::error(m.names.given(settingSpec("V"), std::to_string(c.V)) + " is smaller than the " +
                              std::to_string(in.V) + " words the extractors produce" +

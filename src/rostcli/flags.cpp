@@ -164,6 +164,8 @@ std::string flagName(std::size_t row) {
     return names;
 }
 
+} // namespace
+
 // A setting's problem, each setting named by the flag that sets it (its key when no flag does).
 std::string problemText(const SettingProblem& problem) {
     return problem.describe([](const SettingSpec& spec) {
@@ -172,6 +174,8 @@ std::string problemText(const SettingProblem& problem) {
         return std::string(spec.key);
     });
 }
+
+namespace {
 
 // The setting flags through the schema (rost-cli's defaults where they
 // differ), then the limited flags checked.
@@ -239,7 +243,8 @@ int topicsRefineMain(Command cmd, int argc, char** argv) {
     Settings s;
     Status st = applyFlags(p, cmd, s);
     for (std::size_t i = 0; i < settingFlags().size(); ++i)
-        if (settingFlags()[i].key == "V") p.run.v_given = p.setting_opts[i]->count() > 0;
+        if (p.setting_opts[i]->count() > 0) p.run.given.emplace_back(settingFlags()[i].key);
+    p.run.v_given = std::find(p.run.given.begin(), p.run.given.end(), "V") != p.run.given.end();
     for (int i = 0; i < argc; ++i) {
         if (i) p.run.command_line += ' ';
         p.run.command_line += argv[i];

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "rost/engine.hpp"
+#include "rost/mission.hpp"
 #include "rost/model.hpp"
 #include "rost/topic_model_csv.hpp"
 #include "rost/text_io.hpp"
@@ -53,39 +54,49 @@ uint32_t busiestCell(const Corpus& c, const Config& m) {
     return most;
 }
 
-// The model's geometry and capacities from the input: every document stays
-// refinable (ring.steps: all of its time steps) and no word is subsampled
-// away (max.words: the longest document; cell.capacity: the busiest cell).
-// All through the schema, so a value out of range is the schema's error.
+// The words a refine.t time step holds (all its documents: one cell per step).
+uint32_t busiestStep(const Corpus& c, const Config& m) {
+    uint32_t most = 0;
+    const std::size_t ct = static_cast<std::size_t>(m.cell_time);
+    for (std::size_t first = 0; first < c.docs.size(); first += ct) {
+        uint32_t n = 0;
+        for (std::size_t d = first; d < std::min(first + ct, c.docs.size()); ++d)
+            n += static_cast<uint32_t>(c.docs[d].words.size());
+        most = std::max(most, n);
+    }
+    return most;
+}
+
+// The model for the input, by the library's mission session (rost/mission.hpp),
+// as a batch over the whole input: every document stays refinable
+// (ring.steps: all of its time steps) and no word is subsampled away
+// (max.words: the longest document; cell.capacity: the busiest cell). A
+// value out of range is the schema's error, named by rost-cli's flag.
 Status fitModel(const RunOptions& o, const Corpus& c, Settings& s) {
-    if (!o.v_given)
-        if (Status st = set(s, "V", std::to_string(c.any_word ? c.max_word + 1 : 1)); !st.ok()) return st;
     if (o.cmd == Command::RefineT) {
         // One cell per time step: a 1x1 frame, no spatial neighbours.
-        for (const char* key : {"frame.width", "frame.height", "cell.space"})
-            if (Status st = set(s, key, "1"); !st.ok()) return st;
-        if (Status st = set(s, "g.space", "0"); !st.ok()) return st;
-    } else {
-        if (Status st = set(s, "frame.width", std::to_string(int64_t{c.max_x} + 1)); !st.ok()) return st;
-        if (Status st = set(s, "frame.height", std::to_string(int64_t{c.max_y} + 1)); !st.ok()) return st;
+        for (const char* key : {"cell.space", "g.space"})
+            if (Status st = set(s, key, key == std::string("g.space") ? "0" : "1"); !st.ok()) return st;
     }
-    const Config& m = s.engine.model;
-    const std::size_t steps = (c.docs.size() + static_cast<std::size_t>(m.cell_time) - 1) / static_cast<std::size_t>(m.cell_time);
-    if (Status st = set(s, "ring.steps", std::to_string(std::max<std::size_t>(steps, 1))); !st.ok()) return st;
-    if (Status st = set(s, "max.words", std::to_string(std::max<std::size_t>(c.longest, 1))); !st.ok()) return st;
-    uint32_t cap = 0;
-    if (o.cmd == Command::RefineT) {
-        for (std::size_t first = 0; first < c.docs.size(); first += static_cast<std::size_t>(m.cell_time)) {
-            uint32_t n = 0;
-            for (std::size_t d = first; d < std::min(first + static_cast<std::size_t>(m.cell_time), c.docs.size()); ++d)
-                n += static_cast<uint32_t>(c.docs[d].words.size());
-            cap = std::max(cap, n);
-        }
-    } else {
-        cap = busiestCell(c, m);
-    }
-    if (Status st = set(s, "cell.capacity", std::to_string(std::max<uint32_t>(cap, 1))); !st.ok()) return st;
-    if (auto p = checkSettings(s)) return Status::error("the model this input needs: " + p->describe(p->spec->key));
+    MissionOptions mission;
+    mission.settings = s;
+    mission.given = o.given;
+    mission.names.problem = [](const SettingProblem& p) { return "the model this input needs: " + problemText(p); };
+    MissionInput in;
+    in.V = c.any_word ? static_cast<int>(c.max_word) + 1 : 1;
+    in.width = o.cmd == Command::RefineT ? 1 : c.max_x + 1;
+    in.height = o.cmd == Command::RefineT ? 1 : c.max_y + 1;
+    in.length = static_cast<int64_t>(c.docs.size());
+    in.max_words = std::max<std::size_t>(c.longest, 1);
+    in.keep_all = true;
+    in.busiest_cell = [&](const Config& m) -> uint64_t {
+        return o.cmd == Command::RefineT ? busiestStep(c, m) : busiestCell(c, m);
+    };
+    in.threads = s.engine.model.threads;  // rost-cli's: every usable core unless --threads
+    in.flags = s.engine.flags;
+    MissionPlan plan;
+    if (Status st = planMission(mission, in, plan); !st.ok()) return st;
+    s.engine = plan.config;
     return {};
 }
 

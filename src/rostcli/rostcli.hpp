@@ -67,9 +67,14 @@ struct RunOptions {
     std::string out_topics_online, out_ppx_online;
     bool online = false;
     bool v_given = false;  // -V on the command line (else: the largest word id + 1)
+    std::vector<std::string> given;  // the settings' keys whose flags are on the command line
     int ppx_rate = 10;
     std::string command_line;  // for the log file
 };
+
+// A setting's problem, each setting named by rost-cli's flag that sets it
+// ("-K/--ntopics"; its key when no flag does).
+std::string problemText(const SettingProblem& problem);
 
 // Everything after the flags are parsed and the settings set: reads the
 // input, refines, writes the outputs (temporary file, then rename).
