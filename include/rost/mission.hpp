@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -28,6 +29,7 @@
 #include "rost/engine.hpp"
 #include "rost/settings.hpp"
 #include "rost/status.hpp"
+#include "rost/word_stream.hpp"
 
 namespace rost {
 
@@ -47,6 +49,7 @@ struct MissionNames {
     std::function<std::string(const SettingProblem&)> problem;
     std::string resume = "--resume";              // the option that names the checkpoint
     std::string topicmodel = "--in.topicmodel";   // the option that names a starting topic model
+    std::string positions = "--positions";        // the option that names a word stream's positions
 };
 
 struct MissionOptions {
@@ -104,5 +107,37 @@ Status planMission(const MissionOptions& m, const MissionInput& input, MissionPl
 // The engine of a plan: made, the checkpoint's state loaded, the starting
 // topic model added. nullptr and `status` on failure, naming the option.
 std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& plan, Status& status);
+
+// ---- a word stream's mission (`rost refine`, Python's rost.Mission) ----------------
+
+// A word stream read whole from files (rost/word_stream.hpp formats).
+struct StreamMissionInput {
+    std::string words;      // words.csv
+    std::string positions;  // positions.csv; "": every word at (0, 0), one cell per time step
+    int width = 0, height = 0;  // the frame (0: from the largest position)
+    int read_threads = 1;       // 2: the positions parsed beside the words (same result)
+    MissionInput base;          // what the face decides: refinement threads, engine flags
+};
+
+// The stream, the plan and the engine made for it (or resumed), and the
+// observations still to play: a checkpoint's own are skipped.
+struct StreamMission {
+    WordStream stream;
+    MissionPlan plan;
+    std::size_t skipped = 0;
+    std::unique_ptr<Engine> engine;
+    std::span<const StreamObservation> todo() const {
+        return {stream.observations.data() + skipped, stream.observations.size() - skipped};
+    }
+};
+
+// Reads the stream and opens its mission by the one policy: resuming, the
+// checkpoint fixes V and the frame size before the words are read (a word or
+// position outside them is an error naming file:line:col), and the stream is
+// either the one the checkpoint was made from (its observations skipped) or
+// what came after it; a new mission takes V, the frame, ring.steps and
+// max.words from the data unless given. An empty stream, one without words,
+// and a resume with nothing left are refused, naming the file.
+Status openStreamMission(const MissionOptions& m, const StreamMissionInput& in, StreamMission& out);
 
 } // namespace rost

@@ -123,12 +123,6 @@ struct StreamStage {
     std::span<const StreamObservation> todo() const {
         return {ws.observations.data() + skipped, ws.observations.size() - skipped};
     }
-
-private:
-    Status read(const RefineOptions& o);
-    Status resumeSkip(const RefineOptions& o);
-    Status configFromData(const RefineOptions& o);
-    Status makeEngine(const RefineOptions& o);
 };
 
 } // namespace rost::tool
