@@ -7,14 +7,15 @@
     model.topics(0), model.perplexity(0), model.surprise(0)
 
 rost.Engine is the realtime engine (a refiner thread, push() that never blocks,
-snapshot()); rost.vision turns cv2 frames into words; rost.io reads and writes the
-rost tool's files.
+snapshot()); rost.Mission plays a word stream (words.csv, positions.csv) by the
+library's mission session, as `rost refine` does, resuming a checkpoint when asked;
+rost.vision turns cv2 frames into words; rost.io reads and writes the rost tool's files.
 """
 
-from ._rost import Config, Engine, Model, Snapshot, __version__, version_string
+from ._rost import Config, Engine, Mission, Model, Snapshot, __version__, version_string
 from . import io
 
-__all__ = ["Config", "Engine", "Model", "Snapshot", "io", "parallel_refine", "vision", "__version__",
+__all__ = ["Config", "Engine", "Mission", "Model", "Snapshot", "io", "parallel_refine", "vision", "__version__",
            "version_string"]
 
 

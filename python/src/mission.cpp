@@ -1,0 +1,150 @@
+// rost.Mission: a word stream's mission from Python, by the library's one
+// policy (rost/mission.hpp, openStreamMission): the stream read whole, the
+// model planned from it (or a checkpoint resumed, its own observations
+// skipped), then played through the engine with its count budget, as
+// `rost refine` plays it: the same seed, stream and settings give the same
+// labels and perplexities as rost refine's topics.csv and perplexity.csv.
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "rost/checkpoint.hpp"
+#include "rost/mission.hpp"
+
+namespace rost::python {
+
+namespace {
+
+class PyMission {
+public:
+    PyMission(const py::object& words, const py::object& positions, const py::object& resume,
+              const py::object& topicmodel, int width, int height, const py::kwargs& settings) {
+        MissionOptions m;
+        applySettings(m.settings, settings, "rost.Mission");
+        for (const auto& [k, v] : settings) m.given.emplace_back(findSetting(py::str(k).cast<std::string>())->key);
+        if (!resume.is_none()) m.resume = py::str(resume);
+        if (!topicmodel.is_none()) m.in_topicmodel = py::str(topicmodel);
+        m.names.setting = [](const SettingSpec& s) { return paramName(s); };
+        m.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
+        m.names.leave = [](const SettingSpec& s) { return paramName(s); };
+        m.names.resume = "resume";
+        m.names.topicmodel = "topicmodel";
+        m.names.positions = "positions";
+        StreamMissionInput in;
+        in.words = py::str(words);
+        if (!positions.is_none()) in.positions = py::str(positions);
+        in.width = width;
+        in.height = height;
+        in.base.threads = m.settings.engine.model.threads;
+        Status st;
+        {
+            py::gil_scoped_release nogil;
+            st = openStreamMission(m, in, mission_);
+        }
+        if (!st.ok()) throw py::value_error("rost.Mission: " + st.message());
+        settings_ = m.settings;
+        settings_.engine = mission_.plan.config;
+        final_sweeps_ = settings_.final_sweeps;
+    }
+
+    std::size_t size() const { return mission_.todo().size(); }
+    bool resuming() const { return mission_.plan.resuming; }
+    std::size_t skipped() const { return mission_.skipped; }
+    const Settings& settings() const { return settings_; }
+
+    // Plays the observations still to play, then the final sweeps; a mission plays once.
+    py::dict run() {
+        if (played_) throw py::value_error("rost.Mission.run: this mission was already played");
+        played_ = true;
+        Engine& e = *mission_.engine;
+        const auto todo = mission_.todo();
+        const uint64_t first = e.model().observations();
+        const std::size_t n = todo.size();
+        std::vector<int64_t> ts(n), step(n, -1);
+        std::vector<double> inst(n, std::numeric_limits<double>::quiet_NaN()), fin(inst), surprise(inst);
+        std::vector<std::vector<uint16_t>> labels(n);
+        auto record = [&](uint64_t obs, int64_t s, const Model& model) {
+            if (obs < first || obs - first >= n) return;
+            const std::size_t i = static_cast<std::size_t>(obs - first);
+            fin[i] = model.stepPerplexity(s);
+            labels[i].resize(model.observationSize(obs));
+            model.observationLabels(obs, labels[i]);
+        };
+        e.setEvictionHook([&](const WindowObservation& w, const Model& model) { record(w.observation, w.step, model); });
+        std::string rejected;
+        {
+            py::gil_scoped_release nogil;
+            for (std::size_t i = 0; i < n && rejected.empty(); ++i) {
+                const ObservationResult r = e.processNow(ObservationView{todo[i].timestamp, todo[i].words, todo[i].positions});
+                if (!r.add.ok()) rejected = std::string(toString(r.add.error)) + " at word " + std::to_string(r.add.index);
+                ts[i] = r.timestamp;
+                step[i] = r.step;
+                surprise[i] = r.surprise;
+                // A step's instantaneous perplexity: taken as the next step opens.
+                for (std::size_t j = i; r.previous_step >= 0 && j-- > 0 && step[j] == r.previous_step;)
+                    inst[j] = r.previous_perplexity;
+            }
+            if (rejected.empty()) {
+                const Model& model = e.model();
+                if (model.steps() > 0)  // the last step at the end of its budget, before the final sweeps
+                    for (std::size_t j = n; j-- > 0 && step[j] == model.steps() - 1;) inst[j] = model.stepPerplexity(step[j]);
+                if (final_sweeps_ > 0) e.finalPass(final_sweeps_);
+                e.visitWindow([&](const WindowObservation& w, const Model& m2) { record(w.observation, w.step, m2); });
+            }
+        }
+        e.setEvictionHook(nullptr);
+        if (!rejected.empty()) throw py::value_error("rost.Mission.run: an observation was refused: " + rejected);
+        py::list z;
+        for (const auto& l : labels) z.append(toArray(std::span<const uint16_t>(l)));
+        py::dict out;
+        out["timestamp"] = py::array_t<int64_t>(static_cast<py::ssize_t>(n), ts.data());
+        out["instantaneous"] = py::array_t<double>(static_cast<py::ssize_t>(n), inst.data());
+        out["final"] = py::array_t<double>(static_cast<py::ssize_t>(n), fin.data());
+        out["surprise"] = py::array_t<double>(static_cast<py::ssize_t>(n), surprise.data());
+        out["labels"] = z;
+        return out;
+    }
+
+    void save(const std::string& path) {
+        py::gil_scoped_release nogil;
+        check(saveCheckpoint(*mission_.engine, path));
+    }
+
+private:
+    StreamMission mission_;
+    Settings settings_;
+    int final_sweeps_ = 0;
+    bool played_ = false;
+};
+
+} // namespace
+
+void bindMission(py::module_& m) {
+    py::class_<PyMission>(m, "Mission", R"doc(A word stream's mission, by the library's one policy (the rost tool's
+`rost refine` is the same session): Mission(words, positions=None, resume=None, topicmodel=None,
+width=0, height=0, **settings). The stream (words.csv, positions.csv) is read whole; a new mission
+takes V, the frame size, ring.steps and max.words from it unless given (keywords as rost.Config's);
+resume= carries a checkpoint on (its model is fixed: a model keyword with another value raises
+ValueError naming it; its observations in the stream are skipped). run() plays the rest through the
+engine with its count budget and returns a dict of numpy arrays: timestamp, instantaneous, final
+(perplexities as rost refine's perplexity.csv), surprise, labels (a list: each observation's final
+maximum-likelihood topics, as topics.csv). save(path) writes a checkpoint.)doc")
+        .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, int, int,
+                      const py::kwargs&>(),
+             py::arg("words"), py::arg("positions") = py::none(), py::arg("resume") = py::none(),
+             py::arg("topicmodel") = py::none(), py::arg("width") = 0, py::arg("height") = 0)
+        .def("run", &PyMission::run, "Plays the observations still to play; returns their results (dict).")
+        .def("save", [](PyMission& s, const py::object& path) { s.save(py::str(path)); }, py::arg("path"),
+             "Writes the mission's checkpoint (rost run/refine --resume and rost.Model.load read it).")
+        .def("__len__", &PyMission::size, "Observations still to play.")
+        .def_property_readonly("resuming", &PyMission::resuming)
+        .def_property_readonly("skipped", &PyMission::skipped, "The checkpoint's observations skipped in the stream.")
+        .def_property_readonly("config", [](const PyMission& s) { return PyConfig{s.settings()}; },
+                               "The planned settings (rost.Config).");
+}
+
+} // namespace rost::python
