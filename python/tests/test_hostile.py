@@ -1,6 +1,7 @@
 """The hostile-input battery: one table of bad inputs, each sent through
 every face that can take it -- the rost tool (`rost run`, `rost refine`),
-rost-cli's commands (`topics.refine.t`) and Python (`import rost`) -- and
+rost-cli's commands (`topics.refine.t`) and Python (`import rost`; word
+streams through `rost.Mission`, as `rost refine` reads them) -- and
 refused the same way by each: a message naming what and where, exit 2 (an
 exception in Python, a logged skip for a frame in a stream), no crash, no
 partial file, nothing already written lost.
@@ -183,12 +184,23 @@ def test_bad_word_stream_rostcli(tmp_path, case):
     assert sorted(os.listdir(tmp_path)) == ["docs.csv"], "no output written"
 
 
+@pytest.mark.parametrize("case", STREAMS)
+def test_bad_word_stream_python_mission(tmp_path, case):
+    """rost.Mission reads streams through the session rost refine uses: the same message."""
+    (tmp_path / "docs.csv").write_text(STREAMS[case][0])
+    with pytest.raises(ValueError) as e:
+        rost.Mission(tmp_path / "docs.csv")
+    assert "docs.csv" in str(e.value) and STREAMS[case][1] in str(e.value), str(e.value)
+
+
 def test_a_directory_as_input_is_named(tmp_path):
     (tmp_path / "d").mkdir()
     code, err = tool(tmp_path, "refine", tmp_path / "d", "--out", tmp_path / "o")
     refused(code, err, str(tmp_path / "d") + ": is a directory, not a file", out=tmp_path / "o")
     code, err = refine_t(tmp_path, "-i", "d")
     refused(code, err, "d: is a directory, not a file")
+    with pytest.raises(ValueError, match=r"d: is a directory, not a file"):
+        rost.Mission(tmp_path / "d")
 
 
 # ---- outputs -----------------------------------------------------------------------------
@@ -292,6 +304,9 @@ def test_a_checkpoint_of_another_K_or_V(tmp_path, checkpoint):
     for option, value in (("-K", "8"), ("-V", "99")):
         code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--resume", checkpoint, option, value)
         refused(code, err, option, "differs from %s" % checkpoint, out=tmp_path / "o")
+        with pytest.raises(ValueError) as e:
+            rost.Mission(tmp_path / "docs.csv", resume=checkpoint, **{option[1]: int(value)})
+        assert "%s=%s differs from %s" % (option[1], value, checkpoint) in str(e.value), str(e.value)
 
 
 def test_a_truncated_checkpoint_is_named(tmp_path, checkpoint):
@@ -303,6 +318,9 @@ def test_a_truncated_checkpoint_is_named(tmp_path, checkpoint):
     with pytest.raises(ValueError) as e:
         rost.Model.load(str(short))
     assert str(short) in str(e.value)
+    with pytest.raises(ValueError) as e:
+        rost.Mission(tmp_path / "docs.csv", resume=short)
+    assert "resume: " in str(e.value) and str(short) in str(e.value), str(e.value)
     assert checkpoint.read_bytes() == data, "the checkpoint the run started from is untouched"
 
 
