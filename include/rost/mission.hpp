@@ -50,6 +50,7 @@ struct MissionNames {
     std::string resume = "--resume";              // the option that names the checkpoint
     std::string topicmodel = "--in.topicmodel";   // the option that names a starting topic model
     std::string positions = "--positions";        // the option that names a word stream's positions
+    std::string max_frames = "--max-frames";      // the option that limits a frame mission
 };
 
 struct MissionOptions {

@@ -239,11 +239,11 @@ std::string RunReport::settingsText() const {
     const EngineConfig& ec = e.ec;
     std::string s;
     char buf[512];
-    const auto& L = w.extractor->layout();
+    const auto& L = w.words.extractor->layout();
     std::snprintf(buf, sizeof buf,
                   "words: V = %d (orb %u at %u, intensity %u at %u, hue %u at %u), orb.features %d, thumb.cell %d\n",
                   e.V, L.orb_size, L.orb_offset, L.intensity_size, L.intensity_offset, L.hue_size, L.hue_offset,
-                  w.extractors.orb_features, w.extractors.thumb_cell);
+                  w.words.extractors.orb_features, w.words.extractors.thumb_cell);
     s += buf;
     std::snprintf(buf, sizeof buf,
                   "model: K = %d, alpha = %g, beta = %g, cell.space = %d, cell.time = %d, g.space = %d, g.time = %d, "
@@ -272,10 +272,10 @@ std::string RunReport::text() const {
         s += "resumed: " + o.model.resume + " at observation " + std::to_string(e.resumed.observations) + " (frame " +
              std::to_string(e.resumed.last_timestamp) + ")" + (e.refinementChanged ? ", refinement settings changed" : "") +
              "\n";
-    if (w.vocabulary) {
-        const std::string note = w.vocabulary->note();
+    if (w.words.vocabulary) {
+        const std::string note = w.words.vocabulary->note();
         s += "vocabulary: " + (o.vocabulary.empty() ? std::string("built-in default") : o.vocabulary) + ", " +
-             std::to_string(w.vocabulary->size()) + " words: " + note.substr(0, note.find('\n')) + "\n";
+             std::to_string(w.words.vocabulary->size()) + " words: " + note.substr(0, note.find('\n')) + "\n";
     }
     s += settingsText();
     const EngineCounters counters = e.engine->counters();

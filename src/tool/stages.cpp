@@ -26,22 +26,7 @@ Status WordsStage::open(const RunOptions& o) {
     for (const auto& in : o.inputs) live = live || vision::isCameraInput(in);
     if (Status st = openSource(o, so); !st.ok()) return st;
     info = source->info();
-    Status st;
-
-    extractors = vision::ExtractorConfig::from(o.model.settings.words);
-    if (extractors.orb) {
-        if (o.vocabulary.empty()) {
-            vocabulary = vision::defaultVocabulary(st);
-        } else {
-            auto v = std::make_shared<vision::Vocabulary>();
-            st = vision::Vocabulary::load(o.vocabulary, *v);
-            vocabulary = std::move(v);
-        }
-        if (!st.ok()) return st;
-    }
-    extractor = vision::WordExtractor::create(extractors, vocabulary, st);
-    if (!extractor) return st;
-    return {};
+    return words.open(o.model.settings.words, o.vocabulary);
 }
 
 void WordsStage::printNotes() const {
@@ -79,59 +64,24 @@ Status WordsStage::openSource(const RunOptions& o, const vision::SourceOptions& 
 #endif
 }
 
-// Frames the checkpoint already has: a file's are skipped (its frame index
-// is at most the checkpoint's last time stamp); a camera's are numbered
-// after them. --max-frames counts the whole mission: with --resume, the
-// checkpoint's frames too.
-Status RunEngine::countFrames(const RunOptions& o, const WordsStage& w) {
-    skipThrough = resuming && resumed.observations > 0 ? resumed.last_timestamp : -1;
-    before = skipThrough + 1;
-    frames = w.info.frames;
-    if (o.max_frames > 0) frames = frames > 0 ? std::min(frames, o.max_frames) : o.max_frames;
-    if (frames > 0) {
-        frames -= before;
-        if (frames <= 0)
-            return Status::error(w.info.description + ": nothing to resume with: " + o.model.resume +
-                                 " has every frame up to " + std::to_string(skipThrough) +
-                                 (o.max_frames > 0 ? " (--max-frames " + std::to_string(o.max_frames) + " counts the mission)"
-                                                   : ""));
-    }
-    return {};
-}
-
-// The library's mission session decides (rost/mission.hpp): the engine made
-// for the input, or the checkpoint's carried on, by one policy.
+// The library's frame mission decides (rost/vision/mission.hpp): the engine
+// made for the input, or the checkpoint's carried on, by one policy.
 Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) {
-    const MissionOptions mission = missionOptions(o.model);
-    MissionPlan plan;
-    if (Status st = checkMission(mission, plan); !st.ok()) return st;
-    resuming = plan.resuming;
-    resumed = plan.checkpoint;
-    MissionInput in = missionInput(o.model, realtime);
-    in.width = w.info.width;
-    in.height = w.info.height;
-    // The words' ids must mean what they meant: the extractors' V (the
-    // checkpoint's unless -V; a -V must hold them). A checkpoint does not
-    // record which vocabulary made its words: another of the same size is not
-    // detected (docs/tool.md).
-    in.V = w.wordsV();
-    in.vocabulary = true;
-    const vision::WordLayout& l = w.extractor->layout();
-    in.words_detail = "ORB " + std::to_string(l.orb_size) + " + intensity " + std::to_string(l.intensity_size) +
-                      " + hue " + std::to_string(l.hue_size);
-    if (resuming)  // frames of the checkpoint's size and words of its V first: nothing else matters otherwise
-        if (Status st = planMission(mission, in, plan); !st.ok()) return st;
-    if (Status st = countFrames(o, w); !st.ok()) return st;
-    in.length = frames;
-    in.max_words = vision::maxWordsPerFrame(w.extractors, w.info.width, w.info.height);
-    if (!resuming)
-        if (Status st = planMission(mission, in, plan); !st.ok()) return st;
-    ec = plan.config;
+    vision::FrameMission m;
+    if (Status st = vision::openFrameMission(missionOptions(o.model), missionInput(o.model, realtime), w.info, w.words,
+                                             o.max_frames, m);
+        !st.ok())
+        return st;
+    resuming = m.plan.resuming;
+    resumed = m.plan.checkpoint;
+    refinementChanged = m.plan.refinement_changed;
+    ec = m.plan.config;
     V = ec.model.V;
-    refinementChanged = plan.refinement_changed;
-    Status st;
-    engine = openMission(mission, plan, st);
-    return st;
+    skipThrough = m.skip_through;
+    before = m.before;
+    frames = m.frames;
+    engine = std::move(m.engine);
+    return {};
 }
 
 void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime) const {
@@ -180,7 +130,7 @@ bool Capture::produceOne(bool pacing, Clock::time_point t0) {
     w_.printNotes();  // images skipped as too small, on the way to this one
     if (!more) return false;
     if (pacing && !w_.info.live) pace(t0);
-    w_.extractor->extract(frame_.image, words_);
+    w_.words.extractor->extract(frame_.image, words_);
     captured_.fetch_add(1, std::memory_order_relaxed);
     FrameSlot* s = ring_.beginPush();
     if (!s) {  // the writer is behind: skip this frame entirely (counted)

@@ -19,6 +19,7 @@
 #include "rost/engine.hpp"
 #include "rost/word_stream.hpp"
 #include "rost/vision/frame_source.hpp"
+#include "rost/vision/mission.hpp"
 #include "rost/vision/words.hpp"
 #include "bag.hpp"
 #include "spsc_ring.hpp"
@@ -41,13 +42,10 @@ struct WordsStage {
     std::unique_ptr<vision::FrameSource> source;
     vision::SourceInfo info;
     bool live = false;  // a camera among the inputs
-    vision::ExtractorConfig extractors;
-    std::shared_ptr<const vision::Vocabulary> vocabulary;
-    std::unique_ptr<vision::WordExtractor> extractor;
+    vision::MissionWords words;  // the extractors and their vocabulary (rost/vision/mission.hpp)
     const bag::BagFrameSource* bag = nullptr;  // the source, when the input is a bag
 
     Status open(const RunOptions& o);
-    int wordsV() const { return static_cast<int>(extractor->vocabularySize()); }
     // The source's notes (images skipped as too small, frames scaled), one
     // "rost: " line each on stderr, even with -q: they say what was not modelled.
     void printNotes() const;
@@ -69,12 +67,10 @@ struct RunEngine {
     int64_t frames = -1;       // frames this run plays, when known
     std::unique_ptr<Engine> engine;
 
+    // The library's frame mission (rost/vision/mission.hpp) plans or resumes.
     Status open(const RunOptions& o, const WordsStage& w, bool realtime);
     // The set-up lines on stderr (without -q).
     void describe(const RunOptions& o, const WordsStage& w, bool realtime) const;
-
-private:
-    Status countFrames(const RunOptions& o, const WordsStage& w);
 };
 
 // The capture stage: one frame -> words -> the engine's queue, and the
