@@ -5,6 +5,8 @@
     cfg = rost.Config(V=ex.vocabulary_size, frame_width=frame.shape[1], frame_height=frame.shape[0])
 
 rost.vision.Vocabulary.load(path), .default(), .train(frames, words=5000), .save(path).
+
+    r = rost.vision.Mission("diver.mov", K=16).run()   # a mission over frames, as `rost run` plays a file
 """
 
 from . import _rost
@@ -14,5 +16,6 @@ if not hasattr(_rost, "vision"):
 
 Vocabulary = _rost.vision.Vocabulary
 WordExtractor = _rost.vision.WordExtractor
+Mission = _rost.vision.Mission
 
-__all__ = ["Vocabulary", "WordExtractor"]
+__all__ = ["Mission", "Vocabulary", "WordExtractor"]

@@ -82,6 +82,8 @@ void bindMission(py::module_& m);
 void bindText(py::module_& m);
 #ifdef ROST_PYTHON_VISION
 void bindVision(py::module_& m);
+// rost.vision.Mission: a mission over frames (vision_mission.cpp).
+void bindVisionMission(py::module_& m);
 #endif
 
 } // namespace rost::python

@@ -5,13 +5,13 @@
 // `rost refine` plays it: the same seed, stream and settings give the same
 // labels and perplexities as rost refine's topics.csv and perplexity.csv.
 
-#include <cmath>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "bindings.hpp"
+#include "mission_results.hpp"
 #include "rost/checkpoint.hpp"
 #include "rost/mission.hpp"
 
@@ -23,17 +23,7 @@ class PyMission {
 public:
     PyMission(const py::object& words, const py::object& positions, const py::object& resume,
               const py::object& topicmodel, int width, int height, const py::kwargs& settings) {
-        MissionOptions m;
-        applySettings(m.settings, settings, "rost.Mission");
-        for (const auto& [k, v] : settings) m.given.emplace_back(findSetting(py::str(k).cast<std::string>())->key);
-        if (!resume.is_none()) m.resume = py::str(resume);
-        if (!topicmodel.is_none()) m.in_topicmodel = py::str(topicmodel);
-        m.names.setting = [](const SettingSpec& s) { return paramName(s); };
-        m.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
-        m.names.leave = [](const SettingSpec& s) { return paramName(s); };
-        m.names.resume = "resume";
-        m.names.topicmodel = "topicmodel";
-        m.names.positions = "positions";
+        MissionOptions m = missionOptions(settings, "rost.Mission", resume, topicmodel);
         StreamMissionInput in;
         in.words = py::str(words);
         if (!positions.is_none()) in.positions = py::str(positions);
@@ -60,53 +50,17 @@ public:
     py::dict run() {
         if (played_) throw py::value_error("rost.Mission.run: this mission was already played");
         played_ = true;
-        Engine& e = *mission_.engine;
-        const auto todo = mission_.todo();
-        const uint64_t first = e.model().observations();
-        const std::size_t n = todo.size();
-        std::vector<int64_t> ts(n), step(n, -1);
-        std::vector<double> inst(n, std::numeric_limits<double>::quiet_NaN()), fin(inst), surprise(inst);
-        std::vector<std::vector<uint16_t>> labels(n);
-        auto record = [&](uint64_t obs, int64_t s, const Model& model) {
-            if (obs < first || obs - first >= n) return;
-            const std::size_t i = static_cast<std::size_t>(obs - first);
-            fin[i] = model.stepPerplexity(s);
-            labels[i].resize(model.observationSize(obs));
-            model.observationLabels(obs, labels[i]);
-        };
-        e.setEvictionHook([&](const WindowObservation& w, const Model& model) { record(w.observation, w.step, model); });
-        std::string rejected;
+        MissionResults results(*mission_.engine);
         {
             py::gil_scoped_release nogil;
-            for (std::size_t i = 0; i < n && rejected.empty(); ++i) {
-                const ObservationResult r = e.processNow(ObservationView{todo[i].timestamp, todo[i].words, todo[i].positions});
-                if (!r.add.ok()) rejected = std::string(toString(r.add.error)) + " at word " + std::to_string(r.add.index);
-                ts[i] = r.timestamp;
-                step[i] = r.step;
-                surprise[i] = r.surprise;
-                // A step's instantaneous perplexity: taken as the next step opens.
-                for (std::size_t j = i; r.previous_step >= 0 && j-- > 0 && step[j] == r.previous_step;)
-                    inst[j] = r.previous_perplexity;
-            }
-            if (rejected.empty()) {
-                const Model& model = e.model();
-                if (model.steps() > 0)  // the last step at the end of its budget, before the final sweeps
-                    for (std::size_t j = n; j-- > 0 && step[j] == model.steps() - 1;) inst[j] = model.stepPerplexity(step[j]);
-                if (final_sweeps_ > 0) e.finalPass(final_sweeps_);
-                e.visitWindow([&](const WindowObservation& w, const Model& m2) { record(w.observation, w.step, m2); });
-            }
+            for (const StreamObservation& ob : mission_.todo())
+                if (!results.observe(mission_.engine->processNow(ObservationView{ob.timestamp, ob.words, ob.positions})))
+                    break;
+            if (results.why().empty()) results.finish(final_sweeps_);
         }
-        e.setEvictionHook(nullptr);
-        if (!rejected.empty()) throw py::value_error("rost.Mission.run: an observation was refused: " + rejected);
-        py::list z;
-        for (const auto& l : labels) z.append(toArray(std::span<const uint16_t>(l)));
-        py::dict out;
-        out["timestamp"] = py::array_t<int64_t>(static_cast<py::ssize_t>(n), ts.data());
-        out["instantaneous"] = py::array_t<double>(static_cast<py::ssize_t>(n), inst.data());
-        out["final"] = py::array_t<double>(static_cast<py::ssize_t>(n), fin.data());
-        out["surprise"] = py::array_t<double>(static_cast<py::ssize_t>(n), surprise.data());
-        out["labels"] = z;
-        return out;
+        if (!results.why().empty())
+            throw py::value_error("rost.Mission.run: an observation was refused: " + results.why());
+        return results.toDict();
     }
 
     void save(const std::string& path) {
@@ -122,6 +76,78 @@ private:
 };
 
 } // namespace
+
+// ---- mission_results.hpp ---------------------------------------------------------------
+
+MissionOptions missionOptions(const py::kwargs& settings, const char* what, const py::object& resume,
+                              const py::object& topicmodel) {
+    MissionOptions m;
+    applySettings(m.settings, settings, what);
+    for (const auto& [k, v] : settings) m.given.emplace_back(findSetting(py::str(k).cast<std::string>())->key);
+    if (!resume.is_none()) m.resume = py::str(resume);
+    if (!topicmodel.is_none()) m.in_topicmodel = py::str(topicmodel);
+    m.names.setting = [](const SettingSpec& s) { return paramName(s); };
+    m.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
+    m.names.leave = [](const SettingSpec& s) { return paramName(s); };
+    m.names.resume = "resume";
+    m.names.topicmodel = "topicmodel";
+    m.names.positions = "positions";
+    m.names.max_frames = "max_frames";
+    return m;
+}
+
+MissionResults::MissionResults(Engine& engine) : engine_(engine), first_(engine.model().observations()) {
+    engine_.setEvictionHook([this](const WindowObservation& w, const Model& m) { final(w.observation, w.step, m); });
+}
+
+MissionResults::~MissionResults() { engine_.setEvictionHook(nullptr); }
+
+void MissionResults::final(uint64_t observation, int64_t step, const Model& model) {
+    if (observation < first_ || observation - first_ >= ts_.size()) return;
+    const auto i = static_cast<std::size_t>(observation - first_);
+    fin_[i] = model.stepPerplexity(step);
+    labels_[i].resize(model.observationSize(observation));
+    model.observationLabels(observation, labels_[i]);
+}
+
+bool MissionResults::observe(const ObservationResult& r) {
+    if (!r.add.ok()) {
+        why_ = std::string(toString(r.add.error)) + " at word " + std::to_string(r.add.index);
+        return false;
+    }
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    ts_.push_back(r.timestamp);
+    step_.push_back(r.step);
+    surprise_.push_back(r.surprise);
+    inst_.push_back(nan);
+    fin_.push_back(nan);
+    labels_.emplace_back();
+    // A step's instantaneous perplexity: taken as the next step opens.
+    for (std::size_t j = step_.size() - 1; r.previous_step >= 0 && j-- > 0 && step_[j] == r.previous_step;)
+        inst_[j] = r.previous_perplexity;
+    return true;
+}
+
+void MissionResults::finish(int sweeps) {
+    const Model& model = engine_.model();
+    if (model.steps() > 0)  // the last step at the end of its budget, before the final sweeps
+        for (std::size_t j = step_.size(); j-- > 0 && step_[j] == model.steps() - 1;) inst_[j] = model.stepPerplexity(step_[j]);
+    if (sweeps > 0) engine_.finalPass(sweeps);
+    engine_.visitWindow([this](const WindowObservation& w, const Model& m) { final(w.observation, w.step, m); });
+}
+
+py::dict MissionResults::toDict() const {
+    const auto n = static_cast<py::ssize_t>(ts_.size());
+    py::list z;
+    for (const auto& l : labels_) z.append(toArray(std::span<const uint16_t>(l)));
+    py::dict out;
+    out["timestamp"] = py::array_t<int64_t>(n, ts_.data());
+    out["instantaneous"] = py::array_t<double>(n, inst_.data());
+    out["final"] = py::array_t<double>(n, fin_.data());
+    out["surprise"] = py::array_t<double>(n, surprise_.data());
+    out["labels"] = z;
+    return out;
+}
 
 void bindMission(py::module_& m) {
     py::class_<PyMission>(m, "Mission", R"doc(A word stream's mission, by the library's one policy (the rost tool's

@@ -13,6 +13,7 @@
 #include <unordered_map>
 
 #include "bindings.hpp"
+#include "mission_results.hpp"
 #include "rost/checkpoint.hpp"
 #include "rost/engine.hpp"
 #include "rost/mission.hpp"
@@ -147,13 +148,7 @@ public:
     // refinement settings given replace the checkpoint's.
     static std::unique_ptr<PyModel> load(const std::string& path, const py::kwargs& settings) {
         fileMustExist(path);
-        MissionOptions mission;
-        applySettings(mission.settings, settings, "rost.Model.load");
-        for (const auto& [k, v] : settings) mission.given.emplace_back(findSetting(py::str(k).cast<std::string>())->key);
-        mission.resume = path;
-        mission.names.setting = [](const SettingSpec& s) { return paramName(s); };
-        mission.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
-        mission.names.leave = [](const SettingSpec& s) { return paramName(s); };
+        MissionOptions mission = missionOptions(settings, "rost.Model.load", py::str(path), py::none());
         mission.names.resume = "rost.Model.load";
         MissionPlan plan;
         if (Status st = checkMission(mission, plan); !st.ok()) throw py::value_error(st.message());

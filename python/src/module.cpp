@@ -17,5 +17,6 @@ PYBIND11_MODULE(_rost, m) {
 #ifdef ROST_PYTHON_VISION
     pybind11::module_ vision = m.def_submodule("vision", "Visual words of frames (OpenCV): rost.vision");
     rp::bindVision(vision);
+    rp::bindVisionMission(vision);
 #endif
 }

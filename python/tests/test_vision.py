@@ -117,3 +117,39 @@ def test_vocabulary_training_defaults_are_the_tools():
     doc = rost.vision.Vocabulary.train.__doc__
     for default in ("words: int = 5000", "features: int = 500", "iterations: int = 40", "seed: int = 1"):
         assert default in doc, doc
+
+
+def test_a_frame_mission_gives_rost_runs_results_and_resumes(tmp_path):
+    """rost.vision.Mission drives the session `rost run` drives: on the same frames, seed and settings it
+    gives rost run's topics.csv and perplexity.csv; resumed from its checkpoint it skips its frames; a
+    model keyword that differs from the checkpoint's is refused naming the keyword."""
+    tool = os.environ.get("ROST_TOOL")
+    if not tool or not os.path.exists(tool):
+        pytest.skip("the rost tool was not built (ROST_VISION)")
+    diver = footage_or_skip()
+    out = tmp_path / "run"
+    args = ["--max-frames", "12", "-K", "8", "--seed", "5", "--final.sweeps", "3", "--ring.steps", "8"]
+    subprocess.run([tool, "run", str(diver), "--out", str(out), "-q", "--no-overlay", "--no-summary"] + args,
+                   check=True, capture_output=True)
+    m = rost.vision.Mission(diver, max_frames=12, K=8, seed=5, final_sweeps=3, ring_steps=8)
+    assert m.config.V == rost.vision.WordExtractor().vocabulary_size and m.config.frame_width == 640
+    r = m.run()
+    ts, topics = rost.io.read_topics(out / "topics.csv")
+    assert r["timestamp"].tolist() == ts.tolist() == list(range(12))
+    assert all(np.array_equal(a, b) for a, b in zip(topics, r["labels"]))  # 4 frames left the window first
+    ppx = rost.io.read_perplexity(out / "perplexity.csv")
+    np.testing.assert_array_equal(ppx["instantaneous"], r["instantaneous"])
+    np.testing.assert_array_equal(ppx["final"], r["final"])
+
+    first = rost.vision.Mission(diver, max_frames=5, K=8, seed=5)
+    first.run()
+    first.save(tmp_path / "m.ckpt")
+    resumed = rost.vision.Mission(diver, resume=tmp_path / "m.ckpt", max_frames=8)
+    assert resumed.resuming and resumed.frames == 3
+    assert resumed.run()["timestamp"].tolist() == [5, 6, 7]
+    with pytest.raises(ValueError, match=r"K=16 differs from .*m\.ckpt's K = 8 .*leave K out"):
+        rost.vision.Mission(diver, resume=tmp_path / "m.ckpt", K=16)
+    with pytest.raises(ValueError, match=r"nothing to resume with: .*m\.ckpt has every frame up to 4 \(max_frames 5"):
+        rost.vision.Mission(diver, resume=tmp_path / "m.ckpt", max_frames=5)
+    with pytest.raises(ValueError, match=r"rost\.vision\.Mission: .*nosuch\.mov"):
+        rost.vision.Mission(tmp_path / "nosuch.mov")

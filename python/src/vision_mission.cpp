@@ -1,0 +1,159 @@
+// rost.vision.Mission: a mission over frames (a video, image files or
+// folders, camera:N) from Python, by the library's one policy
+// (rost/vision/mission.hpp): the words its settings name, the model planned
+// for the frames or a checkpoint resumed (its frames skipped), played
+// through the engine with its count budget as `rost run` plays a file: the
+// same input, seed and settings give rost run's topics.csv and perplexity.csv.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "mission_results.hpp"
+#include "rost/checkpoint.hpp"
+#include "rost/vision/mission.hpp"
+
+namespace rost::python {
+
+namespace {
+
+std::vector<std::string> inputList(const py::object& inputs) {
+    std::vector<std::string> out;
+    if (py::isinstance<py::str>(inputs) || py::hasattr(inputs, "__fspath__")) {
+        out.emplace_back(py::str(inputs));
+    } else {
+        for (const py::handle& h : inputs) out.emplace_back(py::str(h));
+    }
+    if (out.empty()) throw py::value_error("rost.vision.Mission: no inputs");
+    return out;
+}
+
+class PyFrameMission {
+public:
+    PyFrameMission(const py::object& inputs, const py::object& resume, const py::object& topicmodel,
+                   const py::object& vocabulary, int width, int height, int64_t maxFrames, const py::kwargs& settings)
+        : max_frames_(maxFrames) {
+        MissionOptions m = missionOptions(settings, "rost.vision.Mission", resume, topicmodel);
+        vision::SourceOptions so;
+        so.width = width;
+        so.height = height;
+        const std::vector<std::string> paths = inputList(inputs);
+        const std::string vocabularyPath = vocabulary.is_none() ? std::string() : std::string(py::str(vocabulary));
+        Status st;
+        {
+            py::gil_scoped_release nogil;  // opening a video and the vocabulary take a while
+            st = open(m, paths, so, vocabularyPath);
+        }
+        if (!st.ok()) throw py::value_error("rost.vision.Mission: " + st.message());
+        settings_ = m.settings;
+        settings_.engine = mission_.plan.config;
+    }
+
+    // Plays the frames still to play (up to max_frames for the whole mission), then the final sweeps.
+    py::dict run() {
+        if (played_) throw py::value_error("rost.vision.Mission.run: this mission was already played");
+        played_ = true;
+        MissionResults results(*mission_.engine);
+        std::string error;
+        {
+            py::gil_scoped_release nogil;
+            error = play(results);
+            if (error.empty() && results.why().empty()) results.finish(settings_.final_sweeps);
+        }
+        if (!error.empty()) throw py::value_error("rost.vision.Mission.run: " + error);
+        if (!results.why().empty())
+            throw py::value_error("rost.vision.Mission.run: a frame was refused: " + results.why());
+        return results.toDict();
+    }
+
+    void save(const std::string& path) {
+        py::gil_scoped_release nogil;
+        check(saveCheckpoint(*mission_.engine, path));
+    }
+
+    const Settings& settings() const { return settings_; }
+    bool resuming() const { return mission_.plan.resuming; }
+    int64_t frames() const { return mission_.frames; }
+    py::list takeNotes() {
+        py::list out;
+        for (const std::string& n : notes_) out.append(n);
+        notes_.clear();
+        return out;
+    }
+    std::string description() const { return info_.description; }
+
+private:
+    Status open(const MissionOptions& m, const std::vector<std::string>& inputs, const vision::SourceOptions& so,
+                const std::string& vocabulary) {
+        Status st;
+        source_ = vision::openFrameSources(inputs, so, st);
+        if (!source_) return st;
+        info_ = source_->info();
+        if (st = words_.open(m.settings.words, vocabulary); !st.ok()) return st;
+        MissionInput in;
+        in.threads = m.settings.engine.model.threads;
+        st = vision::openFrameMission(m, in, info_, words_, max_frames_, mission_);
+        keepNotes();
+        return st;
+    }
+
+    void keepNotes() {
+        for (std::string& n : source_->takeNotes()) notes_.push_back(std::move(n));
+    }
+
+    // Reads, skips the checkpoint's frames, extracts and takes each up; "" or a read error.
+    std::string play(MissionResults& results) {
+        vision::Frame frame;
+        vision::FrameWords words;
+        for (int64_t played = 0; max_frames_ <= 0 || mission_.before + played < max_frames_;) {
+            const vision::ReadStatus rs = source_->read(frame);
+            keepNotes();
+            if (rs == vision::ReadStatus::End) return {};
+            if (rs == vision::ReadStatus::Error) return source_->error();
+            if (info_.live) frame.index += mission_.before;  // after the checkpoint's frames
+            else if (mission_.inCheckpoint(info_, frame.index)) continue;
+            words_.extractor->extract(frame.image, words);
+            if (!results.observe(mission_.engine->processNow(ObservationView{frame.index, words.words, words.positions})))
+                return {};
+            ++played;
+        }
+        return {};
+    }
+
+    std::unique_ptr<vision::FrameSource> source_;
+    vision::SourceInfo info_;
+    vision::MissionWords words_;
+    vision::FrameMission mission_;
+    Settings settings_;
+    std::vector<std::string> notes_;
+    int64_t max_frames_ = 0;
+    bool played_ = false;
+};
+
+} // namespace
+
+void bindVisionMission(py::module_& m) {
+    py::class_<PyFrameMission>(m, "Mission", R"doc(A mission over frames, by the library's one policy (the rost tool's
+`rost run` is the same session): Mission(inputs, resume=None, topicmodel=None, vocabulary=None,
+width=0, height=0, max_frames=0, **settings). inputs: a video, image files or folders (played one
+after the other), camera:N; a path or a list. The model is planned for the frames (V from the
+extractors, the frame size, ring.steps, max.words) unless given (keywords as rost.Config's);
+resume= carries a checkpoint on, its frames skipped. run() plays the frames with the count budget
+and returns what rost.Mission.run() does (timestamp: the frame index), as rost run's topics.csv and
+perplexity.csv; notes() says what the source skipped or scaled; save(path) writes a checkpoint.)doc")
+        .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, int, int, int64_t,
+                      const py::kwargs&>(),
+             py::arg("inputs"), py::arg("resume") = py::none(), py::arg("topicmodel") = py::none(),
+             py::arg("vocabulary") = py::none(), py::arg("width") = 0, py::arg("height") = 0, py::arg("max_frames") = 0)
+        .def("run", &PyFrameMission::run, "Plays the frames still to play; returns their results (dict).")
+        .def("save", [](PyFrameMission& s, const py::object& path) { s.save(py::str(path)); }, py::arg("path"))
+        .def("notes", &PyFrameMission::takeNotes, "What the source did that a user should know (taken).")
+        .def_property_readonly("resuming", &PyFrameMission::resuming)
+        .def_property_readonly("frames", &PyFrameMission::frames, "Frames this mission plays, when known (-1).")
+        .def_property_readonly("description", &PyFrameMission::description)
+        .def_property_readonly("config", [](const PyFrameMission& s) { return PyConfig{s.settings()}; },
+                               "The planned settings (rost.Config).");
+}
+
+} // namespace rost::python
