@@ -13,6 +13,7 @@
 #include "rost/mission.hpp"
 #include "rost/settings.hpp"
 #include "rost/vision/frame_source.hpp"
+#include "rost/vision/mission.hpp"
 #include "rost/vision/words.hpp"
 
 namespace rost::bridge {
@@ -82,8 +83,7 @@ struct Pipeline::Impl {
     NodeSettings givenSettings;
     EngineConfig ec;
     Options options;
-    std::shared_ptr<const vision::Vocabulary> vocabulary;
-    std::unique_ptr<vision::WordExtractor> extractor;
+    vision::MissionWords extractors;  // the extractors and their vocabulary (rost/vision/mission.hpp)
     std::unique_ptr<Engine> engine;
     std::unique_ptr<CheckpointWriter> checkpoints;
     vision::FrameWords words;
@@ -97,29 +97,15 @@ struct Pipeline::Impl {
     std::string makeEngine(const NodeSettings& given, int width, int height);
 };
 
-std::string Pipeline::Impl::makeExtractor() {
-    Status st;
-    const vision::ExtractorConfig xc = vision::ExtractorConfig::from(settings.words);
-    if (xc.orb) {
-        if (options.vocabulary.empty()) {
-            vocabulary = vision::defaultVocabulary(st);
-        } else {
-            auto v = std::make_shared<vision::Vocabulary>();
-            st = vision::Vocabulary::load(options.vocabulary, *v);
-            vocabulary = std::move(v);
-        }
-        if (!st.ok()) return st.message();
-    }
-    extractor = vision::WordExtractor::create(xc, vocabulary, st);
-    return extractor ? std::string() : st.message();
-}
+std::string Pipeline::Impl::makeExtractor() { return extractors.open(settings.words, options.vocabulary).message(); }
 
-// The library's mission session (rost/mission.hpp) decides, as for the rost
-// tool: ~resume's checkpoint fixes the model (checked at start-up, in
-// create()), its refinement settings stay unless given, the runtime ones
-// are the node's. The first image fixes the frame size of a new model unless
-// ~frame_width and ~frame_height are given; a resumed model keeps the
-// checkpoint's (images are resized to it).
+// The library's frame mission (rost/vision/mission.hpp) decides, as for the
+// rost tool's run: ~resume's checkpoint fixes the model (checked at
+// start-up, in create()), its refinement settings stay unless given, the
+// runtime ones are the node's. The first image fixes the frame size of a new
+// model unless ~frame_width and ~frame_height are given; a resumed model
+// keeps the checkpoint's (images are resized to it). V and max.words come
+// from the extractors, unless given.
 MissionOptions Pipeline::Impl::missionOptions() const {
     MissionOptions m;
     m.settings = settings;
@@ -134,19 +120,21 @@ MissionOptions Pipeline::Impl::missionOptions() const {
 
 std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int height) {
     const MissionOptions mission = missionOptions();
+    vision::SourceInfo info;  // the image topic: live, of unknown length
+    info.description = "the image topic";
+    info.width = given.given("frame.width") ? settings.engine.model.frame_width : width;
+    info.height = given.given("frame.height") ? settings.engine.model.frame_height : height;
+    info.live = true;
+    if (!options.resume.empty()) info.width = info.height = 0;  // the checkpoint's: images are resized to it
     MissionInput in;
-    in.width = given.given("frame.width") ? 0 : width;
-    in.height = given.given("frame.height") ? 0 : height;
-    if (!options.resume.empty()) in.width = in.height = 0;  // the checkpoint's
-    in.V = static_cast<int>(extractor->vocabularySize());
-    in.vocabulary = true;
     in.threads = settings.engine.model.threads;
     in.flags = settings.engine.flags;
-    if (Status st = planMission(mission, in, plan); !st.ok()) return st.message();
+    vision::FrameMission m;
+    if (Status st = vision::openFrameMission(mission, in, info, extractors, 0, m); !st.ok()) return st.message();
+    plan = m.plan;
     ec = plan.config;
+    engine = std::move(m.engine);
     Status st;
-    engine = openMission(mission, plan, st);
-    if (!engine) return st.message();
     if (Status ps = engine->publishResults(options.result_slots); !ps.ok()) return ps.message();
     record = engine->makeResult();
     if (!options.checkpoint.empty()) {
@@ -202,7 +190,7 @@ bool Pipeline::push(const cv::Mat& image, int64_t timestamp) {
         cv::resize(image, m.resized, cv::Size(width(), height()), 0, 0, cv::INTER_AREA);
         in = &m.resized;
     }
-    if (!m.extractor->extract(*in, m.words)) return false;
+    if (!m.extractors.extractor->extract(*in, m.words)) return false;
     ObservationView view;
     view.timestamp = timestamp;
     view.words = m.words.words;
