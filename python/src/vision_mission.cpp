@@ -107,12 +107,10 @@ private:
         vision::Frame frame;
         vision::FrameWords words;
         for (int64_t played = 0; max_frames_ <= 0 || mission_.before + played < max_frames_;) {
-            const vision::ReadStatus rs = source_->read(frame);
+            const vision::ReadStatus rs = vision::readMissionFrame(*source_, mission_.skip_through, mission_.before, frame);
             keepNotes();
             if (rs == vision::ReadStatus::End) return {};
             if (rs == vision::ReadStatus::Error) return source_->error();
-            if (info_.live) frame.index += mission_.before;  // after the checkpoint's frames
-            else if (mission_.inCheckpoint(info_, frame.index)) continue;
             words_.extractor->extract(frame.image, words);
             if (!results.observe(mission_.engine->processNow(ObservationView{frame.index, words.words, words.positions})))
                 return {};

@@ -102,17 +102,9 @@ void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime
 }
 
 bool Capture::readNext() {
-    for (;;) {
-        const vision::ReadStatus rs = w_.source->read(frame_);
-        if (rs == vision::ReadStatus::End) return false;
-        if (rs == vision::ReadStatus::Error) {
-            read_error_ = w_.source->error();
-            return false;
-        }
-        if (w_.info.live) frame_.index += e_.before;  // after the checkpoint's frames
-        else if (frame_.index <= e_.skipThrough) continue;  // in the checkpoint already
-        return true;
-    }
+    const vision::ReadStatus rs = vision::readMissionFrame(*w_.source, e_.skipThrough, e_.before, frame_);
+    if (rs == vision::ReadStatus::Error) read_error_ = w_.source->error();
+    return rs == vision::ReadStatus::Ok;
 }
 
 // File input at its own frame rate: frame i is due at t0 + i / fps (i

@@ -84,4 +84,14 @@ Status openFrameMission(const MissionOptions& m, MissionInput in, const SourceIn
     return out.engine ? Status() : st;
 }
 
+ReadStatus readMissionFrame(FrameSource& source, int64_t skipThrough, int64_t before, Frame& frame) {
+    for (;;) {
+        const ReadStatus rs = source.read(frame);
+        if (rs != ReadStatus::Ok) return rs;
+        if (source.info().live) frame.index += before;  // after the checkpoint's frames
+        else if (frame.index <= skipThrough) continue;  // in the checkpoint already
+        return rs;
+    }
+}
+
 } // namespace rost::vision

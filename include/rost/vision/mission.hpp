@@ -41,11 +41,6 @@ struct FrameMission {
     int64_t frames = -1;        // frames this run plays, when known
     std::unique_ptr<Engine> engine;
 
-    // Whether a frame of `index` (as the source numbers it) is the
-    // checkpoint's already; a live source's frames are renumbered after it.
-    bool inCheckpoint(const SourceInfo& info, int64_t index) const noexcept {
-        return !info.live && index <= skip_through;
-    }
 };
 
 // Plans the mission for `info`'s frames and `words` by the one policy
@@ -56,5 +51,11 @@ struct FrameMission {
 // what the face decides (threads, engine flags).
 Status openFrameMission(const MissionOptions& m, MissionInput in, const SourceInfo& info, const MissionWords& words,
                         int64_t maxFrames, FrameMission& out);
+
+// The next frame of `source` a mission models (FrameMission's skip_through
+// and before): a file's frames the checkpoint holds are skipped, a live
+// source's are numbered after them. Ok, End, or Error (source.error() says
+// why). Allocates nothing of its own (the capture thread calls it).
+ReadStatus readMissionFrame(FrameSource& source, int64_t skipThrough, int64_t before, Frame& frame);
 
 } // namespace rost::vision
