@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -135,3 +136,51 @@ TEST(TopicGrowth, SameResultOnAnyNumberOfThreads) {
 }
 
 } // namespace
+
+// The plug-in perplexity (the 2013 ROST code's) with topics that grow and A
+// open topics of K: theta_c over the open topics and the chance of a new one,
+// (n_c^k + alpha) / (n_c + A alpha + gamma) and gamma / (n_c + A alpha +
+// gamma) with its words uniform, rebuilt here from the model's public counts.
+TEST(TopicGrowth, PluginPerplexityNormalisesOverTheOpenTopics) {
+    rost::Config c;
+    c.K = 12;
+    c.V = 30;
+    c.frame_width = c.frame_height = 8;
+    c.cell_space = 64;  // one cell a step: its words are the observation's
+    c.ring_steps = 16;
+    c.grow = true;
+    c.gamma = 0.5;
+    c.alpha = 0.3;
+    c.beta = 0.2;
+    rost::Model m(c);
+    rost::Rng r(9);
+    std::vector<uint32_t> w(40);
+    std::vector<rost::Position> p(40);
+    for (int t = 0; t < 10; ++t) {
+        for (auto& x : w) x = r.below(10) + (t < 5 ? 0u : 15u);  // two blocks of words, in turn
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+        m.refineAll(3);
+    }
+    const int A = m.activeTopics();
+    ASSERT_GT(A, 1);
+    ASSERT_LT(A, c.K) << "the test needs closed topics";
+    for (int64_t t = m.oldestStep(); t < m.steps(); ++t) {
+        std::vector<uint32_t> words(m.observationSize(static_cast<uint64_t>(t)));
+        m.observationWords(static_cast<uint64_t>(t), words);
+        const auto h = m.cellHistogram(t, 0);
+        const double n = static_cast<double>(m.cellWordCount(t, 0));
+        const double norm = n + A * c.alpha + c.gamma;
+        double nll = 0.0;
+        for (uint32_t v : words) {
+            double pw = c.gamma / norm / c.V;
+            for (int k = 0; k < c.K; ++k)
+                if (m.topicOpen(k))
+                    pw += (m.topicWordCount(k, static_cast<int>(v)) + c.beta) / (m.topicCount(k) + c.V * c.beta) *
+                          (h[static_cast<std::size_t>(k)] + c.alpha) / norm;
+            nll -= std::log(pw);
+        }
+        const rost::LogLoss got = m.cellPluginLogLoss(t, 0);
+        ASSERT_EQ(got.words, words.size());
+        EXPECT_NEAR(got.nll, nll, 1e-9 * std::abs(nll)) << "step " << t;
+    }
+}

@@ -7,7 +7,9 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <set>
+#include <vector>
 #include <string>
 
 #include "rost/config_file.hpp"
@@ -93,6 +95,43 @@ TEST(Settings, EveryRangeIsEnforcedNamingTheKey) {
         }
     }
     EXPECT_GT(checked, 40);
+}
+
+// Every numeric setting takes both ends of its range (lo unless the range
+// is open there): set alone, the value passes Settings::validate and, for
+// the model's, Config::validate; where it conflicts with another setting's
+// default, the problem is that combination (it names the other setting),
+// never the value's own range.
+TEST(Settings, EveryNumericSettingAcceptsBothEndsOfItsRange) {
+    int checked = 0;
+    for (const SettingSpec& spec : settingSpecs()) {
+        if (spec.type == SettingType::Bool || spec.type == SettingType::Choice) continue;
+        const bool integer = spec.type != SettingType::Real && spec.type != SettingType::BudgetMs;
+        std::vector<double> ends{spec.hi};
+        if (!spec.has(setting_flags::LoOpen)) ends.push_back(spec.lo);
+        for (double end : ends) {
+            char text[64];
+            std::to_chars_result r{};
+            if (!integer) r = std::to_chars(text, text + 64, end);
+            else if (end >= 9.2e18) r = std::to_chars(text, text + 64, UINT64_MAX);  // the seed's 2^64 - 1
+            else r = std::to_chars(text, text + 64, static_cast<long long>(end));
+            const std::string value(text, r.ptr);
+            Settings s;
+            ASSERT_TRUE(setSetting(s, spec.key, value).ok()) << spec.key << " = " << value;
+            if (auto p = checkSettings(s)) {
+                EXPECT_FALSE(p->spec == &spec && p->involved.empty())
+                    << spec.key << " = " << value << " refused by its own range: " << p->describe(p->spec->key);
+            } else {
+                EXPECT_TRUE(s.validate().ok()) << spec.key << " = " << value << ": " << s.validate().message();
+                if (spec.group == SettingGroup::Model && isEngineSetting(spec)) {
+                    EXPECT_TRUE(s.engine.model.validate().ok()) << spec.key << " = " << value << ": "
+                                                                << s.engine.model.validate().message();
+                }
+                ++checked;
+            }
+        }
+    }
+    EXPECT_GT(checked, 50);
 }
 
 TEST(Settings, EveryKeyRoundTripsThroughTheDocumentedFile) {

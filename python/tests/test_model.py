@@ -297,3 +297,23 @@ def test_load_takes_settings_by_the_missions_one_policy(tmp_path):
     assert (loaded.topic_model() == model.topic_model()).all()
     with pytest.raises(ValueError, match=r"unknown setting 'samplr' \(did you mean 'sampler'\?\)"):
         rost.Model.load(str(path), samplr="now")
+
+
+def test_sampled_labels_are_numbered_as_the_ml_labels_when_a_closed_topic_lies_below_an_open_one():
+    """With growth, open topics are numbered 0..A-1 in label order: topics 0 and 2 open (1 closed)
+    are 0 and 1 in every output. The Gibbs sample (topics(), topics.csv) must be renumbered as the
+    maximum-likelihood labels are: here every word belongs to raw topic 2, which is output 1."""
+    model = rost.Model(small_config(K=4, V=10, topics_grow=True, gamma=1e-6, g_space=0, g_time=0, cell_space=64))
+    counts = np.zeros((4, 10), dtype=np.int32)
+    counts[0, :5] = 5000  # topic 0: words 0..4
+    counts[2, 5:] = 5000  # topic 2: words 5..9; topics 1 and 3 stay closed
+    model.set_topic_model(counts)
+    assert model.active_topics == 2
+    words = np.arange(5, 10, dtype=np.int32).repeat(20)
+    model.add_observation(0, words, np.zeros((len(words), 2), np.int32))
+    model.refine(sweeps=5)
+    A = model.active_topics
+    sampled, ml = model.topics(0), model.ml_topics(0)
+    assert ml.max() < A and sampled.max() < A, (A, sampled.max())
+    assert (ml == 1).all(), "words of raw topic 2 are output topic 1"
+    assert (sampled == ml).mean() > 0.9
