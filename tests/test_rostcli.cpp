@@ -444,4 +444,43 @@ TEST_F(RostCli, FlagsGoThroughTheSchema) {
         EXPECT_NE(help.find(f), std::string::npos) << f;
 }
 
+// Every setting flag sets its own key: each at a value other than its
+// default, read back from topics.log (the table is written out here, as
+// rost-cli's documentation names the flags, not derived from the schema).
+TEST_F(RostCli, EverySettingFlagSetsItsOwnKey) {
+    std::string words, positions;  // 8 documents of 4 words on a 10 x 10 frame: 4 steps of cell.time 2
+    for (int d = 0; d < 8; ++d) {
+        words += std::to_string(d);
+        positions += std::to_string(d);
+        for (int i = 0; i < 4; ++i) {
+            words += ',';
+            words += std::to_string((d * 3 + i * 5) % 9);
+            positions += ',';
+            positions += std::to_string((d + i * 3) % 10);
+            positions += ',';
+            positions += std::to_string((d * 7 + i) % 10);
+        }
+        words += "\n";
+        positions += "\n";
+    }
+    writeText(dir + "/d.csv", words);
+    writeText(dir + "/p.csv", positions);
+    const std::vector<std::pair<std::string, std::string>> flags = {
+        {"-K 7", "K = 7"},          {"-V 41", "V = 41"},          {"--alpha 0.25", "alpha = 0.25"},
+        {"--beta 0.75", "beta = 0.75"}, {"--gamma 0.003", "gamma = 0.003"}, {"--cell.time 2", "cell.time = 2"},
+        {"--g.time 3", "g.time = 3"}, {"-n 3", "final.sweeps = 3"}, {"--threads 2", "threads = 2"},
+        {"--seed 99", "seed = 99"}, {"--grow.topics.size true", "topics.grow = true"},
+        {"--cell.space 4", "cell.space = 4"}, {"--g.space 2", "g.space = 2"}};
+    std::string args;
+    for (const auto& [flag, line] : flags) {
+        args += ' ';
+        args += flag;
+    }
+    const Result r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i d.csv --in.position p.csv --logfile=flags.log" + args);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string log = readText(dir + "/flags.log");
+    for (const auto& [flag, line] : flags)
+        EXPECT_NE(log.find(line + '\n'), std::string::npos) << flag << " should give '" << line << "' in:\n" << log;
+}
+
 } // namespace
