@@ -2,6 +2,7 @@
 // (it never needs the interpreter lock), push() that never blocks, and
 // snapshots of the newest results.
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -56,8 +57,13 @@ public:
         const Config& c = engine_->config().model;
         const ObservationArrays obs = viewObservation(words, positions, static_cast<uint32_t>(c.V), c.frame_width,
                                                       c.frame_height);
+        last_words_ = obs.words.data();
+        last_positions_ = obs.positions.data();
         return engine_->tryPush(ObservationView{t, obs.words, obs.positions});
     }
+    // The buffers last handed to the engine (tests: viewed in place, not copied before the push).
+    uintptr_t lastWords() const { return reinterpret_cast<uintptr_t>(last_words_); }
+    uintptr_t lastPositions() const { return reinterpret_cast<uintptr_t>(last_positions_); }
     py::object snapshot() {
         if (!engine_->readSnapshot(snap_)) return py::none();
         PySnapshot s;
@@ -88,6 +94,8 @@ private:
     std::unique_ptr<Engine> engine_;
     Snapshot snap_;
     std::atomic<bool> busy_{false};
+    const void* last_words_ = nullptr;
+    const void* last_positions_ = nullptr;
 };
 
 void bindSnapshot(py::module_& m) {
@@ -129,6 +137,8 @@ stop(). A context manager: `with rost.Engine(cfg) as e:` starts and stops it.)do
              "Queues observation t (int32 words, (N, 2) int32 positions). Never blocks; False when it was dropped.")
         .def("snapshot", &PyEngine::snapshot, "The newest results (rost.Snapshot), None before the first.")
         .def("counters", &PyEngine::counters, "The engine's counters (dict).")
+        .def_property_readonly("_last_input_address", &PyEngine::lastWords)
+        .def_property_readonly("_last_positions_address", &PyEngine::lastPositions)
         .def_property_readonly("running", &PyEngine::running)
         .def_property_readonly("config", [](const PyEngine& e) { return PyConfig{e.settings()}; })
         .def_property_readonly("memory_bytes", &PyEngine::memoryBytes)

@@ -68,6 +68,7 @@ public:
     const Model& model() const { return engine_->model(); }
     std::atomic<bool>& busy() { return busy_; }
     const void* lastInput() const { return last_input_; }
+    const void* lastPositions() const { return last_positions_; }
 
     void add(int64_t t, const py::handle& words, const py::handle& positions) {
         BusyGuard guard(busy_, "rost.Model");
@@ -75,6 +76,7 @@ public:
         const ObservationArrays obs = viewObservation(words, positions, static_cast<uint32_t>(c.V), c.frame_width,
                                                       c.frame_height);
         last_input_ = obs.words.data();
+        last_positions_ = obs.positions.data();
         ObservationResult r;
         {
             py::gil_scoped_release nogil;
@@ -171,6 +173,7 @@ private:
     std::unordered_map<int64_t, uint64_t> by_time_;
     std::atomic<bool> busy_{false};
     const void* last_input_ = nullptr;
+    const void* last_positions_ = nullptr;
 };
 
 namespace {
@@ -305,6 +308,9 @@ void bindModelState(py::class_<PyModel>& c) {
              }, "Time stamps of the observations in the window, oldest first.")
         .def_property_readonly("_last_input_address", [](PyModel& m) { return reinterpret_cast<uintptr_t>(m.lastInput()); },
                                "Address of the last words buffer handed to the library (tests: no copy).")
+        .def_property_readonly("_last_positions_address",
+                               [](PyModel& m) { return reinterpret_cast<uintptr_t>(m.lastPositions()); },
+                               "Address of the last positions buffer handed to the library (tests: no copy).")
         .def("save", &PyModel::save, py::arg("path"), "Writes a checkpoint (atomically); rost run --resume reads it.")
         .def_static("load", &PyModel::load, py::arg("path"),
                     "A Model from a checkpoint (Model.save, rost run --checkpoint). Keywords (rost.Config's) may change "

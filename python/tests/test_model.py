@@ -114,9 +114,19 @@ def test_words_are_not_copied():
     words, positions = random_observation(np.random.default_rng(0))
     model.add_observation(0, words, positions)
     assert model._last_input_address == words.ctypes.data
+    assert model._last_positions_address == positions.ctypes.data
     view = words[50:]  # a view into the same buffer is taken as it is
     model.add_observation(1, view, positions[50:])
     assert model._last_input_address == view.ctypes.data
+    assert model._last_positions_address == positions[50:].ctypes.data
+
+
+def test_the_engine_takes_words_and_positions_without_a_copy():
+    engine = rost.Engine(small_config())
+    words, positions = random_observation(np.random.default_rng(1))
+    assert engine.push(0, words, positions)
+    assert engine._last_input_address == words.ctypes.data
+    assert engine._last_positions_address == positions.ctypes.data
 
 
 @pytest.mark.parametrize("words, positions, error, match", [
