@@ -47,6 +47,37 @@ TEST(Settings, TheLibrarysDefaultsAreTheSchemas) {
     EXPECT_TRUE(s.validate().ok());
 }
 
+// The defaults the paper and the docs state, pinned by value (not read back
+// from the schema they are generated from, so changing one fails here):
+// paper section VII's K 16, alpha 0.1, beta 0.5, 64-pixel cells, 1-cell
+// neighbourhoods in space and time; the docs' sampler uni+now with eta 0.5
+// and 40 refines an observation, the serial-equivalent window of 256, keep
+// eviction, seed 1.
+TEST(Settings, ThePapersAndTheDocsDefaultsByValue) {
+    const Settings s;
+    const Config& c = s.engine.model;
+    EXPECT_EQ(c.K, 16);
+    EXPECT_EQ(c.alpha, 0.1);
+    EXPECT_EQ(c.beta, 0.5);
+    EXPECT_EQ(c.cell_space, 64);
+    EXPECT_EQ(c.cell_time, 1);
+    EXPECT_EQ(c.g_space, 1);
+    EXPECT_EQ(c.g_time, 1);
+    EXPECT_EQ(c.cell_capacity, 256);
+    EXPECT_EQ(c.seed, 1u);
+    EXPECT_FALSE(c.grow);
+    EXPECT_EQ(c.gamma, 0.1);
+    EXPECT_EQ(c.eviction, EvictionPolicy::Keep);
+    EXPECT_EQ(c.refine_window, 256);
+    EXPECT_EQ(s.engine.strategy.kind, StrategyKind::UniformNow);
+    EXPECT_EQ(s.engine.strategy.eta, 0.5);
+    EXPECT_EQ(s.engine.strategy.q, 0.5);
+    EXPECT_EQ(s.engine.budget.kind, BudgetKind::Steps);
+    EXPECT_EQ(s.engine.budget.count, 40u);
+    EXPECT_EQ(s.engine.queue_slots, 8);
+    EXPECT_EQ(s.final_sweeps, 0);
+}
+
 // settingDefault<double> parses at compile time: it must give the double
 // std::from_chars gives for the same text.
 TEST(Settings, CompileTimeDefaultsAreTheCorrectlyRoundedValues) {
