@@ -306,6 +306,40 @@ TEST(ParallelRefine, NoTwoCellsOfAColourAreNeighbours) {
         }
 }
 
+// A limit that refuses the next round stops refinement there, between two
+// rounds: the rounds counted are the rounds run, and the tokens counted the
+// tokens they refined (on one thread and on workers alike).
+TEST(ParallelRefine, AControlStopsBetweenRoundsAndTheRoundsCountedAreTheRoundsRun) {
+    struct StopAfter final : RefineControl {
+        explicit StopAfter(uint64_t n) : allow(n) {}
+        bool beforeRound(uint64_t) noexcept override { return started < allow ? (++started, true) : false; }
+        void afterRound(uint64_t tokens) noexcept override {
+            ++finished;
+            refined += tokens;
+        }
+        uint64_t allow, started = 0, finished = 0, refined = 0;
+    };
+    for (const int threads : {1, 3})
+        for (const uint64_t allow : {1u, 5u}) {
+            Model m(gridConfig(threads, 16));
+            for (const auto& f : makeStream(m.config(), 20, 200, 3)) ASSERT_TRUE(m.addObservation(f.words, f.positions).ok());
+            const uint64_t before = m.tokensRefined();
+            StopAfter stop(allow);
+            Sweep sweep(m);
+            RefineLimits limits;
+            limits.steps = 1000;  // far more than 5 rounds' worth: the control stops it
+            limits.control = &stop;
+            const RefineCount rc = m.refine(sweep, limits);
+            EXPECT_EQ(stop.finished, allow) << threads << " threads";
+            EXPECT_EQ(rc.rounds, allow) << threads << " threads";
+            EXPECT_EQ(rc.tokens, stop.refined);
+            EXPECT_EQ(m.tokensRefined() - before, stop.refined);
+            EXPECT_LT(rc.steps, 1000u);
+            std::string why;
+            EXPECT_TRUE(m.checkInvariants(&why)) << why;
+        }
+}
+
 TEST(ParallelRefine, ATimeBudgetStopsBetweenRoundsAndCountsThem) {
     EngineConfig ec;
     ec.model = gridConfig(2, 64);
