@@ -5,6 +5,7 @@
 // `rost refine` plays it: the same seed, stream and settings give the same
 // labels and perplexities as rost refine's topics.csv and perplexity.csv.
 
+#include <atomic>
 #include <limits>
 #include <memory>
 #include <string>
@@ -25,10 +26,11 @@ public:
               const py::object& topicmodel, int width, int height, const py::kwargs& settings) {
         MissionOptions m = missionOptions(settings, "rost.Mission", resume, topicmodel);
         StreamMissionInput in;
-        in.words = py::str(words);
-        if (!positions.is_none()) in.positions = py::str(positions);
-        in.width = width;
-        in.height = height;
+        in.words = pathArgument(words, "rost.Mission: words");
+        if (!positions.is_none()) in.positions = pathArgument(positions, "rost.Mission: positions");
+        // frame_width/frame_height given as settings are the frame, as width/height are.
+        in.width = width > 0 ? width : m.isGiven("frame.width") ? m.settings.engine.model.frame_width : 0;
+        in.height = height > 0 ? height : m.isGiven("frame.height") ? m.settings.engine.model.frame_height : 0;
         in.base.threads = m.settings.engine.model.threads;
         Status st;
         {
@@ -41,31 +43,46 @@ public:
         final_sweeps_ = settings_.final_sweeps;
     }
 
-    std::size_t size() const { return mission_.todo().size(); }
+    std::size_t size() const { return played_ ? 0 : mission_.todo().size(); }
     bool resuming() const { return mission_.plan.resuming; }
     std::size_t skipped() const { return mission_.skipped; }
     const Settings& settings() const { return settings_; }
 
-    // Plays the observations still to play, then the final sweeps; a mission plays once.
+    // Plays the observations still to play, then the final sweeps; a mission
+    // plays once. Ctrl-C stops it between two observations (KeyboardInterrupt;
+    // the model keeps what was played: save() writes it).
     py::dict run() {
-        if (played_) throw py::value_error("rost.Mission.run: this mission was already played");
+        BusyGuard guard(busy_, "rost.Mission");
+        if (played_) throw std::runtime_error("rost.Mission.run: this mission was already played");
         played_ = true;
         MissionResults results(*mission_.engine);
+        bool interrupted = false;
         {
             py::gil_scoped_release nogil;
-            for (const StreamObservation& ob : mission_.todo())
+            for (const StreamObservation& ob : mission_.todo()) {
                 if (!results.observe(mission_.engine->processNow(ObservationView{ob.timestamp, ob.words, ob.positions})))
                     break;
-            if (results.why().empty()) results.finish(final_sweeps_);
+                if (!keepRunning()) {
+                    interrupted = true;
+                    break;
+                }
+            }
+            if (!interrupted && results.why().empty()) results.finish(final_sweeps_);
         }
+        if (interrupted) throw py::error_already_set();
         if (!results.why().empty())
             throw py::value_error("rost.Mission.run: an observation was refused: " + results.why());
         return results.toDict();
     }
 
     void save(const std::string& path) {
-        py::gil_scoped_release nogil;
-        check(saveCheckpoint(*mission_.engine, path));
+        BusyGuard guard(busy_, "rost.Mission");
+        Status st;
+        {
+            py::gil_scoped_release nogil;
+            st = saveCheckpoint(*mission_.engine, path);
+        }
+        if (!st.ok()) throw std::runtime_error("rost.Mission.save: " + st.message());
     }
 
 private:
@@ -73,19 +90,35 @@ private:
     Settings settings_;
     int final_sweeps_ = 0;
     bool played_ = false;
+    std::atomic<bool> busy_{false};
 };
 
 } // namespace
 
 // ---- mission_results.hpp ---------------------------------------------------------------
 
+std::string pathArgument(const py::handle& value, const char* what) {
+    if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+    if (py::hasattr(value, "__fspath__")) {
+        const py::object p = value.attr("__fspath__")();
+        if (py::isinstance<py::str>(p)) return p.cast<std::string>();
+    }
+    throw py::type_error(std::string(what) + ": expected a path (str or os.PathLike), found " +
+                         std::string(py::str(py::type::handle_of(value).attr("__name__"))));
+}
+
+bool keepRunning() {
+    py::gil_scoped_acquire gil;
+    return PyErr_CheckSignals() == 0;
+}
+
 MissionOptions missionOptions(const py::kwargs& settings, const char* what, const py::object& resume,
                               const py::object& topicmodel) {
     MissionOptions m;
     applySettings(m.settings, settings, what);
     for (const auto& [k, v] : settings) m.given.emplace_back(findSetting(py::str(k).cast<std::string>())->key);
-    if (!resume.is_none()) m.resume = py::str(resume);
-    if (!topicmodel.is_none()) m.in_topicmodel = py::str(topicmodel);
+    if (!resume.is_none()) m.resume = pathArgument(resume, "resume");
+    if (!topicmodel.is_none()) m.in_topicmodel = pathArgument(topicmodel, "topicmodel");
     m.names.setting = [](const SettingSpec& s) { return paramName(s); };
     m.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
     m.names.leave = [](const SettingSpec& s) { return paramName(s); };
@@ -164,7 +197,8 @@ maximum-likelihood topics, as topics.csv). save(path) writes a checkpoint.)doc")
              py::arg("words"), py::arg("positions") = py::none(), py::arg("resume") = py::none(),
              py::arg("topicmodel") = py::none(), py::arg("width") = 0, py::arg("height") = 0)
         .def("run", &PyMission::run, "Plays the observations still to play; returns their results (dict).")
-        .def("save", [](PyMission& s, const py::object& path) { s.save(py::str(path)); }, py::arg("path"),
+        .def("save", [](PyMission& s, const py::object& path) { s.save(pathArgument(path, "rost.Mission.save: path")); },
+             py::arg("path"),
              "Writes the mission's checkpoint (rost run/refine --resume and rost.Model.load read it).")
         .def("__len__", &PyMission::size, "Observations still to play.")
         .def_property_readonly("resuming", &PyMission::resuming)

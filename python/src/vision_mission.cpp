@@ -5,6 +5,7 @@
 // through the engine with its count budget as `rost run` plays a file: the
 // same input, seed and settings give rost run's topics.csv and perplexity.csv.
 
+#include <atomic>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,9 +22,12 @@ namespace {
 std::vector<std::string> inputList(const py::object& inputs) {
     std::vector<std::string> out;
     if (py::isinstance<py::str>(inputs) || py::hasattr(inputs, "__fspath__")) {
-        out.emplace_back(py::str(inputs));
+        out.push_back(pathArgument(inputs, "rost.vision.Mission: inputs"));
+    } else if (py::isinstance<py::list>(inputs) || py::isinstance<py::tuple>(inputs)) {
+        for (const py::handle& h : inputs) out.push_back(pathArgument(h, "rost.vision.Mission: inputs"));
     } else {
-        for (const py::handle& h : inputs) out.emplace_back(py::str(h));
+        throw py::type_error("rost.vision.Mission: inputs: expected a path or a list of paths, found " +
+                             std::string(py::str(py::type::handle_of(inputs).attr("__name__"))));
     }
     if (out.empty()) throw py::value_error("rost.vision.Mission: no inputs");
     return out;
@@ -34,12 +38,15 @@ public:
     PyFrameMission(const py::object& inputs, const py::object& resume, const py::object& topicmodel,
                    const py::object& vocabulary, int width, int height, int64_t maxFrames, const py::kwargs& settings)
         : max_frames_(maxFrames) {
+        if (maxFrames < 0) throw py::value_error("rost.vision.Mission: max_frames = " + std::to_string(maxFrames) +
+                                                 ", allowed at least 0 (0: every frame)");
         MissionOptions m = missionOptions(settings, "rost.vision.Mission", resume, topicmodel);
-        vision::SourceOptions so;
-        so.width = width;
-        so.height = height;
+        vision::SourceOptions so;  // frame_width/frame_height given as settings size the frames, as width/height do
+        so.width = width > 0 ? width : m.isGiven("frame.width") ? m.settings.engine.model.frame_width : 0;
+        so.height = height > 0 ? height : m.isGiven("frame.height") ? m.settings.engine.model.frame_height : 0;
         const std::vector<std::string> paths = inputList(inputs);
-        const std::string vocabularyPath = vocabulary.is_none() ? std::string() : std::string(py::str(vocabulary));
+        const std::string vocabularyPath =
+            vocabulary.is_none() ? std::string() : pathArgument(vocabulary, "rost.vision.Mission: vocabulary");
         Status st;
         {
             py::gil_scoped_release nogil;  // opening a video and the vocabulary take a while
@@ -52,15 +59,17 @@ public:
 
     // Plays the frames still to play (up to max_frames for the whole mission), then the final sweeps.
     py::dict run() {
-        if (played_) throw py::value_error("rost.vision.Mission.run: this mission was already played");
+        BusyGuard guard(busy_, "rost.vision.Mission");
+        if (played_) throw std::runtime_error("rost.vision.Mission.run: this mission was already played");
         played_ = true;
         MissionResults results(*mission_.engine);
         std::string error;
         {
             py::gil_scoped_release nogil;
             error = play(results);
-            if (error.empty() && results.why().empty()) results.finish(settings_.final_sweeps);
+            if (error.empty() && results.why().empty() && !interrupted_) results.finish(settings_.final_sweeps);
         }
+        if (interrupted_) throw py::error_already_set();
         if (!error.empty()) throw py::value_error("rost.vision.Mission.run: " + error);
         if (!results.why().empty())
             throw py::value_error("rost.vision.Mission.run: a frame was refused: " + results.why());
@@ -68,8 +77,13 @@ public:
     }
 
     void save(const std::string& path) {
-        py::gil_scoped_release nogil;
-        check(saveCheckpoint(*mission_.engine, path));
+        BusyGuard guard(busy_, "rost.vision.Mission");
+        Status st;
+        {
+            py::gil_scoped_release nogil;
+            st = saveCheckpoint(*mission_.engine, path);
+        }
+        if (!st.ok()) throw std::runtime_error("rost.vision.Mission.save: " + st.message());
     }
 
     const Settings& settings() const { return settings_; }
@@ -115,6 +129,10 @@ private:
             if (!results.observe(mission_.engine->processNow(ObservationView{frame.index, words.words, words.positions})))
                 return {};
             ++played;
+            if (!keepRunning()) {
+                interrupted_ = true;
+                return {};
+            }
         }
         return {};
     }
@@ -127,6 +145,8 @@ private:
     std::vector<std::string> notes_;
     int64_t max_frames_ = 0;
     bool played_ = false;
+    bool interrupted_ = false;
+    std::atomic<bool> busy_{false};
 };
 
 } // namespace
@@ -145,7 +165,8 @@ perplexity.csv; notes() says what the source skipped or scaled; save(path) write
              py::arg("inputs"), py::arg("resume") = py::none(), py::arg("topicmodel") = py::none(),
              py::arg("vocabulary") = py::none(), py::arg("width") = 0, py::arg("height") = 0, py::arg("max_frames") = 0)
         .def("run", &PyFrameMission::run, "Plays the frames still to play; returns their results (dict).")
-        .def("save", [](PyFrameMission& s, const py::object& path) { s.save(py::str(path)); }, py::arg("path"))
+        .def("save", [](PyFrameMission& s, const py::object& path) { s.save(pathArgument(path, "rost.vision.Mission.save: path")); },
+             py::arg("path"), "Writes the mission's checkpoint (rost run --resume and rost.vision.Mission(resume=) read it).")
         .def("notes", &PyFrameMission::takeNotes, "What the source did that a user should know (taken).")
         .def_property_readonly("resuming", &PyFrameMission::resuming)
         .def_property_readonly("frames", &PyFrameMission::frames, "Frames this mission plays, when known (-1).")

@@ -48,7 +48,7 @@ def test_a_new_mission_is_planned_from_its_stream_and_plays_it(tmp_path):
     lmode, rmode = np.bincount(left).argmax(), np.bincount(right).argmax()
     assert lmode != rmode
     assert (left == lmode).mean() > 0.8 and (right == rmode).mean() > 0.8
-    with pytest.raises(ValueError, match="already played"):
+    with pytest.raises(RuntimeError, match="already played"):
         m.run()
 
 
@@ -106,3 +106,59 @@ def test_bad_streams_and_settings_are_refused_naming_them(tmp_path):
         rost.Mission(tmp_path / "bad.csv", eta=2)
     with pytest.raises(ValueError, match=r"is a directory"):
         rost.Mission(tmp_path)
+
+
+def test_one_user_at_a_time_and_ctrl_c_stops_between_observations(tmp_path):
+    """save() from another thread while run() plays is refused (it would copy a state being changed);
+    a signal handler that raises (Ctrl-C) stops run() between two observations, and what was played
+    can be saved and resumed."""
+    import signal
+    import threading
+    import time
+
+    rng = np.random.default_rng(8)
+    n = 3000
+    ts = list(range(n))
+    words = [rng.integers(0, 50, 300, dtype=np.int32) for _ in ts]
+    rost.io.write_words(tmp_path / "long.csv", ts, words)
+    m = rost.Mission(tmp_path / "long.csv", K=8)
+    errors = []
+    finished = threading.Event()
+
+    def save_while_running():  # once run() plays (len 0: nothing left to play), a save is refused
+        while len(m) != 0 and not finished.is_set():
+            time.sleep(0.001)
+        try:
+            m.save(tmp_path / "race.ckpt")
+        except RuntimeError as e:
+            errors.append(str(e))
+
+    t = threading.Thread(target=save_while_running)
+    previous = signal.signal(signal.SIGALRM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    try:
+        t.start()
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
+        with pytest.raises(KeyboardInterrupt):
+            m.run()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+        finished.set()
+        t.join()
+    assert errors and "rost.Mission is in use by another thread" in errors[0], errors
+    assert len(m) == 0
+    m.save(tmp_path / "part.ckpt")
+    rest = rost.Mission(tmp_path / "long.csv", resume=tmp_path / "part.ckpt")
+    assert 0 < rest.skipped < n and len(rest) == n - rest.skipped
+
+
+def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
+    words, positions = planted_stream(tmp_path)
+    with pytest.raises(TypeError, match=r"rost\.Mission: words: expected a path \(str or os\.PathLike\), found NoneType"):
+        rost.Mission(None)
+    m = rost.Mission(words, positions=positions, frame_width=80, frame_height=70)
+    assert (m.config.frame_width, m.config.frame_height) == (80, 70), "frame_width/frame_height are the frame"
+    with pytest.raises(ValueError, match=r"positions\.csv:1:\d+: .*outside"):
+        rost.Mission(words, positions=positions, frame_width=20, frame_height=20)
+    with pytest.raises(RuntimeError, match=r"rost\.Mission\.save: .*nodir"):
+        m.save(tmp_path / "nodir" / "m.ckpt")

@@ -153,3 +153,9 @@ def test_a_frame_mission_gives_rost_runs_results_and_resumes(tmp_path):
         rost.vision.Mission(diver, resume=tmp_path / "m.ckpt", max_frames=5)
     with pytest.raises(ValueError, match=r"rost\.vision\.Mission: .*nosuch\.mov"):
         rost.vision.Mission(tmp_path / "nosuch.mov")
+    with pytest.raises(TypeError, match=r"inputs: expected a path or a list of paths, found int"):
+        rost.vision.Mission(3)
+    with pytest.raises(ValueError, match=r"max_frames = -3, allowed at least 0"):
+        rost.vision.Mission(diver, max_frames=-3)
+    small = rost.vision.Mission(diver, max_frames=2, frame_width=320, frame_height=240)
+    assert (small.config.frame_width, small.config.frame_height) == (320, 240), "frame_width sizes the frames"
