@@ -6,6 +6,8 @@
 
 #include <unistd.h>
 
+#include <cstdio>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -247,4 +249,42 @@ TEST(Mission, WordsOfAVocabularyNeedTheirV) {
     in.words_detail = "ORB 5000 + intensity 256 + hue 180";
     EXPECT_EQ(planMission(fresh, in, p4).message(),
               "~V = 100 is smaller than the 5436 words the extractors produce (ORB 5000 + intensity 256 + hue 180)");
+}
+
+namespace {
+
+void writeText(const std::string& path, const char* text) {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr) << path;
+    std::fputs(text, f);
+    std::fclose(f);
+}
+
+} // namespace
+
+// A word stream's frame: the face's own option, else frame.width/height
+// given as settings, else the largest position; one rule for every face.
+TEST(Mission, AStreamsFrameIsTheFacesOptionThenTheSettingThenTheData) {
+    TempDir t;
+    const std::string words = t.path + "/words.csv", positions = t.path + "/positions.csv";
+    writeText(words, "0,1,2,3\n1,2,3,4\n");
+    writeText(positions, "0,10,5,3,1,0,0\n1,0,0,1,1,2,2\n");
+    auto frameOf = [&](MissionOptions& m, int width, int height) {
+        StreamMissionInput in;
+        in.words = words;
+        in.positions = positions;
+        in.width = width;
+        in.height = height;
+        StreamMission s;
+        const Status st = openStreamMission(m, in, s);
+        EXPECT_TRUE(st.ok()) << st.message();
+        return std::to_string(s.plan.config.model.frame_width) + "x" + std::to_string(s.plan.config.model.frame_height);
+    };
+    MissionOptions none;
+    EXPECT_EQ(frameOf(none, 0, 0), "11x6") << "the largest position";
+    MissionOptions set;
+    give(set, "frame.width", "80");
+    give(set, "frame.height", "70");
+    EXPECT_EQ(frameOf(set, 0, 0), "80x70") << "given as settings, they are the frame";
+    EXPECT_EQ(frameOf(set, 40, 0), "40x70") << "the face's own option wins";
 }

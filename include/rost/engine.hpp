@@ -227,8 +227,9 @@ public:
     // Publication for a consumer thread (set-up only: before start(); allocates).
     // The refiner copies each observation's results, and each leaving
     // observation's final labels, into engine-owned rings of `slots` records
-    // (0: off) as part of its publish step: no allocation, no lock. A full
-    // ring drops the record and counts it (resultsLost()).
+    // (0: off; the finals' ring holds one leaving step's cell.time more) as
+    // part of its publish step: no allocation, no lock. A full ring drops the
+    // record and counts it (resultsLost()).
     Status publishResults(std::size_t slots);
     PublishedResult makeResult() const;  // a record sized for readResult (allocates)
     FinalLabels makeFinal() const;       // a record sized for readFinal (allocates)

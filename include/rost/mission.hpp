@@ -61,6 +61,11 @@ struct MissionOptions {
     MissionNames names;
 
     bool isGiven(std::string_view key) const;
+    // The frame size: a face's own option (`width`, `height`; 0 when not
+    // given), else frame.width/frame.height given as settings, else 0 (the
+    // input decides). Every face sizes its input by this one rule.
+    int frameWidth(int width) const;
+    int frameHeight(int height) const;
 };
 
 // What the input decides (each 0 or -1 when it does not know).
@@ -115,7 +120,7 @@ std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& 
 struct StreamMissionInput {
     std::string words;      // words.csv
     std::string positions;  // positions.csv; "": every word at (0, 0), one cell per time step
-    int width = 0, height = 0;  // the frame (0: from the largest position)
+    int width = 0, height = 0;  // the face's own frame option (0: MissionOptions::frameWidth's rule)
     int read_threads = 1;       // 2: the positions parsed beside the words (same result)
     MissionInput base;          // what the face decides: refinement threads, engine flags
 };

@@ -28,9 +28,8 @@ public:
         StreamMissionInput in;
         in.words = pathArgument(words, "rost.Mission: words");
         if (!positions.is_none()) in.positions = pathArgument(positions, "rost.Mission: positions");
-        // frame_width/frame_height given as settings are the frame, as width/height are.
-        in.width = width > 0 ? width : m.isGiven("frame.width") ? m.settings.engine.model.frame_width : 0;
-        in.height = height > 0 ? height : m.isGiven("frame.height") ? m.settings.engine.model.frame_height : 0;
+        in.width = width;  // frame_width/frame_height given as settings: the library's rule
+        in.height = height;
         in.base.threads = m.settings.engine.model.threads;
         Status st;
         {
@@ -60,8 +59,8 @@ public:
         {
             py::gil_scoped_release nogil;
             for (const StreamObservation& ob : mission_.todo()) {
-                if (!results.observe(mission_.engine->processNow(ObservationView{ob.timestamp, ob.words, ob.positions})))
-                    break;
+                (void)mission_.engine->processNow(ObservationView{ob.timestamp, ob.words, ob.positions});
+                if (!results.observe()) break;
                 if (!keepRunning()) {
                     interrupted = true;
                     break;
@@ -129,55 +128,65 @@ MissionOptions missionOptions(const py::kwargs& settings, const char* what, cons
     return m;
 }
 
-MissionResults::MissionResults(Engine& engine) : engine_(engine), first_(engine.model().observations()) {
-    engine_.setEvictionHook([this](const WindowObservation& w, const Model& m) { final(w.observation, w.step, m); });
+MissionResults::MissionResults(Engine& engine) : engine_(engine), records_(engine, 4) {
+    if (!records_.status().ok()) throw std::runtime_error(records_.status().message());
+    const uint64_t first = engine.model().observations();
+    records_.setFirstObservation(first);
+    records_.setFinalSink(
+        [this, first](const FinalLabels& f) {
+            if (f.where.observation < first) return;  // the checkpoint's, played before
+            const auto i = static_cast<std::size_t>(f.where.observation - first);
+            if (labels_.size() <= i) labels_.resize(i + 1);
+            labels_[i].assign(f.labels.begin(), f.labels.begin() + f.n);
+        },
+        false);
 }
 
-MissionResults::~MissionResults() { engine_.setEvictionHook(nullptr); }
+MissionResults::~MissionResults() { (void)engine_.publishResults(0); }
 
-void MissionResults::final(uint64_t observation, int64_t step, const Model& model) {
-    if (observation < first_ || observation - first_ >= ts_.size()) return;
-    const auto i = static_cast<std::size_t>(observation - first_);
-    fin_[i] = model.stepPerplexity(step);
-    labels_[i].resize(model.observationSize(observation));
-    model.observationLabels(observation, labels_[i]);
+bool MissionResults::observe() {
+    records_.drain();
+    const MissionRejection& r = records_.rejection();
+    if (!r.any) return true;
+    why_ = std::string(toString(r.error)) + " at word " + std::to_string(r.index);
+    return false;
 }
 
-bool MissionResults::observe(const ObservationResult& r) {
-    if (!r.add.ok()) {
-        why_ = std::string(toString(r.add.error)) + " at word " + std::to_string(r.add.index);
-        return false;
-    }
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    ts_.push_back(r.timestamp);
-    step_.push_back(r.step);
-    surprise_.push_back(r.surprise);
-    inst_.push_back(nan);
-    fin_.push_back(nan);
-    labels_.emplace_back();
-    // A step's instantaneous perplexity: taken as the next step opens.
-    for (std::size_t j = step_.size() - 1; r.previous_step >= 0 && j-- > 0 && step_[j] == r.previous_step;)
-        inst_[j] = r.previous_perplexity;
-    return true;
-}
-
-void MissionResults::finish(int sweeps) {
-    const Model& model = engine_.model();
-    if (model.steps() > 0)  // the last step at the end of its budget, before the final sweeps
-        for (std::size_t j = step_.size(); j-- > 0 && step_[j] == model.steps() - 1;) inst_[j] = model.stepPerplexity(step_[j]);
-    if (sweeps > 0) engine_.finalPass(sweeps);
-    engine_.visitWindow([this](const WindowObservation& w, const Model& m) { final(w.observation, w.step, m); });
-}
+void MissionResults::finish(int sweeps) { records_.finish(sweeps); }
 
 py::dict MissionResults::toDict() const {
-    const auto n = static_cast<py::ssize_t>(ts_.size());
+    const std::vector<MissionRow>& rows = records_.rows();
+    const auto n = static_cast<py::ssize_t>(rows.size());
+    const auto cells = static_cast<py::ssize_t>(records_.cells());
+    py::array_t<int64_t> ts(n);
+    py::array_t<double> inst(n), fin(n), plugin(n), surprise(n);
+    py::array_t<int32_t> topics(n);
+    py::array_t<float> surpriseCells({n, cells});
+    auto c = surpriseCells.mutable_unchecked<2>();
+    for (py::ssize_t i = 0; i < n; ++i) {
+        const MissionRow& r = rows[static_cast<std::size_t>(i)];
+        ts.mutable_at(i) = r.timestamp;
+        inst.mutable_at(i) = r.instantaneous;
+        fin.mutable_at(i) = r.final;
+        plugin.mutable_at(i) = r.plugin;
+        topics.mutable_at(i) = r.topics;
+        surprise.mutable_at(i) = r.surprise;
+        for (py::ssize_t j = 0; j < cells; ++j)
+            c(i, j) = j < static_cast<py::ssize_t>(r.cell_surprise.size()) ? r.cell_surprise[static_cast<std::size_t>(j)] : 0.f;
+    }
     py::list z;
-    for (const auto& l : labels_) z.append(toArray(std::span<const uint16_t>(l)));
+    for (py::ssize_t i = 0; i < n; ++i) {
+        const auto j = static_cast<std::size_t>(i);
+        z.append(toArray(j < labels_.size() ? std::span<const uint16_t>(labels_[j]) : std::span<const uint16_t>()));
+    }
     py::dict out;
-    out["timestamp"] = py::array_t<int64_t>(n, ts_.data());
-    out["instantaneous"] = py::array_t<double>(n, inst_.data());
-    out["final"] = py::array_t<double>(n, fin_.data());
-    out["surprise"] = py::array_t<double>(n, surprise_.data());
+    out["timestamp"] = ts;
+    out["instantaneous"] = inst;
+    out["final"] = fin;
+    out["plugin"] = plugin;
+    out["topics"] = topics;
+    out["surprise"] = surprise;
+    out["surprise_cells"] = surpriseCells;
     out["labels"] = z;
     return out;
 }
@@ -190,7 +199,8 @@ takes V, the frame size, ring.steps and max.words from it unless given (keywords
 resume= carries a checkpoint on (its model is fixed: a model keyword with another value raises
 ValueError naming it; its observations in the stream are skipped). run() plays the rest through the
 engine with its count budget and returns a dict of numpy arrays: timestamp, instantaneous, final
-(perplexities as rost refine's perplexity.csv), surprise, labels (a list: each observation's final
+(perplexities as rost refine's perplexity.csv), plugin, topics, surprise, surprise_cells
+(observations x cells, as surprise_cells.csv), labels (a list: each observation's final
 maximum-likelihood topics, as topics.csv). save(path) writes a checkpoint.)doc")
         .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, int, int,
                       const py::kwargs&>(),

@@ -12,6 +12,7 @@
 #include "bindings.hpp"
 #include "rost/engine.hpp"
 #include "rost/mission.hpp"
+#include "rost/mission_records.hpp"
 
 namespace rost::python {
 
@@ -30,31 +31,26 @@ bool keepRunning();
 
 class MissionResults {
 public:
-    // The engine's observations from its next one on; sets its eviction hook
-    // (final labels of observations that leave the window) until finish().
+    // The engine's observations from its next one on, read through the
+    // library's MissionRecords (the rules `rost refine` and `rost run` write
+    // by): the engine publishes its records, drained after each processNow.
     explicit MissionResults(Engine& engine);
     ~MissionResults();
     MissionResults(const MissionResults&) = delete;
     MissionResults& operator=(const MissionResults&) = delete;
 
-    // After each processNow: its row; a step's instantaneous perplexity is
-    // taken as the next step opens. False (and why()) when the model refused it.
-    bool observe(const ObservationResult& r);
+    // After each processNow: its row. False (and why()) when the model refused it.
+    bool observe();
     const std::string& why() const noexcept { return why_; }
-    // The end of the stream: the last step's instantaneous perplexity at the
-    // end of its budget, then `sweeps` final sweeps, then the window's final
-    // perplexities and labels.
+    // The end of the stream: MissionRecords::finish.
     void finish(int sweeps);
-    // timestamp, instantaneous, final, surprise (numpy) and labels (a list).
+    // timestamp, instantaneous, final, plugin, topics, surprise (numpy),
+    // surprise_cells (numpy, observations x cells) and labels (a list).
     py::dict toDict() const;
 
 private:
-    void final(uint64_t observation, int64_t step, const Model& model);
-
     Engine& engine_;
-    uint64_t first_;
-    std::vector<int64_t> ts_, step_;
-    std::vector<double> inst_, fin_, surprise_;
+    MissionRecords records_;
     std::vector<std::vector<uint16_t>> labels_;
     std::string why_;
 };

@@ -41,9 +41,9 @@ public:
         if (maxFrames < 0) throw py::value_error("rost.vision.Mission: max_frames = " + std::to_string(maxFrames) +
                                                  ", allowed at least 0 (0: every frame)");
         MissionOptions m = missionOptions(settings, "rost.vision.Mission", resume, topicmodel);
-        vision::SourceOptions so;  // frame_width/frame_height given as settings size the frames, as width/height do
-        so.width = width > 0 ? width : m.isGiven("frame.width") ? m.settings.engine.model.frame_width : 0;
-        so.height = height > 0 ? height : m.isGiven("frame.height") ? m.settings.engine.model.frame_height : 0;
+        vision::SourceOptions so;  // sized by the library's rule (MissionOptions::frameWidth)
+        so.width = m.frameWidth(width);
+        so.height = m.frameHeight(height);
         const std::vector<std::string> paths = inputList(inputs);
         const std::string vocabularyPath =
             vocabulary.is_none() ? std::string() : pathArgument(vocabulary, "rost.vision.Mission: vocabulary");
@@ -126,8 +126,8 @@ private:
             if (rs == vision::ReadStatus::End) return {};
             if (rs == vision::ReadStatus::Error) return source_->error();
             words_.extractor->extract(frame.image, words);
-            if (!results.observe(mission_.engine->processNow(ObservationView{frame.index, words.words, words.positions})))
-                return {};
+            (void)mission_.engine->processNow(ObservationView{frame.index, words.words, words.positions});
+            if (!results.observe()) return {};
             ++played;
             if (!keepRunning()) {
                 interrupted_ = true;

@@ -71,6 +71,12 @@ def test_the_same_stream_gives_rost_refines_results(tmp_path, ring):
     ppx = rost.io.read_perplexity(out / "perplexity.csv")
     np.testing.assert_array_equal(ppx["instantaneous"], r["instantaneous"])
     np.testing.assert_array_equal(ppx["final"], r["final"])
+    np.testing.assert_array_equal(ppx["plugin"], r["plugin"])
+    np.testing.assert_array_equal(ppx["topics"], r["topics"])
+    np.testing.assert_array_equal(rost.io.read_surprise(out / "surprise.csv")["surprise"], r["surprise"])
+    frames, cells = rost.io.read_surprise_cells(out / "surprise_cells.csv")
+    assert r["surprise_cells"].shape == cells.shape == (len(ts), 4)  # a 64x64 frame, cells of 32
+    np.testing.assert_array_equal(cells.astype(np.float32), r["surprise_cells"])
 
 
 def test_a_resumed_mission_skips_the_checkpoints_observations(tmp_path):

@@ -305,13 +305,16 @@ Engine::~Engine() { stop(StopMode::Discard); }
 struct Engine::Publication {
     Publication(std::size_t slots, const Engine& e)
         : results(slots, [&](PublishedResult& r) { r = e.makeResult(); }),
-          finals(slots, [&](FinalLabels& f) { f = e.makeFinal(); }) {
+          // A step that leaves the window hands over cell.time finals at once.
+          finals(slots + static_cast<std::size_t>(e.model().config().cell_time),
+                 [&](FinalLabels& f) { f = e.makeFinal(); }) {
         const PublishedResult r = e.makeResult();
         const FinalLabels f = e.makeFinal();
         bytes = sizeof(Publication) +
                 slots * (sizeof(PublishedResult) + r.histograms.size() * sizeof(int32_t) +
-                         r.cell_surprise.size() * sizeof(float) + sizeof(FinalLabels) +
-                         f.labels.size() * (sizeof(uint32_t) + sizeof(Position) + sizeof(uint16_t)));
+                         r.cell_surprise.size() * sizeof(float)) +
+                finals.capacity() * (sizeof(FinalLabels) +
+                                     f.labels.size() * (sizeof(uint32_t) + sizeof(Position) + sizeof(uint16_t)));
     }
     SpscRing<PublishedResult> results;
     SpscRing<FinalLabels> finals;

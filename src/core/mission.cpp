@@ -86,6 +86,14 @@ bool MissionOptions::isGiven(std::string_view key) const {
     return std::find(given.begin(), given.end(), key) != given.end();
 }
 
+int MissionOptions::frameWidth(int width) const {
+    return width > 0 ? width : isGiven("frame.width") ? settings.engine.model.frame_width : 0;
+}
+
+int MissionOptions::frameHeight(int height) const {
+    return height > 0 ? height : isGiven("frame.height") ? settings.engine.model.frame_height : 0;
+}
+
 Status checkMission(const MissionOptions& m, MissionPlan& plan) {
     plan.resuming = !m.resume.empty();
     if (!plan.resuming) return {};

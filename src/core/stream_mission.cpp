@@ -92,7 +92,10 @@ Status planFromData(const MissionOptions& m, const StreamMissionInput& in, Strea
 
 } // namespace
 
-Status openStreamMission(const MissionOptions& m, const StreamMissionInput& in, StreamMission& out) {
+Status openStreamMission(const MissionOptions& m, const StreamMissionInput& given, StreamMission& out) {
+    StreamMissionInput in = given;
+    in.width = m.frameWidth(given.width);
+    in.height = m.frameHeight(given.height);
     // Resuming: the checkpoint fixes V and the frame size before the words are read.
     if (Status st = checkMission(m, out.plan); !st.ok()) return st;
     if (out.plan.resuming) {

@@ -16,8 +16,8 @@ Status BagSink::open(const std::string& path, const bag::BagFrameSource* source,
 void BagSink::onObservation(const ObservationRecord& r) {
     if (!source_ || r.rejected) return;
     bridge::FrameResult f;
-    f.frame = static_cast<uint64_t>(r.frame);
-    f.timestamp = r.frame;
+    f.frame = static_cast<uint64_t>(r.timestamp);
+    f.timestamp = r.timestamp;
     f.surprise = static_cast<float>(r.surprise);
     f.active_topics = r.active_topics;  // K, or the open topics with topics.grow
     f.topic_weights = r.topic_share;
@@ -28,14 +28,14 @@ void BagSink::onObservation(const ObservationRecord& r) {
         f.cell_topics.push_back(k == ObservationRecord::kNoTopic ? int16_t{-1} : static_cast<int16_t>(k));
     f.cell_surprise = r.cell_surprise;
     results_.push_back(std::move(f));
-    frames_.push_back(r.frame);
+    frames_.push_back(r.timestamp);
 }
 
 Status BagSink::finish(const std::vector<FrameRow>& rows) {
 #if ROST_HAVE_ROS
     if (!source_) return {};
     std::unordered_map<int64_t, const FrameRow*> byFrame;
-    for (const FrameRow& row : rows) byFrame[row.frame] = &row;
+    for (const FrameRow& row : rows) byFrame[row.timestamp] = &row;
     bag::ResultBagWriter writer;
     if (Status st = writer.open(path_, "/rost/frame"); !st.ok()) return st;
     const std::vector<bag::ImageStamp>& stamps = source_->stamps();

@@ -220,7 +220,7 @@ void polyline(cv::Mat& img, const Axes& a, std::span<const FrameRow> rows, doubl
             flush();
             continue;
         }
-        pts.emplace_back(a.px(static_cast<double>(r.frame)), a.py(std::clamp(v, a.y0, a.y1)));
+        pts.emplace_back(a.px(static_cast<double>(r.timestamp)), a.py(std::clamp(v, a.y0, a.y1)));
     }
     flush();
 }
@@ -260,7 +260,7 @@ void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows,
     std::vector<cv::Point> poly;
     for (const auto& r : rows)
         if (std::isfinite(r.surprise))
-            poly.emplace_back(sur.px(static_cast<double>(r.frame)), sur.py(std::clamp(r.surprise, lo, hi)));
+            poly.emplace_back(sur.px(static_cast<double>(r.timestamp)), sur.py(std::clamp(r.surprise, lo, hi)));
     if (poly.size() > 1) {
         std::vector<cv::Point> fill = poly;
         fill.emplace_back(poly.back().x, sur.py(lo));
@@ -273,7 +273,7 @@ void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows,
     }
     if (!resumed && !rows.empty() && rows.size() > warm && rows.front().surprise > hi) {
         char buf[64];
-        std::snprintf(buf, sizeof buf, "frame %lld: %.0f (empty model)", static_cast<long long>(rows.front().frame),
+        std::snprintf(buf, sizeof buf, "frame %lld: %.0f (empty model)", static_cast<long long>(rows.front().timestamp),
                       rows.front().surprise);
         text(img, buf, {sur.box.x + 14, sur.box.y + 16}, 0.42, cv::Scalar(110, 110, 110));
     }
@@ -283,11 +283,11 @@ void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows,
 void drawPeaks(cv::Mat& img, const Axes& ppl, const Axes& sur, std::span<const FrameRow> rows,
                const std::vector<std::size_t>& peaks) {
     for (std::size_t p : peaks) {
-        const int x = sur.px(static_cast<double>(rows[p].frame));
+        const int x = sur.px(static_cast<double>(rows[p].timestamp));
         for (int y = ppl.box.y; y < sur.box.y + sur.box.height; y += 8)
             cv::line(img, {x, y}, {x, std::min(y + 4, sur.box.y + sur.box.height - 1)}, kPeak, 1, cv::LINE_AA);
         char buf[64];
-        std::snprintf(buf, sizeof buf, "frame %lld", static_cast<long long>(rows[p].frame));
+        std::snprintf(buf, sizeof buf, "frame %lld", static_cast<long long>(rows[p].timestamp));
         const int w = textWidth(buf, 0.45);
         const int tx = std::clamp(x - w / 2, sur.box.x + 2, sur.box.x + sur.box.width - w - 2);
         cv::rectangle(img, {tx - 3, sur.box.y + 4}, {tx + w + 3, sur.box.y + 22}, kWhite, -1);
@@ -301,7 +301,7 @@ void drawTopicMix(cv::Mat& img, const cv::Rect& box, std::span<const FrameRow> r
     for (int x = 0; x < box.width; ++x) {
         const double f = f0 + (f1 - f0) * x / std::max(1, box.width - 1);
         auto it = std::lower_bound(rows.begin(), rows.end(), f,
-                                   [](const FrameRow& r, double v) { return static_cast<double>(r.frame) < v; });
+                                   [](const FrameRow& r, double v) { return static_cast<double>(r.timestamp) < v; });
         if (it == rows.end()) it = rows.end() - (rows.empty() ? 0 : 1);
         if (it == rows.end() || it->topic_share.empty()) continue;
         double acc = 0.0;
@@ -328,7 +328,7 @@ void drawThumbs(cv::Mat& img, const SummaryInput& in, const Strip& st, const Axe
               th = st.th;
     const int y = stripTop + 36;
     std::vector<int64_t> peakFrames;
-    for (std::size_t p : peaks) peakFrames.push_back(rows[p].frame);
+    for (std::size_t p : peaks) peakFrames.push_back(rows[p].timestamp);
     for (int i = 0; i < nThumbs; ++i) {
         const std::size_t idx = in.thumbs.size() == static_cast<std::size_t>(nThumbs)
                                     ? static_cast<std::size_t>(i)
@@ -378,8 +378,8 @@ cv::Mat drawSummary(const SummaryInput& in) {
 
     double f0 = 0, f1 = 1;
     if (!rows.empty()) {
-        f0 = static_cast<double>(rows.front().frame);
-        f1 = std::max(f0 + 1.0, static_cast<double>(rows.back().frame));
+        f0 = static_cast<double>(rows.front().timestamp);
+        f1 = std::max(f0 + 1.0, static_cast<double>(rows.back().timestamp));
     }
     const std::vector<std::size_t> peaks = surprisePeaks(rows, 3, std::max<std::size_t>(5, rows.size() / 20));
 

@@ -15,6 +15,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "rost/mission_records.hpp"
 #include "rost/model.hpp"
 #include "rost/status.hpp"
 
@@ -54,26 +55,9 @@ private:
     bool committed_ = false;
 };
 
-// Per-frame results the tool collects (one row per ingested observation).
-struct FrameRow {
-    int64_t frame = 0;          // input frame index (the observation's timestamp)
-    int64_t timestamp_us = 0;
-    uint32_t words = 0;         // extracted
-    uint32_t orb = 0, intensity = 0, hue = 0;
-    bool ingested = false;      // false when dropped before the model (full queue, realtime)
-    uint64_t observation = 0;
-    int64_t step = -1;
-    uint32_t kept = 0;          // words in cells
-    double surprise = std::nan("");
-    double instantaneous = std::nan("");  // perplexity of its step one step after arrival
-    double final = std::nan("");          // perplexity of its step at eviction or at the end
-    int topics = 0;                       // open topics after the observation's refinement (growth; else K)
-    double plugin = std::nan("");         // plug-in perplexity (the 2013 ROST code's) at the instantaneous instant
-    uint64_t refinements = 0;
-    double refine_ms = 0.0;
-    std::vector<float> cell_surprise;     // per cell
-    std::vector<float> topic_share;       // K: share of its step's labels per topic (for the summary)
-};
+// Per-frame results the tool collects (one row per ingested observation;
+// `timestamp` is the input frame index).
+using FrameRow = MissionRow;
 
 // Colour of topic k (BGR), a fixed palette of well-separated hues.
 cv::Scalar topicColour(int k);

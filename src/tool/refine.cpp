@@ -75,6 +75,8 @@ int refineCommand(const RefineOptions& o) {
     if (checkpoints)  // the state after the last observation
         if (Status st = finishCheckpoints(*checkpoints); !st.ok()) return fail(st.message());
     if (!collector.rejection().empty()) return fail(o.words + ": " + collector.rejection());
+    if (collector.lost() > 0)  // drained after each observation: a bug, never the input's fault
+        return fail("internal error: " + std::to_string(collector.lost()) + " result records lost");
 
     collector.finish(o.model.settings.final_sweeps);
     Status st = collector.closeStreams();

@@ -51,6 +51,10 @@ struct RunSinks {
                     [&](FrameSlot& s) { s.image.create(w.info.height, w.info.width, CV_8UC3); }),
           frames(frameRing, overlay, o.summary ? &thumbs : nullptr, e.ec) {
         if (o.summary) thumbs.open(w.info, e.frames);
+        collector.setObservationSink([this](const ObservationRecord& r) {
+            frames.onObservation(r);
+            bag.onObservation(r);
+        });
     }
     Status open(const RunOptions& o, const WordsStage& w, RunEngine& e, OutputDir& out) {
         if (o.overlay)
@@ -60,12 +64,7 @@ struct RunSinks {
         if (Status st = bag.open(o.out_bag, w.bag, e.ec.model); !st.ok()) return st;
         return attachCheckpoints(*e.engine, o.model, checkpoints);
     }
-    void drain() {
-        collector.drain([this](const ObservationRecord& r) {
-            frames.onObservation(r);
-            bag.onObservation(r);
-        });
-    }
+    void drain() { collector.drain(); }
 };
 
 // Offline: everything on this thread, the count budget taken per frame.

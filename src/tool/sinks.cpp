@@ -47,7 +47,7 @@ void tintCells(cv::Mat& img, const ObservationRecord& r, int cellSpace, int grid
 void tint(cv::Mat& img, const ObservationRecord& r, int cellSpace, int gridW) {
     tintCells(img, r, cellSpace, gridW);
     char buf[96];
-    std::snprintf(buf, sizeof buf, "frame %lld  surprise %.0f", static_cast<long long>(r.frame), r.surprise);
+    std::snprintf(buf, sizeof buf, "frame %lld  surprise %.0f", static_cast<long long>(r.timestamp), r.surprise);
     int base = 0;
     const cv::Size ts = cv::getTextSize(buf, cv::FONT_HERSHEY_SIMPLEX, 0.5, 1, &base);
     cv::rectangle(img, {4, 4}, {12 + ts.width, 12 + ts.height + base}, cv::Scalar(0, 0, 0), -1);
@@ -150,7 +150,7 @@ void ThumbnailSink::pick(std::span<const FrameRow> rows, std::size_t n, std::vec
     for (std::size_t i = 0; i < n; ++i)
         pick.push_back(n == 1 ? 0 : static_cast<std::size_t>(std::lround(static_cast<double>(i) * (thumbs_.size() - 1) / (n - 1))));
     for (std::size_t p : surprisePeaks(rows, std::min<std::size_t>(3, n / 3), std::max<std::size_t>(5, rows.size() / 20))) {
-        const int64_t f = rows[p].frame;
+        const int64_t f = rows[p].timestamp;
         const auto at = static_cast<std::size_t>(std::lower_bound(frames_.begin(), frames_.end(), f) - frames_.begin());
         if (at >= frames_.size() || frames_[at] != f) continue;
         std::size_t best = 0;
@@ -190,8 +190,8 @@ void FrameSink::take(const FrameSlot& s, const ObservationRecord* r) {
 void FrameSink::onObservation(const ObservationRecord& r) {
     // Frames before this one whose observation never arrived were dropped at the queue.
     while (FrameSlot* s = ring_.front()) {
-        if (s->frame > r.frame) break;
-        const bool mine = s->frame == r.frame;
+        if (s->frame > r.timestamp) break;
+        const bool mine = s->frame == r.timestamp;
         take(*s, mine ? &r : nullptr);
         ring_.pop();
         if (mine) return;

@@ -3,7 +3,6 @@
 // stages.cpp, whose frame sources need OpenCV's video and image I/O:
 // `rost refine` is built without them.
 
-#include <algorithm>
 #include <cstdio>
 
 #include "rost/mission.hpp"
