@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "aligned_buffer.hpp"
@@ -186,25 +188,72 @@ TEST(ModelPerplexity, FiniteAndBoundedByVocabularyForUniformModel) {
     }
 }
 
+// p(v | every other label) for word slot i (word wi, label z) left out,
+// rebuilt from the public counts of a one-cell, one-step model (G(c) is the
+// cell): n'_k^v = n_k^v - [k = z, v = wi], n'_k = n_k - [k = z], n'_G^k =
+// n_G^k - [k = z]; a topic is open while n'_k > 0 (growth; all K otherwise),
+// A' open ones, and a new topic takes gamma / V while A' < K (growth):
+//   p(v) = (sum_k open (n'_k^v + beta) / (n'_k + V beta) (n'_G^k + alpha) + fresh / V)
+//          / (n'_G + A' alpha + fresh).
+double leftOutConditional(const rost::Model& m, uint32_t v, uint32_t wi, int z) {
+    const rost::Config& c = m.config();
+    const std::span<const int32_t> g = m.cellHistogram(0, 0);
+    double num = 0.0, gsum = 0.0;
+    int open = 0;
+    for (int k = 0; k < c.K; ++k) {
+        const int32_t nk = m.topicCount(k) - (k == z ? 1 : 0);
+        const double nG = g[static_cast<std::size_t>(k)] - (k == z ? 1 : 0);
+        gsum += nG;
+        if (c.grow && nk <= 0) continue;
+        ++open;
+        const double nkv = m.topicWordCount(k, static_cast<int>(v)) - (k == z && v == wi ? 1 : 0);
+        num += (nkv + c.beta) / (nk + c.V * c.beta) * (nG + c.alpha);
+    }
+    const double fresh = c.grow && open < c.K ? c.gamma : 0.0;
+    return (num + fresh / c.V) / (gsum + open * c.alpha + fresh);
+}
+
+// Every stored word's wordLogProb is the left-out conditional rebuilt from the
+// public counts, and that conditional is a distribution over the vocabulary:
+// with all K topics, and with growth (A < K open, a word that is its topic's
+// last closing it and freeing gamma for a new one).
 TEST(ModelPerplexity, WordLogProbIsTheNormalisedLeftOutConditional) {
-    // Sum over every possible word v of p(v | rest) must be 1 for a fixed word slot.
-    rost::Config c = smallConfig();
-    rost::Model m(c);
-    rost::Rng r(8);
-    std::vector<uint32_t> w;
-    std::vector<rost::Position> p;
-    randomFrame(r, c, 30, w, p);
-    ASSERT_TRUE(m.addObservation(w, p).ok());
-    m.refineAll(2);
-    // A cell with at least one word: p(w_i) over all candidate words sums to one
-    // once the word itself is removed; check by brute force on phi and theta.
-    int cell = -1;
-    for (int cc = 0; cc < m.cellsPerStep(); ++cc)
-        if (m.cellWordCount(0, cc) > 0) cell = cc;
-    ASSERT_GE(cell, 0);
-    const double lp = m.wordLogProb(0, cell, 0);
-    EXPECT_TRUE(std::isfinite(lp));
-    EXPECT_LT(lp, 0.0);
+    for (const bool grow : {false, true}) {
+        SCOPED_TRACE(grow ? "growth" : "all K topics");
+        rost::Config c;
+        c.K = 8;
+        c.V = 24;
+        c.frame_width = c.frame_height = 32;
+        c.cell_space = 32;  // one cell
+        c.ring_steps = 1;
+        c.cell_capacity = 64;
+        c.max_words_per_frame = 64;
+        c.grow = grow;
+        c.gamma = 0.3;
+        c.seed = 5;
+        rost::Model m(c);
+        rost::Rng r(8);
+        std::vector<uint32_t> w(48);
+        std::vector<rost::Position> p(48, rost::Position{3, 4});
+        for (auto& x : w) x = r.below(static_cast<uint32_t>(c.V));
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+        m.refineAll(3);
+        const int A = m.activeTopics();
+        if (grow) {
+            ASSERT_LT(A, c.K) << "growth leaves topics to open";
+            // Open topics 0..A-1: the output numbering of the samples is the counts'.
+            for (int k = 0; k < c.K; ++k) ASSERT_EQ(m.topicCount(k) > 0, k < A) << "topic " << k;
+        }
+        std::vector<uint16_t> z(w.size());
+        m.observationSamples(0, z);
+        for (uint32_t i = 0; i < w.size(); ++i) {
+            SCOPED_TRACE("word slot " + std::to_string(i));
+            double sum = 0.0;
+            for (uint32_t v = 0; v < static_cast<uint32_t>(c.V); ++v) sum += leftOutConditional(m, v, w[i], z[i]);
+            EXPECT_NEAR(sum, 1.0, 1e-12);
+            EXPECT_NEAR(m.wordLogProb(0, 0, i), std::log(leftOutConditional(m, w[i], w[i], z[i])), 1e-12);
+        }
+    }
 }
 
 // ---- plug-in perplexity (the 2013 ROST code's) ----------------------------------

@@ -112,9 +112,14 @@ public:
     void afterRound(uint64_t) noexcept override {
         ++rounds;
         if (failure.empty() && !m_.checkInvariants(&failure) && failure.empty()) failure = "invariants failed";
+        const int a = m_.activeTopics();
+        if (rounds > 1 && a != active) ++activeChanges;
+        active = a;
     }
     const Model& m_;
     uint64_t rounds = 0;
+    int active = 0;
+    uint64_t activeChanges = 0;  // rounds after which the open topics changed
     std::string failure;
 };
 
@@ -143,6 +148,29 @@ TEST(ParallelRefine, CountsAreConsistentAfterEveryRound) {
         EXPECT_EQ(rc.steps, 60u);
         EXPECT_EQ(rc.rounds, check.rounds);
         EXPECT_GT(check.rounds, 1u);
+        EXPECT_TRUE(check.failure.empty()) << "window " << window << ": " << check.failure;
+    }
+}
+
+// With topics that grow, a round opens and closes topics on the workers'
+// copies: the open-topic bookkeeping (which topics hold words, A, the highest
+// open label, the next free one; checkInvariants) holds after every round of
+// a window, not only once refinement is over.
+TEST(ParallelRefine, OpenTopicsAreKeptAfterEveryRoundWhenTopicsGrow) {
+    for (const int window : {16, 256}) {
+        Config c = gridConfig(3, window);
+        c.grow = true;
+        c.gamma = 2.0;
+        Model m(c);
+        for (const auto& f : makeStream(m.config(), 20, 200, 3)) ASSERT_TRUE(m.addObservation(f.words, f.positions).ok());
+        InvariantCheck check(m);
+        Sweep sweep(m);
+        RefineLimits limits;
+        limits.steps = 60;
+        limits.control = &check;
+        m.refine(sweep, limits);
+        EXPECT_GT(check.rounds, 1u);
+        EXPECT_GT(check.activeChanges, 0u) << "window " << window << ": topics opened or closed during the rounds";
         EXPECT_TRUE(check.failure.empty()) << "window " << window << ": " << check.failure;
     }
 }

@@ -483,4 +483,19 @@ TEST_F(RostCli, EverySettingFlagSetsItsOwnKey) {
         EXPECT_NE(log.find(line + '\n'), std::string::npos) << flag << " should give '" << line << "' in:\n" << log;
 }
 
+// rost-cli's own defaults where they differ from rost's (the schema row's
+// rostcli column: gamma 1e-5, cell.space 32, 100 iterations), read back from
+// topics.log of a run that gives none of those flags; rost's own defaults
+// (gamma 1e-4, cell.space 64, no final sweeps) would be a different run.
+TEST_F(RostCli, ItsOwnDefaultsApplyWhereTheyDifferFromRosts) {
+    writeText(dir + "/d.csv", "0,1,2,3\n1,3,2,1\n");
+    writeText(dir + "/p.csv", "0,1,1,2,2,3,3\n1,1,1,2,2,3,3\n");
+    const Result r = run(dir, bin(ROSTCLI_REFINE_TXY) +
+                                  " -i d.csv --in.position p.csv -V 5 -K 3 --grow.topics.size true --logfile=d.log");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string log = readText(dir + "/d.log");
+    for (const char* line : {"gamma = 1e-05\n", "cell.space = 32\n", "final.sweeps = 100\n"})
+        EXPECT_NE(log.find(line), std::string::npos) << "expected '" << line << "' in:\n" << log;
+}
+
 } // namespace

@@ -658,6 +658,79 @@ TEST(GrowthConditional, NewTopicDrawsWithWeightGammaOverVInTheLaneOrder) {
     growthCases<37>({{34, -1, false}, {36, -1, false}, {37, -1, false}, {35, 3, false}, {36, -1, true}});
 }
 
+// The growth conditional through a model built with gamma and V (the tests
+// above set the kernel's tables by hand): a one-word cell beside a cell of
+// 40 words, G(c) = c (g.space 0, one step), so with the word left out its
+// law over the open topics B = {0..|B|-1} and a new topic |B| is
+//   p_k ∝ (n'_k^v + beta) / (n'_k + V beta) * alpha,   p_new ∝ gamma / V,
+// the same for every draw (only the word moves). Two gammas, both kernel paths.
+TEST(GrowthConditional, AModelsGammaAndVGiveTheNewTopicItsWeight) {
+    for (const double gamma : {0.05, 1.5}) {
+        rost::Config c;
+        c.K = 12;
+        c.V = 10;
+        c.grow = true;
+        c.gamma = gamma;
+        c.frame_width = 32;
+        c.frame_height = 16;
+        c.cell_space = 16;  // two cells
+        c.g_space = 0;
+        c.ring_steps = 1;
+        c.cell_capacity = 64;
+        c.max_words_per_frame = 64;
+        c.seed = 3;
+        rost::Model m(c);
+        rost::Rng r(4);
+        std::vector<uint32_t> w;
+        std::vector<rost::Position> p;
+        for (int i = 0; i < 40; ++i) {
+            w.push_back(r.below(static_cast<uint32_t>(c.V)));
+            p.push_back({static_cast<int32_t>(r.below(16)), static_cast<int32_t>(r.below(16))});
+        }
+        const uint32_t v = 3;
+        w.push_back(v);
+        p.push_back({20, 5});  // alone in cell 1
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+        m.refineAll(5);
+        std::vector<uint16_t> z(w.size());
+        m.observationSamples(0, z);
+        const int zi = z.back();
+        int B = 0;  // open topics with the word left out: 0..B-1 (asserted)
+        for (int k = 0; k < c.K; ++k) {
+            const bool open = m.topicCount(k) - (k == zi ? 1 : 0) > 0;
+            if (!open) continue;
+            ASSERT_EQ(k, B++) << "gamma " << gamma << ": open topics below a closed one";
+        }
+        ASSERT_LT(B, c.K) << "gamma " << gamma << ": room for a new topic";
+        std::vector<double> law(static_cast<std::size_t>(B) + 1, 0.0);
+        double total = 0.0;
+        for (int k = 0; k < B; ++k) {
+            const int drop = k == zi ? 1 : 0;
+            law[static_cast<std::size_t>(k)] = (m.topicWordCount(k, static_cast<int>(v)) - drop + c.beta) /
+                                               (m.topicCount(k) - drop + c.V * c.beta) * c.alpha;
+            total += law[static_cast<std::size_t>(k)];
+        }
+        law[static_cast<std::size_t>(B)] = gamma / c.V;
+        total += gamma / c.V;
+        for (double& x : law) x /= total;
+        for (const Path path : {Path::Simd, Path::Scalar}) {
+            m.setKernelPath(path);
+            std::vector<double> counts(law.size(), 0.0);
+            for (int d = 0; d < kDraws / 4; ++d) {
+                m.refineCell(0, 1);
+                m.observationSamples(0, z);
+                ASSERT_LE(z.back(), B) << "a label past the new topic";
+                counts[z.back()] += 1;
+            }
+            GoodnessOfFit g;
+            addRow(g, counts, law);
+            report("growth through a model, gamma " + std::to_string(gamma), g);
+            EXPECT_GT(g.p(), kPass) << "gamma " << gamma << ": " << g << "; new topic drawn " << counts[B] << " times, "
+                                    << law[B] * (kDraws / 4) << " expected";
+        }
+    }
+}
+
 // ---- paper eq. 5: the exact conditional -----------------------------------------------
 
 class ExactConditional : public ::testing::TestWithParam<SceneSpec> {};

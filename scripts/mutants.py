@@ -1,0 +1,240 @@
+"""rost's mutation check (scripts/mutants.sh runs it; the mutants are in scripts/mutants.txt).
+
+Each mutant is a small, realistic bug with the tests expected to catch it. The
+source tree is copied into a scratch directory (ROST_MUTANTS_DIR, or one under
+/tmp named after the tree), built there once (later runs rebuild incrementally),
+and each mutant is applied in the copy, rebuilt, its tests run and the file
+restored. The tree the script is run from is only read: it may be a git
+checkout or an export without .git.
+
+  mutants.sh             every mutant
+  mutants.sh --quick     the three marked quick (the core and two faces; CI runs it)
+  mutants.sh --list      the mutants, one a line
+  mutants.sh NAME...     those mutants
+
+Prints a line per mutant, then `mutants: N, caught: C`; exits 0 only when
+every mutant run was caught (a test failed). A mutant whose build targets this
+build does not have (no ROS, no Python) is skipped and said so.
+"""
+
+import configparser
+import hashlib
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+ROOT = os.path.realpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+SKIP_TOP = re.compile(r"^(build.*|\.git|data|out)$")
+
+
+def fail(msg):
+    print(f"mutants: error: {msg}", file=sys.stderr)
+    sys.exit(2)
+
+
+def load():
+    path = os.path.join(ROOT, "scripts", "mutants.txt")
+    cp = configparser.ConfigParser(interpolation=None, comment_prefixes=("#",), inline_comment_prefixes=None)
+    cp.optionxform = str
+    try:
+        with open(path, encoding="utf-8") as f:
+            cp.read_file(f)
+    except (OSError, configparser.Error) as e:
+        fail(f"{path}: {e}")
+    out = []
+    for name in cp.sections():
+        s = cp[name]
+        for key in ("file", "find", "replace", "build", "tests", "why"):
+            if key not in s:
+                fail(f"{path}: [{name}] has no {key}")
+        out.append({
+            "name": name,
+            "file": s["file"],
+            "find": s["find"],
+            "replace": s["replace"].replace("\\n", "\n"),
+            "build": s["build"].split(),
+            "tests": s["tests"],
+            "quick": s.get("quick", "no") == "yes",
+            "why": s["why"],
+        })
+    return out
+
+
+def pattern(find):
+    # Whitespace in `find` matches any run of whitespace (indentation, line breaks).
+    return re.compile(r"\s+".join(re.escape(part) for part in find.split()))
+
+
+def mutated(text, m):
+    hits = list(pattern(m["find"]).finditer(text))
+    if len(hits) != 1:
+        fail(f"[{m['name']}] {m['file']}: its text occurs {len(hits)} times (exactly once expected); "
+             "update scripts/mutants.txt")
+    h = hits[0]
+    return text[:h.start()] + m["replace"] + text[h.end():]
+
+
+def read(path):
+    with open(path, encoding="utf-8") as f:
+        return f.read()
+
+
+def write(path, text):
+    # A fresh modification time, so ninja rebuilds what the previous content built.
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+
+
+def sync(src):
+    """The tree into `src`: a file is written only when its content differs, so
+    an incremental build rebuilds only what changed since the last run."""
+    keep = set()
+    for dirpath, dirnames, filenames in os.walk(ROOT):
+        rel = os.path.relpath(dirpath, ROOT)
+        if rel == ".":
+            dirnames[:] = [d for d in dirnames if not SKIP_TOP.match(d)]
+            filenames = [f for f in filenames if not SKIP_TOP.match(f)]
+        target = os.path.join(src, rel) if rel != "." else src
+        os.makedirs(target, exist_ok=True)
+        keep.add(os.path.normpath(target))
+        for f in filenames:
+            a, b = os.path.join(dirpath, f), os.path.join(target, f)
+            keep.add(os.path.normpath(b))
+            if os.path.islink(a):
+                continue
+            with open(a, "rb") as fa:
+                data = fa.read()
+            if os.path.isfile(b):
+                with open(b, "rb") as fb:
+                    if fb.read() == data:
+                        continue
+            with open(b, "wb") as fb:
+                fb.write(data)
+            shutil.copymode(a, b)
+    for dirpath, dirnames, filenames in os.walk(src, topdown=False):  # what the tree no longer has
+        rel = os.path.relpath(dirpath, src)
+        if rel != "." and SKIP_TOP.match(rel.split(os.sep)[0]):
+            continue
+        for f in filenames:
+            p = os.path.normpath(os.path.join(dirpath, f))
+            if p not in keep and not (rel == "." and SKIP_TOP.match(f)):
+                os.remove(p)
+        if rel != "." and os.path.normpath(dirpath) not in keep:
+            shutil.rmtree(dirpath, ignore_errors=True)
+    data = os.path.join(ROOT, "data")
+    link = os.path.join(src, "data")
+    if os.path.isdir(data) and not os.path.lexists(link):
+        os.symlink(data, link)  # footage the tests read (never written: it is fetched already)
+
+
+def run(cmd, log, timeout=None):
+    with open(log, "a", encoding="utf-8") as f:
+        f.write("$ " + " ".join(cmd) + "\n")
+        f.flush()
+        try:
+            return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                  timeout=timeout).returncode
+        except subprocess.TimeoutExpired:
+            f.write("(timed out)\n")
+            return 124
+
+
+def tests_matching(build, regex):
+    p = subprocess.run(["ctest", "--test-dir", build, "-N", "-R", regex], capture_output=True, text=True)
+    m = re.search(r"Total Tests: (\d+)", p.stdout)
+    return int(m.group(1)) if m else 0
+
+
+def targets_of(build):
+    p = subprocess.run(["ninja", "-C", build, "-t", "targets", "all"], capture_output=True, text=True)
+    return {line.split(":")[0] for line in p.stdout.splitlines()}
+
+
+def main(argv):
+    mutants = load()
+    if "--list" in argv:
+        for m in mutants:
+            print(f"{m['name']}{' (quick)' if m['quick'] else ''}: {m['file']}: {m['why']}")
+        return 0
+    names = [a for a in argv if not a.startswith("--")]
+    unknown = [a for a in argv if a.startswith("--") and a not in ("--quick",)]
+    if unknown:
+        fail(f"unknown option {unknown[0]} (--list, --quick, or mutant names)")
+    if names:
+        known = {m["name"] for m in mutants}
+        for n in names:
+            if n not in known:
+                fail(f"no mutant named {n} (--list lists them)")
+        chosen = [m for m in mutants if m["name"] in names]
+    elif "--quick" in argv:
+        chosen = [m for m in mutants if m["quick"]]
+    else:
+        chosen = mutants
+    originals = {}
+    for m in chosen:  # every mutant applies to the tree as it is, before any work
+        path = os.path.join(ROOT, m["file"])
+        if not os.path.isfile(path):
+            fail(f"[{m['name']}] {m['file']}: no such file")
+        originals[m["file"]] = read(path)
+        mutated(originals[m["file"]], m)
+
+    scratch = os.environ.get("ROST_MUTANTS_DIR") or os.path.join(
+        "/tmp", "rost-mutants-" + hashlib.sha1(ROOT.encode()).hexdigest()[:10])
+    src, build, log = (os.path.join(scratch, d) for d in ("src", "build", "log.txt"))
+    os.makedirs(scratch, exist_ok=True)
+    with open(log, "w", encoding="utf-8"):
+        pass
+    jobs = str(os.cpu_count() or 2)
+    print(f"mutants: {len(chosen)} to run; scratch copy {src}, build {build}, log {log}", flush=True)
+    sync(src)
+    if run(["cmake", "-S", src, "-B", build, "-G", "Ninja", "-DCMAKE_BUILD_TYPE=Release", "-DROST_VISION=ON",
+            "-DROST_BUILD_BENCH=OFF"], log) != 0:
+        fail(f"the scratch copy does not configure (see {log})")
+    have = targets_of(build)
+    runnable, skipped = [], []
+    for m in chosen:
+        missing = [t for t in m["build"] if t not in have]
+        (skipped if missing else runnable).append((m, missing))
+    for m, missing in skipped:
+        print(f"skipped   {m['name']}: this build has no {' '.join(missing)}", flush=True)
+    runnable = [m for m, _ in runnable]
+    targets = sorted({t for m in runnable for t in m["build"]})
+    t0 = time.time()
+    if targets and run(["cmake", "--build", build, "-j", jobs, "--target", *targets], log) != 0:
+        fail(f"the unmutated copy does not build (see {log})")
+    for m in runnable:
+        if tests_matching(build, m["tests"]) == 0:
+            fail(f"[{m['name']}] no test matches {m['tests']}")
+    union = "|".join(f"({m['tests']})" for m in runnable)
+    if union and run(["ctest", "--test-dir", build, "-R", union, "-j", jobs, "--timeout", "300"], log) != 0:
+        fail(f"the tests fail without any mutant (see {log})")
+    print(f"baseline: built and passed in {time.time() - t0:.0f} s", flush=True)
+
+    caught = 0
+    for m in runnable:
+        t1 = time.time()
+        path = os.path.join(src, m["file"])
+        original = read(path)
+        write(path, mutated(original, m))
+        try:
+            built = run(["cmake", "--build", build, "-j", jobs, "--target", *m["build"]], log) == 0
+            rc = run(["ctest", "--test-dir", build, "-R", m["tests"], "-j", jobs, "--timeout", "300"], log) if built else 0
+        finally:
+            write(path, original)
+        took = time.time() - t1
+        if not built:
+            print(f"NOT BUILT {m['name']}: the mutant does not compile (see {log}); fix scripts/mutants.txt", flush=True)
+        elif rc != 0:
+            caught += 1
+            print(f"caught    {m['name']} ({took:.0f} s)", flush=True)
+        else:
+            print(f"SURVIVED  {m['name']}: no test of {m['tests']} failed; {m['why']}", flush=True)
+    print(f"mutants: {len(runnable)}, caught: {caught}" + (f" ({len(skipped)} skipped)" if skipped else ""))
+    return 0 if caught == len(runnable) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
