@@ -179,6 +179,20 @@ TEST(Mission, ACheckpointFixesTheModelAtStartUpNamingWhatDiffers) {
 
     m.resume = t.path;
     EXPECT_EQ(checkMission(m, plan).message(), "~resume: " + t.path + " is a directory, not a checkpoint file");
+
+    // Frames of another size than the checkpoint's 64x48 are refused at start-up, naming the side.
+    m.resume = ckpt;
+    MissionInput in;
+    in.width = 64;
+    in.height = 40;
+    EXPECT_EQ(planMission(m, in, plan).message(),
+              "~resume " + ckpt + ": the frames are 40 pixels high but " + ckpt + " models 64x48 frames");
+    in.width = 80;
+    in.height = 48;
+    EXPECT_EQ(planMission(m, in, plan).message(),
+              "~resume " + ckpt + ": the frames are 80 pixels wide but " + ckpt + " models 64x48 frames");
+    in.width = 64;
+    EXPECT_TRUE(planMission(m, in, plan).ok());
 }
 
 TEST(Mission, AResumedMissionKeepsTheCheckpointsRefinementUnlessGivenAndTheRuntimeIsThisProcesss) {

@@ -498,4 +498,25 @@ TEST_F(RostCli, ItsOwnDefaultsApplyWhereTheyDifferFromRosts) {
         EXPECT_NE(log.find(line), std::string::npos) << "expected '" << line << "' in:\n" << log;
 }
 
+// --ppx.out holds each document's plug-in perplexity, as rost-cli reports it
+// (every count as it stands, the word's own label included). With one topic
+// theta is 1 and p(w) = (n_w + beta) / (N + V beta) over the whole input:
+// documents {0, 0, 1} and {1, 2} of V = 3 give 6.5 / 2.5 and
+// 6.5 / sqrt(2.5 * 1.5); the left-out perplexity would give others.
+TEST_F(RostCli, PpxOutIsThePluginPerplexityOfEachDocument) {
+    writeText(dir + "/k1.csv", "0,0,0,1\n1,1,2\n");
+    const Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 1 --alpha 0.1 --beta 0.5 -n 3 --ppx.out=pp.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    std::istringstream in(readText(dir + "/pp.csv"));
+    double expected[] = {6.5 / 2.5, 6.5 / std::sqrt(2.5 * 1.5)};
+    std::string line;
+    for (int d = 0; d < 2; ++d) {
+        ASSERT_TRUE(std::getline(in, line)) << "document " << d;
+        const std::size_t comma = line.find(',');
+        ASSERT_NE(comma, std::string::npos) << line;
+        EXPECT_EQ(line.substr(0, comma), std::to_string(d));
+        EXPECT_NEAR(std::stod(line.substr(comma + 1)), expected[d], 1e-12 * expected[d]) << line;
+    }
+}
+
 } // namespace

@@ -70,6 +70,10 @@ TEST(VisionSources, ImageDirectoryIsReadInNameOrderAtTheFirstImagesSize) {
     }
     EXPECT_EQ(cv::norm(frames[0].image, patterned(40, 30, 1), cv::NORM_INF), 0.0) << "img_001 first";
     EXPECT_EQ(cv::norm(frames[1].image, patterned(40, 30, 2), cv::NORM_INF), 0.0);
+    // The image of another size is scaled, and said so, naming it.
+    const std::vector<std::string> notes = src->takeNotes();
+    ASSERT_EQ(notes.size(), 1u);
+    EXPECT_EQ(notes[0], (t / "img_003.png") + ": 80x60, not the first image's 40x30: scaled to the 40x30 frame");
 }
 
 TEST(VisionSources, GlobSelectsMatchingFilesAndOptionsResize) {

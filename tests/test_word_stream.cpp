@@ -28,8 +28,9 @@ std::string parseError(std::string_view words, std::string_view positions = {}) 
 
 TEST(WordStreamCsv, ParsesWordsAndPositionsInTheEarlierToolsFormat) {
     rost::WordStream s;
-    const std::string words = "# comment\n10,1,2,3\n\n11\r\n12,99,\n";
-    const std::string pos = "10,0,0,1,1,639,479\n11\n12,5,6\n";
+    // A line of only spaces and tabs is blank, as rost-cli's commands and rost.io read it.
+    const std::string words = "# comment\n10,1,2,3\n\n \t \n11\r\n12,99,\n";
+    const std::string pos = "10,0,0,1,1,639,479\n  \n11\n12,5,6\n";
     ASSERT_TRUE(rost::parseWordStream(words, pos, limits(), s).ok());
     ASSERT_EQ(s.observations.size(), 3u);
     EXPECT_EQ(s.observations[0].timestamp, 10);
@@ -48,6 +49,13 @@ TEST(WordStreamCsv, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(parseError("1,99999999999999999999\n"), "words.csv:1:3: number '99999999999999999999' out of range");
     EXPECT_EQ(parseError("1,2\n", "1,0,-5\n"), "positions.csv:1:5: position (0, -5) outside the frame 640x480");
     EXPECT_EQ(parseError("1,2\n", "1,640,0\n"), "positions.csv:1:3: position (640, 0) outside the frame 640x480");
+    // One side of the frame given (the other from the data): only it is named.
+    rost::WordStream ws;
+    rost::WordStreamLimits wide = limits();
+    wide.height = 0;
+    wide.width = 100;
+    EXPECT_EQ(rost::parseWordStream("1,2\n", "1,150,3\n", wide, ws).message(),
+              "positions.csv:1:3: position (150, 3) outside the frame (x in [0, 100))");
     EXPECT_EQ(parseError("1,2\n", "2,0,0\n"), "positions.csv:1:1: timestamp 2 differs from words.csv's 1 for observation 1");
     EXPECT_EQ(parseError("1,2\n", "1,0\n"), "positions.csv:1:1: 1 coordinates for 1 words (expected 2)");
     EXPECT_EQ(parseError("1,2\n2,3\n", "1,0,0\n"), "positions.csv: 1 observations, but words.csv has 2");

@@ -47,6 +47,10 @@ struct MissionNames {
     // A whole setting's problem, when the face says more than `setting` can (the tool
     // names a --config file's line); unset: the problem with each setting spelled by `setting`.
     std::function<std::string(const SettingProblem&)> problem;
+    // A setting as a checkpoint's value is named: "m.ckpt's ring.steps = 12" (a
+    // key: the tool's config files, rost_node's checkpoint notes); Python's
+    // keyword ("m.ckpt's ring_steps = 12").
+    std::function<std::string(const SettingSpec&)> key = [](const SettingSpec& s) { return std::string(s.key); };
     std::string resume = "--resume";              // the option that names the checkpoint
     std::string topicmodel = "--in.topicmodel";   // the option that names a starting topic model
     std::string positions = "--positions";        // the option that names a word stream's positions

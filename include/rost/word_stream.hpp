@@ -5,8 +5,8 @@
 //   words.csv      timestamp,w1,w2,...   one observation per line
 //   positions.csv  timestamp,x1,y1,x2,y2,...   the same observations, same order
 //   topics.csv     timestamp,z1,z2,...
-// Empty lines and lines starting with '#' are skipped (text::LineReader's
-// default rules). A line with only a timestamp is an observation with no
+// Empty lines, lines of only spaces and tabs, and lines starting with '#'
+// are skipped (as rost-cli's commands and Python's rost.io skip them). A line with only a timestamp is an observation with no
 // words. Set-up code: allocates.
 
 #include <cstdint>

@@ -5,7 +5,9 @@ Row files, one observation per line, ``timestamp,v1,v2,...``:
     positions.csv               read_positions            -> (timestamps, [int32 (N_f, 2), ...])
 Table files:
     perplexity.csv              read_perplexity  -> structured array: frame, instantaneous, final, plugin, topics
+                                write_perplexity <- a Mission's run() (the tool's bytes)
     surprise.csv                read_surprise    -> structured array: frame, surprise
+                                write_surprise   <- a Mission's run()
     surprise_cells.csv          read_surprise_cells -> (frames int64 (F,), float64 (F, cells))
     topicmodel.csv              read_topicmodel  -> int64 (K, V) counts n_k^v
 
@@ -165,3 +167,17 @@ def write_topicmodel(path, counts):
     if a.size and a.min() < 0:
         raise ValueError("counts: a count is negative")
     _text.write_matrix(os.fspath(path), a.astype(np.int64))
+
+
+def write_perplexity(path, results):
+    """perplexity.csv as ``rost refine`` writes it, from a Mission's ``run()`` (or any mapping
+    with timestamp, instantaneous, final, plugin and topics): read_perplexity reads it back."""
+    cols = ("instantaneous", "final", "plugin", "topics")
+    _text.write_table(os.fspath(path), ["frame", *cols], np.asarray(results["timestamp"], dtype=np.int64),
+                      [np.asarray(results[c], dtype=np.float64) for c in cols], [False, False, False, True])
+
+
+def write_surprise(path, results):
+    """surprise.csv as ``rost refine`` writes it, from a Mission's ``run()`` (timestamp, surprise)."""
+    _text.write_table(os.fspath(path), ["frame", "surprise"], np.asarray(results["timestamp"], dtype=np.int64),
+                      [np.asarray(results["surprise"], dtype=np.float64)], [False])

@@ -146,6 +146,35 @@ void writeMatrix(const std::string& path, const Int64s& m) {
     writeText(path, out);
 }
 
+using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// A header, then a line a row: an integer first column, then number columns
+// (`integer`: which of them are written as integers), as the rost tool
+// writes perplexity.csv and surprise.csv; atomically.
+void writeTable(const std::string& path, const std::vector<std::string>& header, const Int64s& first,
+                const std::vector<Doubles>& columns, const std::vector<bool>& integer) {
+    if (header.size() != columns.size() + 1) throw py::value_error("one header name a column, the first included");
+    if (integer.size() != columns.size()) throw py::value_error("one integer flag a number column");
+    const py::ssize_t n = first.size();
+    for (const Doubles& c : columns)
+        if (c.ndim() != 1 || c.size() != n)
+            throw py::value_error("every column holds " + std::to_string(n) + " values, one a row");
+    std::string out;
+    text::TableWriter table(out);
+    for (const std::string& h : header) table.cell(h);
+    table.end();
+    for (py::ssize_t i = 0; i < n; ++i) {
+        table.cell(first.at(i));
+        for (std::size_t j = 0; j < columns.size(); ++j) {
+            const double v = columns[j].at(i);
+            if (integer[j]) table.cell(static_cast<int64_t>(v));
+            else table.cell(v);
+        }
+        table.end();
+    }
+    writeText(path, out);
+}
+
 } // namespace
 
 void bindText(py::module_& m) {
@@ -163,6 +192,10 @@ void bindText(py::module_& m) {
           "Writes 'timestamp,v1,v2,...' lines atomically (a temporary file renamed over PATH).");
     m.def("write_matrix", &writeMatrix, py::arg("path"), py::arg("matrix"),
           "Writes a 2-D integer array, a line per row, atomically.");
+    m.def("write_table", &writeTable, py::arg("path"), py::arg("header"), py::arg("first"), py::arg("columns"),
+          py::arg("integer"),
+          "Writes a header and rows (an integer column, then number columns) as the rost tool's CSV tables, "
+          "atomically.");
 }
 
 } // namespace rost::python

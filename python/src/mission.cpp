@@ -121,6 +121,7 @@ MissionOptions missionOptions(const py::kwargs& settings, const char* what, cons
     m.names.setting = [](const SettingSpec& s) { return paramName(s); };
     m.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
     m.names.leave = [](const SettingSpec& s) { return paramName(s); };
+    m.names.key = [](const SettingSpec& s) { return paramName(s); };
     m.names.resume = "resume";
     m.names.topicmodel = "topicmodel";
     m.names.positions = "positions";

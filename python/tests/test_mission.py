@@ -77,6 +77,11 @@ def test_the_same_stream_gives_rost_refines_results(tmp_path, ring):
     frames, cells = rost.io.read_surprise_cells(out / "surprise_cells.csv")
     assert r["surprise_cells"].shape == cells.shape == (len(ts), 4)  # a 64x64 frame, cells of 32
     np.testing.assert_array_equal(cells.astype(np.float32), r["surprise_cells"])
+    # rost.io writes them back as the tool's own bytes.
+    rost.io.write_perplexity(tmp_path / "p.csv", r)
+    rost.io.write_surprise(tmp_path / "s.csv", r)
+    assert (tmp_path / "p.csv").read_bytes() == (out / "perplexity.csv").read_bytes()
+    assert (tmp_path / "s.csv").read_bytes() == (out / "surprise.csv").read_bytes()
 
 
 def test_a_resumed_mission_skips_the_checkpoints_observations(tmp_path):
@@ -94,6 +99,9 @@ def test_a_resumed_mission_skips_the_checkpoints_observations(tmp_path):
     assert resumed.run()["timestamp"].tolist() == list(range(30, 60))
     with pytest.raises(ValueError, match=r"K=8 differs from .*m\.ckpt's K = 4 .*leave K out"):
         rost.Mission(words, positions=positions, resume=tmp_path / "m.ckpt", K=8)
+    # A dotted key is named as the keyword on both sides, never as the library's key.
+    with pytest.raises(ValueError, match=r"cell_space=16 differs from .*m\.ckpt's cell_space = 32 .*leave cell_space out"):
+        rost.Mission(words, positions=positions, resume=tmp_path / "m.ckpt", cell_space=16)
     with pytest.raises(ValueError, match=r"no positions, but .*m\.ckpt models 64x64 frames"):
         rost.Mission(words, resume=tmp_path / "m.ckpt")
 

@@ -19,7 +19,7 @@ Status problemStatus(const MissionOptions& m, const SettingProblem& p) {
 
 // "-K 8 differs from m.ckpt's K = 16 (a resumed mission keeps its model; leave -K out)".
 Status modelDiffers(const MissionOptions& m, const SettingSpec& spec, const std::string& mine, const std::string& theirs) {
-    return Status::error(m.names.given(spec, mine) + " differs from " + m.resume + "'s " + std::string(spec.key) +
+    return Status::error(m.names.given(spec, mine) + " differs from " + m.resume + "'s " + m.names.key(spec) +
                          " = " + theirs + " (a resumed mission keeps its model; leave " + m.names.leave(spec) + " out)");
 }
 

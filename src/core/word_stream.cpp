@@ -18,6 +18,10 @@ namespace {
 using text::Field;
 using text::Line;
 using text::LineReader;
+
+// Empty lines, lines of only spaces and tabs, and '#' lines are skipped (as
+// rost-cli's commands and Python's rost.io skip them).
+constexpr text::LineRules kStreamLines{.skip_empty = true, .blank_is_empty = true, .skip_comments = true};
 using text::where;
 
 // Splits a line at commas and parses each field as a signed 64-bit integer
@@ -43,7 +47,7 @@ Status parseWords(std::string_view wordsText, const WordStreamLimits& limits, Wo
                   std::string_view wordsName) {
     std::vector<int64_t> values;
     std::vector<Field> fields;
-    LineReader lines(wordsText);
+    LineReader lines(wordsText, {}, kStreamLines);
     Line line;
     while (lines.next(line)) {
         const int number = line.number;
@@ -76,7 +80,7 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
                       std::string_view positionsName, std::string_view wordsName) {
     std::vector<int64_t> values;
     std::vector<Field> fields;
-    LineReader plines(positionsText);
+    LineReader plines(positionsText, {}, kStreamLines);
     Line line;
     std::size_t index = 0;
     while (plines.next(line)) {
@@ -108,11 +112,15 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
                 msg += ", ";
                 msg += std::to_string(y);
                 msg += ") outside the frame";
-                if (limits.width > 0) {
+                if (limits.width > 0 && limits.height > 0) {
                     msg += ' ';
                     msg += std::to_string(limits.width);
                     msg += 'x';
                     msg += std::to_string(limits.height);
+                } else if (limits.width > 0 || limits.height > 0) {  // one side given: name only it
+                    msg += limits.width > 0 ? " (x in [0, " : " (y in [0, ";
+                    msg += std::to_string(limits.width > 0 ? limits.width : limits.height);
+                    msg += "))";
                 }
                 return Status::error(msg);
             }
@@ -139,7 +147,7 @@ struct PositionsLine {
 bool parsePositionLines(std::string_view text, std::vector<PositionsLine>& out) {
     std::vector<int64_t> values;
     std::vector<Field> fields;
-    LineReader lines(text);
+    LineReader lines(text, {}, kStreamLines);
     Line line;
     while (lines.next(line)) {
         if (!parseFields(line, "", fields, values).ok() || values.size() % 2 != 1) return false;

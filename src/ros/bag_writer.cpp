@@ -29,6 +29,12 @@ Status ResultBagWriter::open(const std::string& path, const std::string& topic) 
     impl_->path = path;
     impl_->topic = topic;
     impl_->tmp = path + ".tmp";
+    // A bag is seeked and renamed into place: a device or a FIFO cannot take
+    // one, and renaming over it would replace the node itself.
+    std::error_code ec;
+    const auto st = std::filesystem::status(path, ec);
+    if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+        return Status::error("--out.bag " + path + ": not a regular file (a bag is written to a file)");
     try {
         impl_->bag.open(impl_->tmp, rosbag::bagmode::Write);
     } catch (const rosbag::BagException& e) {

@@ -104,6 +104,7 @@ public:
             if (!skipSmall(first)) break;
         }
         chooseSize(o, first.cols, first.rows, info_, notes_);
+        first_ = noted_ = cv::Size(first.cols, first.rows);
         info_.frames = static_cast<int64_t>(files_.size() - next_);
         info_.description = what_ + " (" + std::to_string(files_.size()) + " images, " + std::to_string(info_.width) +
                             "x" + std::to_string(info_.height) + ")";
@@ -118,6 +119,14 @@ public:
             if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
             else img = cv::imread(files_[next_], cv::IMREAD_UNCHANGED);
         } while (!img.empty() && skipSmall(img));
+        // An image of another size than the first is scaled to the frame: said once per size in a row.
+        if (!img.empty() && img.size() != first_ && img.size() != noted_) {
+            notes_.push_back(files_[next_] + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                             ", not the first image's " + std::to_string(first_.width) + "x" +
+                             std::to_string(first_.height) + ": scaled to the " + std::to_string(info_.width) + "x" +
+                             std::to_string(info_.height) + " frame");
+            noted_ = img.size();
+        }
         if (!normalise(img, info_.width, info_.height, out.image)) {
             error_ = files_[next_] + ": cannot decode image";
             return ReadStatus::Error;
@@ -143,6 +152,7 @@ private:
     std::size_t next_ = 0;
     int64_t delivered_ = 0;
     cv::Mat pending_;
+    cv::Size first_, noted_;  // the first image's size; the last other size noted
 };
 
 class VideoSource final : public FrameSource {

@@ -14,6 +14,7 @@
 #include <zlib.h>
 
 #include "rost/random.hpp"
+#include "rost/text_io.hpp"
 #include "rost/settings.hpp"
 
 #if defined(__ARM_NEON)
@@ -283,23 +284,10 @@ Status Vocabulary::save(const std::string& path) const {
     if (empty()) return Status::error("vocabulary " + path + ": nothing to save (no words)");
     if (note_.size() > kMaxNoteBytes) return Status::error("vocabulary " + path + ": note longer than 65536 bytes");
     const std::vector<uint8_t> bytes = serialize();
-    const std::string tmp = path + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-        if (!f) return Status::error("cannot write " + tmp + ": " + std::strerror(errno));
-        f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-        f.flush();
-        if (!f) {
-            std::remove(tmp.c_str());
-            return Status::error("cannot write " + tmp + ": " + std::strerror(errno));
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::remove(tmp.c_str());
-        return Status::error("cannot rename " + tmp + " to " + path + ": " + ec.message());
-    }
+    // Through a temporary file renamed into place; a device or a FIFO is written in place.
+    const Status st =
+        text::writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    if (!st.ok()) return Status::error("vocabulary " + st.message());
     return {};
 }
 
