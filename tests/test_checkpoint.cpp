@@ -857,7 +857,10 @@ TEST(TopicModelCsv, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(err("1,2,3\n4,5,6\n"), "ok");
     EXPECT_EQ(c, (std::vector<int32_t>{1, 2, 3, 4, 5, 6}));
     EXPECT_EQ(err("# header\n1, 2 ,3,\r\n\n4,5,6"), "ok");
-    EXPECT_EQ(err("1,2,3\n"), "topicmodel.csv: 1 topic lines, expected K = 2");
+    // Fewer lines than K (a growth run's A open topics): the rest start empty.
+    EXPECT_EQ(err("1,2,3\n"), "ok");
+    EXPECT_EQ(c, (std::vector<int32_t>{1, 2, 3, 0, 0, 0}));
+    EXPECT_EQ(err("# nothing\n\n"), "topicmodel.csv: no topic lines (expected 1 to K = 2)");
     EXPECT_EQ(err("1,2,3\n4,5,6\n7,8,9\n"), "topicmodel.csv:3:1: more than K = 2 topic lines");
     EXPECT_EQ(err("1,2,3\n4,5\n"), "topicmodel.csv:2:1: 2 counts, expected V = 3");
     EXPECT_EQ(err("1,2,3,4\n4,5,6\n"), "topicmodel.csv:1:7: more than V = 3 counts");

@@ -299,6 +299,12 @@ TEST_F(RostCli, GrowthWritesTheActiveTopicsAndRecoversThePlantedOnes) {
     r = run(dir, bin(ROSTCLI_REFINE_T) + flags + " --grow.topics.size --out.topicmodel=g.csv");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(readText(dir + "/g.csv"), readText(dir + "/topicmodel.csv"));
+    // A growth run's topicmodel.csv (A rows) reads back as a prior: its A topics
+    // first, the rest empty; with growth those A are open from the start.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 16 -n 0 --seed 3 --grow.topics.size=true"
+                                         " --gamma=1e-9 --in.topicmodel=g.csv --out.topicmodel=back.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(csv(dir + "/back.csv").size(), A) << "the prior's topics are the open ones";
 }
 
 // topics.refine.txy: each document holds words at positions in a 64 x 32
@@ -369,10 +375,16 @@ TEST_F(RostCli, TopicModelCarriesOverAndDelimiterIsHonoured) {
     r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o hist.csv -V 4");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, 4), planted.topic), 0.95);
-    // A model of another shape is an error naming the file.
-    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 5 --in.topicmodel=first.csv");
+    // Fewer rows than K load (the rest start empty); more rows than K, or
+    // rows of another V, are an error naming the file, the line and K or V.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 5 -n 1 --in.topicmodel=first.csv");
+    EXPECT_EQ(r.status, 0) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 3 --in.topicmodel=first.csv");
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("first.csv"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("first.csv:4:1: more than K = 3 topic lines"), std::string::npos) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 41 -K 4 --in.topicmodel=first.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("first.csv:1:"), std::string::npos) << r.err;
 
     std::string semi = readText(dir + "/words.csv");
     std::replace(semi.begin(), semi.end(), ',', ';');
@@ -517,6 +529,54 @@ TEST_F(RostCli, PpxOutIsThePluginPerplexityOfEachDocument) {
         EXPECT_EQ(line.substr(0, comma), std::to_string(d));
         EXPECT_NEAR(std::stod(line.substr(comma + 1)), expected[d], 1e-12 * expected[d]) << line;
     }
+}
+
+// perplexity.iter.csv, as rost-cli writes it by default: the corpus
+// perplexity every --ppx.rate sweeps, one number a line, the same numbers as
+// the log's "sweep N perplexity X" lines; --out.ppx.iter "" writes none, and
+// an online run (no sweeps) none.
+TEST_F(RostCli, PerplexityIterHoldsTheCorpusPerplexityEveryPpxRateSweeps) {
+    writeText(dir + "/k1.csv", "0,0,0,1\n1,1,2\n2,2,2,0\n");
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 2 -n 25 --ppx.rate 10");
+    ASSERT_EQ(r.status, 0) << r.err;
+    std::istringstream iter(readText(dir + "/perplexity.iter.csv"));
+    std::vector<std::string> values;
+    for (std::string line; std::getline(iter, line);) values.push_back(line);
+    ASSERT_EQ(values.size(), 3u) << "after sweeps 10, 20 and 25";
+    const std::string log = readText(dir + "/topics.log");
+    const int sweeps[] = {10, 20, 25};
+    for (std::size_t i = 0; i < values.size(); ++i) {
+        EXPECT_GT(std::stod(values[i]), 1.0) << values[i];
+        const std::string logged = "sweep " + std::to_string(sweeps[i]) + " perplexity " + values[i] + "\n";
+        EXPECT_NE(log.find(logged), std::string::npos) << "expected '" << logged << "' in the log:\n" << log;
+    }
+    std::filesystem::remove(dir + "/perplexity.iter.csv");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 2 -n 5 --out.ppx.iter ''");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/perplexity.iter.csv"));
+}
+
+// Positions with fractions (rostpy's, a spectrogram's) are placed at their
+// floor: the same run as the positions with their fractions cut, every output
+// byte for byte; a negative one is still refused, naming it.
+TEST_F(RostCli, FractionalPositionsArePlacedAtTheirFloor) {
+    writeText(dir + "/w.csv", "0,1,2,3\n1,3,2,1\n2,0,0,4\n");
+    writeText(dir + "/frac.csv", "0,0.5,1.25,17.9,3,40.01,2.5\n1,1.5,0.75,3.999,31.5,8,8\n2,0,0,63.5,31.9,5.5,6\n");
+    writeText(dir + "/cut.csv", "0,0,1,17,3,40,2\n1,1,0,3,31,8,8\n2,0,0,63,31,5,6\n");
+    const std::string files[] = {"topics.csv", "topics.maxlikelihood.csv", "perplexity.csv", "topicmodel.csv",
+                                 "topics.position.csv", "perplexity.iter.csv"};
+    std::map<std::string, std::string> out[2];
+    for (int run_ = 0; run_ < 2; ++run_) {
+        const Result r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position " +
+                                      (run_ == 0 ? "frac.csv" : "cut.csv") + " -V 5 -K 3 -n 20 --seed 4");
+        ASSERT_EQ(r.status, 0) << r.err;
+        for (const std::string& f : files) out[run_][f] = readText(dir + "/" + f);
+    }
+    for (const std::string& f : files) EXPECT_EQ(out[0][f], out[1][f]) << f;
+    writeText(dir + "/neg.csv", "0,0,1,-0.5,3,4,2\n1,1,0,3,31,8,8\n2,0,0,63,31,5,6\n");
+    const Result r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position neg.csv -V 5 -K 3 -n 2");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("neg.csv:1:7: expected x (a non-negative number), found '-0.5'"), std::string::npos) << r.err;
 }
 
 } // namespace

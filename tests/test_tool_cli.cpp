@@ -210,10 +210,10 @@ TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {
     expectError(runRost("refine " + (t / "words.csv") + " -K 2 -V 4 --in.topicmodel " + (t / "tm.csv") + " --out " +
                      (t / "o")),
                 "tm.csv:2:5", t / "o");
-    rost::testing::writeText(t / "tm.csv", "1,2,3,4\n");
+    rost::testing::writeText(t / "tm.csv", "\n");
     expectError(runRost("refine " + (t / "words.csv") + " -K 2 -V 4 --in.topicmodel " + (t / "tm.csv") + " --out " +
                      (t / "o")),
-                "1 topic lines, expected K = 2", t / "o");
+                "tm.csv: no topic lines (expected 1 to K = 2)", t / "o");
 }
 
 // The option that sets a setting: "--key" unless the schema names others ("-K,--topics").

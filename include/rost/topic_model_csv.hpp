@@ -23,11 +23,13 @@ std::string formatTopicModelCsv(const Model& model);
 // Written atomically (temporary file, fsync, rename).
 Status writeTopicModelCsv(const Model& model, const std::string& path);
 
-// Parses K x V counts (row-major, topic by word, as addTopicCounts takes
-// them). Errors name the file, line and column: "topicmodel.csv:3:118:
-// expected a count, found 'x'", "topicmodel.csv:2:1: 5435 counts, expected
-// V = 5436", "topicmodel.csv: 12 topic lines, expected K = 16". A topic's
-// total must stay below 2^31 (n_k is 32-bit).
+// Parses 1 to K lines of V counts into K x V counts (row-major, topic by
+// word, as addTopicCounts takes them; topics past the file's lines are 0: a
+// growth run's topicmodel.csv has a line per topic open at its end). Errors
+// name the file, line and column: "topicmodel.csv:3:118: expected a count,
+// found 'x'", "topicmodel.csv:2:1: 5435 counts, expected V = 5436",
+// "topicmodel.csv:17:1: more than K = 16 topic lines". A topic's total must
+// stay below 2^31 (n_k is 32-bit).
 Status parseTopicModelCsv(std::string_view text, int K, int V, std::vector<int32_t>& counts,
                           std::string_view name = "topicmodel.csv");
 

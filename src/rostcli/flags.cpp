@@ -110,7 +110,7 @@ void addFileFlags(CLI::App& app, Parsed& p) {
     app.add_option("-i,--in.words", o.in_words, "words: a document per line, timestamp,w,w,... (default: standard input)");
     app.add_option("--in.words.delim", o.delim, "the delimiter of the input files")->capture_default_str();
     app.add_option("--in.position", o.in_position, "word positions: timestamp,x,y,x,y,... per document (txy)");
-    app.add_option("--in.topicmodel", o.in_topicmodel, "start from this topic model (K rows of V counts), as a prior");
+    app.add_option("--in.topicmodel", o.in_topicmodel, "start from this topic model (1 to K rows of V counts), as a prior");
     o.out_topics = "topics.csv";
     o.out_topics_ml = "topics.maxlikelihood.csv";
     o.out_topicmodel = "topicmodel.csv";
@@ -119,13 +119,16 @@ void addFileFlags(CLI::App& app, Parsed& p) {
     o.logfile = "topics.log";
     o.out_topics_online = "topics.online.csv";
     o.out_ppx_online = "perplexity.online.csv";
+    o.out_ppx_iter = "perplexity.iter.csv";
     app.add_option("--out.topics", o.out_topics, "topic labels (the Gibbs sample), timestamp,z,z,...")->capture_default_str();
     app.add_option("--out.topics.ml", o.out_topics_ml, "maximum-likelihood topic labels")->capture_default_str();
     app.add_option("--out.topicmodel", o.out_topicmodel, "the topic model: a row of V counts per topic")->capture_default_str();
     app.add_option("--ppx.out", o.ppx_out, "timestamp,perplexity per document")->capture_default_str();
     app.add_option("--out.position", o.out_position, "the words' positions, per document (txy)")->capture_default_str();
     app.add_option("--logfile", o.logfile, "the run's log: settings, perplexity every --ppx.rate sweeps, speed")->capture_default_str();
-    app.add_option("--ppx.rate", o.ppx_rate, "sweeps between two perplexity lines of the log")->capture_default_str()->check(CLI::PositiveNumber);
+    app.add_option("--out.ppx.iter", o.out_ppx_iter, "the corpus perplexity every --ppx.rate sweeps, a number a line (batch)")
+        ->capture_default_str();
+    app.add_option("--ppx.rate", o.ppx_rate, "sweeps between two perplexity lines of the log and perplexity.iter.csv")->capture_default_str()->check(CLI::PositiveNumber);
     app.add_flag("--online", o.online, "online: each document is refined for --online.mint ms as it arrives (not reproducible)");
     app.add_option("--out.topics.online", o.out_topics_online, "online: each document's ML labels when its time was up")->capture_default_str();
     app.add_option("--out.ppx.online", o.out_ppx_online, "online: each document's perplexity when its time was up")->capture_default_str();

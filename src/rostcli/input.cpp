@@ -2,6 +2,7 @@
 // `timestamp,w,w,...` and `timestamp,x,y,x,y,...`. Errors name the file, the
 // line and the column.
 
+#include <cmath>
 #include <iostream>
 #include <iterator>
 #include <limits>
@@ -28,6 +29,19 @@ constexpr text::LineRules kLines{.skip_empty = true, .blank_is_empty = true, .sk
 Status parseCount(const Field& f, std::string_view name, int line, std::string_view what, int64_t hi, int64_t& v) {
     if (text::toInteger(f.text, v) == text::NumberError::None && v >= 0 && v < hi) return {};
     return text::integerField(name, line, f, std::string(what) + " (a non-negative integer)", what, 0, hi, v);
+}
+
+// A coordinate: a non-negative integer, or a number with a fraction
+// (rostpy's and spectrograms' positions) placed at floor(value), so positions
+// with their fractions cut give the same run.
+Status parseCoordinate(const Field& f, std::string_view name, int line, std::string_view what, int64_t hi, int64_t& v) {
+    if (text::toInteger(f.text, v) == text::NumberError::None && v >= 0 && v < hi) return {};
+    double d = 0.0;
+    if (text::toDouble(f.text, d) == text::NumberError::None && d >= 0.0 && d < static_cast<double>(hi)) {
+        v = static_cast<int64_t>(std::floor(d));
+        return {};
+    }
+    return text::integerField(name, line, f, std::string(what) + " (a non-negative number)", what, 0, hi, v);
 }
 
 // A line that is one field holding spaces or tabs: its fields are separated
@@ -132,8 +146,8 @@ Status parsePositions(std::string_view text, std::string_view name, std::string_
         d.positions.resize(d.words.size());
         for (std::size_t i = 0; i < d.words.size(); ++i) {
             int64_t x = 0, y = 0;
-            if (Status st = parseCount(fields[1 + 2 * i], name, number, "x", hi, x); !st.ok()) return st;
-            if (Status st = parseCount(fields[2 + 2 * i], name, number, "y", hi, y); !st.ok()) return st;
+            if (Status st = parseCoordinate(fields[1 + 2 * i], name, number, "x", hi, x); !st.ok()) return st;
+            if (Status st = parseCoordinate(fields[2 + 2 * i], name, number, "y", hi, y); !st.ok()) return st;
             d.positions[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
             corpus.max_x = std::max(corpus.max_x, static_cast<int32_t>(x));
             corpus.max_y = std::max(corpus.max_y, static_cast<int32_t>(y));

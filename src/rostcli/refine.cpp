@@ -102,7 +102,7 @@ Status fitModel(const RunOptions& o, const Corpus& c, Settings& s) {
 
 // The outputs, built in memory and written at the end.
 struct Outputs {
-    std::string topics, topics_ml, ppx, position, topics_online, ppx_online, log;
+    std::string topics, topics_ml, ppx, ppx_iter, position, topics_online, ppx_online, log;
 };
 
 void appendLabels(std::string& out, const std::string& timestamp, const std::vector<uint16_t>& z) {
@@ -158,7 +158,9 @@ Status runBatch(const RunOptions& o, const Corpus& c, const Settings& s, Model& 
         const int n = std::min(std::max(o.ppx_rate, 1), sweeps - done);
         model.refineAll(n);
         done += n;
-        logLine(out, std::string("sweep ") + std::to_string(done) + " perplexity " + formatDouble(corpusPerplexity(model)));
+        const std::string ppx = formatDouble(corpusPerplexity(model));
+        logLine(out, std::string("sweep ") + std::to_string(done) + " perplexity " + ppx);
+        out.ppx_iter += ppx + "\n";  // perplexity.iter.csv: a number a line, as rost-cli writes it
     }
     const double secs = secondsSince(t0);
     const uint64_t tokens = model.tokensRefined() - tokens0;
@@ -198,10 +200,11 @@ struct FileOut {
 };
 
 // The files a run writes, each with its text, the log last (a null path: not this run's).
-std::array<FileOut, 8> outputFiles(const RunOptions& o, const Outputs& out, const std::string& model) {
+std::array<FileOut, 9> outputFiles(const RunOptions& o, const Outputs& out, const std::string& model) {
     return {{{&o.out_topics, &out.topics},
              {&o.out_topics_ml, &out.topics_ml},
              {&o.ppx_out, &out.ppx},
+             {o.online ? nullptr : &o.out_ppx_iter, &out.ppx_iter},
              {&o.out_topicmodel, &model},
              {o.cmd == Command::RefineTxy ? &o.out_position : nullptr, &out.position},
              {o.online ? &o.out_topics_online : nullptr, &out.topics_online},

@@ -65,6 +65,7 @@ struct RunOptions {
     std::string in_words, delim = ",", in_position, in_topicmodel;
     std::string out_topics, out_topics_ml, out_topicmodel, ppx_out, out_position, logfile;
     std::string out_topics_online, out_ppx_online;
+    std::string out_ppx_iter;  // the corpus perplexity every ppx.rate sweeps (batch)
     bool online = false;
     bool v_given = false;  // -V on the command line (else: the largest word id + 1)
     std::vector<std::string> given;  // the settings' keys whose flags are on the command line
