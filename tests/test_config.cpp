@@ -25,7 +25,7 @@ TEST(Config, InvalidValueNamesFieldAndRange) {
         {"cell.time", [](rost::Config& c) { c.cell_time = 0; }, "[1, 1024]"},
         {"g.space", [](rost::Config& c) { c.g_space = -1; }, "[0, 16]"},
         {"g.time", [](rost::Config& c) { c.g_time = 99; }, "[0, 64]"},
-        {"ring.steps", [](rost::Config& c) { c.ring_steps = 0; }, "[1, 1048576]"},
+        {"ring.steps", [](rost::Config& c) { c.ring_steps = 0; }, "[1, 67108864]"},
         {"cell.capacity", [](rost::Config& c) { c.cell_capacity = 0; }, "[1, 1048576]"},
     };
     for (const auto& bad : cases) {

@@ -139,9 +139,9 @@ TEST(Mission, ABatchOverTheWholeInputKeepsEveryObservationAndEveryWord) {
     ASSERT_TRUE(planMission(m, in, plan).ok());
     EXPECT_EQ(plan.config.model.cell_capacity, 50) << "what the user set wins";
 
-    in.length = 2200001;
+    in.length = 70000001;
     m.names.problem = [](const SettingProblem& p) { return "needs: " + p.describe(p.spec->key); };
-    EXPECT_EQ(planMission(m, in, plan).message(), "needs: ring.steps = 2200001, allowed [1, 1048576]");
+    EXPECT_EQ(planMission(m, in, plan).message(), "needs: ring.steps = 70000001, allowed [1, 67108864]");
 }
 
 TEST(Mission, WhatTheInputDecidesIsCheckedAndNamedInTheFacesSpelling) {
