@@ -188,6 +188,39 @@ TEST(ModelPerplexity, FiniteAndBoundedByVocabularyForUniformModel) {
     }
 }
 
+// Initial labels given instead of drawn (rost-cli's --in.topics): the
+// samples are exactly those labels, the counts agree with them, and a label
+// of K or a labels span of another length is refused before anything changes.
+TEST(ModelIngest, GivenInitialLabelsAreTheSamplesAndCountOnce) {
+    rost::Config c = smallConfig();  // K = 6
+    c.cell_capacity = 40;
+    rost::Model m(c);
+    rost::Rng r(3);
+    std::vector<uint32_t> w;
+    std::vector<rost::Position> p;
+    randomFrame(r, c, 30, w, p);
+    std::vector<uint16_t> z(w.size());
+    for (std::size_t i = 0; i < z.size(); ++i) z[i] = static_cast<uint16_t>((i * 7) % 6);
+    ASSERT_TRUE(m.addObservation(w, p, z).ok());
+    std::vector<uint16_t> samples(w.size());
+    m.observationSamples(0, samples);
+    EXPECT_EQ(samples, z);
+    std::string why;
+    EXPECT_TRUE(m.checkInvariants(&why)) << why;
+    int64_t total = 0;
+    for (int k = 0; k < c.K; ++k) total += m.topicCount(k);
+    EXPECT_EQ(total, static_cast<int64_t>(w.size()));
+
+    z[4] = 6;
+    rost::AddResult bad = m.addObservation(w, p, z);
+    EXPECT_EQ(bad.error, rost::AddError::LabelOutOfRange);
+    EXPECT_EQ(bad.index, 4u);
+    z.pop_back();
+    bad = m.addObservation(w, p, z);
+    EXPECT_EQ(bad.error, rost::AddError::SizeMismatch);
+    EXPECT_EQ(m.observations(), 1u) << "a refused observation changes nothing";
+}
+
 // p(v | every other label) for word slot i (word wi, label z) left out,
 // rebuilt from the public counts of a one-cell, one-step model (G(c) is the
 // cell): n'_k^v = n_k^v - [k = z, v = wi], n'_k = n_k - [k = z], n'_G^k =

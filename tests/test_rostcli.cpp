@@ -579,4 +579,29 @@ TEST_F(RostCli, FractionalPositionsArePlacedAtTheirFloor) {
     EXPECT_NE(r.err.find("neg.csv:1:7: expected x (a non-negative number), found '-0.5'"), std::string::npos) << r.err;
 }
 
+// --in.topics starts a batch from given labels (a topics.csv): with no
+// sweeps its topics.csv is those labels; a label of K or more, or a line of
+// another document, is named by file, line and column; --online refuses it.
+TEST_F(RostCli, InTopicsStartsFromGivenLabels) {
+    writeText(dir + "/w.csv", "0,1,2,3\n1,3,2,1\n2,0,0,4\n");
+    writeText(dir + "/z.csv", "0,2,2,0\n1,1,0,1\n2,2,1,0\n");
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i w.csv -V 5 -K 3 -n 0 --in.topics z.csv --out.topics=t0.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/t0.csv"), readText(dir + "/z.csv"));
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i w.csv -V 5 -K 3 -n 10 --in.topics z.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    writeText(dir + "/big.csv", "0,2,2,0\n1,1,3,1\n2,2,1,0\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i w.csv -V 5 -K 3 -n 1 --in.topics big.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("big.csv:2:5: topic label 3 out of range [0, 3)"), std::string::npos) << r.err;
+    writeText(dir + "/short.csv", "0,2,2,0\n1,1,0\n2,2,1,0\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i w.csv -V 5 -K 3 -n 1 --in.topics short.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("short.csv:2:6: 2 labels for the 3 words of w.csv:2"), std::string::npos) << r.err;
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i w.csv -V 5 -K 3 --online --in.topics z.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("--in.topics starts a batch from given labels; it cannot be used with --online"),
+              std::string::npos) << r.err;
+}
+
 } // namespace

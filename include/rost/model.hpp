@@ -31,6 +31,7 @@ enum class AddError : uint8_t {
     SizeMismatch,        // words and positions differ in length
     WordOutOfRange,      // a word id >= V
     PositionOutOfRange,  // a position outside [0, width) x [0, height)
+    LabelOutOfRange,     // a given initial label >= K (addObservation with labels)
 };
 const char* toString(AddError e) noexcept;
 
@@ -159,6 +160,12 @@ public:
     // a cell's capacity is uniformly subsampled (selection sampling, seeded)
     // and counted. On error nothing changes. Never allocates.
     AddResult addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept;
+    // The same with each word's initial topic given (`labels`, one a word,
+    // each < K; with growth the topics they name are open) instead of drawn:
+    // a run started from earlier labels (rost-cli's --in.topics). A word
+    // subsampled away takes its label with it. Never allocates.
+    AddResult addObservation(std::span<const uint32_t> words, std::span<const Position> positions,
+                             std::span<const uint16_t> labels) noexcept;
     // The checks addObservation makes before it changes anything (sizes,
     // word ids < V, positions inside the frame): the first offending word.
     AddResult validateObservation(std::span<const uint32_t> words, std::span<const Position> positions) const noexcept;

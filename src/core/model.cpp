@@ -18,6 +18,7 @@ const char* toString(AddError e) noexcept {
     case AddError::SizeMismatch: return "words and positions differ in length";
     case AddError::WordOutOfRange: return "word id out of range";
     case AddError::PositionOutOfRange: return "position outside the frame";
+    case AddError::LabelOutOfRange: return "initial label out of range";
     }
     return "unknown";
 }
@@ -49,7 +50,11 @@ bool Model::topicOpen(int k) const noexcept { return core_->topicOpen(k); }
 void Model::outputNumbering(std::span<uint16_t> map) const noexcept { core_->outputNumbering(map); }
 int Model::V() const noexcept { return core_->V(); }
 int Model::cellsPerStep() const noexcept { return core_->cellsPerStep(); }
-AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept { return core_->addObservation(words, positions); }
+AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept { return core_->addObservation(words, positions, {}); }
+AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const Position> positions,
+                                std::span<const uint16_t> labels) noexcept {
+    return core_->addObservation(words, positions, labels);
+}
 AddResult Model::validateObservation(std::span<const uint32_t> words, std::span<const Position> positions) const noexcept { return core_->validateObservation(words, positions); }
 uint64_t Model::observations() const noexcept { return core_->observations(); }
 int64_t Model::steps() const noexcept { return core_->steps(); }

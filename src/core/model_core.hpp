@@ -80,7 +80,9 @@ public:
     int cellsPerStep() const noexcept { return cells_; }
 
     // ---- ingest ---------------------------------------------------------
-    AddResult addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept;
+    // `labels`: each word's initial topic (empty: drawn at random).
+    AddResult addObservation(std::span<const uint32_t> words, std::span<const Position> positions,
+                             std::span<const uint16_t> labels) noexcept;
     AddResult validateObservation(std::span<const uint32_t> words, std::span<const Position> positions) const noexcept;
 
     uint64_t observations() const noexcept { return frames_; }
@@ -221,10 +223,11 @@ private:
     void setTaskKernels() noexcept;
     // The parts of addObservation, in order (ring slot `slot`, input row `obs`).
     void openStep(int64_t step, std::size_t slot) noexcept;
-    uint32_t keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::size_t obs) noexcept;
-    void fillCells(std::size_t slot, std::size_t obs, uint32_t kept, AddResult& res) noexcept;
+    uint32_t keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::span<const uint16_t> labels,
+                        std::size_t obs) noexcept;
+    void fillCells(std::size_t slot, std::size_t obs, uint32_t kept, bool labelled, AddResult& res) noexcept;
     void observeSurprise(int64_t step, std::size_t slot, std::size_t obs, const uint32_t* firstNew) noexcept;
-    void drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexcept;
+    void drawInitialLabels(std::size_t slot, const uint32_t* firstNew, bool labelled) noexcept;
     // The parts of checkRestoredState (model_store_restore.cpp); `bad`
     // fills `problem` and returns false.
     bool restoredCounters(StateProblem& problem) const;
@@ -331,6 +334,7 @@ private:
     AlignedBuffer<uint32_t> cell_of_x_;
     AlignedBuffer<uint32_t> cell_of_y_;
     AlignedBuffer<uint32_t> scratch_cell_;   // per input: its cell
+    AlignedBuffer<uint16_t> scratch_z_;      // per kept input: its given initial label
     AlignedBuffer<uint32_t> scratch_count_;  // per cell
     AlignedBuffer<uint32_t> scratch_need_;   // per cell
     AlignedBuffer<int32_t> scratch_g_;       // Kp

@@ -57,7 +57,7 @@ ModelCore::ModelCore(const Config& config) : cfg_(config), rng_(config.seed) {
     memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
                     cell_words_.bytes() + cell_z_.bytes() + nck_.bytes() + cell_surprise_.bytes() +
                     in_word_.bytes() + in_pos_.bytes() + in_slot_.bytes() + in_n_.bytes() + obs_surprise_.bytes() +
-                    nbr_begin_.bytes() + nbr_cell_.bytes() + cell_of_x_.bytes() + cell_of_y_.bytes() + scratch_cell_.bytes() + scratch_count_.bytes() +
+                    nbr_begin_.bytes() + nbr_cell_.bytes() + cell_of_x_.bytes() + cell_of_y_.bytes() + scratch_cell_.bytes() + scratch_z_.bytes() + scratch_count_.bytes() +
                     scratch_need_.bytes() + scratch_g_.bytes() + scratch_ll_.bytes() + scratch_wn_.bytes() +
                     out_g_.bytes() + out_g_epoch_.bytes() +
                     sizeof(ModelCore);
@@ -95,6 +95,7 @@ void ModelCore::allocateState() {
     obs_surprise_.reset(ring * static_cast<std::size_t>(ct_));
 
     scratch_cell_.reset(static_cast<std::size_t>(maxw_));
+    scratch_z_.reset(static_cast<std::size_t>(maxw_));
     cell_of_x_.reset(static_cast<std::size_t>(cfg_.frame_width));
     cell_of_y_.reset(static_cast<std::size_t>(cfg_.frame_height));
     for (int x = 0; x < cfg_.frame_width; ++x) cell_of_x_[static_cast<std::size_t>(x)] = static_cast<uint32_t>(x / cfg_.cell_space);
@@ -238,9 +239,21 @@ AddResult ModelCore::validateObservation(std::span<const uint32_t> words, std::s
     return res;
 }
 
-AddResult ModelCore::addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept {
+AddResult ModelCore::addObservation(std::span<const uint32_t> words, std::span<const Position> positions,
+                                     std::span<const uint16_t> labels) noexcept {
     AddResult res = validateObservation(words, positions);
     if (!res.ok()) return res;
+    const bool labelled = !labels.empty();
+    if (labelled) {
+        res = checkObservationSizes(words.size(), labels.size());
+        if (!res.ok()) return res;
+        for (std::size_t i = 0; i < labels.size() && i < UINT32_MAX; ++i)
+            if (labels[i] >= K_) {
+                res.error = AddError::LabelOutOfRange;
+                res.index = static_cast<uint32_t>(i);
+                return res;
+            }
+    }
     const uint64_t frame = frames_;
     const int64_t step = stepOfObservation(frame);
     const auto sub = static_cast<std::size_t>(frame % static_cast<uint64_t>(ct_));
@@ -248,15 +261,15 @@ AddResult ModelCore::addObservation(std::span<const uint32_t> words, std::span<c
     if (sub == 0) openStep(step, slot);
     const std::size_t obs = slot * ct_ + sub;
 
-    const uint32_t m = keepInputs(words, positions, obs);
+    const uint32_t m = keepInputs(words, positions, labels, obs);
     res.dropped_frame = static_cast<uint32_t>(std::min<std::size_t>(words.size(), UINT32_MAX)) - m;
     // firstNew[c]: the cell's words before this observation.
     uint32_t* firstNew = scratch_wn_.data();
     const uint32_t* cellN = cell_n_.data() + slot * cells_;
     std::copy_n(cellN, cells_, firstNew);
-    fillCells(slot, obs, m, res);
+    fillCells(slot, obs, m, labelled, res);
     observeSurprise(step, slot, obs, firstNew);
-    drawInitialLabels(slot, firstNew);
+    drawInitialLabels(slot, firstNew, labelled);
     words_in_model_ += res.kept;
     ++frames_;
     return res;
@@ -268,7 +281,8 @@ void ModelCore::openStep(int64_t step, std::size_t slot) noexcept {
     steps_ = step + 1;
 }
 
-uint32_t ModelCore::keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::size_t obs) noexcept {
+uint32_t ModelCore::keepInputs(std::span<const uint32_t> words, std::span<const Position> positions,
+                               std::span<const uint16_t> labels, std::size_t obs) noexcept {
     // Frame-level uniform subsample (selection sampling keeps input order).
     const std::size_t ibase = obs * static_cast<std::size_t>(maxw_);
     const std::size_t n = std::min<std::size_t>(words.size(), UINT32_MAX);
@@ -276,13 +290,14 @@ uint32_t ModelCore::keepInputs(std::span<const uint32_t> words, std::span<const 
     selectUniform(n, static_cast<std::size_t>(maxw_), rng_, [&](std::size_t i) {
         in_word_[ibase + j] = words[i];
         in_pos_[ibase + j] = static_cast<uint32_t>(positions[i].x) | (static_cast<uint32_t>(positions[i].y) << 16);
+        if (!labels.empty()) scratch_z_[j] = labels[i];
         ++j;
     });
     in_n_[obs] = j;
     return j;
 }
 
-void ModelCore::fillCells(std::size_t slot, std::size_t obs, uint32_t m, AddResult& res) noexcept {
+void ModelCore::fillCells(std::size_t slot, std::size_t obs, uint32_t m, bool labelled, AddResult& res) noexcept {
     const std::size_t ibase = obs * static_cast<std::size_t>(maxw_);
     // Cells of the kept inputs, and how many each cell can still take.
     uint32_t* cellOf = scratch_cell_.data();
@@ -306,6 +321,7 @@ void ModelCore::fillCells(std::size_t slot, std::size_t obs, uint32_t m, AddResu
             --needc[c];
             const uint32_t s = cellN[c]++;
             cell_words_[(slot * cells_ + c) * cap_ + s] = in_word_[ibase + i];
+            if (labelled) cell_z_[(slot * cells_ + c) * cap_ + s] = scratch_z_[i];  // counted by drawInitialLabels
             in_slot_[ibase + i] = c * static_cast<uint32_t>(cap_) + s;
             ++res.kept;
         } else {
@@ -315,9 +331,10 @@ void ModelCore::fillCells(std::size_t slot, std::size_t obs, uint32_t m, AddResu
     }
 }
 
-void ModelCore::drawInitialLabels(std::size_t slot, const uint32_t* firstNew) noexcept {
+void ModelCore::drawInitialLabels(std::size_t slot, const uint32_t* firstNew, bool labelled) noexcept {
     // Initial labels z ~ Uniform(K) (paper Algorithm 2; with growth, uniform
-    // over the active topics) and their counts.
+    // over the active topics), or the given ones (`labelled`: already in
+    // cell_z_), and their counts.
     const uint32_t* cellN = cell_n_.data() + slot * cells_;
     // With growth: uniform over the open topics (the slot when none is open).
     uint16_t open[kMaxKp];
@@ -329,7 +346,7 @@ void ModelCore::drawInitialLabels(std::size_t slot, const uint32_t* firstNew) no
         const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
         int32_t* h = nck(slot, c);
         for (uint32_t s = firstNew[c]; s < cellN[c]; ++s) {
-            const int z = open[rng_.below(nopen)];
+            const int z = labelled ? cell_z_[base + s] : open[rng_.below(nopen)];
             cell_z_[base + s] = static_cast<uint16_t>(z);
             ++nkv_[static_cast<std::size_t>(cell_words_[base + s]) * Kp_ + z];
             ++nk_[z];

@@ -59,8 +59,7 @@ constexpr LimitedFlag kLimitedFlags[] = {
     {"--retime", "true", "rost numbers the documents in input order (rost-cli's --retime=true)"},
     {"--topicmodel.update", "true", "rost always updates the topic model as it refines"},
     {"--out.intermediate.topics", "false", "rost writes the topics at the end only"},
-    {"--add.to.topicmodel", "*", "only matters with --in.topics; accepted with any value and ignored"},
-    {"--in.topics", "", "rost draws the initial labels itself (it cannot start from given ones)"},
+    {"--add.to.topicmodel", "*", "the labels of --in.topics always count in the topic model; accepted with any value"},
     {"--in.topicmask", "", "rost has no topic masks"},
     {"--g.sigma", "", "rost's neighbourhood counts every cell of G(c) alike (no decay)"},
 };
@@ -110,6 +109,7 @@ void addFileFlags(CLI::App& app, Parsed& p) {
     app.add_option("-i,--in.words", o.in_words, "words: a document per line, timestamp,w,w,... (default: standard input)");
     app.add_option("--in.words.delim", o.delim, "the delimiter of the input files")->capture_default_str();
     app.add_option("--in.position", o.in_position, "word positions: timestamp,x,y,x,y,... per document (txy)");
+    app.add_option("--in.topics", o.in_topics, "start from these labels: timestamp,z,z,... per document (a topics.csv; batch)");
     app.add_option("--in.topicmodel", o.in_topicmodel, "start from this topic model (1 to K rows of V counts), as a prior");
     o.out_topics = "topics.csv";
     o.out_topics_ml = "topics.maxlikelihood.csv";

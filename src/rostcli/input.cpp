@@ -118,6 +118,52 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
     return {};
 }
 
+// The document a line of a per-document side file (positions, initial
+// topics) belongs to: the next one, with the same timestamp as its words line.
+Status nextDocument(const std::vector<Field>& fields, std::string_view name, int number, const char* what,
+                    std::size_t& index, Corpus& corpus, Document*& d) {
+    if (index >= corpus.docs.size())
+        return Status::error(where(name, number, 1) + "a " + what + " line beyond the " +
+                             std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
+    d = &corpus.docs[index++];
+    if (fields[0].text != d->timestamp)
+        return Status::error(where(name, number, fields[0].column) + "timestamp '" + std::string(fields[0].text) +
+                             "' differs from " + corpus.words_name + ":" + std::to_string(d->line) + "'s '" +
+                             d->timestamp + "'");
+    return {};
+}
+
+Status parseInitialTopics(std::string_view text, std::string_view name, std::string_view delim, int K, Corpus& corpus) {
+    std::vector<Field> fields;
+    std::size_t index = 0;
+    LineReader lines(text, name, kLines);
+    Line line;
+    for (Status separated; nextRow(lines, delim, line, fields, separated);) {
+        if (!separated.ok()) return separated;
+        const int number = line.number;
+        Document* doc = nullptr;
+        if (Status st = nextDocument(fields, name, number, "topics", index, corpus, doc); !st.ok()) return st;
+        Document& d = *doc;
+        if (fields.size() - 1 != d.words.size()) {
+            const std::size_t col = fields.size() - 1 > d.words.size() ? fields[1 + d.words.size()].column : line.text.size() + 1;
+            return Status::error(where(name, number, col) + std::to_string(fields.size() - 1) + " labels for the " +
+                                 std::to_string(d.words.size()) + " words of " + corpus.words_name + ":" +
+                                 std::to_string(d.line));
+        }
+        d.labels.resize(d.words.size());
+        for (std::size_t w = 0; w < d.words.size(); ++w) {
+            int64_t z = 0;
+            if (Status st = text::integerField(name, number, fields[1 + w], "a topic label", "topic label", 0, K, z); !st.ok())
+                return st;
+            d.labels[w] = static_cast<uint16_t>(z);
+        }
+    }
+    if (index != corpus.docs.size())
+        return Status::error(where(name, lines.lines() + 1, 1) + std::to_string(index) + " topics lines for the " +
+                             std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
+    return {};
+}
+
 Status parsePositions(std::string_view text, std::string_view name, std::string_view delim, Corpus& corpus) {
     std::vector<Field> fields;
     std::size_t index = 0;
@@ -127,14 +173,9 @@ Status parsePositions(std::string_view text, std::string_view name, std::string_
     for (Status separated; nextRow(lines, delim, line, fields, separated);) {
         if (!separated.ok()) return separated;
         const int number = line.number;
-        if (index >= corpus.docs.size())
-            return Status::error(where(name, number, 1) + "a position line beyond the " +
-                                 std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
-        Document& d = corpus.docs[index++];
-        if (fields[0].text != d.timestamp)
-            return Status::error(where(name, number, fields[0].column) + "timestamp '" + std::string(fields[0].text) +
-                                 "' differs from " + corpus.words_name + ":" + std::to_string(d.line) + "'s '" +
-                                 d.timestamp + "'");
+        Document* doc = nullptr;
+        if (Status st = nextDocument(fields, name, number, "position", index, corpus, doc); !st.ok()) return st;
+        Document& d = *doc;
         const std::size_t coords = fields.size() - 1;
         if (coords != 2 * d.words.size()) {
             const std::size_t col = coords > 2 * d.words.size() ? fields[1 + 2 * d.words.size()].column : line.text.size() + 1;

@@ -147,7 +147,7 @@ void logLine(Outputs& out, const std::string& line) { out.log += line + "\n"; }
 // whatever the threads.
 Status runBatch(const RunOptions& o, const Corpus& c, const Settings& s, Model& model, Outputs& out) {
     for (std::size_t d = 0; d < c.docs.size(); ++d) {
-        const AddResult r = model.addObservation(c.docs[d].words, c.docs[d].positions);
+        const AddResult r = model.addObservation(c.docs[d].words, c.docs[d].positions, c.docs[d].labels);
         if (!r.ok())
             return Status::error(c.words_name + ":" + std::to_string(c.docs[d].line) + ": " + toString(r.error));
     }
@@ -261,10 +261,17 @@ std::string settingsLog(const Settings& s) {
 } // namespace
 
 Status runRefine(const RunOptions& o, Settings& s) {
+    if (o.online && !o.in_topics.empty())
+        return Status::error("--in.topics starts a batch from given labels; it cannot be used with --online");
     if (Status st = probeOutputs(o); !st.ok()) return st;
     Corpus c;
     if (Status st = readCorpus(o, s, c); !st.ok()) return st;
     if (Status st = fitModel(o, c, s); !st.ok()) return st;
+    if (!o.in_topics.empty()) {  // the labels to start from, once K is known
+        std::string text, name;
+        if (Status st = readInput(o.in_topics, text, name); !st.ok()) return st;
+        if (Status st = parseInitialTopics(text, name, o.delim, s.engine.model.K, c); !st.ok()) return st;
+    }
     Outputs out;
     out.log = o.command_line + "\n" + std::to_string(c.docs.size()) + " documents from " + c.words_name + "\n";
     out.log += settingsLog(s);

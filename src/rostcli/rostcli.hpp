@@ -26,6 +26,7 @@ struct Document {
     int line = 0;  // 1-based line in the words file
     std::vector<uint32_t> words;
     std::vector<Position> positions;  // topics.refine.txy only
+    std::vector<uint16_t> labels;     // --in.topics: each word's initial topic (empty: drawn)
 };
 
 struct Corpus {
@@ -49,6 +50,9 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
 // Parses `timestamp,x,y,x,y,...` lines, one per document of `corpus` in order:
 // the same timestamp and two non-negative integer coordinates per word.
 Status parsePositions(std::string_view text, std::string_view name, std::string_view delim, Corpus& corpus);
+// --in.topics: a document's initial labels a line (timestamp,z,z,...: a
+// topics.csv), the documents' timestamps and word counts, each label < K.
+Status parseInitialTopics(std::string_view text, std::string_view name, std::string_view delim, int K, Corpus& corpus);
 
 // ---- the commands -----------------------------------------------------------
 
@@ -62,7 +66,7 @@ int wordsBincountMain(int argc, char** argv);
 
 struct RunOptions {
     Command cmd = Command::RefineT;
-    std::string in_words, delim = ",", in_position, in_topicmodel;
+    std::string in_words, delim = ",", in_position, in_topicmodel, in_topics;
     std::string out_topics, out_topics_ml, out_topicmodel, ppx_out, out_position, logfile;
     std::string out_topics_online, out_ppx_online;
     std::string out_ppx_iter;  // the corpus perplexity every ppx.rate sweeps (batch)
