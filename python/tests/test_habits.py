@@ -236,3 +236,32 @@ def test_config_settings_are_documented_properties_dir_lists():
         config.kk
     with pytest.raises(AttributeError):
         config.K = 5
+
+
+def _stub_classes(path):
+    """{class name: {member name: the return annotation's text}} of a .pyi file."""
+    import ast
+
+    tree = ast.parse(path.read_text(), filename=str(path))
+    return {node.name: {f.name: ast.unparse(f.returns) if f.returns else "" for f in node.body
+                        if isinstance(f, ast.FunctionDef)}
+            for node in tree.body if isinstance(node, ast.ClassDef)}
+
+
+def test_type_stubs_beside_the_package_name_every_public_member():
+    package = pathlib.Path(rost.__file__).parent
+    assert (package / "py.typed").exists()
+    stubs = _stub_classes(package / "_rost.pyi")
+    classes = [rost.Config, rost.Model, rost.Engine, rost.Snapshot, rost.Mission]
+    vision = getattr(rost._rost, "vision", None)
+    if vision is not None:
+        vision_stubs = _stub_classes(package / "vision.pyi")
+        stubs.update({"vision." + k: v for k, v in vision_stubs.items()})
+        classes += [vision.Vocabulary, vision.WordExtractor, vision.Mission]
+    for cls in classes:
+        key = ("vision." if cls.__module__.endswith("vision") else "") + cls.__name__
+        public = {n for n in vars(cls) if not n.startswith("_")}
+        assert public <= set(stubs[key]), (key, sorted(public - set(stubs[key])))
+        assert set(stubs[key]) - {n for n in stubs[key] if n.startswith("__")} <= public | set(dir(cls)), key
+    for d in rost.Config.describe():
+        assert stubs["Config"][d["name"]].split(" |")[0] == d["type"], d["name"]
