@@ -38,6 +38,16 @@ py::object settingObject(const Settings& s, const SettingSpec& spec);
 // Raises RuntimeError with the status's message when it is an error.
 void check(const Status& st);
 
+// A path argument as text: str or os.PathLike (TypeError naming the argument otherwise).
+std::string pathArgument(const py::handle& value, const char* what);
+
+// An object that cannot be pickled or copied: pickle.dumps and copy.deepcopy
+// raise TypeError with `message` (which says what to do instead).
+template <typename Class>
+void refusePickling(Class& c, const char* message) {
+    c.def("__reduce_ex__", [message](const py::object&, const py::object&) -> py::object { throw py::type_error(message); });
+}
+
 // Words (numpy int32, shape (N,)) and positions (numpy int32, shape (N, 2),
 // or None: every word at (0, 0)) of one observation, viewed in place.
 struct ObservationArrays {

@@ -12,13 +12,21 @@ namespace {
 
 std::string typeName(const py::handle& h) { return py::str(py::type::handle_of(h).attr("__name__")); }
 
+// Python's bool or numpy's (numpy.bool_, numpy.True_).
+bool isBool(const py::handle& v) {
+    if (py::isinstance<py::bool_>(v)) return true;
+    const py::handle type = py::type::handle_of(v);
+    return py::str(type.attr("__module__")).cast<std::string>() == "numpy" &&
+           typeName(v).rfind("bool", 0) == 0;
+}
+
 // The text form setSetting() parses. Python's own spellings: True/False for a
 // Bool, repr() of a float (shortest round trip), an int's digits.
 std::string valueText(const SettingSpec& spec, const std::string& name, const py::handle& v) {
-    if (py::isinstance<py::bool_>(v)) {
+    if (isBool(v)) {
         if (spec.type != SettingType::Bool)
             throw py::value_error("setting '" + name + "': expected a number, found " + py::repr(v).cast<std::string>());
-        return v.cast<bool>() ? "true" : "false";
+        return PyObject_IsTrue(v.ptr()) == 1 ? "true" : "false";
     }
     if (py::isinstance<py::str>(v)) return v.cast<std::string>();
     if (py::isinstance<py::float_>(v)) return py::repr(v).cast<std::string>();
@@ -136,13 +144,29 @@ py::list describe() {
 
 } // namespace
 
+// One read-only property a setting (dir() and tab completion list them), its
+// documentation the schema's with the type, default and range.
+void bindSettingProperties(py::class_<PyConfig>& c) {
+    const Settings defaults;
+    for (const SettingSpec& spec : settingSpecs()) {
+        std::string doc = std::string(spec.doc) + " [" + typeText(spec.type) + ", default " +
+                          py::repr(settingObject(defaults, spec)).cast<std::string>();
+        if (const std::string range = settingRange(spec); !range.empty()) doc += ", " + range;
+        doc += "]";
+        const SettingSpec* p = &spec;
+        c.def_property_readonly(paramName(spec).c_str(), [p](const PyConfig& cfg) { return settingObject(cfg.settings, *p); },
+                                doc.c_str());
+    }
+}
+
 void bindConfig(py::module_& m) {
-    py::class_<PyConfig>(m, "Config", R"doc(Every setting of rost (the one settings schema), by keyword:
+    py::class_<PyConfig> cls(m, "Config", R"doc(Every setting of rost (the one settings schema), by keyword:
 rost.Config(K=32, cell_space=64, sampler="uni+now", budget_refines=8).
 Names are the configuration-file keys with dots and dashes as underscores;
 an unknown name or a bad value raises ValueError naming it. rost.Config.describe()
-lists every setting with its type, default, range and documentation.)doc")
-        .def(py::init([](const py::kwargs& kw) {
+lists every setting with its type, default, range and documentation; each setting is also a
+read-only property (config.K, config.cell_space) documented by help(rost.Config).)doc");
+    cls.def(py::init([](const py::kwargs& kw) {
                  PyConfig c;
                  applySettings(c.settings, kw, "rost.Config");
                  return c;
@@ -170,7 +194,10 @@ lists every setting with its type, default, range and documentation.)doc")
                             PyConfig c;
                             applySettings(c.settings, py::kwargs(d), "rost.Config");
                             return c;
-                        }));
+                        }))
+        .def("__copy__", [](const PyConfig& c) { return c; })
+        .def("__deepcopy__", [](const PyConfig& c, const py::object&) { return c; }, py::arg("memo"));
+    bindSettingProperties(cls);
 }
 
 } // namespace rost::python

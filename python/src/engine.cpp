@@ -46,13 +46,17 @@ public:
     void start() {
         BusyGuard guard(busy_, "rost.Engine");
         check(engine_->start());
+        stopped_ = false;
     }
     void stop(bool drain) {
         BusyGuard guard(busy_, "rost.Engine");
+        stopped_ = true;
         py::gil_scoped_release nogil;  // draining the queue refines every queued observation
         engine_->stop(drain ? Engine::StopMode::Drain : Engine::StopMode::Discard);
     }
     bool push(int64_t t, const py::handle& words, const py::handle& positions) {
+        // Before start() an observation waits in the queue; after stop() nothing would take it up.
+        if (stopped_) throw std::runtime_error("rost.Engine.push: the engine is stopped (start() it again first)");
         // Runs under the interpreter lock: one producer at a time, as tryPush needs.
         const Config& c = engine_->config().model;
         const ObservationArrays obs = viewObservation(words, positions, static_cast<uint32_t>(c.V), c.frame_width,
@@ -94,6 +98,7 @@ private:
     std::unique_ptr<Engine> engine_;
     Snapshot snap_;
     std::atomic<bool> busy_{false};
+    bool stopped_ = false;  // stop() called and no start() since
     const void* last_words_ = nullptr;
     const void* last_positions_ = nullptr;
 };
@@ -113,6 +118,29 @@ void bindSnapshot(py::module_& m) {
         .def_readonly("cell_surprise", &PySnapshot::cell_surprise, "surprise per cell (float32, grid rows x columns)")
         .def_readonly("histograms", &PySnapshot::histograms, "topic counts per cell (int32, cells x K)")
         .def_readonly("counters", &PySnapshot::counters, "the engine's counters (dict)")
+        .def(py::pickle(
+            [](const PySnapshot& s) {
+                return py::make_tuple(s.version, s.observation, s.sequence, s.timestamp, s.step, s.perplexity, s.surprise,
+                                      s.labels, s.words, s.positions, s.cell_surprise, s.histograms, s.counters);
+            },
+            [](const py::tuple& t) {
+                if (t.size() != 13) throw py::value_error("rost.Snapshot: not a pickled rost.Snapshot");
+                PySnapshot s;
+                s.version = t[0].cast<uint64_t>();
+                s.observation = t[1].cast<uint64_t>();
+                s.sequence = t[2].cast<uint64_t>();
+                s.timestamp = t[3].cast<int64_t>();
+                s.step = t[4].cast<int64_t>();
+                s.perplexity = t[5].cast<double>();
+                s.surprise = t[6].cast<double>();
+                s.labels = t[7];
+                s.words = t[8];
+                s.positions = t[9];
+                s.cell_surprise = t[10];
+                s.histograms = t[11];
+                s.counters = t[12].cast<py::dict>();
+                return s;
+            }))
         .def("__repr__", [](const PySnapshot& s) {
             return "rost.Snapshot(timestamp=" + std::to_string(s.timestamp) + ", step=" + std::to_string(s.step) +
                    ", perplexity=" + std::to_string(s.perplexity) + ", surprise=" + std::to_string(s.surprise) + ")";
@@ -123,10 +151,10 @@ void bindSnapshot(py::module_& m) {
 
 void bindEngine(py::module_& m) {
     bindSnapshot(m);
-    py::class_<PyEngine>(m, "Engine", R"doc(The realtime engine: start(), push(t, words, positions) from one
+    py::class_<PyEngine> c(m, "Engine", R"doc(The realtime engine: start(), push(t, words, positions) from one
 producer (never blocks; False when the queue dropped it), snapshot() from anywhere,
-stop(). A context manager: `with rost.Engine(cfg) as e:` starts and stops it.)doc")
-        .def(py::init([](const std::optional<PyConfig>& config) {
+stop(). A context manager: `with rost.Engine(cfg) as e:` starts and stops it.)doc");
+    c.def(py::init([](const std::optional<PyConfig>& config) {
                  return std::make_unique<PyEngine>(config ? config->settings : Settings{});
              }),
              py::arg("config") = py::none())
@@ -134,7 +162,8 @@ stop(). A context manager: `with rost.Engine(cfg) as e:` starts and stops it.)do
         .def("stop", &PyEngine::stop, py::arg("drain") = true,
              "Stops the refiner (drain: after refining every queued observation). Releases the interpreter lock.")
         .def("push", &PyEngine::push, py::arg("t"), py::arg("words"), py::arg("positions") = py::none(),
-             "Queues observation t (int32 words, (N, 2) int32 positions). Never blocks; False when it was dropped.")
+             "Queues observation t (int32 words, (N, 2) int32 positions). Never blocks; False when it was dropped; "
+             "RuntimeError after stop() (until start()).")
         .def("snapshot", &PyEngine::snapshot, "The newest results (rost.Snapshot), None before the first.")
         .def("counters", &PyEngine::counters, "The engine's counters (dict).")
         .def_property_readonly("_last_input_address", &PyEngine::lastWords)
@@ -147,6 +176,8 @@ stop(). A context manager: `with rost.Engine(cfg) as e:` starts and stops it.)do
                  return e;
              }, py::return_value_policy::reference)
         .def("__exit__", [](PyEngine& e, const py::args&) { e.stop(true); });
+    refusePickling(c, "rost.Engine cannot be pickled or copied (it runs a refiner thread): pickle its config "
+                      "(engine.config) and build a new rost.Engine, or use a rost.Model (it pickles with its state)");
 }
 
 } // namespace rost::python

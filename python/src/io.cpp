@@ -115,14 +115,15 @@ private:
     std::vector<text::Field> fields_;
 };
 
-void writeText(const std::string& path, const std::string& content) {
+void writeText(const py::object& pathObject, const std::string& content) {
+    const std::string path = pathArgument(pathObject, "path");
     if (Status st = text::writeFileAtomic(path, content); !st.ok()) raiseFileError(path, st, true);
 }
 
 using Int64s = py::array_t<int64_t, py::array::c_style | py::array::forcecast>;
 
 // "timestamp,v1,v2,...\n" per row, written atomically.
-void writeRows(const std::string& path, const Int64s& timestamps, const std::vector<Int64s>& rows) {
+void writeRows(const py::object& path, const Int64s& timestamps, const std::vector<Int64s>& rows) {
     if (static_cast<std::size_t>(timestamps.size()) != rows.size())
         throw py::value_error(std::to_string(timestamps.size()) + " timestamps for " + std::to_string(rows.size()) +
                               " rows");
@@ -134,7 +135,7 @@ void writeRows(const std::string& path, const Int64s& timestamps, const std::vec
 }
 
 // A 2-D integer array, a line per row, written atomically.
-void writeMatrix(const std::string& path, const Int64s& m) {
+void writeMatrix(const py::object& path, const Int64s& m) {
     if (m.ndim() != 2) throw py::value_error("expected a 2-D array");
     std::string out;
     text::TableWriter table(out);
@@ -151,7 +152,7 @@ using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
 // A header, then a line a row: an integer first column, then number columns
 // (`integer`: which of them are written as integers), as the rost tool
 // writes perplexity.csv and surprise.csv; atomically.
-void writeTable(const std::string& path, const std::vector<std::string>& header, const Int64s& first,
+void writeTable(const py::object& path, const std::vector<std::string>& header, const Int64s& first,
                 const std::vector<Doubles>& columns, const std::vector<bool>& integer) {
     if (header.size() != columns.size() + 1) throw py::value_error("one header name a column, the first included");
     if (integer.size() != columns.size()) throw py::value_error("one integer flag a number column");
@@ -181,7 +182,7 @@ void bindText(py::module_& m) {
     py::class_<TextFile>(m, "TextFile",
                          "A text file read whole; its lines (blank and '#' lines skipped) taken in order. "
                          "Errors name PATH:LINE:COL.")
-        .def(py::init<std::string>(), py::arg("path"))
+        .def(py::init([](const py::object& path) { return std::make_unique<TextFile>(pathArgument(path, "path")); }), py::arg("path"))
         .def("header", &TextFile::header, "The next line's fields (strings); [] at the end.")
         .def("integer_rows", &TextFile::integerRows,
              "The lines left as rows of integers: (list of int64 arrays, list of line numbers).")

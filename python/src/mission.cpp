@@ -94,7 +94,7 @@ private:
 
 } // namespace
 
-// ---- mission_results.hpp ---------------------------------------------------------------
+// ---- bindings.hpp and mission_results.hpp ----------------------------------------------
 
 std::string pathArgument(const py::handle& value, const char* what) {
     if (py::isinstance<py::str>(value)) return value.cast<std::string>();
@@ -193,7 +193,7 @@ py::dict MissionResults::toDict() const {
 }
 
 void bindMission(py::module_& m) {
-    py::class_<PyMission>(m, "Mission", R"doc(A word stream's mission, by the library's one policy (the rost tool's
+    py::class_<PyMission> c(m, "Mission", R"doc(A word stream's mission, by the library's one policy (the rost tool's
 `rost refine` is the same session): Mission(words, positions=None, resume=None, topicmodel=None,
 width=0, height=0, **settings). The stream (words.csv, positions.csv) is read whole; a new mission
 takes V, the frame size, ring.steps and max.words from it unless given (keywords as rost.Config's);
@@ -202,8 +202,8 @@ ValueError naming it; its observations in the stream are skipped). run() plays t
 engine with its count budget and returns a dict of numpy arrays: timestamp, instantaneous, final
 (perplexities as rost refine's perplexity.csv), plugin, topics, surprise, surprise_cells
 (observations x cells, as surprise_cells.csv), labels (a list: each observation's final
-maximum-likelihood topics, as topics.csv). save(path) writes a checkpoint.)doc")
-        .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, int, int,
+maximum-likelihood topics, as topics.csv). save(path) writes a checkpoint.)doc");
+    c.def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, int, int,
                       const py::kwargs&>(),
              py::arg("words"), py::arg("positions") = py::none(), py::arg("resume") = py::none(),
              py::arg("topicmodel") = py::none(), py::arg("width") = 0, py::arg("height") = 0)
@@ -216,6 +216,8 @@ maximum-likelihood topics, as topics.csv). save(path) writes a checkpoint.)doc")
         .def_property_readonly("skipped", &PyMission::skipped, "The checkpoint's observations skipped in the stream.")
         .def_property_readonly("config", [](const PyMission& s) { return PyConfig{s.settings()}; },
                                "The planned settings (rost.Config).");
+    refusePickling(c, "rost.Mission cannot be pickled or copied: save a checkpoint (mission.save(path)) and "
+                      "resume from it (rost.Mission(words, resume=path) or rost.Model.load(path))");
 }
 
 } // namespace rost::python

@@ -22,9 +22,6 @@ namespace rost::python {
 MissionOptions missionOptions(const py::kwargs& settings, const char* what, const py::object& resume,
                               const py::object& topicmodel);
 
-// A path argument as text: str or os.PathLike (TypeError naming the argument otherwise).
-std::string pathArgument(const py::handle& value, const char* what);
-
 // Between two observations of a run: false when Ctrl-C (or another signal
 // handler) raised, so the run stops there (briefly takes the interpreter lock).
 bool keepRunning();

@@ -10,7 +10,9 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <unordered_map>
+#include <vector>
 
 #include "bindings.hpp"
 #include "mission_results.hpp"
@@ -134,7 +136,8 @@ public:
         engine_->visitWindow([&](const WindowObservation& w, const Model&) { by_time_[w.timestamp] = w.observation; });
     }
 
-    void save(const std::string& path) {
+    void save(const py::object& pathObject) {
+        const std::string path = pathArgument(pathObject, "rost.Model.save: path");
         BusyGuard guard(busy_, "rost.Model");
         // The file holds the Config the user gave (its budget included), so the
         // tool's --resume carries on as configured.
@@ -148,7 +151,8 @@ public:
     // `settings` (rost.Config keywords) may change (rost/mission.hpp): a model
     // setting given with another value is refused, naming the keyword;
     // refinement settings given replace the checkpoint's.
-    static std::unique_ptr<PyModel> load(const std::string& path, const py::kwargs& settings) {
+    static std::unique_ptr<PyModel> load(const py::object& pathObject, const py::kwargs& settings) {
+        const std::string path = pathArgument(pathObject, "rost.Model.load: path");
         fileMustExist(path);
         MissionOptions mission = missionOptions(settings, "rost.Model.load", py::str(path), py::none());
         mission.names.resume = "rost.Model.load";
@@ -163,6 +167,26 @@ public:
         CheckpointLoadOptions options;
         options.allow_refinement_change = true;  // the internal budget is 0
         if (Status st = loadCheckpoint(path, *m->engine_, options); !st.ok()) throw py::value_error(st.message());
+        m->reindex();
+        return m;
+    }
+
+    // pickle and copy.deepcopy: the Config and the internal engine's checkpoint
+    // bytes (its random state included), so a copy continues bit for bit.
+    py::tuple getState() {
+        BusyGuard guard(busy_, "rost.Model");
+        std::vector<uint8_t> bytes;
+        check(encodeCheckpoint(*engine_, bytes));
+        return py::make_tuple(PyConfig{settings_},
+                              py::bytes(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    }
+    static std::unique_ptr<PyModel> fromState(const py::tuple& state) {
+        if (state.size() != 2) throw py::value_error("rost.Model: not a pickled rost.Model");
+        auto m = std::make_unique<PyModel>(state[0].cast<PyConfig>().settings);
+        const std::string bytes = state[1].cast<py::bytes>();
+        const std::span<const uint8_t> view(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
+        if (Status st = loadCheckpoint(view, "pickled rost.Model", *m->engine_); !st.ok())
+            throw py::value_error(st.message());
         m->reindex();
         return m;
     }
@@ -216,34 +240,47 @@ py::array_t<int32_t> topicModel(PyModel& m) {
     });
 }
 
-void setTopicModel(PyModel& m, const py::handle& counts) {
-    if (!py::isinstance<py::array>(counts))
-        throw py::type_error("counts: expected a numpy.ndarray of integers (K x V)");
-    auto a = py::reinterpret_borrow<py::array>(counts);
-    if (a.dtype().kind() != 'i' && a.dtype().kind() != 'u')
-        throw py::type_error("counts: expected an integer dtype, found " + py::str(a.dtype()).cast<std::string>());
-    BusyGuard guard(m.busy(), "rost.Model");
-    Model& model = m.engine().model();
-    if (a.ndim() != 2 || a.shape(0) != model.K() || a.shape(1) != model.V())
-        throw py::value_error("counts: expected shape (K, V) = (" + std::to_string(model.K()) + ", " +
-                              std::to_string(model.V()) + "), found " + py::str(a.attr("shape")).cast<std::string>());
-    auto c = py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
-    auto r = c.unchecked<2>();
+// The K x V counts of `a` (elements of type T) as n_k^v additions, each named
+// by its own value when it is negative or too large (a uint64 2^63 is not -2^63).
+template <typename T>
+std::vector<int32_t> topicCounts(const Model& model, const py::array& a) {
+    auto c = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(a);
+    auto r = c.template unchecked<2>();
     std::vector<int32_t> flat(static_cast<std::size_t>(model.K()) * static_cast<std::size_t>(model.V()));
     for (int k = 0; k < model.K(); ++k) {
         int64_t total = model.topicCount(k);
         for (int v = 0; v < model.V(); ++v) {
-            const int64_t x = r(k, v);
-            if (x < 0) throw py::value_error("counts[" + std::to_string(k) + ", " + std::to_string(v) + "] = " +
-                                             std::to_string(x) + " is negative");
-            total += x;
+            const T x = r(k, v);
+            const auto cell = [&] {
+                return "counts[" + std::to_string(k) + ", " + std::to_string(v) + "] = " + std::to_string(x);
+            };
+            if constexpr (std::is_signed_v<T>)
+                if (x < 0) throw py::value_error(cell() + " is negative");
+            if (static_cast<uint64_t>(x) > static_cast<uint64_t>(INT32_MAX))
+                throw py::value_error(cell() + " exceeds 2^31 - 1 (n_k is 32-bit)");
+            total += static_cast<int64_t>(x);
             if (total > INT32_MAX)
                 throw py::value_error("counts: topic " + std::to_string(k) +
                                       " would hold more than 2^31 - 1 words (n_k is 32-bit)");
             flat[static_cast<std::size_t>(k) * model.V() + v] = static_cast<int32_t>(x);
         }
     }
-    check(model.addTopicCounts(flat));
+    return flat;
+}
+
+void setTopicModel(PyModel& m, const py::handle& counts) {
+    if (!py::isinstance<py::array>(counts))
+        throw py::type_error("counts: expected a numpy.ndarray of integers (K x V)");
+    auto a = py::reinterpret_borrow<py::array>(counts);
+    const char kind = a.dtype().kind();
+    if (kind != 'i' && kind != 'u')
+        throw py::type_error("counts: expected an integer dtype, found " + py::str(a.dtype()).cast<std::string>());
+    BusyGuard guard(m.busy(), "rost.Model");
+    Model& model = m.engine().model();
+    if (a.ndim() != 2 || a.shape(0) != model.K() || a.shape(1) != model.V())
+        throw py::value_error("counts: expected shape (K, V) = (" + std::to_string(model.K()) + ", " +
+                              std::to_string(model.V()) + "), found " + py::str(a.attr("shape")).cast<std::string>());
+    check(model.addTopicCounts(kind == 'u' ? topicCounts<uint64_t>(model, a) : topicCounts<int64_t>(model, a)));
 }
 
 void bindModelOutputs(py::class_<PyModel>& c) {
@@ -268,7 +305,8 @@ void bindModelOutputs(py::class_<PyModel>& c) {
                  });
              }, py::arg("t"), "Their positions, shape (N, 2) (int32).")
         .def("perplexity", &perplexity, py::arg("t") = py::none(),
-             "Perplexity of observation t's time step (None: of the whole window).")
+             "Perplexity of observation t's time step (None: of the whole window); NaN when that holds no words "
+             "(an observation without words, or a window without any).")
         .def("surprise", [](PyModel& m, int64_t t) {
                  return reading(m, [&](const Model& model) { return model.observationSurprise(m.frameOf(t)); });
              }, py::arg("t"), "Surprise of observation t, computed when it was added.")
@@ -315,6 +353,7 @@ void bindModelState(py::class_<PyModel>& c) {
         .def_static("load", &PyModel::load, py::arg("path"),
                     "A Model from a checkpoint (Model.save, rost run --checkpoint). Keywords (rost.Config's) may change "
                     "the refinement and runtime settings; a model setting must repeat the checkpoint's.")
+        .def(py::pickle([](PyModel& m) { return m.getState(); }, &PyModel::fromState))
         .def("__repr__", [](PyModel& m) {
             return "rost.Model(K=" + std::to_string(m.model().K()) + ", V=" + std::to_string(m.model().V()) +
                    ", observations=" + std::to_string(m.model().observations()) + ")";

@@ -125,7 +125,7 @@ public:
         } else if (py::isinstance<PyVocabulary>(vocabulary)) {
             v = vocabulary.cast<const PyVocabulary&>().vocabulary;
         } else {
-            v = loadVocabulary(py::str(vocabulary)).vocabulary;  // a path (str or os.PathLike)
+            v = loadVocabulary(pathArgument(vocabulary, "rost.vision.WordExtractor: vocabulary")).vocabulary;
         }
         Status st;
         ex_ = vision::WordExtractor::create(cfg, v, st);
@@ -165,27 +165,34 @@ private:
 } // namespace
 
 void bindVision(py::module_& m) {
-    py::class_<PyVocabulary>(m, "Vocabulary", "ORB visual words (the .rostvoc format).")
-        .def_static("load", [](const py::object& path) { return loadVocabulary(py::str(path)); }, py::arg("path"))
+    py::class_<PyVocabulary> vocabulary(m, "Vocabulary", "ORB visual words (the .rostvoc format).");
+    vocabulary.def_static("load", [](const py::object& path) { return loadVocabulary(pathArgument(path, "rost.vision.Vocabulary.load: path")); },
+                    py::arg("path"))
         .def_static("default", &defaultVocabulary, "The vocabulary shipped with rost.")
         .def_static("train", &train, py::arg("frames"), py::arg("words") = vision::KMajorityOptions{}.words,
                     py::arg("features") = vision::kTrainingFeatures,
                     py::arg("iterations") = vision::KMajorityOptions{}.max_iterations,
                     py::arg("seed") = vision::KMajorityOptions{}.seed, py::arg("threads") = vision::KMajorityOptions{}.threads,
                     "Trains a vocabulary (k-majority) on the ORB descriptors of frames (numpy BGR or grey).")
-        .def("save", [](const PyVocabulary& v, const py::object& path) { check(v.vocabulary->save(py::str(path))); },
+        .def("save", [](const PyVocabulary& v, const py::object& path) {
+                 check(v.vocabulary->save(pathArgument(path, "rost.vision.Vocabulary.save: path")));
+             },
              py::arg("path"))
         .def("__len__", [](const PyVocabulary& v) { return v.vocabulary->size(); })
         .def_property_readonly("note", [](const PyVocabulary& v) { return v.vocabulary->note(); });
-    py::class_<PyExtractor>(m, "WordExtractor", R"doc(Visual words of a frame: extractor(frame) -> (words, positions).
+    refusePickling(vocabulary, "rost.vision.Vocabulary cannot be pickled or copied: save it (vocabulary.save(path)) "
+                               "and read it back with rost.vision.Vocabulary.load(path)");
+    py::class_<PyExtractor> extractor(m, "WordExtractor", R"doc(Visual words of a frame: extractor(frame) -> (words, positions).
 frame: numpy H x W x 3 uint8 BGR (as cv2 reads it) or H x W grey, taken without a copy.
 words: int32 (N,); positions: int32 (N, 2) as (x, y). Keywords: the word settings
-(words_orb, words_intensity, words_hue, orb_features, orb_fast, orb_search, orb_probes, thumb_cell).)doc")
-        .def(py::init<const py::object&, const py::kwargs&>(), py::arg("vocabulary") = py::none())
+(words_orb, words_intensity, words_hue, orb_features, orb_fast, orb_search, orb_probes, thumb_cell).)doc");
+    extractor.def(py::init<const py::object&, const py::kwargs&>(), py::arg("vocabulary") = py::none())
         .def("__call__", &PyExtractor::operator(), py::arg("frame"))
         .def_property_readonly("vocabulary_size", &PyExtractor::vocabularySize, "V a model of these words needs.")
         .def_property_readonly("layout", &PyExtractor::layout, "(offset, size) of each extractor's word ids.")
         .def_property_readonly("_last_input_address", &PyExtractor::lastInput);
+    refusePickling(extractor, "rost.vision.WordExtractor cannot be pickled or copied: build another with the same "
+                              "vocabulary and word settings (rost.vision.WordExtractor(vocabulary, **settings))");
 }
 
 } // namespace rost::python

@@ -152,15 +152,15 @@ private:
 } // namespace
 
 void bindVisionMission(py::module_& m) {
-    py::class_<PyFrameMission>(m, "Mission", R"doc(A mission over frames, by the library's one policy (the rost tool's
+    py::class_<PyFrameMission> c(m, "Mission", R"doc(A mission over frames, by the library's one policy (the rost tool's
 `rost run` is the same session): Mission(inputs, resume=None, topicmodel=None, vocabulary=None,
 width=0, height=0, max_frames=0, **settings). inputs: a video, image files or folders (played one
 after the other), camera:N; a path or a list. The model is planned for the frames (V from the
 extractors, the frame size, ring.steps, max.words) unless given (keywords as rost.Config's);
 resume= carries a checkpoint on, its frames skipped. run() plays the frames with the count budget
 and returns what rost.Mission.run() does (timestamp: the frame index), as rost run's topics.csv and
-perplexity.csv; notes() says what the source skipped or scaled; save(path) writes a checkpoint.)doc")
-        .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, int, int, int64_t,
+perplexity.csv; notes() says what the source skipped or scaled; save(path) writes a checkpoint.)doc");
+    c.def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, int, int, int64_t,
                       const py::kwargs&>(),
              py::arg("inputs"), py::arg("resume") = py::none(), py::arg("topicmodel") = py::none(),
              py::arg("vocabulary") = py::none(), py::arg("width") = 0, py::arg("height") = 0, py::arg("max_frames") = 0)
@@ -173,6 +173,8 @@ perplexity.csv; notes() says what the source skipped or scaled; save(path) write
         .def_property_readonly("description", &PyFrameMission::description)
         .def_property_readonly("config", [](const PyFrameMission& s) { return PyConfig{s.settings()}; },
                                "The planned settings (rost.Config).");
+    refusePickling(c, "rost.vision.Mission cannot be pickled or copied: save a checkpoint (mission.save(path)) "
+                      "and resume from it (rost.vision.Mission(inputs, resume=path) or rost.Model.load(path))");
 }
 
 } // namespace rost::python
