@@ -135,8 +135,10 @@ def run():
                   "_budget_refines:=8", "_queue_slots:=64", "_checkpoint:=" + ckpt], "rost_node.log")
     player = start(["rosbag", "play", "--wait-for-subscribers", "-q", bag], "rosbag.log")
     player.wait(timeout=60)
+    # Waits while messages come; before the first one longer (a loaded machine
+    # starts the node and its extractors slowly), then 10 s of quiet at most.
     quiet_since, seen = time.time(), -1
-    while len(got) < len(stamps) and time.time() < quiet_since + 5 and node.poll() is None:
+    while len(got) < len(stamps) and time.time() < quiet_since + (10 if got else 60) and node.poll() is None:
         if len(got) != seen:
             quiet_since, seen = time.time(), len(got)
         time.sleep(0.1)
@@ -217,7 +219,7 @@ def run():
                        "_queue_slots:=1", "_budget_refines:=200"], "rost_fast.log")
     start(["rosbag", "play", "--wait-for-subscribers", "-q", "-r", "100", fast], "rosbag_fast.log").wait(timeout=60)
     quiet_since, seen = time.time(), -1
-    while time.time() < quiet_since + 5 and (not fast_got or fast_got[-1].frame != 59):
+    while time.time() < quiet_since + (10 if fast_got else 60) and (not fast_got or fast_got[-1].frame != 59):
         if len(fast_got) != seen:
             quiet_since, seen = time.time(), len(fast_got)
         time.sleep(0.1)
