@@ -6,7 +6,6 @@
 // labels and perplexities as rost refine's topics.csv and perplexity.csv.
 
 #include <atomic>
-#include <limits>
 #include <memory>
 #include <string>
 #include <vector>

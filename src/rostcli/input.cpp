@@ -118,86 +118,79 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
     return {};
 }
 
-// The document a line of a per-document side file (positions, initial
-// topics) belongs to: the next one, with the same timestamp as its words line.
-Status nextDocument(const std::vector<Field>& fields, std::string_view name, int number, const char* what,
-                    std::size_t& index, Corpus& corpus, Document*& d) {
-    if (index >= corpus.docs.size())
-        return Status::error(where(name, number, 1) + "a " + what + " line beyond the " +
-                             std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
-    d = &corpus.docs[index++];
-    if (fields[0].text != d->timestamp)
-        return Status::error(where(name, number, fields[0].column) + "timestamp '" + std::string(fields[0].text) +
-                             "' differs from " + corpus.words_name + ":" + std::to_string(d->line) + "'s '" +
-                             d->timestamp + "'");
+// A per-document side file (positions, initial topics): a line a document,
+// in order, with its words line's timestamp and `perWord` fields a word
+// (`noun`: what they are, `expect`: what a line must hold, for messages).
+// `take` reads a line's fields into its document.
+template <typename Take>
+Status readSideFile(std::string_view text, std::string_view name, std::string_view delim, const char* what,
+                    std::size_t perWord, const char* noun, const char* expect, Corpus& corpus, Take take) {
+    std::vector<Field> fields;
+    std::size_t index = 0;
+    LineReader lines(text, name, kLines);
+    Line line;
+    for (Status separated; nextRow(lines, delim, line, fields, separated);) {
+        if (!separated.ok()) return separated;
+        const int number = line.number;
+        if (index >= corpus.docs.size())
+            return Status::error(where(name, number, 1) + "a " + what + " line beyond the " +
+                                 std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
+        Document& d = corpus.docs[index++];
+        if (fields[0].text != d.timestamp)
+            return Status::error(where(name, number, fields[0].column) + "timestamp '" + std::string(fields[0].text) +
+                                 "' differs from " + corpus.words_name + ":" + std::to_string(d.line) + "'s '" +
+                                 d.timestamp + "'");
+        const std::size_t n = fields.size() - 1, want = perWord * d.words.size();
+        if (n != want) {
+            const std::size_t col = n > want ? fields[1 + want].column : line.text.size() + 1;
+            std::string msg = where(name, number, col) + std::to_string(n) + " " + noun + " for the " +
+                              std::to_string(d.words.size()) + " words of " + corpus.words_name + ":" +
+                              std::to_string(d.line);
+            if (*expect) msg += std::string(" (expected ") + expect + ": " + std::to_string(want) + ")";
+            return Status::error(msg);
+        }
+        if (Status st = take(fields, number, d); !st.ok()) return st;
+    }
+    if (index != corpus.docs.size())
+        return Status::error(where(name, lines.lines() + 1, 1) + std::to_string(index) + " " + what +
+                             " lines for the " + std::to_string(corpus.docs.size()) + " documents of " +
+                             corpus.words_name);
     return {};
 }
 
 Status parseInitialTopics(std::string_view text, std::string_view name, std::string_view delim, int K, Corpus& corpus) {
-    std::vector<Field> fields;
-    std::size_t index = 0;
-    LineReader lines(text, name, kLines);
-    Line line;
-    for (Status separated; nextRow(lines, delim, line, fields, separated);) {
-        if (!separated.ok()) return separated;
-        const int number = line.number;
-        Document* doc = nullptr;
-        if (Status st = nextDocument(fields, name, number, "topics", index, corpus, doc); !st.ok()) return st;
-        Document& d = *doc;
-        if (fields.size() - 1 != d.words.size()) {
-            const std::size_t col = fields.size() - 1 > d.words.size() ? fields[1 + d.words.size()].column : line.text.size() + 1;
-            return Status::error(where(name, number, col) + std::to_string(fields.size() - 1) + " labels for the " +
-                                 std::to_string(d.words.size()) + " words of " + corpus.words_name + ":" +
-                                 std::to_string(d.line));
-        }
-        d.labels.resize(d.words.size());
-        for (std::size_t w = 0; w < d.words.size(); ++w) {
-            int64_t z = 0;
-            if (Status st = text::integerField(name, number, fields[1 + w], "a topic label", "topic label", 0, K, z); !st.ok())
-                return st;
-            d.labels[w] = static_cast<uint16_t>(z);
-        }
-    }
-    if (index != corpus.docs.size())
-        return Status::error(where(name, lines.lines() + 1, 1) + std::to_string(index) + " topics lines for the " +
-                             std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
-    return {};
+    return readSideFile(text, name, delim, "topics", 1, "labels", "", corpus,
+                        [&](const std::vector<Field>& fields, int number, Document& d) -> Status {
+                            d.labels.resize(d.words.size());
+                            for (std::size_t w = 0; w < d.words.size(); ++w) {
+                                int64_t z = 0;
+                                if (Status st = text::integerField(name, number, fields[1 + w], "a topic label",
+                                                                   "topic label", 0, K, z);
+                                    !st.ok())
+                                    return st;
+                                d.labels[w] = static_cast<uint16_t>(z);
+                            }
+                            return {};
+                        });
 }
 
 Status parsePositions(std::string_view text, std::string_view name, std::string_view delim, Corpus& corpus) {
-    std::vector<Field> fields;
-    std::size_t index = 0;
     const int64_t hi = std::numeric_limits<int32_t>::max();
-    LineReader lines(text, name, kLines);
-    Line line;
-    for (Status separated; nextRow(lines, delim, line, fields, separated);) {
-        if (!separated.ok()) return separated;
-        const int number = line.number;
-        Document* doc = nullptr;
-        if (Status st = nextDocument(fields, name, number, "position", index, corpus, doc); !st.ok()) return st;
-        Document& d = *doc;
-        const std::size_t coords = fields.size() - 1;
-        if (coords != 2 * d.words.size()) {
-            const std::size_t col = coords > 2 * d.words.size() ? fields[1 + 2 * d.words.size()].column : line.text.size() + 1;
-            return Status::error(where(name, number, col) + std::to_string(coords) + " coordinates for the " +
-                                 std::to_string(d.words.size()) + " words of " + corpus.words_name + ":" +
-                                 std::to_string(d.line) + " (expected x,y per word: " +
-                                 std::to_string(2 * d.words.size()) + ")");
-        }
-        d.positions.resize(d.words.size());
-        for (std::size_t i = 0; i < d.words.size(); ++i) {
-            int64_t x = 0, y = 0;
-            if (Status st = parseCoordinate(fields[1 + 2 * i], name, number, "x", hi, x); !st.ok()) return st;
-            if (Status st = parseCoordinate(fields[2 + 2 * i], name, number, "y", hi, y); !st.ok()) return st;
-            d.positions[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
-            corpus.max_x = std::max(corpus.max_x, static_cast<int32_t>(x));
-            corpus.max_y = std::max(corpus.max_y, static_cast<int32_t>(y));
-        }
-    }
-    if (index != corpus.docs.size())
-        return Status::error(where(name, lines.lines() + 1, 1) + std::to_string(index) + " position lines for the " +
-                             std::to_string(corpus.docs.size()) + " documents of " + corpus.words_name);
-    return {};
+    return readSideFile(text, name, delim, "position", 2, "coordinates", "x,y per word", corpus,
+                        [&](const std::vector<Field>& fields, int number, Document& d) -> Status {
+                            d.positions.resize(d.words.size());
+                            for (std::size_t i = 0; i < d.words.size(); ++i) {
+                                int64_t x = 0, y = 0;
+                                if (Status st = parseCoordinate(fields[1 + 2 * i], name, number, "x", hi, x); !st.ok())
+                                    return st;
+                                if (Status st = parseCoordinate(fields[2 + 2 * i], name, number, "y", hi, y); !st.ok())
+                                    return st;
+                                d.positions[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
+                                corpus.max_x = std::max(corpus.max_x, static_cast<int32_t>(x));
+                                corpus.max_y = std::max(corpus.max_y, static_cast<int32_t>(y));
+                            }
+                            return {};
+                        });
 }
 
 } // namespace rost::cli

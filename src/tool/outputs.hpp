@@ -5,7 +5,6 @@
 // into place only when the whole run succeeded, so an interrupted or failed
 // run never leaves files that look complete.
 
-#include <cmath>
 #include <cstdint>
 #include <initializer_list>
 #include <span>
