@@ -125,6 +125,28 @@ inline double ringDistance(double a, double b, double n) noexcept {
 
 } // namespace detail
 
+// Four planted topics on disjoint blocks of 16 words (8 noise words, 5 %),
+// as vertical stripes drifting over a grid of 16 px cells, 8-12 words a cell.
+inline Spec fourStripes(uint64_t seed, int gridWidth, int gridHeight, int steps) {
+    Spec s;
+    s.K = 4;
+    s.words_per_topic = 16;
+    s.noise_words = 8;
+    s.noise_mass = 0.05;
+    s.topic_noise = 0.02;
+    s.layout = Layout::Stripes;
+    s.regions = 4;
+    s.speed = 0.2;
+    s.grid_width = gridWidth;
+    s.grid_height = gridHeight;
+    s.cell_space = 16;
+    s.steps = steps;
+    s.min_words = 8;
+    s.max_words = 12;
+    s.seed = seed;
+    return s;
+}
+
 inline Data generate(const Spec& s) {
     Data d;
     d.spec = s;

@@ -421,12 +421,13 @@ TEST(CheckpointFormat, IsTheDocumentedLittleEndianLayout) {
     // Section 0 is the configuration as config-file text.
     const std::string text(reinterpret_cast<const char*>(&b[secs[0].payload]), secs[0].bytes);
     // Section 0 leaves out `threads` (the machine's), refine.window = 1 and,
-    // without growth, topics.grow and gamma (what their absence means).
+    // without growth, topics.grow and gamma, and topicmodel.fixed = false
+    // (what their absence means: checkpoints written before them stay valid).
     std::string expectedText;
     std::istringstream lines(formatConfig(cfg));
     for (std::string line; std::getline(lines, line);)
         if (!line.starts_with("threads = ") && line != "refine.window = 1" && line != "topics.grow = false" &&
-            !line.starts_with("gamma = "))
+            !line.starts_with("gamma = ") && line != "topicmodel.fixed = false")
             expectedText += line + "\n";
     EXPECT_NE(text.find("refine.window = "), std::string::npos);
     EXPECT_EQ(text.find("threads = "), std::string::npos);
@@ -862,7 +863,10 @@ TEST(TopicModelCsv, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(c, (std::vector<int32_t>{1, 2, 3, 0, 0, 0}));
     EXPECT_EQ(err("# nothing\n\n"), "topicmodel.csv: no topic lines (expected 1 to K = 2)");
     EXPECT_EQ(err("1,2,3\n4,5,6\n7,8,9\n"), "topicmodel.csv:3:1: more than K = 2 topic lines");
-    EXPECT_EQ(err("1,2,3\n4,5\n"), "topicmodel.csv:2:1: 2 counts, expected V = 3");
+    EXPECT_EQ(err("1,2,3\n4,5\n"), "topicmodel.csv:2:1: 2 counts, expected 3 as on the first line");
+    // Lines shorter than V (a model of fewer words): the words past them count 0.
+    EXPECT_EQ(err("1,2\n4,5\n"), "ok");
+    EXPECT_EQ(c, (std::vector<int32_t>{1, 2, 0, 4, 5, 0}));
     EXPECT_EQ(err("1,2,3,4\n4,5,6\n"), "topicmodel.csv:1:7: more than V = 3 counts");
     EXPECT_EQ(err("1,2,3\n4,x5,6\n"), "topicmodel.csv:2:3: expected a count, found 'x5'");
     EXPECT_EQ(err("1,2,3\n4,-5,6\n"), "topicmodel.csv:2:3: count '-5' out of range [0, 2^31)");
@@ -874,10 +878,10 @@ TEST(TopicModelCsv, ErrorsNameFileLineAndColumn) {
 
     const fs::path dir = tempDir("topics_err");
     const std::string path = (dir / "tm.csv").string();
-    ASSERT_TRUE(writeFileAtomic(path, "1,2\n").ok());
+    ASSERT_TRUE(writeFileAtomic(path, "1,2\n3\n").ok());
     Config small = smallConfig();
     Model m(small);
-    EXPECT_EQ(loadTopicModelCsv(path, m).message(), path + ":1:1: 2 counts, expected V = 400");
+    EXPECT_EQ(loadTopicModelCsv(path, m).message(), path + ":2:1: 1 counts, expected 2 as on the first line");
     EXPECT_EQ(loadTopicModelCsv("/nonexistent/tm.csv", m).message(),
               "/nonexistent/tm.csv: cannot open: No such file or directory");
     fs::remove_all(dir);

@@ -20,25 +20,7 @@ namespace syn = rost::synthetic;
 
 // Four planted topics on disjoint word blocks, as vertical stripes drifting
 // over a 32 x 8 grid of 16 px cells, 10 steps, 8-12 words per cell (~25 k words).
-syn::Spec plantedSpec(uint64_t seed) {
-    syn::Spec s;
-    s.K = 4;
-    s.words_per_topic = 16;
-    s.noise_words = 8;
-    s.noise_mass = 0.05;
-    s.topic_noise = 0.02;
-    s.layout = syn::Layout::Stripes;
-    s.regions = 4;
-    s.speed = 0.2;
-    s.grid_width = 32;
-    s.grid_height = 8;
-    s.cell_space = 16;
-    s.steps = 10;
-    s.min_words = 8;
-    s.max_words = 12;
-    s.seed = seed;
-    return s;
-}
+syn::Spec plantedSpec(uint64_t seed) { return syn::fourStripes(seed, 32, 8, 10); }
 
 rost::Config growthConfig(const syn::Data& d, int cap, double gamma, uint64_t seed) {
     rost::Config c = d.config();

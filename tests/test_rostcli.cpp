@@ -375,16 +375,26 @@ TEST_F(RostCli, TopicModelCarriesOverAndDelimiterIsHonoured) {
     r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o hist.csv -V 4");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_GE(purity(histograms(dir + "/hist.csv", planted, 4), planted.topic), 0.95);
-    // Fewer rows than K load (the rest start empty); more rows than K, or
-    // rows of another V, are an error naming the file, the line and K or V.
+    // Fewer rows than K load (the rest start empty), rows shorter than V too
+    // (a model of fewer words: the rest count 0); more rows than K, or rows
+    // longer than V, are an error naming the file, the line and K or V.
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 5 -n 1 --in.topicmodel=first.csv");
     EXPECT_EQ(r.status, 0) << r.err;
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 3 --in.topicmodel=first.csv");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("first.csv:4:1: more than K = 3 topic lines"), std::string::npos) << r.err;
-    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 41 -K 4 --in.topicmodel=first.csv");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 41 -K 4 -n 1 --in.topicmodel=first.csv");
+    EXPECT_EQ(r.status, 0) << r.err;
+    std::string wide;  // 41 counts a line
+    for (const auto& row : prior) {
+        for (const auto& f : row) (wide += f) += ',';
+        wide += "0\n";
+    }
+    writeText(dir + "/wide.csv", wide);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 --in.topicmodel=wide.csv");
     EXPECT_EQ(r.status, 2);
-    EXPECT_NE(r.err.find("first.csv:1:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("wide.csv:1:"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("more than V = 40 counts"), std::string::npos) << r.err;
 
     std::string semi = readText(dir + "/words.csv");
     std::replace(semi.begin(), semi.end(), ',', ';');

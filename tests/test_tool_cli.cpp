@@ -216,6 +216,41 @@ TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {
                 "tm.csv: no topic lines (expected 1 to K = 2)", t / "o");
 }
 
+// A fixed topic model: labels are the given topics' numbers (here the
+// reverse of the word blocks), the model written is the one given, K and V
+// come from the file, and what cannot work is named.
+TEST(ToolCli, AFixedTopicModelLabelsInTheGivenTopicsAndKeepsThem) {
+    TempDir t;
+    std::string words, model[2];
+    for (int i = 0; i < 20; ++i) {
+        words += std::to_string(i);
+        for (int j = 0; j < 30; ++j) (words += ',') += std::to_string((i < 10 ? 0 : 40) + (i * 7 + j * 3) % 40);
+        words += "\n";
+    }
+    for (int v = 0; v < 100; ++v) {  // topic 0 holds words 40-79, topic 1 words 0-39; 80-99 unseen
+        for (std::string& m : model) m += v ? "," : "";
+        model[0] += std::to_string(v >= 40 && v < 80 ? 5 : 0);
+        model[1] += std::to_string(v < 40 ? 5 : 0);
+    }
+    const std::string given = model[0] + "\n" + model[1] + "\n";
+    rost::testing::writeText(t / "words.csv", words);
+    rost::testing::writeText(t / "tm.csv", given);
+    const std::string run = "refine " + (t / "words.csv") + " --in.topicmodel " + (t / "tm.csv") + " --topicmodel.fixed";
+    const RunResult r = runRost(run + " --out " + (t / "o") + " -q");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(rost::testing::readText(t / "o/topicmodel.csv"), given) << "the model stays as given";
+    int right = 0, all = 0;
+    for (const auto& l : rost::testing::lines(rost::testing::readText(t / "o/topics.csv"))) {
+        const auto f = rost::testing::fields(l);
+        for (std::size_t i = 1; i < f.size(); ++i, ++all) right += std::stoi(f[i]) == (std::stoi(f[0]) < 10 ? 1 : 0);
+    }
+    EXPECT_EQ(all, 600);
+    EXPECT_GE(right, 590) << "labels in the given topics";
+    expectError(runRost(run + " -K 3 --out " + (t / "k")), "-K 3 differs from the 2 topics of", t / "k");
+    expectError(runRost("refine " + (t / "words.csv") + " --topicmodel.fixed --out " + (t / "n")),
+                "needs --in.topicmodel FILE", t / "n");
+}
+
 // The option that sets a setting: "--key" unless the schema names others ("-K,--topics").
 std::string optionOf(const rost::SettingSpec& s) {
     if (!s.cli.empty()) return std::string(s.cli.substr(0, s.cli.find(',')));

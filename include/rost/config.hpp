@@ -28,6 +28,12 @@ struct Config {
     // 0..A-1 are active, and a word opens topic A with weight gamma / V.
     bool grow = settingDefault<bool>("topics.grow");
     double gamma = settingDefault<double>("gamma");
+    // A fixed topic model (docs/design.md, "A fixed topic model"): n_k^v and
+    // n_k hold only the counts given before the first observation
+    // (Model::addTopicCounts); refinement draws labels against them and
+    // changes only the cells' counts. Labels a mission in a given (merged)
+    // topic set. Not with grow.
+    bool fixed = settingDefault<bool>("topicmodel.fixed");
 
     // Cells (paper: 64x64 px, one time step).
     int cell_space = settingDefault<int>("cell.space");  // cell width and height in pixels

@@ -49,6 +49,8 @@
       "let topics grow: K is then the cap, and a word may open a new topic with weight gamma/V (rost-cli: --grow.topics.size)") \
     X("gamma", Real, Model, "0.1", 0, 1e6, "", "", "--gamma=1e-5", LoOpen, engine.model.gamma, \
       "with topics.grow: the weight of opening a new topic (a Chinese-restaurant-process concentration)") \
+    X("topicmodel.fixed", Bool, Model, "false", 0, 0, "", "", "", 0, engine.model.fixed, \
+      "keep the topic-word counts as given (--in.topicmodel, set_topic_model): refinement changes only the labels (rostpy: update_model=False)") \
     X("cell.space", Integer, Model, "64", 1, 65536, "", "", "--cell.space=32", 0, engine.model.cell_space, \
       "cell width and height in pixels (paper: 64)") \
     X("cell.time", Integer, Model, "1", 1, 1024, "", "", "--cell.time", 0, engine.model.cell_time, \

@@ -23,15 +23,26 @@ std::string formatTopicModelCsv(const Model& model);
 // Written atomically (temporary file, fsync, rename).
 Status writeTopicModelCsv(const Model& model, const std::string& path);
 
-// Parses 1 to K lines of V counts into K x V counts (row-major, topic by
-// word, as addTopicCounts takes them; topics past the file's lines are 0: a
-// growth run's topicmodel.csv has a line per topic open at its end). Errors
-// name the file, line and column: "topicmodel.csv:3:118: expected a count,
-// found 'x'", "topicmodel.csv:2:1: 5435 counts, expected V = 5436",
+// Parses 1 to K lines of up to V counts, every line as long as the first,
+// into K x V counts (row-major, topic by word, as addTopicCounts takes them;
+// topics past the file's lines are 0: a growth run's topicmodel.csv has a
+// line per topic open at its end; words past its lines are 0: a model of a
+// mission with fewer words). Errors name the file, line and column:
+// "topicmodel.csv:3:118: expected a count, found 'x'",
+// "topicmodel.csv:2:1: 5435 counts, expected 5436 as on the first line",
 // "topicmodel.csv:17:1: more than K = 16 topic lines". A topic's total must
 // stay below 2^31 (n_k is 32-bit).
 Status parseTopicModelCsv(std::string_view text, int K, int V, std::vector<int32_t>& counts,
                           std::string_view name = "topicmodel.csv");
+
+// The topic lines of a topicmodel.csv and the counts on its first one (what
+// a mission takes as K and V when they are not given); no other check (a
+// file without lines has 0 rows: loadTopicModelCsv names the problem).
+struct TopicModelShape {
+    int rows = 0;
+    int columns = 0;
+};
+Status readTopicModelShape(const std::string& path, TopicModelShape& shape);
 
 // Reads `path` and adds its counts to `model` (Model::addTopicCounts);
 // refuses counts that would overflow the model's n_k. Set-up only.

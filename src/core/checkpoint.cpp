@@ -145,12 +145,12 @@ std::string checkpointConfigText(const EngineConfig& cfg) {
     std::string out;
     text::LineReader lines(all, {}, text::kEveryLine);
     for (text::Line l; lines.next(l);) {
+        // Left out: what does not change the state, and the defaults of settings
+        // newer than format 1 (so such checkpoints stay as they were).
         const std::string_view line = l.text;
-        // Left out: what does not change the state, and the defaults of
-        // settings newer than format 1, so such checkpoints stay as they were.
-        const bool skip = line.starts_with("threads = ") || line == "refine.window = 1" ||
-                          (!cfg.model.grow && (line == "topics.grow = false" || line.starts_with("gamma = ")));
-        if (!skip) (out += line) += '\n';
+        const bool newer = line == "topicmodel.fixed = false" ||
+                           (!cfg.model.grow && (line == "topics.grow = false" || line.starts_with("gamma = ")));
+        if (!newer && !line.starts_with("threads = ") && line != "refine.window = 1") (out += line) += '\n';
     }
     return out;
 }

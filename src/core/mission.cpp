@@ -50,10 +50,36 @@ Status planResumed(const MissionOptions& m, const MissionInput& in, MissionPlan&
     return {};
 }
 
+// A topic model to start from (m.in_topicmodel): V holds its counts a line
+// and the input's words unless given; with topicmodel.fixed, K is its lines.
+Status fromTopicModel(const MissionOptions& m, const MissionInput& in, Config& c) {
+    const std::string& name = m.names.topicmodel;
+    const SettingSpec& fixed = settingSpec("topicmodel.fixed");
+    if (m.in_topicmodel.empty()) {
+        if (c.fixed)
+            return Status::error(m.names.given(fixed, "true") + " needs " + name +
+                                 " FILE: the topic model the mission is labelled in");
+        return {};
+    }
+    TopicModelShape shape;
+    if (Status st = readTopicModelShape(m.in_topicmodel, shape); !st.ok()) return Status::error(name + ": " + st.message());
+    if (shape.rows == 0) return {};  // loadTopicModelCsv names the empty file
+    if (!m.isGiven("V")) c.V = std::max(in.V, shape.columns);
+    if (!c.fixed) return {};
+    const SettingSpec& K = settingSpec("K");
+    if (!m.isGiven("K")) c.K = shape.rows;
+    if (c.K != shape.rows)
+        return Status::error(m.names.given(K, std::to_string(c.K)) + " differs from the " + std::to_string(shape.rows) +
+                             " topics of " + m.in_topicmodel + ": a fixed topic model labels in its own topics (leave " +
+                             m.names.leave(K) + " out)");
+    return {};
+}
+
 Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& plan) {
     EngineConfig e = m.settings.engine;
     Config& c = e.model;
     if (!m.isGiven("V") && in.V > 0) c.V = in.V;
+    if (Status st = fromTopicModel(m, in, c); !st.ok()) return st;
     if (in.width > 0) c.frame_width = in.width;
     if (in.height > 0) c.frame_height = in.height;
     if (!m.isGiven("ring.steps") && in.length > 0 && c.cell_time > 0) {

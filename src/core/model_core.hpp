@@ -221,6 +221,9 @@ private:
     void liveTask(int worker, uint32_t task) noexcept;
     template <int KP>
     void setTaskKernels() noexcept;
+    // A fixed topic model's tasks, frozen or live alike (refine_fixed.cpp).
+    void setFixedTaskKernels() noexcept;
+    void fixedTask(int worker, uint32_t task) noexcept;
     // The parts of addObservation, in order (ring slot `slot`, input row `obs`).
     void openStep(int64_t step, std::size_t slot) noexcept;
     uint32_t keepInputs(std::span<const uint32_t> words, std::span<const Position> positions, std::span<const uint16_t> labels,
@@ -247,6 +250,8 @@ private:
         double invLeftOut[1024];
     };
     void reciprocals(Reciprocals& r) const noexcept;
+    // What a word's own label adds to n_k^v: 1, or 0 in a fixed topic model.
+    int ownCount() const noexcept { return cfg_.fixed ? 0 : 1; }
     double logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t nGsum, const Reciprocals& r) const noexcept;
     int mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& r) const noexcept;
     // Per-cell parts of the plug-in perplexity and the surprise, called by

@@ -81,7 +81,8 @@ void ModelCore::reciprocals(Reciprocals& r) const noexcept {
         const bool open = topicOpen(k);
         r.inv[k] = open ? 1.0 / (nk_[k] + vb) : 0.0;
         // A word that is its topic's last leaves it closed (growth).
-        r.invLeftOut[k] = open && !(cfg_.grow && nk_[k] == 1) ? 1.0 / (nk_[k] - 1 + vb) : 0.0;
+        // A fixed topic model holds none of the window's words: nothing to leave out of n_k.
+        r.invLeftOut[k] = cfg_.fixed ? r.inv[k] : open && !(cfg_.grow && nk_[k] == 1) ? 1.0 / (nk_[k] - 1 + vb) : 0.0;
     }
 }
 
@@ -101,7 +102,7 @@ double ModelCore::logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t n
     if (z >= 0) {
         // Word i leaves its own topic: replace topic z's term.
         p -= (row[z] + cfg_.beta) * r.inv[z] * (nG[z] + cfg_.alpha);
-        p += (row[z] - 1 + cfg_.beta) * r.invLeftOut[z] * (nG[z] - 1 + cfg_.alpha);
+        p += (row[z] - ownCount() + cfg_.beta) * r.invLeftOut[z] * (nG[z] - 1 + cfg_.alpha);
     }
     const double norm = (nGsum - (z >= 0 ? 1 : 0)) + A * cfg_.alpha + fresh;
     return std::log(p / norm);
@@ -113,7 +114,7 @@ int ModelCore::mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& 
     double bestP = -1.0;
     for (int k = 0; k < K_; ++k) {
         if (!topicOpen(k)) continue;
-        const double p = k == z ? (row[k] - 1 + cfg_.beta) * r.invLeftOut[k] * (nG[k] - 1 + cfg_.alpha)
+        const double p = k == z ? (row[k] - ownCount() + cfg_.beta) * r.invLeftOut[k] * (nG[k] - 1 + cfg_.alpha)
                                 : (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
         if (p > bestP) {
             bestP = p;

@@ -6,10 +6,15 @@
 #include "model_core.hpp"
 
 #include "kernel.hpp"
+#include "kernel_fixed.hpp"
 
 namespace rost {
 
 void ModelCore::selectKernels() noexcept {
+    if (cfg_.fixed) {  // one kernel for every K (src/core/refine_fixed.cpp)
+        simd_kernel_ = scalar_kernel_ = &ModelCore::refineCells<0, kernel::Path::Scalar>;
+        return setFixedTaskKernels();
+    }
     // Compile-time K for the common sizes (unrolled blocks, registers);
     // growing topics take the runtime kernels that look at active topics only.
     if (cfg_.grow) {
@@ -75,8 +80,11 @@ uint32_t ModelCore::refineCells(const StepSlots& slots, int c0, int c1) noexcept
             for (int k = 0; k < L; ++k) g[k] += h[k];
         }
         const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
-        kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
-                                  rng_);
+        if (cfg_.fixed)
+            kernel::refineCellFixed(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n, rng_);
+        else
+            kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
+                                      rng_);
         total += n;
     }
     tokens_refined_ += total;

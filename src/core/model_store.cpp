@@ -35,6 +35,7 @@ ModelCore::ModelCore(const Config& config) : cfg_(config), rng_(config.seed) {
     alpha_f_ = static_cast<float>(cfg_.alpha);
     beta_f_ = static_cast<float>(cfg_.beta);
     vbeta_f_ = static_cast<float>(static_cast<double>(V_) * cfg_.beta);
+    nkv_is_window_ = !cfg_.fixed;
 
     allocateState();
     buildNeighbourhoods();
@@ -165,7 +166,7 @@ void ModelCore::describeState(StateLayout& out) noexcept {
 }
 
 void ModelCore::evict(std::size_t slot) noexcept {
-    if (cfg_.eviction == EvictionPolicy::Subtract) {
+    if (cfg_.eviction == EvictionPolicy::Subtract && !cfg_.fixed) {
         for (int c = 0; c < cells_; ++c) {
             const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
             const uint32_t n = cell_n_[slot * cells_ + c];
@@ -270,7 +271,7 @@ AddResult ModelCore::addObservation(std::span<const uint32_t> words, std::span<c
     fillCells(slot, obs, m, labelled, res);
     observeSurprise(step, slot, obs, firstNew);
     drawInitialLabels(slot, firstNew, labelled);
-    words_in_model_ += res.kept;
+    if (!cfg_.fixed) words_in_model_ += res.kept;
     ++frames_;
     return res;
 }
@@ -348,11 +349,13 @@ void ModelCore::drawInitialLabels(std::size_t slot, const uint32_t* firstNew, bo
         for (uint32_t s = firstNew[c]; s < cellN[c]; ++s) {
             const int z = labelled ? cell_z_[base + s] : open[rng_.below(nopen)];
             cell_z_[base + s] = static_cast<uint16_t>(z);
+            ++h[z];
+            if (cfg_.fixed) continue;  // the topic model stays as given
             ++nkv_[static_cast<std::size_t>(cell_words_[base + s]) * Kp_ + z];
             ++nk_[z];
-            ++h[z];
         }
     }
+    if (cfg_.fixed) return;
     kernel::refreshReciprocals(tables_);
     kernel::updateTopics(tables_);
 }

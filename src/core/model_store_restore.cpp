@@ -45,6 +45,8 @@ bool ModelCore::restoredCounters(StateProblem& problem) const {
     // A bool restored from a file byte: read the byte, not the bool.
     const uint8_t flag = *reinterpret_cast<const uint8_t*>(&nkv_is_window_);
     if (flag > 1) return bad(problem, "counters.nkv_is_window", 0, "flag value " + str(flag) + " (expected 0 or 1)");
+    if (cfg_.fixed && flag != 0)
+        return bad(problem, "counters.nkv_is_window", 0, "flag value 1, but a fixed topic model never holds the window");
     const auto words = rng_.stateWords();
     uint32_t any = 0;
     for (uint32_t w : words) any |= w;
@@ -55,8 +57,9 @@ bool ModelCore::restoredCounters(StateProblem& problem) const {
 // Which step each slot holds, the words and labels of every cell, and n_kv
 // at least the window's own counts.
 bool ModelCore::restoredCells(StateProblem& problem) const {
+    // (A fixed topic model holds none of the window's words.)
     const bool isWindow = *reinterpret_cast<const uint8_t*>(&nkv_is_window_) != 0;
-    std::vector<int64_t> windowCounts(isWindow ? 0 : static_cast<std::size_t>(V_) * Kp_, 0);
+    std::vector<int64_t> windowCounts(isWindow || cfg_.fixed ? 0 : static_cast<std::size_t>(V_) * Kp_, 0);
     const int64_t oldest = oldestStep();
     for (std::size_t slot = 0; slot < static_cast<std::size_t>(ring_); ++slot) {
         // The step this slot holds if one of the window's steps maps to it.

@@ -1,5 +1,6 @@
 #include "rost/topic_model_csv.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include "rost/text_io.hpp"
@@ -27,7 +28,7 @@ namespace {
 
 // One topic's line: V counts into `row`, each in [0, 2^31), their total too.
 Status parseTopicLine(const text::Line& line, std::string_view name, int V, std::size_t topic,
-                      std::vector<text::Field>& fields, int32_t* row) {
+                      std::vector<text::Field>& fields, int32_t* row, std::size_t& columns) {
     using text::where;
     text::splitFields(line.text, ",", fields);
     int64_t total = 0;
@@ -49,9 +50,12 @@ Status parseTopicLine(const text::Line& line, std::string_view name, int V, std:
                                  "'s total count exceeds 2^31 - 1");
         row[v++] = static_cast<int32_t>(c);
     }
-    if (v != static_cast<std::size_t>(V))
-        return Status::error(where(name, line.number, 1) + std::to_string(v) + " counts, expected V = " +
-                             std::to_string(V));
+    // Every line as long as the first: a model of fewer words (another
+    // mission's V) leaves the words past its lines at 0.
+    if (topic == 0) columns = v;
+    if (v != columns)
+        return Status::error(where(name, line.number, 1) + std::to_string(v) + " counts, expected " +
+                             std::to_string(columns) + " as on the first line");
     return {};
 }
 
@@ -64,11 +68,12 @@ Status parseTopicModelCsv(std::string_view csv, int K, int V, std::vector<int32_
     std::vector<text::Field> fields;
     text::LineReader lines(csv, name);
     text::Line line;
-    std::size_t topic = 0;
+    std::size_t topic = 0, columns = 0;
     while (lines.next(line)) {
         if (topic >= k)
             return Status::error(text::where(name, line.number, 1) + "more than K = " + std::to_string(K) + " topic lines");
-        if (Status st = parseTopicLine(line, name, V, topic, fields, out.data() + topic * vocab); !st.ok()) return st;
+        if (Status st = parseTopicLine(line, name, V, topic, fields, out.data() + topic * vocab, columns); !st.ok())
+            return st;
         ++topic;
     }
     // Up to K lines: a growth run's topicmodel.csv holds a line per topic open
@@ -76,6 +81,20 @@ Status parseTopicModelCsv(std::string_view csv, int K, int V, std::vector<int32_
     if (topic == 0)
         return Status::error(std::string(name) + ": no topic lines (expected 1 to K = " + std::to_string(K) + ")");
     counts = std::move(out);
+    return {};
+}
+
+Status readTopicModelShape(const std::string& path, TopicModelShape& shape) {
+    std::string csv;
+    if (Status st = text::readFile(path, csv); !st.ok()) return st;
+    shape = {};
+    std::vector<text::Field> fields;
+    text::LineReader lines(csv, path);
+    for (text::Line line; lines.next(line); ++shape.rows) {
+        if (shape.rows > 0) continue;
+        text::splitFields(line.text, ",", fields);
+        shape.columns = static_cast<int>(std::min<std::size_t>(fields.size(), INT32_MAX));
+    }
     return {};
 }
 
