@@ -36,7 +36,7 @@ def _ints(values, what):
     a = np.asarray(values)
     if a.size == 0:
         return np.zeros(0, dtype=np.int64)
-    if a.ndim != 1 or a.dtype.kind not in "iub":
+    if a.ndim != 1 or a.dtype.kind not in "iu":
         raise TypeError(f"rost.rostpy: {what}: expected a list or 1-D array of integers, found {values!r:.60}")
     return a.astype(np.int64)
 
@@ -180,7 +180,7 @@ class _ROST:
                   frame_width=max(c[0] for c in cells) - self._origin[0] + 1,
                   frame_height=max(c[1] for c in cells) - self._origin[1] + 1,
                   ring_steps=max(2 * len(self._steps), 256), max_words=max(2 * longest, 256),
-                  cell_capacity=max(2 * fullest, 64), sampler="uniform", budget_refines=0)
+                  cell_capacity=max(2 * fullest, 64), sampler="uniform")
         if self._grow:
             kw.update(topics_grow=True, gamma=self.gamma)
         if self._fixed:
