@@ -9,7 +9,8 @@
 rost.Engine is the realtime engine (a refiner thread, push() that never blocks,
 snapshot()); rost.Mission plays a word stream (words.csv, positions.csv) by the
 library's mission session, as `rost refine` does, resuming a checkpoint when asked;
-rost.vision turns cv2 frames into words; rost.io reads and writes the rost tool's files.
+rost.vision turns cv2 frames into words; rost.io reads and writes the rost tool's files;
+rost.rostpy runs scripts written for rostpy (`import rost.rostpy as rostpy`).
 """
 
 from ._rost import Config, Engine, Mission, Model, Snapshot, __version__, version_string
