@@ -22,7 +22,7 @@ import subprocess
 import sys
 import time
 
-from roshelp import Procs, check, frames_until, image_msg, private_master, textured
+from roshelp import Procs, check, frames_until, image_msg, private_master, textured, wait_until
 
 N = 8
 W, H = 320, 240
@@ -60,7 +60,9 @@ def launch(log, args, stamps):
     sub = rospy.Subscriber("/rost/frame", FrameTopics, lambda m: got.append(m), queue_size=1000)
     p = procs.start(["roslaunch", "--screen", "rost", "rost.launch"] + args, log)
     player = procs.start(["rosbag", "play", "--wait-for-subscribers", "-q", bag], log + ".rosbag")
-    player.wait(timeout=90)
+    # The bag plays once the node subscribes; a node that exits stops the wait.
+    wait_until(lambda: player.poll() is not None or p.poll() is not None, 90)
+    Procs.stop(player)
     frames_until(got, len(stamps), p)
     sub.unregister()
     return got, p
