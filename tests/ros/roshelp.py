@@ -112,3 +112,13 @@ def frames_until(got, n, node, quiet=10, first=60):
             quiet_since, seen = time.time(), len(got)
         time.sleep(0.1)
     return len(got)
+
+
+def main(run, procs):
+    """Runs the test `run`; then stops every process it started, pass or fail."""
+    start = time.time()
+    try:
+        run()
+        print("1 passed, 0 failed (%.1f s)" % (time.time() - start))
+    finally:
+        procs.stop_all()

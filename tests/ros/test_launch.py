@@ -20,9 +20,8 @@ Usage: test_launch.py BUILD_DIR
 import os
 import subprocess
 import sys
-import time
 
-from roshelp import Procs, check, frames_until, image_msg, private_master, textured, wait_until
+from roshelp import Procs, check, main, frames_until, image_msg, private_master, textured, wait_until
 
 N = 8
 W, H = 320, 240
@@ -113,9 +112,4 @@ def run():
           sorted(set(m.active_topics for m in got)))
 
 
-start = time.time()
-try:
-    run()
-    print("1 passed, 0 failed (%.1f s)" % (time.time() - start))
-finally:
-    procs.stop_all()
+main(run, procs)

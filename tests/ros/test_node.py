@@ -20,7 +20,7 @@ import subprocess
 import sys
 import time
 
-from roshelp import Procs, check, private_master
+from roshelp import Procs, check, main, private_master
 
 PER_SCENE = 16
 WARM_UP = 6
@@ -244,8 +244,4 @@ def run():
           "unknown private parameters: a warning each at start-up, with the likeliest meant")
 
 
-try:
-    run()
-    print("1 passed, 0 failed")
-finally:
-    procs.stop_all()
+main(run, procs)

@@ -20,7 +20,7 @@ import subprocess
 import sys
 import time
 
-from roshelp import Procs, check, image_msg, private_master, textured, wait_until
+from roshelp import Procs, check, main, image_msg, private_master, textured, wait_until
 
 W, H = 256, 192
 
@@ -109,9 +109,4 @@ def run():
           "~image_transport:=5: exit %s, named" % code)
 
 
-start = time.time()
-try:
-    run()
-    print("1 passed, 0 failed (%.1f s)" % (time.time() - start))
-finally:
-    procs.stop_all()
+main(run, procs)
