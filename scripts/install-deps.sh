@@ -12,12 +12,19 @@ packages=(
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   clang libclang-rt-14-dev valgrind ffmpeg
   pybind11-dev python3-dev python3-numpy python3-pytest python3-hypothesis python3-opencv python3-matplotlib
-  # ROS 1 (1.15): rost_node, rost_msgs generation (gencpp, genpy; std_msgs' .msg
-  # files), bags; the node and bag tests (rosmaster, rospy, rosbag, rosservice).
+  # ROS 1 (1.15): rost_node (its images through image_transport), rost_msgs
+  # generation (gencpp, genpy; std_msgs' .msg files), bags; the node and bag
+  # tests (rosmaster, rospy, rosbag, rosservice).
   libroscpp-dev libsensor-msgs-dev libstd-msgs-dev libstd-srvs-dev librosbag-dev librosbag-storage-dev
+  libimage-transport-dev
   ros-std-msgs python3-genpy python3-gencpp
   python3-rosmaster python3-rosbag python3-rostopic python3-rospy python3-rosservice
   python3-sensor-msgs python3-std-srvs
+  # ROS 1's command-line tools, as a ROS user runs the node (and the launch
+  # test): roslaunch and roscore (python3-roslaunch; rosout, the log node
+  # roscore starts), rosparam, rosnode, rosrun (rosbash; rospack-tools finds
+  # packages), image_transport's list_transports and republish.
+  python3-roslaunch rosout python3-rosparam python3-rosnode rosbash rospack-tools image-transport-tools
 )
 missing=()
 for p in "${packages[@]}"; do

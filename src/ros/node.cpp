@@ -39,7 +39,7 @@ Node::Node(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(std::move(nh)), pnh_(s
 Node::~Node() { shutdown(); }
 
 // The node's own private parameters, beside one per setting of the schema.
-const char* const kNodeParams[] = {"compressed", "checkpoint", "resume", "vocabulary"};
+const char* const kNodeParams[] = {"image_transport", "compressed", "checkpoint", "resume", "vocabulary"};
 
 // Every setting of the schema as a private parameter (dots as underscores).
 // Errors name the parameter as the node spells it (~eta) and stop the node
@@ -73,7 +73,7 @@ bool Node::readSettings() {
         return false;
     }
     warnUnknownParams();
-    pnh_.param("compressed", compressed_, false);
+    if (!readTransport()) return false;
     pnh_.param("checkpoint", options_.checkpoint, std::string());
     pnh_.param("resume", options_.resume, std::string());
     pnh_.param("vocabulary", options_.vocabulary, std::string());
@@ -118,13 +118,77 @@ void Node::advertise() {
     set_srv_ = services.advertiseService("set_topic_model", &Node::onSetModel, this);
     service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
     service_spinner_->start();
-    // The callback only converts and queues an image (the words thread makes
-    // its words), so ROS's own queue rarely fills; ~image_queue bounds the rest.
+}
+
+// ~image_transport (image_transport's own parameter name) picks the
+// transport; ~compressed, deprecated, is the old switch. Either is checked
+// here, before the node subscribes: a wrong type, a transport no plugin
+// provides, or the two disagreeing is fatal, naming them.
+bool Node::readTransport() {
+    XmlRpc::XmlRpcValue v;
+    const bool transport_given = pnh_.getParam("image_transport", v);
+    if (transport_given) {
+        if (v.getType() != XmlRpc::XmlRpcValue::TypeString || static_cast<std::string>(v).empty()) {
+            ROS_FATAL("rost: ~image_transport: expected the name of a transport (raw, compressed, theora, ...)");
+            return false;
+        }
+        transport_ = static_cast<std::string>(v);
+    }
+    image_transport_ = std::make_unique<image_transport::ImageTransport>(nh_);
+    if (pnh_.getParam("compressed", v)) {
+        if (v.getType() != XmlRpc::XmlRpcValue::TypeBoolean) {
+            ROS_FATAL("rost: ~compressed: expected true or false (deprecated: give ~image_transport instead)");
+            return false;
+        }
+        const bool compressed = static_cast<bool>(v);
+        if (compressed && transport_given && transport_ != "compressed") {
+            ROS_FATAL("rost: ~compressed = true and ~image_transport = %s disagree (~compressed is deprecated: "
+                      "give ~image_transport alone)", transport_.c_str());
+            return false;
+        }
+        ROS_WARN("rost: ~compressed is deprecated and goes in the next release: use ~image_transport "
+                 "(_image_transport:=compressed subscribes the compressed images on <image>/compressed)%s",
+                 compressed ? "; ~compressed = true still subscribes sensor_msgs/CompressedImage on image itself" : "");
+        if (compressed) {  // as before: the compressed images on `image` itself
+            transport_ = "compressed";
+            own_decoder_ = true;
+            own_topic_ = nh_.resolveName("image");
+            return true;
+        }
+    }
+    if (transport_ == "raw") return true;
+    const std::vector<std::string> loadable = image_transport_->getLoadableTransports();
+    if (std::find(loadable.begin(), loadable.end(), transport_) != loadable.end()) return true;
+    if (transport_ == "compressed") {  // no plugin installed (Debian 12 packages none): rost decodes them itself
+        own_decoder_ = true;
+        own_topic_ = nh_.resolveName("image") + "/compressed";
+        return true;
+    }
+    std::string names;
+    for (const std::string& n : loadable) names += n + ", ";
+    ROS_FATAL("rost: ~image_transport = %s: no image_transport plugin provides it here (installed: %scompressed, "
+              "which rost_node decodes itself)", transport_.c_str(), names.c_str());
+    return false;
+}
+
+// The callback only converts and queues an image (the words thread makes
+// its words), so ROS's own queue rarely fills; ~image_queue bounds the rest.
+bool Node::subscribe() {
     const uint32_t queue = 64;
-    if (compressed_)
-        image_sub_ = nh_.subscribe("image", queue, &Node::onCompressed, this);
-    else
-        image_sub_ = nh_.subscribe("image", queue, &Node::onImage, this);
+    if (own_decoder_) {
+        compressed_sub_ = nh_.subscribe(own_topic_, queue, &Node::onCompressed, this);
+        topic_ = compressed_sub_.getTopic();
+        return true;
+    }
+    try {
+        image_sub_ = image_transport_->subscribe("image", queue, &Node::onImage, this,
+                                                 image_transport::TransportHints(transport_, ros::TransportHints(), pnh_));
+    } catch (const std::exception& e) {
+        ROS_FATAL("rost: ~image_transport = %s: %s", transport_.c_str(), e.what());
+        return false;
+    }
+    topic_ = image_sub_.getTopic();
+    return true;
 }
 
 bool Node::init() {
@@ -138,15 +202,19 @@ bool Node::init() {
     if (pipeline_->sizeGiven() && !ensureEngine(0, 0)) return false;
     words_ = std::thread([this] { wordsMain(); });
     advertise();
-    ROS_INFO("rost: listening on %s (%s); K = %s, cell.space = %s", image_sub_.getTopic().c_str(),
-             compressed_ ? "sensor_msgs/CompressedImage" : "sensor_msgs/Image", settings_.value("K").c_str(),
-             settings_.value("cell.space").c_str());
+    if (!subscribe()) return false;
+    // A resumed mission's model settings are its checkpoint's (logged with the frame size).
+    const std::string k = options_.resume.empty() ? settings_.value("K") : "the checkpoint's";
+    ROS_INFO("rost: listening on %s (%s transport%s); K = %s, cell.space = %s", topic_.c_str(), transport_.c_str(),
+             own_decoder_ ? ", decoded by rost_node" : "", k.c_str(),
+             options_.resume.empty() ? settings_.value("cell.space").c_str() : "the checkpoint's");
     return true;
 }
 
 void Node::shutdown() {
     if (service_spinner_) service_spinner_->stop();
     image_sub_.shutdown();
+    compressed_sub_.shutdown();
     if (words_.joinable()) {  // the queued images are made words of first
         {
             std::lock_guard<std::mutex> lock(queue_mutex_);
@@ -177,7 +245,7 @@ void Node::badImage(const std::string& why, const std_msgs::Header& header) {
     if (it != bad_logged_.end() && (now - it->second).toSec() < 5.0) return;
     bad_logged_[why] = now;
     ROS_ERROR("rost: topic %s, message seq %u (stamp %u.%09u, frame_id '%s'): %s; skipping it",
-              image_sub_.getTopic().c_str(), header.seq, header.stamp.sec, header.stamp.nsec, header.frame_id.c_str(),
+              topic_.c_str(), header.seq, header.stamp.sec, header.stamp.nsec, header.frame_id.c_str(),
               why.c_str());
 }
 

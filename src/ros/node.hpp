@@ -3,7 +3,8 @@
 // rost_node (C++17: ROS headers): a camera topic in; per-frame topics,
 // perplexity and surprise out, stamped like the images. docs/ros.md.
 //
-//   image callback (ros::spin's thread): image -> BGR, numbered in the order
+//   image callback (ros::spin's thread): image (through image_transport, or
+//                                        rost's own decoder of compressed images) -> BGR, numbered in the order
 //                                        received, into the image queue (~image_queue
 //                                        images; a full queue drops its oldest, counted)
 //   words thread:                        image -> words -> Engine::tryPush
@@ -25,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include <image_transport/image_transport.h>
 #include <opencv2/core.hpp>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -57,6 +59,8 @@ public:
 
 private:
     bool readSettings();
+    bool readTransport();
+    bool subscribe();
     void warnUnknownParams();
     void advertise();
     void onImage(const sensor_msgs::ImageConstPtr& msg);
@@ -76,7 +80,13 @@ private:
     ros::NodeHandle nh_, pnh_;
     rost::bridge::NodeSettings settings_;
     rost::bridge::Pipeline::Options options_;
-    bool compressed_ = false;
+    // How images arrive: ~image_transport's transport through image_transport,
+    // or rost's own decoder of sensor_msgs/CompressedImage on own_topic_
+    // (compressed where no plugin is installed, and ~compressed, deprecated).
+    std::string transport_ = "raw";
+    bool own_decoder_ = false;
+    std::string own_topic_;
+    std::string topic_;  // the topic subscribed, for messages
     int image_queue_ = 4;                               // ~image_queue: images waiting for the words thread
     std::unique_ptr<rost::bridge::Pipeline> pipeline_;  // made on the words thread's first image
     std::atomic<bool> failed_{false};                   // the engine could not be made
@@ -111,7 +121,9 @@ private:
     // not hold up the image callbacks (ROS's queue would drop images unseen).
     ros::CallbackQueue service_queue_;
     std::unique_ptr<ros::AsyncSpinner> service_spinner_;
-    ros::Subscriber image_sub_;
+    std::unique_ptr<image_transport::ImageTransport> image_transport_;
+    image_transport::Subscriber image_sub_;  // through image_transport
+    ros::Subscriber compressed_sub_;         // rost's own decoder
     ros::Publisher frame_pub_, topic_map_pub_, surprise_map_pub_, perplexity_pub_, surprise_pub_;
     ros::ServiceServer save_srv_, pause_srv_, get_srv_, set_srv_;
 };

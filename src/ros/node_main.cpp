@@ -12,11 +12,14 @@ namespace {
 // `rost_node --params`: every private parameter, made from the settings schema.
 void printParams() {
     std::printf("# rost_node's private parameters: every setting of the schema (`rost config`), dots and dashes as\n"
-                "# underscores, and compressed, checkpoint, resume, vocabulary. ~name  default  range  meaning\n");
+                "# underscores, and image_transport, compressed, checkpoint, resume, vocabulary. ~name  default  range  "
+                "meaning\n");
     for (const rost::bridge::ParamSpec& p : rost::bridge::settingParams())
         std::printf("~%s  %s  %s  %s\n", p.param.c_str(), p.def.empty() ? "-" : p.def.c_str(), p.range.c_str(),
                     p.doc.c_str());
-    std::printf("~compressed  false  true|false  subscribe sensor_msgs/CompressedImage on `image`\n"
+    std::printf("~image_transport  raw  raw|compressed|PLUGIN  image_transport's transport for `image` (compressed: "
+                "on image/compressed, decoded by rost_node where no plugin is installed)\n"
+                "~compressed  false  true|false  deprecated (~image_transport): sensor_msgs/CompressedImage on `image`\n"
                 "~checkpoint  -  FILE  save the state every checkpoint.every frames, at exit and on ~save_checkpoint\n"
                 "~resume  -  FILE  carry on the mission this checkpoint holds\n"
                 "~vocabulary  -  FILE  ORB vocabulary from `rost vocab` (default: the built-in one)\n");

@@ -16,10 +16,11 @@ Usage: test_node.py BUILD_DIR FOOTAGE_DIR
 """
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
+
+from roshelp import Procs, check, main, private_master
 
 PER_SCENE = 16
 WARM_UP = 6
@@ -36,30 +37,8 @@ if not os.path.isdir(os.path.join(footage, "pd-extendedview")) or not os.path.is
     sys.exit(77)
 work = os.path.join(build, "ros-test")
 os.makedirs(work, exist_ok=True)
-procs = []
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start(cmd, log):
-    p = subprocess.Popen(cmd, stdout=open(os.path.join(work, log), "w"), stderr=subprocess.STDOUT,
-                         env=os.environ, start_new_session=True)
-    procs.append(p)
-    return p
-
-
-def stop(p):
-    if p.poll() is None:
-        os.kill(p.pid, signal.SIGINT)
-        try:
-            p.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            os.kill(p.pid, signal.SIGKILL)
-            p.wait()
+procs = Procs(work)
+start, stop = procs.start, Procs.stop
 
 
 def frames(source, n):
@@ -100,28 +79,12 @@ def write_bag(path):
     return stamps
 
 
-def check(cond, what):
-    if not cond:
-        raise AssertionError(what)
-    print("ok:", what)
-
-
 def run():
-    port = free_port()
-    os.environ.update(ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1",
-                      ROS_HOME=os.path.join(work, "ros_home"), ROS_LOG_DIR=os.path.join(work, "ros_log"))
-    os.environ.pop("ROS_HOSTNAME", None)
     bag = os.path.join(work, "cut.bag")
     stamps = write_bag(bag)
-    start(["rosmaster", "--core", "-p", str(port)], "rosmaster.log")
+    private_master(procs)
 
     import rospy
-    import rosgraph
-    for _ in range(100):
-        if rosgraph.is_master_online():
-            break
-        time.sleep(0.1)
-    check(rosgraph.is_master_online(), "rosmaster answers on 127.0.0.1:%d" % port)
 
     from rost_msgs.msg import FrameTopics
     rospy.init_node("rost_test", anonymous=True, disable_signals=True)
@@ -281,9 +244,4 @@ def run():
           "unknown private parameters: a warning each at start-up, with the likeliest meant")
 
 
-try:
-    run()
-    print("1 passed, 0 failed")
-finally:
-    for p in reversed(procs):
-        stop(p)
+main(run, procs)

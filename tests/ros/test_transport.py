@@ -1,0 +1,112 @@
+#!/usr/bin/python3
+"""rost_node's image subscription: ~image_transport, and ~compressed, its
+deprecated alias, on a private ROS master.
+
+Three nodes side by side, each fed synthetic images by a rospy publisher
+until its first ~frame comes:
+- raw (no parameter): sensor_msgs/Image on the image topic;
+- `_image_transport:=compressed`: sensor_msgs/CompressedImage (PNG) on
+  <image>/compressed, and nothing subscribed on <image> itself;
+- `_compressed:=true` (deprecated): CompressedImage on the image topic as
+  before, with a warning naming ~image_transport.
+Then the mistakes, each fatal at start-up (exit 2) naming the parameter: a
+transport no plugin provides, ~compressed disagreeing with ~image_transport,
+an ~image_transport that is not a name.
+
+Usage: test_transport.py BUILD_DIR
+"""
+import os
+import subprocess
+import sys
+import time
+
+from roshelp import Procs, check, main, image_msg, private_master, textured, wait_until
+
+W, H = 256, 192
+
+build = sys.argv[1]
+work = os.path.join(build, "ros-test-transport")
+os.makedirs(work, exist_ok=True)
+procs = Procs(work)
+node_bin = os.path.join(build, "rost_node")
+
+
+def compressed_msg(bgr, i):
+    import cv2
+    from sensor_msgs.msg import CompressedImage
+    ok, png = cv2.imencode(".png", bgr)
+    assert ok
+    m = CompressedImage(format="png", data=png.tobytes())
+    m.header = image_msg(bgr, 10**9 + i).header
+    return m
+
+
+def subscribers(topic):
+    import rosgraph.masterapi
+    _, subs, _ = rosgraph.masterapi.Master("/rost_transport_test").getSystemState()
+    return sorted(n for t, nodes in subs if t == topic for n in nodes)
+
+
+def fatal(name, params):
+    """rost_node with these parameters: its exit code and output (it must stop at start-up)."""
+    p = subprocess.run([node_bin, "__name:=" + name, "image:=/cam/none"] + params, stdout=subprocess.PIPE,
+                       stderr=subprocess.STDOUT, env=os.environ, timeout=60)
+    return p.returncode, p.stdout.decode(errors="replace")
+
+
+def run():
+    private_master(procs)
+    import rospy
+    from rost_msgs.msg import FrameTopics
+    from sensor_msgs.msg import CompressedImage, Image
+    rospy.init_node("rost_transport_test", anonymous=True, disable_signals=True)
+    # name: (node parameters, topic published, message type)
+    cases = {
+        "rost_raw": (["image:=/cam/raw"], "/cam/raw", Image),
+        "rost_compressed": (["image:=/cam/png", "_image_transport:=compressed"], "/cam/png/compressed", CompressedImage),
+        "rost_alias": (["image:=/cam/old", "_compressed:=true"], "/cam/old", CompressedImage),
+    }
+    got, pubs, nodes = {}, {}, {}
+    for name, (params, topic, kind) in cases.items():
+        got[name] = []
+        rospy.Subscriber("/%s/frame" % name, FrameTopics, got[name].append, queue_size=100)
+        pubs[name] = rospy.Publisher(topic, kind, queue_size=10)
+        nodes[name] = procs.start([node_bin, "__name:=" + name, "_budget_refines:=2"] + params, name + ".log")
+    images = [textured(W, H, i) for i in range(4)]
+
+    def feed():
+        """One image to each node still waiting; true once every node has published a frame."""
+        for name, (_, _, kind) in cases.items():
+            if not got[name] and pubs[name].get_num_connections() > 0:
+                i = int(time.time() * 10) % len(images)
+                pubs[name].publish(image_msg(images[i], 10**9 + i) if kind is Image else compressed_msg(images[i], i))
+        return all(got.values()) or any(p.poll() is not None for p in nodes.values())
+
+    wait_until(feed, 90, step=0.2)
+    for name in cases:
+        check(nodes[name].poll() is None and got[name], "%s: a ~frame from the images on %s (%s)" %
+              (name, cases[name][1], cases[name][2].__name__))
+    check(subscribers("/cam/png") == [] and subscribers("/cam/png/compressed") == ["/rost_compressed"],
+          "_image_transport:=compressed subscribes <image>/compressed only")
+    for p in nodes.values():
+        Procs.stop(p)
+    logs = {name: procs.log(name + ".log") for name in cases}
+    check("(raw transport)" in logs["rost_raw"] and "deprecated" not in logs["rost_raw"], "no parameter: raw")
+    check("(compressed transport, decoded by rost_node)" in logs["rost_compressed"] and
+          "deprecated" not in logs["rost_compressed"], "compressed: rost_node decodes them (no plugin installed)")
+    check("~compressed is deprecated" in logs["rost_alias"] and "use ~image_transport" in logs["rost_alias"] and
+          "listening on /cam/old (compressed transport" in logs["rost_alias"],
+          "~compressed:=true: CompressedImage on the image topic, with a warning naming ~image_transport")
+
+    code, out = fatal("rost_theora", ["_image_transport:=theora"])
+    check(code == 2 and "~image_transport = theora: no image_transport plugin provides it" in out and "raw" in out and
+          "listening" not in out, "a transport no plugin provides: exit %s, named with those installed" % code)
+    code, out = fatal("rost_clash", ["_image_transport:=raw", "_compressed:=true"])
+    check(code == 2 and "~compressed = true and ~image_transport = raw disagree" in out,
+          "~compressed:=true with ~image_transport:=raw: exit %s, both named" % code)
+    code, out = fatal("rost_number", ["_image_transport:=5"])
+    check(code == 2 and "~image_transport: expected the name of a transport" in out,
+          "~image_transport:=5: exit %s, named" % code)
+
+
+main(run, procs)
