@@ -251,6 +251,30 @@ TEST(ToolCli, AFixedTopicModelLabelsInTheGivenTopicsAndKeepsThem) {
                 "needs --in.topicmodel FILE", t / "n");
 }
 
+// rost merge: a mission's checkpoint and its topicmodel.csv are the same
+// model (every topic meets itself); bad input leaves nothing behind.
+TEST(ToolCli, MergeReadsTopicModelsAndCheckpointsAndNamesBadInput) {
+    TempDir t;
+    std::string words;
+    for (int i = 0; i < 20; ++i) {
+        words += std::to_string(i);
+        for (int j = 0; j < 30; ++j) (words += ',') += std::to_string((i < 10 ? 0 : 40) + (i * 7 + j * 3) % 40);
+        words += "\n";
+    }
+    rost::testing::writeText(t / "words.csv", words);
+    const RunResult r = runRost("refine " + (t / "words.csv") + " -K 3 --out " + (t / "a") + " --checkpoint " +
+                                (t / "a.ckpt") + " -q");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const RunResult m = runRost("merge " + (t / "a/topicmodel.csv") + " " + (t / "a.ckpt") + " --out " + (t / "m"));
+    ASSERT_EQ(m.exit_code, 0) << m.err;
+    EXPECT_NE(m.err.find("2 models, 6 topics -> 3 global topics (V = 80)"), std::string::npos) << m.err;
+    EXPECT_EQ(rost::testing::readText(t / "m/lifting.csv"), "model,local,global\n0,0,0\n0,1,1\n0,2,2\n1,0,0\n1,1,1\n1,2,2\n");
+    expectError(runRost("merge " + (t / "a/topicmodel.csv") + " " + (t / "nope.csv") + " --out " + (t / "n")),
+                "nope.csv: cannot open", t / "n");
+    expectError(runRost("merge " + (t / "a/topicmodel.csv") + " --threshold 2 --out " + (t / "n")),
+                "merge threshold 2 out of range [0, 1]", t / "n");
+}
+
 // The option that sets a setting: "--key" unless the schema names others ("-K,--topics").
 std::string optionOf(const rost::SettingSpec& s) {
     if (!s.cli.empty()) return std::string(s.cli.substr(0, s.cli.find(',')));

@@ -13,11 +13,11 @@ rost.vision turns cv2 frames into words; rost.io reads and writes the rost tool'
 rost.rostpy runs scripts written for rostpy (`import rost.rostpy as rostpy`).
 """
 
-from ._rost import Config, Engine, Mission, Model, Snapshot, __version__, version_string
+from ._rost import Config, Engine, MergedTopics, Mission, Model, Snapshot, __version__, merge_topic_models, version_string
 from . import io
 
-__all__ = ["Config", "Engine", "Mission", "Model", "Snapshot", "io", "parallel_refine", "vision", "__version__",
-           "version_string"]
+__all__ = ["Config", "Engine", "MergedTopics", "Mission", "Model", "Snapshot", "io", "merge_topic_models",
+           "parallel_refine", "vision", "__version__", "version_string"]
 
 
 def parallel_refine(model, threads, sweeps=1):

@@ -1,5 +1,5 @@
 """Type stubs of rost's extension module (python/src/*.cpp): rost.Config, rost.Model, rost.Engine,
-rost.Snapshot, rost.Mission. rost.vision's classes are in vision.pyi. Checked against the module by
+rost.Snapshot, rost.Mission, rost.merge_topic_models. rost.vision's classes are in vision.pyi. Checked against the module by
 python/tests/test_habits.py (every public name, every Config setting with describe()'s type)."""
 
 import os
@@ -19,6 +19,8 @@ text: ModuleType
 vision: ModuleType
 
 def version_string() -> str: ...
+def merge_topic_models(models: list[Union[_Path, npt.NDArray[Any]]], *, threshold: float = 0.6,
+                       beta: float = 0.01) -> MergedTopics: ...
 
 class Config:
     """Every setting of rost by keyword: rost.Config(K=32, cell_space=64, sampler="uni+now")."""
@@ -226,3 +228,15 @@ class Mission:
     def skipped(self) -> int: ...
     @property
     def config(self) -> Config: ...
+
+class MergedTopics:
+    """Topic models merged into one global set (merge_topic_models; docs/fleet.md)."""
+
+    @property
+    def global_counts(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def lifting(self) -> list[_Int32s]: ...
+    @property
+    def distance(self) -> list[npt.NDArray[np.float64]]: ...
+    def topicmodel_csv(self) -> str: ...
+    def lifting_csv(self, names: Optional[list[str]] = None) -> str: ...

@@ -88,6 +88,7 @@ void bindModel(py::module_& m);
 void bindEngine(py::module_& m);
 // rost.Mission: a word stream's mission (mission.cpp).
 void bindMission(py::module_& m);
+void bindMerge(py::module_& m);
 // rost._rost.text: the core's text I/O layer for rost.io (io.cpp).
 void bindText(py::module_& m);
 #ifdef ROST_PYTHON_VISION

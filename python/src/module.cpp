@@ -12,6 +12,7 @@ PYBIND11_MODULE(_rost, m) {
     rp::bindModel(m);
     rp::bindEngine(m);
     rp::bindMission(m);
+    rp::bindMerge(m);
     pybind11::module_ text = m.def_submodule("text", "The core's text I/O layer (rost/text_io.hpp), for rost.io");
     rp::bindText(text);
 #ifdef ROST_PYTHON_VISION

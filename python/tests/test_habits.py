@@ -252,7 +252,7 @@ def test_type_stubs_beside_the_package_name_every_public_member():
     package = pathlib.Path(rost.__file__).parent
     assert (package / "py.typed").exists()
     stubs = _stub_classes(package / "_rost.pyi")
-    classes = [rost.Config, rost.Model, rost.Engine, rost.Snapshot, rost.Mission]
+    classes = [rost.Config, rost.Model, rost.Engine, rost.Snapshot, rost.Mission, rost.MergedTopics]
     vision = getattr(rost._rost, "vision", None)
     if vision is not None:
         vision_stubs = _stub_classes(package / "vision.pyi")

@@ -223,6 +223,20 @@ int main(int argc, char** argv) {
                                                      "documented), after --config FILE and the options given");
     SettingsOptions confSettings(*confCmd, conf, SettingsOptions::Command::Config);
 
+    // ---- merge
+    MergeCliOptions merge;
+    CLI::App* mergeCmd = app.add_subcommand("merge", "match the topics of several missions' models into one global "
+                                                     "set (docs/fleet.md)");
+    mergeCmd->add_option("model", merge.models, "MODEL...: topicmodel.csv files or checkpoints, in this order")
+        ->required();
+    mergeCmd->add_option("--out,-o", merge.out, "directory for topicmodel.csv (the global model) and lifting.csv "
+                                                "(model,local,global)")
+        ->required();
+    mergeCmd->add_option("--threshold", merge.threshold, "Hellinger distance in [0, 1] up to which a topic joins a "
+                                                         "global topic (0: only identical ones)");
+    mergeCmd->add_option("--beta", merge.beta, "smoothing of the topic-word distributions compared");
+    mergeCmd->add_flag("--quiet,-q", merge.quiet, "no summary on stderr");
+
     // ---- cameras
     CLI::App* camCmd = app.add_subcommand("cameras", "list the cameras libcamera can see");
 
@@ -254,6 +268,7 @@ int main(int argc, char** argv) {
         ref.o.summary = !ref.noSummary;
         return refineCommand(ref.o);
     }
+    if (mergeCmd->parsed()) return mergeCommand(merge);
     if (confCmd->parsed()) {
         if (const rost::Status st = confSettings.apply(nullptr, nullptr); !st.ok()) return fail(st.message());
         return configCommand(conf);

@@ -157,6 +157,17 @@ int configCommand(const ModelOptions& m);
 
 int runCommand(const RunOptions& o);
 int refineCommand(const RefineOptions& o);
+
+// `rost merge MODEL... --out DIR`: topic models (topicmodel.csv or checkpoints)
+// matched into one global set (rost/merge.hpp; docs/fleet.md).
+struct MergeCliOptions {
+    std::vector<std::string> models;
+    std::string out;
+    double threshold = 0.6;
+    double beta = 0.01;
+    bool quiet = false;
+};
+int mergeCommand(const MergeCliOptions& o);
 int vocabCommand(const VocabOptions& o);
 int camerasCommand();
 

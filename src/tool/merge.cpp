@@ -1,0 +1,39 @@
+// `rost merge`: topic models of several missions matched into one global set
+// (rost/merge.hpp; docs/fleet.md). Writes DIR/topicmodel.csv and
+// DIR/lifting.csv through the staging directory, so a failed merge leaves
+// nothing and a previous merge's files stay whole.
+
+#include <cstdio>
+
+#include "outputs.hpp"
+#include "rost/merge.hpp"
+#include "tool.hpp"
+
+namespace rost::tool {
+
+int mergeCommand(const MergeCliOptions& o) {
+    MergeOptions options;
+    options.threshold = o.threshold;
+    options.beta = o.beta;
+    if (Status st = options.validate(); !st.ok()) return fail(st.message());
+    std::vector<TopicCounts> models(o.models.size());
+    for (std::size_t i = 0; i < o.models.size(); ++i)
+        if (Status st = readTopicCounts(o.models[i], models[i]); !st.ok()) return fail(st.message());
+    MergedTopics merged;
+    if (Status st = mergeTopicModels(models, options, merged); !st.ok()) return fail(st.message());
+    OutputDir out;
+    if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
+    if (Status st = out.probe({"topicmodel.csv", "lifting.csv"}); !st.ok()) return fail(st.message());
+    if (Status st = out.write("topicmodel.csv", formatTopicCountsCsv(merged.global)); !st.ok()) return fail(st.message());
+    if (Status st = out.write("lifting.csv", formatLiftingCsv(merged)); !st.ok()) return fail(st.message());
+    if (Status st = out.commit(); !st.ok()) return fail(st.message());
+    if (!o.quiet) {
+        std::size_t topics = 0;
+        for (const auto& l : merged.lifting) topics += l.size();
+        std::fprintf(stderr, "rost merge: %zu models, %zu topics -> %d global topics (V = %d) in %s\n",
+                     models.size(), topics, merged.global.K, merged.global.V, o.out.c_str());
+    }
+    return kExitOk;
+}
+
+} // namespace rost::tool
