@@ -70,6 +70,7 @@ def test_outputs_lift_every_label_through_the_lifting_with_mission_names(tmp_pat
     assert [row.split(",")[:2] for row in rows[1:]] == [[n, str(k)] for n in inputs for k in range(6)]
     lifting = {n: np.array([int(row.split(",")[2]) for row in rows[1:] if row.startswith(n + ",")]) for n in inputs}
     G = rost.io.read_topicmodel(out / "merged" / "topicmodel.csv").shape[0]
+    assert any(not np.array_equal(lifting[n], np.arange(6)) for n in inputs), "a lifting that renumbers"
     assert r["global_counts"].shape[0] == G and r["topicmodel"] == str(out / "merged" / "topicmodel.csv")
     for name in inputs:
         assert rost.io.read_topicmodel(out / name / "topicmodel.csv").shape[0] == 6, "K = 6 reached the tool"
