@@ -31,7 +31,7 @@ import numpy as np
 from . import io as _io
 from ._rost import Config
 
-__all__ = ["run", "find_tool", "mission_command", "settings_text"]
+__all__ = ["run", "find_tool", "lift_topics", "mission_command", "settings_text"]
 
 # Names become directory names and CSV fields: a letter or digit, then letters, digits, '_', '.', '-'.
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
