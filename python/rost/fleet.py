@@ -183,7 +183,7 @@ def run(missions, out, client=None, *, threshold=0.6, merge_beta=0.01, fixed=Fal
     topicmodel = os.path.join(out, "merged", "topicmodel.csv")
     lifting_csv = os.path.join(out, "merged", "lifting.csv")
     _write_text(topicmodel, merged.topicmodel_csv())
-    _write_text(lifting_csv, merged.lifting_csv(names))
+    _write_text(lifting_csv, merged.lifting_csv(names=names))
     result = {
         "global_counts": np.asarray(merged.global_counts),
         "lifting": {n: np.asarray(a) for n, a in zip(names, merged.lifting)},
