@@ -12,6 +12,9 @@ packages=(
   g++-aarch64-linux-gnu g++-arm-linux-gnueabihf qemu-user
   clang libclang-rt-14-dev valgrind ffmpeg
   pybind11-dev python3-dev python3-numpy python3-pytest python3-hypothesis python3-opencv python3-matplotlib
+  # rost.fleet's missions as Dask tasks (a LocalCluster or a scheduler on many machines;
+  # docs/fleet.md) and its test on a LocalCluster.
+  python3-distributed
   # ROS 1 (1.15): rost_node (its images through image_transport), rost_msgs
   # generation (gencpp, genpy; std_msgs' .msg files), bags; the node and bag
   # tests (rosmaster, rospy, rosbag, rosservice).

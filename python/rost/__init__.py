@@ -10,13 +10,14 @@ rost.Engine is the realtime engine (a refiner thread, push() that never blocks,
 snapshot()); rost.Mission plays a word stream (words.csv, positions.csv) by the
 library's mission session, as `rost refine` does, resuming a checkpoint when asked;
 rost.vision turns cv2 frames into words; rost.io reads and writes the rost tool's files;
-rost.rostpy runs scripts written for rostpy (`import rost.rostpy as rostpy`).
+rost.rostpy runs scripts written for rostpy (`import rost.rostpy as rostpy`); rost.fleet runs a
+season of missions (here or on Dask), merges their topics and lifts their labels (docs/fleet.md).
 """
 
 from ._rost import Config, Engine, MergedTopics, Mission, Model, Snapshot, __version__, merge_topic_models, version_string
 from . import io
 
-__all__ = ["Config", "Engine", "MergedTopics", "Mission", "Model", "Snapshot", "io", "merge_topic_models",
+__all__ = ["Config", "Engine", "MergedTopics", "Mission", "Model", "Snapshot", "fleet", "io", "merge_topic_models",
            "parallel_refine", "vision", "__version__", "version_string"]
 
 
@@ -30,9 +31,9 @@ def parallel_refine(model, threads, sweeps=1):
 
 
 def __getattr__(name):
-    # rost.vision on first use (it needs the library built with OpenCV).
-    if name == "vision":
+    # rost.vision on first use (it needs the library built with OpenCV); rost.fleet too.
+    if name in ("vision", "fleet"):
         import importlib
 
-        return importlib.import_module(".vision", __name__)
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'rost' has no attribute '{name}'")

@@ -1,0 +1,153 @@
+"""rost.fleet: a season of missions run by the rost tool, merged into one set of topics
+(docs/fleet.md). The planted bar of issue 29 (three missions sharing three topics, each with one of
+its own, -K 6: purity >= 0.85 with 6 or 7 global topics holding >= 2 % of the words, merged and
+relabelled with the fixed global model, well above identity matching); the same bytes with and
+without a Dask cluster; bad missions refused before anything runs, naming them. Needs the rost
+tool (ROST_TOOL) and the module's merge_topic_models."""
+
+import os
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+import rost
+import rost.fleet
+import rost.io
+from conftest import SOURCE_DIR
+
+sys.path.insert(0, str(SOURCE_DIR / "bench"))
+import fleet_planted  # noqa: E402  (bench/fleet_planted.py: the planted missions and their scores)
+
+TOOL = os.environ.get("ROST_TOOL")
+needs_tool = pytest.mark.skipif(not TOOL, reason="the rost tool is not built (ROST_TOOL)")
+SWEEPS = 30  # final sweeps of each planted mission (the bench's default is 50): keeps the test fast
+
+
+def _tree(root):
+    root = pathlib.Path(root)
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def _planted_inputs(tmp_path, missions=3, seed=1):
+    fleet = fleet_planted.planted_fleet(missions, shared=3, own=1, seed=seed)
+    return fleet, fleet_planted.write_fleet(fleet, str(tmp_path))
+
+
+@needs_tool
+def test_three_planted_missions_reach_the_bar_merged_and_relabelled(tmp_path):
+    r = fleet_planted.measure(3, str(tmp_path), shared=3, own=1, K=6, sweeps=SWEEPS, seed=1)
+    for method in ("merged", "merged, fixed"):
+        purity, ami, big, _ = r[method]
+        assert purity >= 0.85, (method, r)
+        assert big in (6, 7), (method, r)
+        assert ami > 0.6, (method, r)
+    # Identity matching (topic i of every mission is one topic) mixes the missions' numberings.
+    assert r["identity"][0] < r["merged"][0] - 0.1, r
+
+
+def test_the_scores_of_known_labelings():
+    truth = np.repeat([0, 1, 2], 100)
+    assert fleet_planted.scores(truth, truth + 5)[:2] == pytest.approx((1.0, 1.0))
+    # Two planted topics under one label: purity 2/3; one topic split in two: purity stays 1.
+    assert fleet_planted.scores(truth, np.minimum(truth, 1))[0] == pytest.approx(2 / 3)
+    split = np.where(np.arange(300) % 2 == 0, truth, truth + 3)
+    purity, ami, big = fleet_planted.scores(truth, split)
+    assert purity == 1.0 and 0.5 < ami < 1.0 and big == 6
+    noise = np.random.default_rng(3).integers(0, 3, 300)
+    assert abs(fleet_planted.scores(truth, noise)[1]) < 0.05, "AMI is adjusted for chance"
+
+
+@needs_tool
+def test_outputs_lift_every_label_through_the_lifting_with_mission_names(tmp_path):
+    fleet, inputs = _planted_inputs(tmp_path, missions=2)
+    out = tmp_path / "out"
+    r = rost.fleet.run(inputs, out, K=6, final_sweeps=5, seed=2)
+    assert (out / "fleet.conf").read_text().splitlines()[1:] == ["K = 6", "final.sweeps = 5", "seed = 2"]
+    rows = (out / "merged" / "lifting.csv").read_text().splitlines()
+    assert rows[0] == "model,local,global"
+    assert [row.split(",")[:2] for row in rows[1:]] == [[n, str(k)] for n in inputs for k in range(6)]
+    lifting = {n: np.array([int(row.split(",")[2]) for row in rows[1:] if row.startswith(n + ",")]) for n in inputs}
+    G = rost.io.read_topicmodel(out / "merged" / "topicmodel.csv").shape[0]
+    assert any(not np.array_equal(lifting[n], np.arange(6)) for n in inputs), "a lifting that renumbers"
+    assert r["global_counts"].shape[0] == G and r["topicmodel"] == str(out / "merged" / "topicmodel.csv")
+    for name in inputs:
+        assert rost.io.read_topicmodel(out / name / "topicmodel.csv").shape[0] == 6, "K = 6 reached the tool"
+        np.testing.assert_array_equal(r["lifting"][name], lifting[name])
+        ts, local = rost.io.read_topics(out / name / "topics.csv")
+        ts2, lifted = rost.io.read_topics(r["topics_global"][name])
+        assert ts.tolist() == ts2.tolist()
+        for a, b in zip(local, lifted):
+            np.testing.assert_array_equal(lifting[name][a], b)
+            assert b.min() >= 0 and b.max() < G
+
+
+@needs_tool
+def test_the_same_inputs_give_the_same_bytes_with_and_without_a_cluster(tmp_path):
+    distributed = pytest.importorskip("distributed", reason="python3-distributed (scripts/install-deps.sh)")
+    _, inputs = _planted_inputs(tmp_path, missions=3, seed=4)
+    here = rost.fleet.run(inputs, tmp_path / "here", fixed=True, K=6, final_sweeps=10, seed=5)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c, \
+            distributed.Client(c) as client:
+        spread = rost.fleet.run(inputs, tmp_path / "spread", client, fixed=True, K=6, final_sweeps=10, seed=5)
+    a, b = _tree(tmp_path / "here"), _tree(tmp_path / "spread")
+    assert sorted(a) == sorted(b)
+    assert {"m0/topics.global.csv", "m2/fixed/topics.csv", "merged/lifting.csv", "merged/topicmodel.csv"} <= set(a)
+    assert [k for k in a if a[k] != b[k]] == []
+    np.testing.assert_array_equal(here["global_counts"], spread["global_counts"])
+    # The fixed pass labels in the global topics and leaves their counts as given.
+    G = here["global_counts"].shape[0]
+    for name in inputs:
+        labels = np.concatenate(rost.io.read_topics(tmp_path / "here" / name / "fixed" / "topics.csv")[1])
+        assert labels.min() >= 0 and labels.max() < G
+
+
+def test_bad_missions_are_refused_naming_them_before_anything_runs(tmp_path):
+    (tmp_path / "w.csv").write_text("0,1,2\n1,2,3\n")
+    good = str(tmp_path / "w.csv")
+    out = tmp_path / "out"
+    tool = {"tool": TOOL or "/bin/true"}
+    with pytest.raises(FileNotFoundError, match=r"mission 'b': no such input: .*nowhere\.mov"):
+        rost.fleet.run({"a": good, "b": tmp_path / "nowhere.mov"}, out, K=6, **tool)
+    assert not out.exists(), "nothing was written"
+    for bad in ("", "a/b", "../up", "merged", "x,y", ".hidden", 3):
+        with pytest.raises(ValueError, match="bad mission name"):
+            rost.fleet.run({"a": good, bad: good}, out, **tool)
+    (tmp_path / "dive.bag").write_bytes(b"")
+    with pytest.raises(ValueError, match=r"mission 'auv': a bag needs its image topic"):
+        rost.fleet.run({"auv": str(tmp_path / "dive.bag")}, out, **tool)
+    with pytest.raises(ValueError, match=r"mission 'auv': a bag is a \(path, topic\) pair"):
+        rost.fleet.run({"auv": (str(tmp_path / "dive.bag"),)}, out, **tool)
+    with pytest.raises(TypeError, match=r"mission 'a': expected a path"):
+        rost.fleet.run({"a": 7}, out, **tool)
+    with pytest.raises(ValueError, match="missions: expected a non-empty mapping"):
+        rost.fleet.run({}, out, **tool)
+    with pytest.raises(ValueError, match="unknown setting 'bogus'"):
+        rost.fleet.run({"a": good}, out, bogus=1, **tool)
+    with pytest.raises(FileNotFoundError, match="the rost tool was not found: '/no/such/rost'"):
+        rost.fleet.run({"a": good}, out, tool="/no/such/rost")
+    assert not out.exists()
+
+
+def test_each_input_becomes_the_tools_command(tmp_path):
+    (tmp_path / "frames").mkdir()
+    (tmp_path / "w.csv").write_text("0,1\n")
+    (tmp_path / "d.bag").write_bytes(b"")
+    conf = tmp_path / "fleet.conf"
+    cmd = lambda source: rost.fleet.mission_command("/t/rost", "m", source, "/o/m", conf)
+    assert cmd(tmp_path / "w.csv")[:3] == ["/t/rost", "refine", str(tmp_path / "w.csv")]
+    assert cmd(str(tmp_path / "frames"))[:3] == ["/t/rost", "run", str(tmp_path / "frames")]
+    bag = cmd((tmp_path / "d.bag", "/camera/image"))
+    assert bag[:5] == ["/t/rost", "run", str(tmp_path / "d.bag"), "--topic", "/camera/image"]
+    assert bag[5:] == ["--out", "/o/m", "--config", str(conf), "-q"]
+    text = rost.fleet.settings_text(K=6, final_sweeps=50, topics_grow=True, alpha=0.25, budget_ms=None)
+    assert text == "K = 6\nfinal.sweeps = 50\ntopics.grow = true\nalpha = 0.25\n"
+
+
+@needs_tool
+def test_a_mission_the_tool_refuses_fails_naming_it(tmp_path):
+    (tmp_path / "good.csv").write_text("0,1,2\n1,2,3\n")
+    (tmp_path / "broken.csv").write_text("0,1,2\n1,2,x\n")
+    with pytest.raises(RuntimeError, match=r"mission .*broken failed \(exit 2\): .*broken\.csv:2"):
+        rost.fleet.run({"good": tmp_path / "good.csv", "broken": tmp_path / "broken.csv"}, tmp_path / "out", K=2)
