@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -63,15 +64,23 @@ bool MergeNode::number(const char* name, double& value) {
 }
 
 bool MergeNode::readParams() {
+    // A list of topics (YAML, rosparam, a launch file), or one string of
+    // them separated by commas or spaces (the command line: roscpp reads no lists there).
     XmlRpc::XmlRpcValue v;
-    bool ok = pnh_.getParam("models", v) && v.getType() == XmlRpc::XmlRpcValue::TypeArray && v.size() > 0;
-    for (int i = 0; ok && i < v.size(); ++i) {
-        ok = v[i].getType() == XmlRpc::XmlRpcValue::TypeString && !static_cast<std::string>(v[i]).empty();
-        if (ok) topics_.push_back(static_cast<std::string>(v[i]));
+    bool ok = pnh_.getParam("models", v);
+    if (ok && v.getType() == XmlRpc::XmlRpcValue::TypeString) {
+        std::istringstream in(static_cast<std::string>(v));
+        for (std::string t; std::getline(in, t, ',');)
+            for (std::istringstream words(t); words >> t;) topics_.push_back(t);
+    } else if (ok && v.getType() == XmlRpc::XmlRpcValue::TypeArray) {
+        for (int i = 0; ok && i < v.size(); ++i) {
+            ok = v[i].getType() == XmlRpc::XmlRpcValue::TypeString && !static_cast<std::string>(v[i]).empty();
+            if (ok) topics_.push_back(static_cast<std::string>(v[i]));
+        }
     }
-    if (!ok) {
-        ROS_FATAL("rost_merge: ~models: expected a list of rost_msgs/TopicModel topics, at least one "
-                  "(_models:=\"[/auv1/rost/topic_model, /auv2/rost/topic_model]\")");
+    if (!ok || topics_.empty()) {
+        ROS_FATAL("rost_merge: ~models: expected the rost_msgs/TopicModel topics to merge, at least one: a list, "
+                  "or one string separated by commas (_models:=/auv1/rost/topic_model,/auv2/rost/topic_model)");
         return false;
     }
     if (!number("period", period_) || !number("threshold", threshold_) || !number("beta", beta_)) return false;

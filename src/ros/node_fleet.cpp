@@ -81,7 +81,7 @@ void Node::stopModelThread() {
 }
 
 // The model thread: every ~model_period seconds, a copy of the counts
-// (never stopping the refiner) published on ~topic_model.
+// (never stopping the refiner) published on ~topic_model, once it holds a word.
 void Node::modelMain() {
     std::vector<int32_t> counts;
     const std::chrono::duration<double> period(model_period_);
@@ -115,7 +115,9 @@ void Node::publishModel(std::vector<int32_t>& counts) {
     msg.V = pipeline_->V();
     msg.topic_weights.assign(static_cast<std::size_t>(msg.K), 0);
     const std::size_t V = static_cast<std::size_t>(msg.V);
-    for (std::size_t i = 0; i < counts.size(); ++i) msg.topic_weights[i / V] += counts[i];
+    int64_t words = 0;
+    for (std::size_t i = 0; i < counts.size(); ++i) msg.topic_weights[i / V] += counts[i], words += counts[i];
+    if (words == 0) return;  // a model without a word yet: nothing to merge
     msg.counts.swap(counts);
     model_pub_.publish(msg);
 }
