@@ -4,7 +4,8 @@
 # there). ros_node and ros_bag need the real footage (the
 # vision_fetch_footage fixture) and skip without it outside CI; ros_launch
 # (rost.launch through roslaunch) and ros_transport (~image_transport) play
-# synthetic images and always run.
+# synthetic images and always run; so does ros_fleet (two rost_nodes on two
+# bags and rost_merge_node under one master).
 if(NOT ROST_HAVE_ROS)
   return()
 endif()
@@ -16,7 +17,7 @@ foreach(_t IN ITEMS node bag)
   rost_add_ros_test(${_t})
   set_tests_properties(ros_${_t} PROPERTIES FIXTURES_REQUIRED rost_footage TIMEOUT 300 SKIP_RETURN_CODE 77)
 endforeach()
-foreach(_t IN ITEMS launch transport)
+foreach(_t IN ITEMS launch transport fleet)
   rost_add_ros_test(${_t})
   set_tests_properties(ros_${_t} PROPERTIES TIMEOUT 180)
 endforeach()

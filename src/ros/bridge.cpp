@@ -4,6 +4,7 @@
 #include "bridge.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 
 #include <opencv2/imgproc.hpp>
@@ -92,6 +93,15 @@ struct Pipeline::Impl {
 
     MissionPlan plan;
 
+    // The model's counts copied for a reader (requestModel, takeModel).
+    std::vector<int32_t> captured;        // K x V, sized by makeEngine
+    std::atomic<int> capture{kNoCopy};    // kNoCopy -> kAsked (reader) -> kCopied (refiner) -> kNoCopy (reader)
+    std::atomic<uint64_t> taken_up{0};    // observations the hook has seen (refiner)
+    uint64_t accepted_before = 0;         // observations accepted before the hook was set
+    static constexpr int kNoCopy = 0, kAsked = 1, kCopied = 2;
+    void copyCounts(const Model& model, int32_t* out) const noexcept;
+    uint64_t accepted() const noexcept;
+
     std::string makeExtractor();
     MissionOptions missionOptions() const;
     std::string makeEngine(const NodeSettings& given, int width, int height);
@@ -136,6 +146,18 @@ std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int
     engine = std::move(m.engine);
     Status st;
     if (Status ps = engine->publishResults(options.result_slots); !ps.ok()) return ps.message();
+    captured.assign(static_cast<std::size_t>(ec.model.K) * static_cast<std::size_t>(ec.model.V), 0);
+    accepted_before = accepted();
+    // On the refining thread after each observation (taken up whole): a copy
+    // of the counts when a reader asked for one, then the count of
+    // observations seen (release: the model's writes before it).
+    engine->setObservationHook([this](const ObservationResult&, const Model& model) {
+        if (capture.load(std::memory_order_acquire) == kAsked) {
+            copyCounts(model, captured.data());
+            capture.store(kCopied, std::memory_order_release);
+        }
+        taken_up.fetch_add(1, std::memory_order_release);
+    });
     record = engine->makeResult();
     if (!options.checkpoint.empty()) {
         checkpoints = CheckpointWriter::create(*engine, options.checkpoint, st);
@@ -256,6 +278,44 @@ std::string Pipeline::getTopicModel(std::vector<int32_t>& counts) const {
         for (int v = 0; v < model.V(); ++v)
             counts[static_cast<std::size_t>(k) * model.V() + v] = model.topicWordCount(k, v);
     return was ? m.engine->start().message() : std::string();
+}
+
+void Pipeline::Impl::copyCounts(const Model& model, int32_t* out) const noexcept {
+    const int K = ec.model.K, V = ec.model.V;
+    std::size_t i = 0;
+    for (int k = 0; k < K; ++k)
+        for (int v = 0; v < V; ++v) out[i++] = model.topicWordCount(k, v);
+}
+
+// Observations the engine accepted (pushed and not dropped): each is taken
+// up by the refiner, which calls the hook after it.
+uint64_t Pipeline::Impl::accepted() const noexcept {
+    const EngineCounters c = engine->counters();
+    return c.pushed - c.dropped();
+}
+
+void Pipeline::requestModel() noexcept {
+    int expected = Impl::kNoCopy;
+    impl_->capture.compare_exchange_strong(expected, Impl::kAsked, std::memory_order_acq_rel);
+}
+
+bool Pipeline::takeModel(std::vector<int32_t>& counts) {
+    Impl& m = *impl_;
+    if (m.capture.load(std::memory_order_acquire) != Impl::kCopied) return false;
+    counts.assign(m.captured.begin(), m.captured.end());
+    m.capture.store(Impl::kNoCopy, std::memory_order_release);
+    return true;
+}
+
+bool Pipeline::copyModelIfIdle(std::vector<int32_t>& counts) {
+    Impl& m = *impl_;
+    if (m.taken_up.load(std::memory_order_acquire) != m.accepted() - m.accepted_before) return false;
+    if (takeModel(counts)) return true;  // made by the last observation's hook
+    counts.resize(m.captured.size());
+    m.copyCounts(m.engine->model(), counts.data());
+    int expected = Impl::kAsked;  // nothing left to copy it for the request
+    m.capture.compare_exchange_strong(expected, Impl::kNoCopy, std::memory_order_acq_rel);
+    return true;
 }
 
 std::string Pipeline::addTopicModel(int K, int V, const std::vector<int32_t>& counts) {

@@ -127,11 +127,43 @@ public:
     // Adds K x V counts to the model as a prior (Model::addTopicCounts).
     std::string addTopicModel(int K, int V, const std::vector<int32_t>& counts);
 
+    // The model's counts (K x V, topic-major) for a reader thread (the node's
+    // model publisher), without stopping the refiner. requestModel() asks the
+    // refiner for a copy at its next observation boundary (the observation
+    // hook copies K x V counts into a buffer sized at open(): no allocation,
+    // no lock, the stall of one copy); takeModel() hands the copy over once it
+    // is made. A refiner with nothing to do makes none: copyModelIfIdle(),
+    // called while push() is held off (the node's push mutex), copies the
+    // model itself when everything pushed has been taken up (the model cannot
+    // change then), else returns false.
+    void requestModel() noexcept;
+    bool takeModel(std::vector<int32_t>& counts);
+    bool copyModelIfIdle(std::vector<int32_t>& counts);
+
     struct Impl;
 
 private:
     explicit Pipeline(std::unique_ptr<Impl> impl);
     std::unique_ptr<Impl> impl_;
 };
+
+// Merging the fleet's topic models (rost/merge.hpp), for rost_merge_node.
+struct ModelCounts {
+    int K = 0;
+    int V = 0;
+    std::vector<int32_t> counts;  // K x V, topic-major
+};
+struct MergedModel {
+    int K = 0;  // global topics G
+    int V = 0;  // the largest input V
+    std::vector<int64_t> counts;  // G x V, topic-major
+    std::vector<std::vector<int>> lifting;  // lifting[m][k]: model m's topic k in the global set, -1 if empty
+};
+// "" when the merge options are valid, else the error, naming the parameter
+// as the merge node spells it (~threshold, ~beta).
+std::string checkMergeOptions(double threshold, double beta);
+// The models merged in the order given (the first one's topics open the
+// global set). "" on success, else the error.
+std::string mergeModels(const std::vector<ModelCounts>& models, double threshold, double beta, MergedModel& out);
 
 } // namespace rost::bridge

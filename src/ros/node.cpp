@@ -39,7 +39,8 @@ Node::Node(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(std::move(nh)), pnh_(s
 Node::~Node() { shutdown(); }
 
 // The node's own private parameters, beside one per setting of the schema.
-const char* const kNodeParams[] = {"image_transport", "compressed", "checkpoint", "resume", "vocabulary"};
+const char* const kNodeParams[] = {"image_transport", "compressed", "checkpoint", "resume", "vocabulary",
+                                   "model_period", "vehicle", "use_global_model"};
 
 // Every setting of the schema as a private parameter (dots as underscores).
 // Errors name the parameter as the node spells it (~eta) and stop the node
@@ -73,7 +74,7 @@ bool Node::readSettings() {
         return false;
     }
     warnUnknownParams();
-    if (!readTransport()) return false;
+    if (!readTransport() || !readFleetParams()) return false;
     pnh_.param("checkpoint", options_.checkpoint, std::string());
     pnh_.param("resume", options_.resume, std::string());
     pnh_.param("vocabulary", options_.vocabulary, std::string());
@@ -116,6 +117,7 @@ void Node::advertise() {
     pause_srv_ = services.advertiseService("pause", &Node::onPause, this);
     get_srv_ = services.advertiseService("get_topic_model", &Node::onGetModel, this);
     set_srv_ = services.advertiseService("set_topic_model", &Node::onSetModel, this);
+    advertiseFleet();
     service_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &service_queue_);
     service_spinner_->start();
 }
@@ -212,6 +214,8 @@ bool Node::init() {
 }
 
 void Node::shutdown() {
+    stopModelThread();
+    lifting_sub_.shutdown();
     if (service_spinner_) service_spinner_->stop();
     image_sub_.shutdown();
     compressed_sub_.shutdown();
@@ -309,6 +313,7 @@ bool Node::ensureEngine(int width, int height) {
         ROS_INFO("rost: frames of %dx%d, %dx%d cells, K = %d, V = %d%s%s", pipeline_->width(), pipeline_->height(),
                  pipeline_->cellsX(), pipeline_->cellsY(), pipeline_->K(), pipeline_->V(),
                  options_.resume.empty() ? "" : ", resumed from ", options_.resume.c_str());
+        startFleet();
         publishing_.store(true, std::memory_order_release);
         publisher_ = std::thread([this] { publisherMain(); });
         ready_.store(true, std::memory_order_release);
@@ -381,6 +386,7 @@ void Node::publish(const rost::bridge::FrameResult& r) {
     // Images received up to this one that no message carries (dropped, bad, too small, paused).
     frame.dropped = static_cast<uint32_t>(index + 1 > published_ ? index + 1 - published_ : 0);
     frame_pub_.publish(frame);
+    if (use_global_model_) publishGlobal(frame);
     if (topic_map_pub_.getNumSubscribers() > 0) {
         sensor_msgs::Image map;
         rost::bridge::fillTopicMap(r, pipeline_->cellSpace(), map);

@@ -10,7 +10,8 @@
 //   words thread:                        image -> words -> Engine::tryPush
 //   refiner thread (the engine's):       refine within the budget, publish results
 //   publisher thread:                    results -> ~frame, ~topic_map, ~surprise_map,
-//                                        ~perplexity, ~surprise
+//                                        ~perplexity, ~surprise (and ~global_frame)
+//   model thread (~model_period > 0):    the model's counts -> ~topic_model (node_fleet.cpp)
 // The engine's time stamp of an observation is its number in the order
 // received: the publisher finds the image's header (stamp, whole frame_id)
 // by it. Services run on ros::spin's thread, between images.
@@ -30,8 +31,11 @@
 #include <opencv2/core.hpp>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <rost_msgs/FrameTopics.h>
 #include <rost_msgs/GetTopicModel.h>
 #include <rost_msgs/SetTopicModel.h>
+#include <rost_msgs/TopicLifting.h>
+#include <rost_msgs/TopicModel.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <std_srvs/SetBool.h>
@@ -71,6 +75,20 @@ private:
     void wordsMain();
     void publisherMain();
     void publish(const rost::bridge::FrameResult& r);
+
+    // The fleet (node_fleet.cpp): the model on ~topic_model every
+    // ~model_period seconds, and with ~use_global_model the frames' labels in
+    // the fleet's global topics on ~global_frame, through the lifting.
+    bool readFleetParams();
+    void advertiseFleet();
+    void startFleet();  // once the engine is made (K known): the lifting table and subscription
+    void stopModelThread();
+    void modelMain();
+    bool copyModel(std::vector<int32_t>& counts);
+    void publishModel(std::vector<int32_t>& counts);
+    void onLifting(const rost_msgs::TopicLiftingConstPtr& msg);
+    bool readLifting(int32_t& G);  // publisher thread: the table into lift_copy_; false before any lifting
+    void publishGlobal(const rost_msgs::FrameTopics& local);
 
     bool onSave(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
     bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
@@ -126,6 +144,28 @@ private:
     ros::Subscriber compressed_sub_;         // rost's own decoder
     ros::Publisher frame_pub_, topic_map_pub_, surprise_map_pub_, perplexity_pub_, surprise_pub_;
     ros::ServiceServer save_srv_, pause_srv_, get_srv_, set_srv_;
+
+    // The fleet (node_fleet.cpp).
+    double model_period_ = 0.0;  // ~model_period: seconds; 0 never
+    std::string vehicle_;        // ~vehicle
+    bool use_global_model_ = false;
+    std::thread model_thread_;
+    std::mutex model_mutex_;
+    std::condition_variable model_cv_;
+    bool model_stop_ = false;
+    ros::Publisher model_pub_, global_frame_pub_;
+    ros::Subscriber lifting_sub_;
+    // The vehicle's lifting (local topic -> global topic), K entries sized
+    // once the engine is made: written by the lifting callback (ros::spin's
+    // thread), read by the publisher thread, under a sequence lock (no lock,
+    // no allocation on the publisher's side).
+    std::unique_ptr<std::atomic<int32_t>[]> lift_table_;
+    int lift_K_ = 0;
+    std::atomic<int32_t> lift_G_{0};
+    std::atomic<uint32_t> lift_version_{0};  // odd while written; 0 before any lifting
+    std::vector<int32_t> lift_copy_;         // publisher thread
+    bool local_logged_ = false;              // publisher thread
+    bool lifting_logged_ = false, vehicle_missing_logged_ = false;  // ros::spin's thread
 };
 
 } // namespace rost_node

@@ -12,8 +12,8 @@ namespace {
 // `rost_node --params`: every private parameter, made from the settings schema.
 void printParams() {
     std::printf("# rost_node's private parameters: every setting of the schema (`rost config`), dots and dashes as\n"
-                "# underscores, and image_transport, compressed, checkpoint, resume, vocabulary. ~name  default  range  "
-                "meaning\n");
+                "# underscores, and image_transport, compressed, checkpoint, resume, vocabulary, model_period, vehicle,\n"
+                "# use_global_model. ~name  default  range  meaning\n");
     for (const rost::bridge::ParamSpec& p : rost::bridge::settingParams())
         std::printf("~%s  %s  %s  %s\n", p.param.c_str(), p.def.empty() ? "-" : p.def.c_str(), p.range.c_str(),
                     p.doc.c_str());
@@ -22,7 +22,11 @@ void printParams() {
                 "~compressed  false  true|false  deprecated (~image_transport): sensor_msgs/CompressedImage on `image`\n"
                 "~checkpoint  -  FILE  save the state every checkpoint.every frames, at exit and on ~save_checkpoint\n"
                 "~resume  -  FILE  carry on the mission this checkpoint holds\n"
-                "~vocabulary  -  FILE  ORB vocabulary from `rost vocab` (default: the built-in one)\n");
+                "~vocabulary  -  FILE  ORB vocabulary from `rost vocab` (default: the built-in one)\n"
+                "~model_period  0  [0, inf)  seconds between two topic models published on ~topic_model (0: never)\n"
+                "~vehicle  NAMESPACE  STRING  the vehicle id in ~topic_model and in the lifting (default: the "
+                "namespace, or the node's name in /)\n"
+                "~use_global_model  false  true|false  also publish ~global_frame: labels mapped through `lifting`\n");
 }
 } // namespace
 

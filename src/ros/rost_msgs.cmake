@@ -3,7 +3,8 @@
 # build/ros/setup.sh. Included from src/ros/CMakeLists.txt.
 set(_msgs_src ${PROJECT_SOURCE_DIR}/ros/rost_msgs)
 set(_ros_out ${PROJECT_BINARY_DIR}/ros)
-set(_msg_files ${_msgs_src}/msg/FrameTopics.msg)
+set(_msg_files ${_msgs_src}/msg/FrameTopics.msg ${_msgs_src}/msg/TopicModel.msg ${_msgs_src}/msg/VehicleLifting.msg
+               ${_msgs_src}/msg/TopicLifting.msg)
 set(_srv_files ${_msgs_src}/srv/GetTopicModel.srv ${_msgs_src}/srv/SetTopicModel.srv)
 set(_gen_include -I rost_msgs:${_msgs_src}/msg -I std_msgs:${ROST_STD_MSGS_MSG})
 set(_cpp_out ${_ros_out}/include/rost_msgs)
