@@ -423,12 +423,16 @@ class _ROST:
 
     @property
     def g_sigma(self):
-        return None
+        return getattr(self, "_g_sigma", None)
 
     @g_sigma.setter
     def g_sigma(self, value):
-        _unsupported("g_sigma", "rost's neighbourhood is g_space cells and g_time steps, weighted alike (give "
-                     "g_space, g_time to the constructor)")
+        # rostpy's README sets it first thing: kept, not served, said once, so the script goes on.
+        import warnings
+        if getattr(self, "_g_sigma", None) is None:
+            warnings.warn("rost.rostpy: g_sigma is kept but not used: rost's neighbourhood is g_space cells and g_time "
+                          "steps, weighted alike (give g_space, g_time to the constructor)", RuntimeWarning, stacklevel=2)
+        self._g_sigma = float(value)
 
     @property
     def model(self):
