@@ -83,29 +83,41 @@ Status readInput(const std::string& path, std::string& text, std::string& name) 
     return rost::text::readFile(path, text);
 }
 
+namespace {
+
+// One document from a line split into `fields` (word ids below `hi`).
+Status takeDocument(const std::vector<Field>& fields, std::string_view name, int number, int64_t hi, Document& d) {
+    if (fields[0].text.empty()) return Status::error(where(name, number, fields[0].column) + "empty timestamp");
+    d.timestamp = std::string(fields[0].text);
+    d.line = number;
+    d.words.clear();
+    d.words.reserve(fields.size() - 1);
+    for (std::size_t i = 1; i < fields.size(); ++i) {
+        int64_t w = 0;
+        if (Status st = parseCount(fields[i], name, number, "word id", hi, w); !st.ok()) return st;
+        d.words.push_back(static_cast<uint32_t>(w));
+    }
+    return {};
+}
+
+int64_t wordLimit(uint32_t V) { return V == 0 ? int64_t{std::numeric_limits<uint32_t>::max()} : int64_t{V}; }
+
+} // namespace
+
 Status parseDocuments(std::string_view text, std::string_view name, std::string_view delim, uint32_t V,
                       Corpus& out) {
     out.docs.clear();
     out.words_name = std::string(name);
-    const int64_t hi = V == 0 ? int64_t{std::numeric_limits<uint32_t>::max()} : int64_t{V};
+    const int64_t hi = wordLimit(V);
     std::vector<Field> fields;
     LineReader lines(text, name, kLines);
     Line line;
     for (Status separated; nextRow(lines, delim, line, fields, separated);) {
         if (!separated.ok()) return separated;
-        const int number = line.number;
-        if (fields[0].text.empty()) return Status::error(where(name, number, fields[0].column) + "empty timestamp");
         Document d;
-        d.timestamp = std::string(fields[0].text);
-        d.line = number;
-        d.words.reserve(fields.size() - 1);
-        for (std::size_t i = 1; i < fields.size(); ++i) {
-            int64_t w = 0;
-            if (Status st = parseCount(fields[i], name, number, "word id", hi, w); !st.ok()) return st;
-            d.words.push_back(static_cast<uint32_t>(w));
-            out.max_word = std::max(out.max_word, static_cast<uint32_t>(w));
-            out.any_word = true;
-        }
+        if (Status st = takeDocument(fields, name, line.number, hi, d); !st.ok()) return st;
+        for (uint32_t w : d.words) out.max_word = std::max(out.max_word, w);
+        out.any_word = out.any_word || !d.words.empty();
         out.longest = std::max(out.longest, d.words.size());
         out.docs.push_back(std::move(d));
     }
@@ -115,6 +127,20 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
         return Status::error(std::string(name) + ": no words in its " + std::to_string(out.docs.size()) +
                              " documents (each line is timestamp" + std::string(delim) + "word" + std::string(delim) +
                              "word...)");
+    return {};
+}
+
+Status parseDocumentLine(std::string_view text, int number, std::string_view name, std::string_view delim, uint32_t V,
+                         Document& d, bool& got) {
+    got = false;
+    std::vector<Field> fields;
+    LineReader lines(text, name, kLines);
+    Line line;
+    Status separated;
+    if (!nextRow(lines, delim, line, fields, separated)) return {};  // a blank line
+    if (!separated.ok()) return Status::error(where(name, number) + separated.message().substr(where(name, 1).size()));
+    if (Status st = takeDocument(fields, name, number, wordLimit(V), d); !st.ok()) return st;
+    got = true;
     return {};
 }
 

@@ -72,7 +72,12 @@ uint32_t busiestStep(const Corpus& c, const Config& m) {
 // (ring.steps: all of its time steps) and no word is subsampled away
 // (max.words: the longest document; cell.capacity: the busiest cell). A
 // value out of range is the schema's error, named by rost-cli's flag.
-Status fitModel(const RunOptions& o, const Corpus& c, Settings& s) {
+// `stream` null: a stream read as it arrives (topics.refine.t --online),
+// sized before its first document: V given, ring.steps and max.words the
+// schema's (a window of time steps; older documents leave it with their
+// labels as they stand then), every word of a step held (cell.capacity:
+// max.words x cell.time).
+Status fitModel(const RunOptions& o, const Corpus* stream, Settings& s) {
     if (o.cmd == Command::RefineT) {
         // One cell per time step: a 1x1 frame, no spatial neighbours.
         for (const char* key : {"cell.space", "g.space"})
@@ -83,15 +88,23 @@ Status fitModel(const RunOptions& o, const Corpus& c, Settings& s) {
     mission.given = o.given;
     mission.names.problem = [](const SettingProblem& p) { return "the model this input needs: " + problemText(p); };
     MissionInput in;
-    in.V = c.any_word ? static_cast<int>(c.max_word) + 1 : 1;
-    in.width = o.cmd == Command::RefineT ? 1 : c.max_x + 1;
-    in.height = o.cmd == Command::RefineT ? 1 : c.max_y + 1;
-    in.length = static_cast<int64_t>(c.docs.size());
-    in.max_words = std::max<std::size_t>(c.longest, 1);
-    in.keep_all = true;
-    in.busiest_cell = [&](const Config& m) -> uint64_t {
-        return o.cmd == Command::RefineT ? busiestStep(c, m) : busiestCell(c, m);
-    };
+    if (stream == nullptr) {
+        in.width = in.height = 1;
+        in.busiest_cell = [](const Config& m) -> uint64_t {
+            return static_cast<uint64_t>(m.max_words_per_frame) * static_cast<uint64_t>(m.cell_time);
+        };
+    } else {
+        const Corpus& c = *stream;
+        in.V = c.any_word ? static_cast<int>(c.max_word) + 1 : 1;
+        in.width = o.cmd == Command::RefineT ? 1 : c.max_x + 1;
+        in.height = o.cmd == Command::RefineT ? 1 : c.max_y + 1;
+        in.length = static_cast<int64_t>(c.docs.size());
+        in.max_words = std::max<std::size_t>(c.longest, 1);
+        in.keep_all = true;
+        in.busiest_cell = [&c, &o](const Config& m) -> uint64_t {
+            return o.cmd == Command::RefineT ? busiestStep(c, m) : busiestCell(c, m);
+        };
+    }
     in.threads = s.engine.model.threads;  // rost-cli's: every usable core unless --threads
     in.flags = s.engine.flags;
     MissionPlan plan;
@@ -99,11 +112,6 @@ Status fitModel(const RunOptions& o, const Corpus& c, Settings& s) {
     s.engine = plan.config;
     return {};
 }
-
-// The outputs, built in memory and written at the end.
-struct Outputs {
-    std::string topics, topics_ml, ppx, ppx_iter, position, topics_online, ppx_online, log;
-};
 
 void appendLabels(std::string& out, const std::string& timestamp, const std::vector<uint16_t>& z) {
     text::TableWriter t(out);
@@ -170,45 +178,24 @@ Status runBatch(const RunOptions& o, const Corpus& c, const Settings& s, Model& 
     return {};
 }
 
-// Online: the engine takes each document up as it arrives and refines for
-// online.mint ms (a time budget: not reproducible); each document's ML labels
-// and perplexity are recorded as they stand when its budget is spent.
-Status runOnline(const Corpus& c, const Settings& s, Engine& engine, Outputs& out) {
-    std::vector<uint16_t> z;
-    uint64_t tokens = 0;
-    const auto t0 = Clock::now();
-    for (const Document& doc : c.docs) {
-        const ObservationResult r = engine.processNow({0, doc.words, doc.positions});
-        if (!r.add.ok())
-            return Status::error(c.words_name + ":" + std::to_string(doc.line) + ": " + toString(r.add.error));
-        tokens += r.tokens;
-        const Model& model = engine.model();
-        z.resize(model.observationSize(r.observation));
-        model.observationLabels(r.observation, z);
-        appendLabels(out.topics_online, doc.timestamp, z);
-        text::TableWriter(out.ppx_online).cell(doc.timestamp).cell(model.stepPluginPerplexity(r.step)).end();
-    }
-    const double secs = secondsSince(t0);
-    logLine(out, std::string("online: ") + std::to_string(c.docs.size()) + " documents, " + formatDouble(s.engine.budget.ms) +
-                     " ms each, refined " + std::to_string(tokens) + " tokens in " + formatDouble(secs) + " s");
-    return {};
-}
-
 struct FileOut {
     const std::string* path;
     const std::string* text;
 };
 
-// The files a run writes, each with its text, the log last (a null path: not this run's).
-std::array<FileOut, 9> outputFiles(const RunOptions& o, const Outputs& out, const std::string& model) {
+// The files a run writes, each with its text, the log last (a null path: not
+// this run's). The online files are written as the run goes: listed to be probed.
+std::array<FileOut, 9> outputFiles(const RunOptions& o, const Outputs& out, const std::string& model, bool probing = false) {
+    static const std::string none;
+    const bool online = o.online && probing;
     return {{{&o.out_topics, &out.topics},
              {&o.out_topics_ml, &out.topics_ml},
              {&o.ppx_out, &out.ppx},
              {o.online ? nullptr : &o.out_ppx_iter, &out.ppx_iter},
              {&o.out_topicmodel, &model},
              {o.cmd == Command::RefineTxy ? &o.out_position : nullptr, &out.position},
-             {o.online ? &o.out_topics_online : nullptr, &out.topics_online},
-             {o.online ? &o.out_ppx_online : nullptr, &out.ppx_online},
+             {online ? &o.out_topics_online : nullptr, &none},
+             {online ? &o.out_ppx_online : nullptr, &none},
              {&o.logfile, &out.log}}};
 }
 
@@ -216,7 +203,7 @@ std::array<FileOut, 9> outputFiles(const RunOptions& o, const Outputs& out, cons
 // sweep run: an unwritable one fails within a second and writes nothing.
 Status probeOutputs(const RunOptions& o) {
     const Outputs none;
-    for (const FileOut& f : outputFiles(o, none, none.log))
+    for (const FileOut& f : outputFiles(o, none, none.log, true))
         if (f.path != nullptr && !f.path->empty())
             if (Status st = text::probeOutputFile(*f.path); !st.ok()) return st;
     return {};
@@ -264,17 +251,22 @@ Status runRefine(const RunOptions& o, Settings& s) {
     if (o.online && !o.in_topics.empty())
         return Status::error("--in.topics starts a batch from given labels; it cannot be used with --online");
     if (Status st = probeOutputs(o); !st.ok()) return st;
+    // topics.refine.t --online reads its input as it arrives: the model is
+    // sized before the first document, so V must be given.
+    const bool stream = o.online && o.cmd == Command::RefineT;
+    if (stream && !o.v_given)
+        return Status::error("--online takes documents up as they arrive, so the vocabulary size must be known "
+                             "before the first: give -V/--vocabsize");
     Corpus c;
-    if (Status st = readCorpus(o, s, c); !st.ok()) return st;
-    if (Status st = fitModel(o, c, s); !st.ok()) return st;
+    if (!stream)
+        if (Status st = readCorpus(o, s, c); !st.ok()) return st;
+    if (Status st = fitModel(o, stream ? nullptr : &c, s); !st.ok()) return st;
     if (!o.in_topics.empty()) {  // the labels to start from, once K is known
         std::string text, name;
         if (Status st = readInput(o.in_topics, text, name); !st.ok()) return st;
         if (Status st = parseInitialTopics(text, name, o.delim, s.engine.model.K, c); !st.ok()) return st;
     }
     Outputs out;
-    out.log = o.command_line + "\n" + std::to_string(c.docs.size()) + " documents from " + c.words_name + "\n";
-    out.log += settingsLog(s);
     try {
         std::unique_ptr<Engine> engine;
         std::unique_ptr<Model> batch;
@@ -283,9 +275,11 @@ Status runRefine(const RunOptions& o, Settings& s) {
         Model& model = o.online ? engine->model() : *batch;
         if (!o.in_topicmodel.empty())
             if (Status st = loadTopicModelCsv(o.in_topicmodel, model); !st.ok()) return st;
-        Status st = o.online ? runOnline(c, s, *engine, out) : runBatch(o, c, s, model, out);
+        Status st = o.online ? runOnline(o, c, s, *engine, out) : runBatch(o, c, s, model, out);
         if (!st.ok()) return st;
-        finalOutputs(o, c, model, out);
+        if (!o.online) finalOutputs(o, c, model, out);
+        out.log = o.command_line + "\n" + std::to_string(c.docs.size()) + " documents from " + c.words_name + "\n" +
+                  settingsLog(s) + out.log;
         logLine(out, std::string("active topics ") + std::to_string(model.activeTopics()) + " of K = " + std::to_string(model.K()));
         return writeOutputs(o, out, formatTopicModelCsv(model));  // a row per open topic, in label order
     } catch (const std::bad_alloc&) {

@@ -15,6 +15,10 @@
 #include "rost/settings.hpp"
 #include "rost/status.hpp"
 
+namespace rost {
+class Engine;
+}
+
 namespace rost::cli {
 
 // ---- input ------------------------------------------------------------------
@@ -47,6 +51,11 @@ Status readInput(const std::string& path, std::string& text, std::string& name);
 // line and column: "words.csv:3:7: word id 12 out of range [0, 10)".
 Status parseDocuments(std::string_view text, std::string_view name, std::string_view delim, uint32_t V,
                       Corpus& out);
+// One line of a words file (no '\n'; `number`: its 1-based line, for
+// messages) as parseDocuments reads it: `got` is false for a blank line.
+// --online reads its input a line at a time with this.
+Status parseDocumentLine(std::string_view text, int number, std::string_view name, std::string_view delim, uint32_t V,
+                         Document& d, bool& got);
 // Parses `timestamp,x,y,x,y,...` lines, one per document of `corpus` in order:
 // the same timestamp and two non-negative integer coordinates per word.
 Status parsePositions(std::string_view text, std::string_view name, std::string_view delim, Corpus& corpus);
@@ -84,6 +93,20 @@ std::string problemText(const SettingProblem& problem);
 // Everything after the flags are parsed and the settings set: reads the
 // input, refines, writes the outputs (temporary file, then rename).
 Status runRefine(const RunOptions& o, Settings& settings);
+
+// The outputs' text, built in memory and written at the end (the online
+// files are written line by line instead).
+struct Outputs {
+    std::string topics, topics_ml, ppx, ppx_iter, position, log;
+};
+
+// --online (online.cpp): the documents of `c` (topics.refine.txy: read with
+// their positions) or, when it holds none, of the words input read as it
+// arrives, each pushed into the running engine and refined for the time
+// budget; each one's online line appended and flushed when its time is up.
+// Ends at the end of the input, SIGINT or SIGTERM (the log says which); then
+// `out` holds the final files' text and `c` the documents (without words).
+Status runOnline(const RunOptions& o, Corpus& c, const Settings& s, Engine& engine, Outputs& out);
 
 // A number as the shortest text that parses back to it ("nan" for NaN).
 std::string formatDouble(double v);

@@ -1,0 +1,228 @@
+// topics.refine.t --online as a stream: documents written into a pipe one at
+// a time while the command runs. Each document's online lines must be in the
+// online files (complete, in order) before the pipe is closed; end of input,
+// SIGINT and SIGTERM end the run with exit 0, the final files written
+// whole and no temporary file left. Every wait is on a condition, with a
+// generous deadline (a loaded 2-core machine).
+
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+std::string readText(const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+// The complete lines of a file (a last line without '\n' is not complete yet).
+std::vector<std::string> lines(const std::string& path) {
+    std::vector<std::string> out;
+    const std::string text = readText(path);
+    std::size_t start = 0;
+    for (std::size_t nl; (nl = text.find('\n', start)) != std::string::npos; start = nl + 1)
+        out.push_back(text.substr(start, nl - start));
+    return out;
+}
+
+bool waitFor(const std::function<bool()>& done, double seconds = 20.0) {
+    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+    while (!done()) {
+        if (Clock::now() > end) return false;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return true;
+}
+
+// Document i's timestamp and its delimiter: "7.50,".
+std::string stamp(int i) {
+    std::string s = std::to_string(i);
+    s.append(".50,");
+    return s;
+}
+
+// Document i: 12 words of topic (i / 5) % 3, V = 30.
+std::string document(int i) {
+    std::string line = stamp(i);
+    const int topic = (i / 5) % 3;
+    for (int w = 0; w < 12; ++w) {
+        if (w) line.push_back(',');
+        line.append(std::to_string(topic * 10 + (w * 7 + i) % 10));
+    }
+    line.push_back('\n');
+    return line;
+}
+
+// topics.refine.t --online in `dir`, reading its standard input from a pipe this test writes.
+class Streamed {
+public:
+    Streamed(const std::string& dir, int mint) {
+        int fds[2];
+        EXPECT_EQ(pipe(fds), 0);
+        pid_ = fork();
+        if (pid_ == 0) {
+            dup2(fds[0], 0);
+            close(fds[0]);
+            close(fds[1]);
+            if (chdir(dir.c_str()) != 0) _exit(99);
+            const int err = open("stderr.txt", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+            dup2(err, 2);
+            const std::string m = std::to_string(mint);
+            execl(ROSTCLI_REFINE_T, ROSTCLI_REFINE_T, "-i", "-", "-V", "30", "-K", "3", "--online", "--online.mint",
+                  m.c_str(), "--threads", "1", static_cast<char*>(nullptr));
+            _exit(98);
+        }
+        close(fds[0]);
+        fd_ = fds[1];
+    }
+    ~Streamed() {
+        closeInput();
+        if (pid_ > 0 && status_ < 0) kill(pid_, SIGKILL), waitpid(pid_, nullptr, 0);
+    }
+    void write(const std::string& text) { ASSERT_EQ(::write(fd_, text.data(), text.size()), static_cast<ssize_t>(text.size())); }
+    void closeInput() {
+        if (fd_ >= 0) close(fd_), fd_ = -1;
+    }
+    void signal(int sig) { kill(pid_, sig); }
+    // The exit status (-1: still running after the deadline; 128 + n: killed by signal n).
+    int wait(double seconds = 30.0) {
+        waitFor([&] {
+            int st = 0;
+            if (waitpid(pid_, &st, WNOHANG) != pid_) return false;
+            status_ = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+            return true;
+        }, seconds);
+        return status_;
+    }
+
+private:
+    pid_t pid_ = -1;
+    int fd_ = -1;
+    int status_ = -1;
+};
+
+class RostCliOnline : public ::testing::Test {
+protected:
+    void SetUp() override {
+        std::signal(SIGPIPE, SIG_IGN);
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        dir = (fs::temp_directory_path() / ("rostcli_online_" + std::to_string(getpid()) + "_" + info->name())).string();
+        fs::remove_all(dir);
+        fs::create_directories(dir);
+    }
+    void TearDown() override { fs::remove_all(dir); }
+
+    // The online files hold `n` complete lines (and no more): documents 0..n-1, in order.
+    void expectOnline(std::size_t n) {
+        const auto topics = lines(dir + "/topics.online.csv"), ppx = lines(dir + "/perplexity.online.csv");
+        ASSERT_EQ(topics.size(), n);
+        ASSERT_EQ(ppx.size(), n);
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::string ts = stamp(static_cast<int>(i));
+            EXPECT_EQ(topics[i].rfind(ts, 0), 0u) << topics[i];
+            EXPECT_EQ(std::count(topics[i].begin(), topics[i].end(), ','), 12) << topics[i];
+            EXPECT_EQ(ppx[i].rfind(ts, 0), 0u) << ppx[i];
+        }
+    }
+    // The final files: a line per document, in order; nothing else in the directory.
+    void expectFinal(std::size_t n) {
+        for (const char* f : {"topics.csv", "topics.maxlikelihood.csv", "perplexity.csv"}) {
+            const auto rows = lines(dir + "/" + f);
+            ASSERT_EQ(rows.size(), n) << f;
+            for (std::size_t i = 0; i < n; ++i) EXPECT_EQ(rows[i].rfind(stamp(static_cast<int>(i)), 0), 0u) << f << ": " << rows[i];
+        }
+        EXPECT_EQ(lines(dir + "/topicmodel.csv").size(), 3u);
+        const std::set<std::string> expected{"topics.csv", "topics.maxlikelihood.csv", "perplexity.csv",
+                                             "topicmodel.csv", "topics.log", "topics.online.csv",
+                                             "perplexity.online.csv", "stderr.txt"};
+        for (const auto& e : fs::directory_iterator(dir))
+            EXPECT_TRUE(expected.count(e.path().filename().string())) << "left behind: " << e.path();
+    }
+
+    std::string dir;
+};
+
+// Each document's online lines appear while the pipe is still open; after it
+// closes, the final files hold every document (more than the 256 time steps
+// the window keeps: the first ones left it with their labels).
+TEST_F(RostCliOnline, WritesEachDocumentsLinesAsItsTimeIsUp) {
+    Streamed run(dir, 5);
+    for (int i = 0; i < 4; ++i) {
+        run.write(document(i));
+        ASSERT_TRUE(waitFor([&] { return lines(dir + "/perplexity.online.csv").size() == static_cast<std::size_t>(i) + 1; }))
+            << "document " << i << "'s online line did not appear while the pipe was open: " << readText(dir + "/stderr.txt");
+        expectOnline(static_cast<std::size_t>(i) + 1);
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the writer's pace
+    }
+    EXPECT_FALSE(fs::exists(dir + "/topics.csv")) << "the final files come at the end";
+    std::string rest;
+    for (int i = 4; i < 300; ++i) rest += document(i);
+    run.write(rest);
+    run.closeInput();
+    ASSERT_EQ(run.wait(), 0) << readText(dir + "/stderr.txt");
+    expectOnline(300);
+    expectFinal(300);
+    EXPECT_NE(readText(dir + "/topics.log").find("300 documents from <stdin>"), std::string::npos);
+}
+
+// SIGINT or SIGTERM mid-stream: exit 0, the final files of the documents taken up.
+TEST_F(RostCliOnline, ASignalEndsTheStreamWithTheFinalFiles) {
+    for (int sig : {SIGINT, SIGTERM}) {
+        SCOPED_TRACE(sig == SIGINT ? "SIGINT" : "SIGTERM");
+        for (const auto& e : fs::directory_iterator(dir)) fs::remove(e.path());
+        Streamed run(dir, 10);
+        std::string first;
+        for (int i = 0; i < 5; ++i) first += document(i);
+        run.write(first);
+        ASSERT_TRUE(waitFor([&] { return lines(dir + "/perplexity.online.csv").size() == 5; }))
+            << readText(dir + "/stderr.txt");
+        run.write("5.50,1,2");  // a line not finished when the signal comes: not a document
+        run.signal(sig);
+        ASSERT_EQ(run.wait(), 0) << readText(dir + "/stderr.txt");
+        expectOnline(5);
+        expectFinal(5);
+        EXPECT_NE(readText(dir + "/topics.log").find(sig == SIGINT ? "stopped by SIGINT" : "stopped by SIGTERM"),
+                  std::string::npos);
+    }
+}
+
+// The vocabulary is needed before the first document arrives.
+TEST_F(RostCliOnline, NeedsTheVocabularySize) {
+    const std::string cmd = "cd '" + dir + "' && echo 1,2,3 | '" + ROSTCLI_REFINE_T + "' --online 2>err.txt";
+    const int rc = std::system(cmd.c_str());
+    EXPECT_EQ(WEXITSTATUS(rc), 2);
+    EXPECT_NE(readText(dir + "/err.txt").find("give -V/--vocabsize"), std::string::npos) << readText(dir + "/err.txt");
+}
+
+// A bad line mid-stream is named by its line.
+TEST_F(RostCliOnline, ABadLineIsNamedByItsLine) {
+    const std::string cmd = "cd '" + dir + "' && printf '1,2,3\\n\\n2,4,x\\n' | '" + ROSTCLI_REFINE_T +
+                            "' -V 30 --online --online.mint 1 2>err.txt";
+    const int rc = std::system(cmd.c_str());
+    EXPECT_EQ(WEXITSTATUS(rc), 2);
+    EXPECT_NE(readText(dir + "/err.txt").find("<stdin>:3:5: expected word id"), std::string::npos) << readText(dir + "/err.txt");
+    EXPECT_FALSE(fs::exists(dir + "/topics.csv"));
+}
+
+} // namespace
