@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <cmath>
 #include <filesystem>
 #include <numeric>
@@ -140,6 +142,21 @@ void checkOutputs(const std::string& dir, int frames) {
     const cv::Mat summary = cv::imread(dir + "/summary.png");
     ASSERT_FALSE(summary.empty());
     EXPECT_GE(summary.cols, 1000);
+
+    // run.txt: the refiner's busy time is its observations' (take-up to
+    // publication), within the run's, and the shares add up to 100 %.
+    double busy = -1, seconds = -1;
+    int busyPct = -1, idlePct = -1;
+    for (const auto& l : lines(readText(dir + "/run.txt"))) {
+        if (l.rfind("refiner: ", 0) != 0) continue;
+        ASSERT_EQ(std::sscanf(l.c_str(), "refiner: busy %lf s of %lf s (%d %%), idle %d %%", &busy, &seconds, &busyPct,
+                              &idlePct),
+                  4)
+            << l;
+    }
+    ASSERT_GT(busy, 0.0) << "run.txt has the refiner's line";
+    EXPECT_LE(busy, seconds * 1.001);
+    EXPECT_EQ(busyPct + idlePct, 100);
 }
 
 class ToolEndToEnd : public ::testing::Test {

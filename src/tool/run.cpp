@@ -170,8 +170,10 @@ int runCommand(const RunOptions& o) {
     sinks.overlay.close();
     const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
     const WordDrops drops = WordDrops::of(sinks.frames.ingestedWords(), sinks.collector);
+    double busy = 0.0;
+    for (const FrameRow& r : sinks.collector.rows()) busy += r.refine_ms * 1e-3;
     const RunReport report{o,        words,  engine, sinks.frames, sinks.collector.rows().size(), capture.dropped(),
-                           realtime, seconds, drops};
+                           realtime, seconds, drops, busy};
     Status st = writeResultFiles(out, sinks.collector, *engine.engine,
                                  {{"frames.csv", [&] { return sinks.frames.framesCsv(); }},
                                   {"run.txt", [&] { return report.text(); }}});

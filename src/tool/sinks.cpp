@@ -295,6 +295,13 @@ std::string RunReport::text() const {
                   static_cast<unsigned long long>(counters.refinements), static_cast<unsigned long long>(counters.tokens),
                   e.engine->memoryBytes());
     s += buf;
+    // The refiner's share of the run: each observation from its take-up to its
+    // publication (RunReport::busy); the rest it waited for frames (realtime:
+    // the camera's rate; offline: the extraction).
+    const long pct = std::lround(100.0 * std::clamp(busy / std::max(1e-9, seconds), 0.0, 1.0));
+    std::snprintf(buf, sizeof buf, "refiner: busy %.2f s of %.2f s (%ld %%), idle %ld %%\n", busy, seconds, pct,
+                  100 - pct);
+    s += buf;
     return s;
 }
 

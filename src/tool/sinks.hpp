@@ -104,6 +104,7 @@ struct RunReport {
     bool realtime = false;
     double seconds = 0.0;
     WordDrops drops;
+    double busy = 0.0;  // seconds the refiner spent on observations (take-up to publication)
     std::string text() const;
 
 private:
