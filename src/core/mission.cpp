@@ -57,7 +57,7 @@ Status fromTopicModel(const MissionOptions& m, const MissionInput& in, Config& c
     const SettingSpec& fixed = settingSpec("topicmodel.fixed");
     if (m.in_topicmodel.empty()) {
         if (c.fixed)
-            return Status::error(m.names.given(fixed, "true") + " needs " + name +
+            return Status::error(m.names.leave(fixed) + " needs " + name +
                                  " FILE: the topic model the mission is labelled in");
         return {};
     }
