@@ -70,6 +70,8 @@ public:
     const Config& config() const noexcept { return cfg_; }
     int K() const noexcept { return K_; }
     int activeTopics() const noexcept { return tables_.active; }
+    double learnedGamma() const noexcept { return gamma_learned_; }
+    uint64_t growthMovesAccepted() const noexcept { return growth_moves_; }
     bool topicCapReached() const noexcept { return cfg_.grow && tables_.active >= K_; }
     bool topicOpen(int k) const noexcept { return !cfg_.grow || (k >= 0 && k < K_ && nk_[k] > 0); }
     void outputNumbering(std::span<uint16_t> map) const noexcept;
@@ -162,9 +164,24 @@ public:
 
 private:
     std::size_t slotOf(int64_t step) const noexcept { return static_cast<std::size_t>(step % ring_); }
-    // The prior mass of opening a new topic: gamma while topics grow and
-    // there is room, else 0 (docs/design.md, "Topics that grow").
-    double freshMass() const noexcept { return cfg_.grow && tables_.active < K_ ? cfg_.gamma : 0.0; }
+    // The prior mass of opening a new topic while topics grow and there is
+    // room, else 0: with growth from the data (docs/design.md, "Growth from
+    // the data") topics open by split moves, and a word alone opens one only
+    // when no topic is open, so its weight is negligible beside any open topic's.
+    static constexpr double kFreshMass = 1e-20;
+    double freshMass() const noexcept { return cfg_.grow && tables_.active < K_ ? kFreshMass : 0.0; }
+    // Growth from the data (src/core/growth.cpp): between sweeps, a split and
+    // a merge move on the model's own tables and the concentration learned.
+    void growthMoves() noexcept;
+    bool trySplit(double gamma) noexcept;
+    bool tryMerge(double gamma) noexcept;
+    void foldTopic(int from, int into) noexcept;
+    double splitLogRatio(int a, int b, int A, double gamma) noexcept;
+    uint64_t windowTokens() noexcept;
+    void moveToken(int32_t* cellCounts, std::size_t at, int from, int to) noexcept;
+    template <typename F>
+    void forEachWindowCell(F&& f) noexcept;
+    RefineCount refineWindows(StepPicker& picker, const RefineLimits& limits) noexcept;
     int32_t* nck(std::size_t slot, int cell) noexcept {
         return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
     }
@@ -370,6 +387,9 @@ private:
     int64_t steps_ = 0;
     uint64_t tokens_refined_ = 0;
     uint64_t words_in_model_ = 0;
+    // Growth from the data: the concentration of the last move, and the moves accepted (not state).
+    double gamma_learned_ = 0.0;
+    uint64_t growth_moves_ = 0;
     bool nkv_is_window_ = true;  // false once counts outside the window (prior, kept evictions) exist
     std::size_t memory_bytes_ = 0;
 

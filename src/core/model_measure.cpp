@@ -95,7 +95,7 @@ double ModelCore::logProbLeftOut(uint32_t v, int z, const int32_t* nG, int32_t n
     double fresh = freshMass();
     if (cfg_.grow && z >= 0 && nk_[z] == 1) {
         --A;
-        fresh = cfg_.gamma;
+        fresh = kFreshMass;
     }
     for (int k = 0; k < K_; ++k) p += (row[k] + cfg_.beta) * r.inv[k] * (nG[k] + cfg_.alpha);
     p += fresh / V_;

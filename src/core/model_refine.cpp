@@ -7,6 +7,7 @@
 
 #include "kernel.hpp"
 #include "kernel_fixed.hpp"
+#include "refine_windows.hpp"
 
 namespace rost {
 
@@ -111,6 +112,36 @@ uint32_t ModelCore::wordsInStep(int64_t step) const noexcept {
     uint32_t total = 0;
     for (int c = 0; c < cells_; ++c) total += cell_n_[slot * cells_ + c];
     return total;
+}
+
+// With growth, the moves of growth from the data follow refinement each time
+// it crosses a multiple of the model's words (about a sweep's worth of
+// tokens: src/core/growth.cpp), so a realtime refiner grows its topics too.
+RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
+    const uint64_t before = tokens_refined_;
+    const RefineCount rc = refineWindows(picker, limits);
+    const uint64_t every = words_in_model_;
+    if (cfg_.grow && every > 0 && before / every != tokens_refined_ / every) growthMoves();
+    return rc;
+}
+
+// Whole sweeps of the window; with growth, the moves follow every sweep.
+uint64_t ModelCore::refineAll(int sweeps) noexcept {
+    if (sweeps <= 0 || steps_ == 0) return 0;
+    const uint64_t stepsPerSweep = static_cast<uint64_t>(steps_ - oldestStep());
+    SweepPicker picker(oldestStep(), steps_);
+    RefineLimits limits;
+    if (!cfg_.grow || cfg_.fixed) {
+        limits.steps = static_cast<uint64_t>(sweeps) * stepsPerSweep;
+        return refineWindows(picker, limits).tokens;
+    }
+    uint64_t tokens = 0;
+    limits.steps = stepsPerSweep;
+    for (int i = 0; i < sweeps; ++i) {
+        tokens += refineWindows(picker, limits).tokens;
+        growthMoves();
+    }
+    return tokens;
 }
 
 } // namespace rost

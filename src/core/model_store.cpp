@@ -47,7 +47,7 @@ ModelCore::ModelCore(const Config& config) : cfg_(config), rng_(config.seed) {
     tables_.inc = inv_inc_.data();
     tables_.K = K_;
     tables_.grow = cfg_.grow;
-    tables_.fresh = cfg_.grow ? static_cast<float>(cfg_.gamma / V_) : 0.f;
+    tables_.fresh = cfg_.grow ? static_cast<float>(kFreshMass / V_) : 0.f;
     tables_.Kp = Kp_;
     tables_.alpha = alpha_f_;
     tables_.beta = beta_f_;

@@ -72,24 +72,6 @@ struct ModelCore::CopyJob final : detail::WorkerPool::Job {
     }
 };
 
-namespace {
-
-// A step picker over every step of a window in order, `sweeps` times.
-class SweepPicker final : public StepPicker {
-public:
-    SweepPicker(int64_t first, int64_t end) noexcept : first_(first), end_(end), t_(first) {}
-    int64_t next() noexcept override {
-        const int64_t t = t_;
-        t_ = t_ + 1 < end_ ? t_ + 1 : first_;
-        return t;
-    }
-
-private:
-    int64_t first_, end_, t_;
-};
-
-} // namespace
-
 ModelCore::~ModelCore() = default;
 
 int ModelCore::threads() const noexcept { return pool_ ? pool_->workers() : 1; }
@@ -644,7 +626,7 @@ bool ModelCore::refineParallelWindow(const RefineLimits& limits, RefineCount& rc
     return go;
 }
 
-RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
+RefineCount ModelCore::refineWindows(StepPicker& picker, const RefineLimits& limits) noexcept {
     RefineCount rc;
     if (steps_ == 0) return rc;
     Windows& w = *win_;
@@ -692,14 +674,6 @@ RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) no
     w.limits = nullptr;
     w.count = nullptr;
     return rc;
-}
-
-uint64_t ModelCore::refineAll(int sweeps) noexcept {
-    if (sweeps <= 0 || steps_ == 0) return 0;
-    SweepPicker picker(oldestStep(), steps_);
-    RefineLimits limits;
-    limits.steps = static_cast<uint64_t>(sweeps) * static_cast<uint64_t>(steps_ - oldestStep());
-    return refine(picker, limits).tokens;
 }
 
 } // namespace rost

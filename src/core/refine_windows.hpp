@@ -12,6 +12,21 @@
 
 namespace rost {
 
+// A step picker over every step of a window in order, `sweeps` times.
+class SweepPicker final : public StepPicker {
+public:
+    SweepPicker(int64_t first, int64_t end) noexcept : first_(first), end_(end), t_(first) {}
+    int64_t next() noexcept override {
+        const int64_t t = t_;
+        t_ = t_ + 1 < end_ ? t_ + 1 : first_;
+        return t;
+    }
+
+private:
+    int64_t first_, end_, t_;
+};
+
+
 // A window's plan: its picks, its tasks (cells) and rounds, its key.
 // Two plans: with workers and a budget known in advance, the next
 // window is planned by a task of the current window's last round while

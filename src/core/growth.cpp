@@ -1,0 +1,289 @@
+// Growth from the data (docs/design.md, "Growth from the data"): between
+// sweeps, on the model's own tables, a split move and a merge move whose
+// acceptance weighs the whole window's counts, and the concentration gamma
+// learned from the open topics (Escobar and West). Serial and drawn from the
+// model's Rng, so the same seed gives the same topics on any number of threads.
+
+#include <cmath>
+#include <cstdint>
+
+#include "concentration.hpp"
+#include "kernel.hpp"
+#include "model_core.hpp"
+
+namespace rost {
+
+namespace {
+
+// A token taken out of its topic while a split is drawn (no topic has this label: K <= 1024).
+constexpr uint16_t kLimbo = 0xFFFF;
+// Restricted Gibbs scans of a split's two topics after their sequential
+// allocation: of whole cells, then of single tokens.
+constexpr int kSplitScans = 2;
+constexpr int kTokenScans = 2;
+// Escobar and West's chain, run from the given gamma at every move: long
+// enough to forget its start (each step draws from the posterior's mixture).
+constexpr int kConcentrationSteps = 20;
+
+double lg(double x) noexcept { return std::lgamma(x); }
+
+} // namespace
+
+template <typename F>
+void ModelCore::forEachWindowCell(F&& f) noexcept {
+    for (int64_t step = oldestStep(); step < steps_; ++step) {
+        const std::size_t slot = slotOf(step);
+        for (int c = 0; c < cells_; ++c) {
+            const uint32_t n = cell_n_[slot * cells_ + c];
+            if (n > 0) f(nck(slot, c), (slot * cells_ + static_cast<std::size_t>(c)) * cap_, n);
+        }
+    }
+}
+
+void ModelCore::moveToken(int32_t* cellCounts, std::size_t at, int from, int to) noexcept {
+    const std::size_t row = static_cast<std::size_t>(cell_words_[at]) * Kp_;
+    if (from >= 0) {
+        --nkv_[row + from];
+        --nk_[from];
+        --cellCounts[from];
+    }
+    if (to >= 0) {
+        ++nkv_[row + to];
+        ++nk_[to];
+        ++cellCounts[to];
+    }
+    cell_z_[at] = static_cast<uint16_t>(to >= 0 ? to : kLimbo);
+}
+
+// log p(topics a and b apart) - log p(a and b one topic), on the current
+// counts (a and b apart), with `A` topics open once they are one. The joint
+// is the collapsed one of a window of cells: each open topic's words
+// Dirichlet(beta), each cell's topics Dirichlet(alpha) over the open topics,
+// and the open topics a Dirichlet process of concentration gamma over the
+// cells that use them (tables, as in an HDP: a cell uses a topic or not).
+double ModelCore::splitLogRatio(int a, int b, int A, double gamma) noexcept {
+    const double beta = cfg_.beta, alpha = cfg_.alpha, vb = V_ * cfg_.beta;
+    const double lgBeta = lg(beta), lgAlpha = lg(alpha);
+    double d = 0.0;
+    for (int v = 0; v < V_; ++v) {
+        const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+        const int32_t na = row[a], nb = row[b];
+        if ((na | nb) == 0) continue;
+        d += lg(na + beta) + lg(nb + beta) - lg(na + nb + beta) - lgBeta;
+    }
+    const double Na = nk_[a], Nb = nk_[b];
+    d += lg(vb) - lg(Na + vb) - lg(Nb + vb) + lg(Na + Nb + vb);
+    const double aJoint = A * alpha, aSplit = (A + 1) * alpha;
+    const double lgJoint = lg(aJoint), lgSplit = lg(aSplit);
+    uint64_t ma = 0, mb = 0, mBoth = 0, mOthers = 0;
+    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t n) {
+        const int32_t ca = g[a], cb = g[b];
+        if ((ca | cb) != 0) d += lg(ca + alpha) + lg(cb + alpha) - lg(ca + cb + alpha) - lgAlpha;
+        d += lgSplit - lg(n + aSplit) - lgJoint + lg(n + aJoint);
+        ma += ca > 0;
+        mb += cb > 0;
+        mBoth += ca > 0 && cb > 0;
+        for (int k = 0; k < K_; ++k) mOthers += k != a && k != b && g[k] > 0;
+    });
+    // The tables' Dirichlet process: gamma^topics * prod Gamma(m_k) / Gamma(gamma + M)... / Gamma(gamma).
+    const double mJoint = static_cast<double>(ma + mb - mBoth);
+    const double M = static_cast<double>(mOthers) + mJoint;
+    d += std::log(gamma);
+    if (ma > 0) d += lg(static_cast<double>(ma));
+    if (mb > 0) d += lg(static_cast<double>(mb));
+    if (mJoint > 0) d -= lg(mJoint);
+    d += lg(gamma + M) - lg(gamma + M + static_cast<double>(mBoth));
+    return d;
+}
+
+uint64_t ModelCore::windowTokens() noexcept {
+    uint64_t n = 0;
+    forEachWindowCell([&](const int32_t*, std::size_t, uint32_t c) { n += c; });
+    return n;
+}
+
+// Topic k's tokens in the window split into k and the lowest closed label:
+// anchors i (stays in k) and j (goes to the new topic), the others taken out
+// and put back in window order, each drawn between the two from the counts so
+// far (sequential allocation), then restricted Gibbs scans; accepted with
+// probability min(1, joint ratio), else the new topic folds back into k.
+bool ModelCore::trySplit(double gamma) noexcept {
+    const uint64_t N = windowTokens();
+    const int s = tables_.slot;
+    if (N < 2 || s >= K_) return false;
+    const uint64_t pick = static_cast<uint64_t>(rng_.uniformDouble() * static_cast<double>(N));
+    std::size_t anchorI = 0, baseI = 0, baseJ = 0;
+    uint32_t nI = 0, nJ = 0;
+    int32_t* cellI = nullptr;
+    int k = -1;
+    uint64_t seen = 0, inK = 0;
+    forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        if (k < 0 && pick < seen + n) {
+            anchorI = base + (pick - seen);
+            k = cell_z_[anchorI];
+            cellI = g;
+            baseI = base;
+            nI = n;
+        }
+        seen += n;
+    });
+    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t) { inK += static_cast<uint64_t>(g[k]); });
+    if (inK < 2) return false;
+    // Anchor j: one of k's other tokens, uniformly.
+    const uint64_t pickJ = static_cast<uint64_t>(rng_.uniformDouble() * static_cast<double>(inK - 1));
+    std::size_t anchorJ = 0;
+    int32_t* cellJ = nullptr;
+    seen = 0;
+    forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        for (uint32_t i = 0; i < n; ++i) {
+            const std::size_t at = base + i;
+            if (cell_z_[at] != k || at == anchorI) continue;
+            if (seen++ == pickJ) {
+                anchorJ = at;
+                cellJ = g;
+                baseJ = base;
+                nJ = n;
+            }
+            moveToken(g, at, k, -1);  // out of k: limbo
+        }
+    });
+    moveToken(cellJ, anchorJ, -1, s);
+    const double alpha = cfg_.alpha, beta = cfg_.beta, vb = V_ * cfg_.beta;
+    // A cell's tokens of the split, all to side x: the log of their
+    // sequential predictive under x's words. `lift` takes them out again.
+    auto place = [&](int32_t* g, std::size_t base, uint32_t n, int x) {
+        double lp = 0.0;
+        for (uint32_t i = 0; i < n; ++i) {
+            const std::size_t at = base + i;
+            if (cell_z_[at] != kLimbo) continue;
+            const std::size_t row = static_cast<std::size_t>(cell_words_[at]) * Kp_;
+            lp += std::log((nkv_[row + x] + beta) / (nk_[x] + vb));
+            moveToken(g, at, -1, x);
+        }
+        return lp;
+    };
+    auto lift = [&](int32_t* g, std::size_t base, uint32_t n) {
+        for (uint32_t i = 0; i < n; ++i) {
+            const std::size_t at = base + i;
+            const int z = cell_z_[at];
+            if ((z == k || z == s) && at != anchorI && at != anchorJ) moveToken(g, at, z, -1);
+        }
+    };
+    // Cells as blocks first (a cell's tokens keep together under alpha, so
+    // single tokens could not carry a cell over): the anchors' cells start
+    // the two sides, then every cell in window order, then Gibbs scans of
+    // the cells; a side weighs its cells (m + 1) times its words' predictive.
+    double cellsOn[2] = {0.0, 0.0};
+    auto chooseCell = [&](int32_t* g, std::size_t base, uint32_t n, bool counted, int was) {
+        if (counted) cellsOn[was == s] -= 1.0;
+        const double lk = place(g, base, n, k) + std::log(cellsOn[0] + 1.0);
+        lift(g, base, n);
+        const double ls = place(g, base, n, s) + std::log(cellsOn[1] + 1.0);
+        lift(g, base, n);
+        const double pk = 1.0 / (1.0 + std::exp(ls - lk));
+        const int x = rng_.uniformDouble() < pk ? k : s;
+        place(g, base, n, x);
+        cellsOn[x == s] += 1.0;
+    };
+    place(cellJ, baseJ, nJ, s);
+    place(cellI, baseI, nI, k);
+    forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        bool any = false;
+        for (uint32_t i = 0; i < n && !any; ++i) any = cell_z_[base + i] == kLimbo;
+        if (any) chooseCell(g, base, n, false, k);
+    });
+    for (int scan = 0; scan < kSplitScans; ++scan) {
+        forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+            if (g[k] == 0 && g[s] == 0) return;
+            const int was = g[s] > g[k] ? s : k;
+            lift(g, base, n);
+            chooseCell(g, base, n, true, was);
+        });
+    }
+    // Then single tokens between the two sides.
+    auto draw = [&](int32_t* g, std::size_t at) {
+        const std::size_t row = static_cast<std::size_t>(cell_words_[at]) * Kp_;
+        const double wk = (g[k] + alpha) * (nkv_[row + k] + beta) / (nk_[k] + vb);
+        const double ws = (g[s] + alpha) * (nkv_[row + s] + beta) / (nk_[s] + vb);
+        return rng_.uniformDouble() * (wk + ws) < wk ? k : s;
+    };
+    for (int scan = 0; scan < kTokenScans; ++scan) {
+        forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+            for (uint32_t i = 0; i < n; ++i) {
+                const std::size_t at = base + i;
+                const int z = cell_z_[at];
+                if ((z != k && z != s) || at == anchorI || at == anchorJ) continue;
+                moveToken(g, at, z, -1);
+                moveToken(g, at, -1, draw(g, at));
+            }
+        });
+    }
+    const double logRatio = splitLogRatio(k, s, tables_.active, gamma);
+    const double u = rng_.uniformDouble();
+    if (u > 0.0 && std::log(u) < logRatio) return true;
+    foldTopic(s, k);
+    return false;
+}
+
+// Every count and label of topic `from` moves to topic `into`, which stays open.
+void ModelCore::foldTopic(int from, int into) noexcept {
+    for (int v = 0; v < V_; ++v) {
+        int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
+        row[into] += row[from];
+        row[from] = 0;
+    }
+    nk_[into] += nk_[from];
+    nk_[from] = 0;
+    forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        if (g[from] == 0) return;
+        g[into] += g[from];
+        g[from] = 0;
+        for (uint32_t i = 0; i < n; ++i)
+            if (cell_z_[base + i] == from) cell_z_[base + i] = static_cast<uint16_t>(into);
+    });
+}
+
+// Two open topics drawn uniformly become one (the lower label) with
+// probability min(1, joint ratio).
+bool ModelCore::tryMerge(double gamma) noexcept {
+    const int A = tables_.active;
+    if (A < 2) return false;
+    const auto first = static_cast<int>(rng_.below(static_cast<uint32_t>(A)));
+    auto second = static_cast<int>(rng_.below(static_cast<uint32_t>(A - 1)));
+    if (second >= first) ++second;
+    int a = -1, b = -1;
+    for (int k = 0, seen = 0; k < K_; ++k) {
+        if (nk_[k] == 0) continue;
+        if (seen == first) a = k;
+        if (seen == second) b = k;
+        ++seen;
+    }
+    if (a > b) std::swap(a, b);
+    const double logRatio = -splitLogRatio(a, b, A - 1, gamma);
+    const double u = rng_.uniformDouble();
+    if (!(u > 0.0 && std::log(u) < logRatio)) return false;
+    foldTopic(b, a);
+    return true;
+}
+
+void ModelCore::growthMoves() noexcept {
+    if (!cfg_.grow || cfg_.fixed || steps_ == 0 || tables_.active == 0) return;
+    // The concentration from the data: Escobar and West's chain given the
+    // open topics and the cells that use them, from the setting's gamma.
+    uint64_t tablesUsed = 0;
+    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t) {
+        for (int k = 0; k < tables_.hi; ++k) tablesUsed += g[k] > 0;
+    });
+    double gamma = cfg_.gamma;
+    for (int i = 0; i < kConcentrationSteps; ++i)
+        gamma = concentration::resample(gamma, tables_.active, tablesUsed, rng_);
+    gamma_learned_ = gamma;
+    bool changed = trySplit(gamma);
+    kernel::updateTopics(tables_);
+    changed |= tryMerge(gamma);
+    if (changed) ++growth_moves_;
+    kernel::refreshReciprocals(tables_);
+    kernel::updateTopics(tables_);
+}
+
+} // namespace rost
