@@ -121,8 +121,8 @@ TEST(TopicGrowth, SameResultOnAnyNumberOfThreads) {
 
 // The plug-in perplexity (the 2013 ROST code's) with topics that grow and A
 // open topics of K: theta_c over the open topics and the chance of a new one,
-// (n_c^k + alpha) / (n_c + A alpha + gamma) and gamma / (n_c + A alpha +
-// gamma) with its words uniform, rebuilt here from the model's public counts.
+// (n_c^k + alpha) / (n_c + A alpha + f) and f / (n_c + A alpha + f) with its
+// words uniform (f = kGrowthFreshMass), rebuilt here from the model's public counts.
 TEST(TopicGrowth, PluginPerplexityNormalisesOverTheOpenTopics) {
     rost::Config c;
     c.K = 12;
@@ -151,10 +151,10 @@ TEST(TopicGrowth, PluginPerplexityNormalisesOverTheOpenTopics) {
         m.observationWords(static_cast<uint64_t>(t), words);
         const auto h = m.cellHistogram(t, 0);
         const double n = static_cast<double>(m.cellWordCount(t, 0));
-        const double norm = n + A * c.alpha + c.gamma;
+        const double norm = n + A * c.alpha + rost::kGrowthFreshMass;
         double nll = 0.0;
         for (uint32_t v : words) {
-            double pw = c.gamma / norm / c.V;
+            double pw = rost::kGrowthFreshMass / norm / c.V;
             for (int k = 0; k < c.K; ++k)
                 if (m.topicOpen(k))
                     pw += (m.topicWordCount(k, static_cast<int>(v)) + c.beta) / (m.topicCount(k) + c.V * c.beta) *

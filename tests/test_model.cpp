@@ -225,7 +225,7 @@ TEST(ModelIngest, GivenInitialLabelsAreTheSamplesAndCountOnce) {
 // rebuilt from the public counts of a one-cell, one-step model (G(c) is the
 // cell): n'_k^v = n_k^v - [k = z, v = wi], n'_k = n_k - [k = z], n'_G^k =
 // n_G^k - [k = z]; a topic is open while n'_k > 0 (growth; all K otherwise),
-// A' open ones, and a new topic takes gamma / V while A' < K (growth):
+// A' open ones, and a new topic takes kGrowthFreshMass / V while A' < K (growth):
 //   p(v) = (sum_k open (n'_k^v + beta) / (n'_k + V beta) (n'_G^k + alpha) + fresh / V)
 //          / (n'_G + A' alpha + fresh).
 double leftOutConditional(const rost::Model& m, uint32_t v, uint32_t wi, int z) {
@@ -242,7 +242,7 @@ double leftOutConditional(const rost::Model& m, uint32_t v, uint32_t wi, int z) 
         const double nkv = m.topicWordCount(k, static_cast<int>(v)) - (k == z && v == wi ? 1 : 0);
         num += (nkv + c.beta) / (nk + c.V * c.beta) * (nG + c.alpha);
     }
-    const double fresh = c.grow && open < c.K ? c.gamma : 0.0;
+    const double fresh = c.grow && open < c.K ? rost::kGrowthFreshMass : 0.0;
     return (num + fresh / c.V) / (gsum + open * c.alpha + fresh);
 }
 

@@ -662,9 +662,10 @@ TEST(GrowthConditional, NewTopicDrawsWithWeightGammaOverVInTheLaneOrder) {
 // above set the kernel's tables by hand): a one-word cell beside a cell of
 // 40 words, G(c) = c (g.space 0, one step), so with the word left out its
 // law over the open topics B = {0..|B|-1} and a new topic |B| is
-//   p_k ∝ (n'_k^v + beta) / (n'_k + V beta) * alpha,   p_new ∝ gamma / V,
-// the same for every draw (only the word moves). Two gammas, both kernel paths.
-TEST(GrowthConditional, AModelsGammaAndVGiveTheNewTopicItsWeight) {
+//   p_k ∝ (n'_k^v + beta) / (n'_k + V beta) * alpha,   p_new ∝ kGrowthFreshMass / V,
+// the same for every draw (only the word moves): gamma no longer weighs a
+// word's new topic (topics open by split moves). Two gammas, both kernel paths.
+TEST(GrowthConditional, AModelsNewTopicWeighsTheFreshMassOverVForAnyGamma) {
     for (const double gamma : {0.05, 1.5}) {
         rost::Config c;
         c.K = 12;
@@ -710,8 +711,8 @@ TEST(GrowthConditional, AModelsGammaAndVGiveTheNewTopicItsWeight) {
                                                (m.topicCount(k) - drop + c.V * c.beta) * c.alpha;
             total += law[static_cast<std::size_t>(k)];
         }
-        law[static_cast<std::size_t>(B)] = gamma / c.V;
-        total += gamma / c.V;
+        law[static_cast<std::size_t>(B)] = rost::kGrowthFreshMass / c.V;
+        total += rost::kGrowthFreshMass / c.V;
         for (double& x : law) x /= total;
         for (const Path path : {Path::Simd, Path::Scalar}) {
             m.setKernelPath(path);

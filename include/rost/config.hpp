@@ -15,6 +15,12 @@ enum class EvictionPolicy : uint8_t {
     Subtract,  // its counts are removed: the model describes the window only
 };
 
+// With growth, the prior mass of a word opening a topic alone (its words
+// uniform, so weight kGrowthFreshMass / V): negligible beside any open
+// topic's, so a word opens one only when no topic is open; topics open by
+// the split moves (docs/design.md, "Growth from the data").
+inline constexpr double kGrowthFreshMass = 1e-20;
+
 // Every size and hyperparameter of a model. All memory is sized from this at
 // construction and never grows afterwards. Defaults, ranges and documentation
 // are the settings schema's (rost/settings_schema.hpp), by key.
@@ -24,8 +30,10 @@ struct Config {
     int V = settingDefault<int>("V");                // vocabulary size
     double alpha = settingDefault<double>("alpha");  // Dirichlet prior on a neighbourhood's topics
     double beta = settingDefault<double>("beta");    // Dirichlet prior on a topic's words
-    // Topic growth (docs/design.md, "Topics that grow"): K is the cap, topics
-    // 0..A-1 are active, and a word opens topic A with weight gamma / V.
+    // Topic growth (docs/design.md, "Topics that grow" and "Growth from the
+    // data"): K is the cap; topics open by split moves between sweeps and
+    // close by merges or when they lose their last word. gamma is the
+    // starting value of the concentration the moves learn from the data.
     bool grow = settingDefault<bool>("topics.grow");
     double gamma = settingDefault<double>("gamma");
     // A fixed topic model (docs/design.md, "A fixed topic model"): n_k^v and

@@ -102,126 +102,150 @@ uint64_t ModelCore::windowTokens() noexcept {
     return n;
 }
 
-// Topic k's tokens in the window split into k and the lowest closed label:
-// anchors i (stays in k) and j (goes to the new topic), the others taken out
-// and put back in window order, each drawn between the two from the counts so
-// far (sequential allocation), then restricted Gibbs scans; accepted with
-// probability min(1, joint ratio), else the new topic folds back into k.
-bool ModelCore::trySplit(double gamma) noexcept {
-    const uint64_t N = windowTokens();
-    const int s = tables_.slot;
-    if (N < 2 || s >= K_) return false;
-    const uint64_t pick = static_cast<uint64_t>(rng_.uniformDouble() * static_cast<double>(N));
-    std::size_t anchorI = 0, baseI = 0, baseJ = 0;
+// A split proposal of topic k into k and s (the lowest closed label), drawn
+// on the model's tables: anchors i (stays in k) and j (goes to s); every
+// other token of k is taken out (limbo), then put back cell by cell.
+struct ModelCore::Split {
+    ModelCore& m;
+    int k = -1, s = -1;
+    std::size_t anchorI = 0, anchorJ = 0;
+    double cellsOn[2] = {0.0, 0.0};  // cells on each side (the allocation's prior)
+
+    bool member(std::size_t at) const noexcept {
+        const int z = m.cell_z_[at];
+        return (z == k || z == s) && at != anchorI && at != anchorJ;
+    }
+    // A cell's tokens in limbo, all to side x: the log of their sequential
+    // predictive under x's words.
+    double place(int32_t* g, std::size_t base, uint32_t n, int x) noexcept {
+        double lp = 0.0;
+        const double beta = m.cfg_.beta, vb = m.V_ * m.cfg_.beta;
+        for (uint32_t i = 0; i < n; ++i) {
+            const std::size_t at = base + i;
+            if (m.cell_z_[at] != kLimbo) continue;
+            const std::size_t row = static_cast<std::size_t>(m.cell_words_[at]) * m.Kp_;
+            lp += std::log((m.nkv_[row + x] + beta) / (m.nk_[x] + vb));
+            m.moveToken(g, at, -1, x);
+        }
+        return lp;
+    }
+    void lift(int32_t* g, std::size_t base, uint32_t n) noexcept {
+        for (uint32_t i = 0; i < n; ++i)
+            if (member(base + i)) m.moveToken(g, base + i, m.cell_z_[base + i], -1);
+    }
+    // A cell's tokens of the split (in limbo) drawn to one side as a block:
+    // a side weighs (its cells + 1) times its words' predictive.
+    void chooseCell(int32_t* g, std::size_t base, uint32_t n) noexcept {
+        const double lk = place(g, base, n, k) + std::log(cellsOn[0] + 1.0);
+        lift(g, base, n);
+        const double ls = place(g, base, n, s) + std::log(cellsOn[1] + 1.0);
+        lift(g, base, n);
+        const double pk = 1.0 / (1.0 + std::exp(ls - lk));
+        const int x = m.rng_.uniformDouble() < pk ? k : s;
+        place(g, base, n, x);
+        cellsOn[x == s] += 1.0;
+    }
+    // One token of the split between the two sides.
+    int draw(const int32_t* g, std::size_t at) noexcept {
+        const double alpha = m.cfg_.alpha, beta = m.cfg_.beta, vb = m.V_ * m.cfg_.beta;
+        const std::size_t row = static_cast<std::size_t>(m.cell_words_[at]) * m.Kp_;
+        const double wk = (g[k] + alpha) * (m.nkv_[row + k] + beta) / (m.nk_[k] + vb);
+        const double ws = (g[s] + alpha) * (m.nkv_[row + s] + beta) / (m.nk_[s] + vb);
+        return m.rng_.uniformDouble() * (wk + ws) < wk ? k : s;
+    }
+    bool anchors() noexcept;
+    void allocate() noexcept;
+};
+
+// Anchor i uniformly over the window's tokens (its topic is k), anchor j
+// uniformly over k's others; every other token of k to limbo, j to s, and
+// the anchors' cells to their sides. False when there is nothing to split.
+bool ModelCore::Split::anchors() noexcept {
+    const uint64_t N = m.windowTokens();
+    s = m.tables_.slot;
+    if (N < 2 || s >= m.K_) return false;
+    const uint64_t pick = static_cast<uint64_t>(m.rng_.uniformDouble() * static_cast<double>(N));
+    std::size_t baseI = 0, baseJ = 0;
     uint32_t nI = 0, nJ = 0;
-    int32_t* cellI = nullptr;
-    int k = -1;
+    int32_t *cellI = nullptr, *cellJ = nullptr;
     uint64_t seen = 0, inK = 0;
-    forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+    m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
         if (k < 0 && pick < seen + n) {
             anchorI = base + (pick - seen);
-            k = cell_z_[anchorI];
+            k = m.cell_z_[anchorI];
             cellI = g;
             baseI = base;
             nI = n;
         }
         seen += n;
     });
-    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t) { inK += static_cast<uint64_t>(g[k]); });
+    m.forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t) { inK += static_cast<uint64_t>(g[k]); });
     if (inK < 2) return false;
-    // Anchor j: one of k's other tokens, uniformly.
-    const uint64_t pickJ = static_cast<uint64_t>(rng_.uniformDouble() * static_cast<double>(inK - 1));
-    std::size_t anchorJ = 0;
-    int32_t* cellJ = nullptr;
+    const uint64_t pickJ = static_cast<uint64_t>(m.rng_.uniformDouble() * static_cast<double>(inK - 1));
     seen = 0;
-    forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+    m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
         for (uint32_t i = 0; i < n; ++i) {
             const std::size_t at = base + i;
-            if (cell_z_[at] != k || at == anchorI) continue;
+            if (m.cell_z_[at] != k || at == anchorI) continue;
             if (seen++ == pickJ) {
                 anchorJ = at;
                 cellJ = g;
                 baseJ = base;
                 nJ = n;
             }
-            moveToken(g, at, k, -1);  // out of k: limbo
+            m.moveToken(g, at, k, -1);  // out of k: limbo
         }
     });
-    moveToken(cellJ, anchorJ, -1, s);
-    const double alpha = cfg_.alpha, beta = cfg_.beta, vb = V_ * cfg_.beta;
-    // A cell's tokens of the split, all to side x: the log of their
-    // sequential predictive under x's words. `lift` takes them out again.
-    auto place = [&](int32_t* g, std::size_t base, uint32_t n, int x) {
-        double lp = 0.0;
-        for (uint32_t i = 0; i < n; ++i) {
-            const std::size_t at = base + i;
-            if (cell_z_[at] != kLimbo) continue;
-            const std::size_t row = static_cast<std::size_t>(cell_words_[at]) * Kp_;
-            lp += std::log((nkv_[row + x] + beta) / (nk_[x] + vb));
-            moveToken(g, at, -1, x);
-        }
-        return lp;
-    };
-    auto lift = [&](int32_t* g, std::size_t base, uint32_t n) {
-        for (uint32_t i = 0; i < n; ++i) {
-            const std::size_t at = base + i;
-            const int z = cell_z_[at];
-            if ((z == k || z == s) && at != anchorI && at != anchorJ) moveToken(g, at, z, -1);
-        }
-    };
-    // Cells as blocks first (a cell's tokens keep together under alpha, so
-    // single tokens could not carry a cell over): the anchors' cells start
-    // the two sides, then every cell in window order, then Gibbs scans of
-    // the cells; a side weighs its cells (m + 1) times its words' predictive.
-    double cellsOn[2] = {0.0, 0.0};
-    auto chooseCell = [&](int32_t* g, std::size_t base, uint32_t n, bool counted, int was) {
-        if (counted) cellsOn[was == s] -= 1.0;
-        const double lk = place(g, base, n, k) + std::log(cellsOn[0] + 1.0);
-        lift(g, base, n);
-        const double ls = place(g, base, n, s) + std::log(cellsOn[1] + 1.0);
-        lift(g, base, n);
-        const double pk = 1.0 / (1.0 + std::exp(ls - lk));
-        const int x = rng_.uniformDouble() < pk ? k : s;
-        place(g, base, n, x);
-        cellsOn[x == s] += 1.0;
-    };
+    m.moveToken(cellJ, anchorJ, -1, s);
     place(cellJ, baseJ, nJ, s);
     place(cellI, baseI, nI, k);
-    forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+    cellsOn[cellJ[s] > cellJ[k]] += 1.0;
+    if (cellI != cellJ) cellsOn[cellI[s] > cellI[k]] += 1.0;
+    return true;
+}
+
+// Cells as blocks first (a cell's tokens keep together under alpha, so
+// single tokens could not carry a cell over): every cell in window order
+// (sequential allocation), then Gibbs scans of the cells; then restricted
+// Gibbs scans of single tokens.
+void ModelCore::Split::allocate() noexcept {
+    m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
         bool any = false;
-        for (uint32_t i = 0; i < n && !any; ++i) any = cell_z_[base + i] == kLimbo;
-        if (any) chooseCell(g, base, n, false, k);
+        for (uint32_t i = 0; i < n && !any; ++i) any = m.cell_z_[base + i] == kLimbo;
+        if (any) chooseCell(g, base, n);
     });
     for (int scan = 0; scan < kSplitScans; ++scan) {
-        forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
             if (g[k] == 0 && g[s] == 0) return;
-            const int was = g[s] > g[k] ? s : k;
+            double& on = cellsOn[g[s] > g[k]];
+            on = on > 0.0 ? on - 1.0 : 0.0;
             lift(g, base, n);
-            chooseCell(g, base, n, true, was);
+            chooseCell(g, base, n);
         });
     }
-    // Then single tokens between the two sides.
-    auto draw = [&](int32_t* g, std::size_t at) {
-        const std::size_t row = static_cast<std::size_t>(cell_words_[at]) * Kp_;
-        const double wk = (g[k] + alpha) * (nkv_[row + k] + beta) / (nk_[k] + vb);
-        const double ws = (g[s] + alpha) * (nkv_[row + s] + beta) / (nk_[s] + vb);
-        return rng_.uniformDouble() * (wk + ws) < wk ? k : s;
-    };
     for (int scan = 0; scan < kTokenScans; ++scan) {
-        forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
             for (uint32_t i = 0; i < n; ++i) {
                 const std::size_t at = base + i;
-                const int z = cell_z_[at];
-                if ((z != k && z != s) || at == anchorI || at == anchorJ) continue;
-                moveToken(g, at, z, -1);
-                moveToken(g, at, -1, draw(g, at));
+                if (!member(at)) continue;
+                m.moveToken(g, at, m.cell_z_[at], -1);
+                m.moveToken(g, at, -1, draw(g, at));
             }
         });
     }
-    const double logRatio = splitLogRatio(k, s, tables_.active, gamma);
+}
+
+// Topic k's tokens in the window split into k and a new topic (Split), the
+// proposal accepted with probability min(1, joint ratio), else the new topic
+// folds back into k.
+bool ModelCore::trySplit(double gamma) noexcept {
+    Split split{*this};
+    if (!split.anchors()) return false;
+    split.allocate();
+    const double logRatio = splitLogRatio(split.k, split.s, tables_.active, gamma);
     const double u = rng_.uniformDouble();
     if (u > 0.0 && std::log(u) < logRatio) return true;
-    foldTopic(s, k);
+    foldTopic(split.s, split.k);
     return false;
 }
 

@@ -168,11 +168,12 @@ private:
     // room, else 0: with growth from the data (docs/design.md, "Growth from
     // the data") topics open by split moves, and a word alone opens one only
     // when no topic is open, so its weight is negligible beside any open topic's.
-    static constexpr double kFreshMass = 1e-20;
+    static constexpr double kFreshMass = kGrowthFreshMass;
     double freshMass() const noexcept { return cfg_.grow && tables_.active < K_ ? kFreshMass : 0.0; }
     // Growth from the data (src/core/growth.cpp): between sweeps, a split and
     // a merge move on the model's own tables and the concentration learned.
     void growthMoves() noexcept;
+    struct Split;
     bool trySplit(double gamma) noexcept;
     bool tryMerge(double gamma) noexcept;
     void foldTopic(int from, int into) noexcept;
