@@ -240,6 +240,9 @@ void runThreaded(Budget b, DropPolicy drop, int threads = 1, bool grow = false) 
     EXPECT_GT(k.ingested, 3000u) << "thousands of observations went through";
     EXPECT_GT(reads, 0u);
     EXPECT_GT(accepted, 0u);
+    if (grow) {
+        EXPECT_GT(e.model().growthMovesAccepted(), 0u) << "split and merge moves ran on the refiner";
+    }
 }
 
 TEST(NoMalloc, ThreadedEngineMakesNoAllocationAfterStartWithAStepBudget) {

@@ -142,6 +142,11 @@ public:
     int activeTopics() const noexcept;
     // True when topics grow and every one of the K topics is open.
     bool topicCapReached() const noexcept;
+    // Growth from the data (docs/design.md): the split and merge moves
+    // accepted so far in this process (not checkpointed), and the
+    // concentration gamma the last moves used (0 before the first).
+    uint64_t growthMovesAccepted() const noexcept;
+    double learnedGamma() const noexcept;
     // Whether topic k is open (holds a word; always, without growth).
     bool topicOpen(int k) const noexcept;
     // Output numbering of the topics (docs/design.md, "Topics that grow"):

@@ -115,32 +115,37 @@ struct ModelCore::Split {
         const int z = m.cell_z_[at];
         return (z == k || z == s) && at != anchorI && at != anchorJ;
     }
-    // A cell's tokens in limbo, all to side x: the log of their sequential
-    // predictive under x's words.
-    double place(int32_t* g, std::size_t base, uint32_t n, int x) noexcept {
-        double lp = 0.0;
-        const double beta = m.cfg_.beta, vb = m.V_ * m.cfg_.beta;
-        for (uint32_t i = 0; i < n; ++i) {
-            const std::size_t at = base + i;
-            if (m.cell_z_[at] != kLimbo) continue;
-            const std::size_t row = static_cast<std::size_t>(m.cell_words_[at]) * m.Kp_;
-            lp += std::log((m.nkv_[row + x] + beta) / (m.nk_[x] + vb));
-            m.moveToken(g, at, -1, x);
-        }
-        return lp;
+    // A cell's tokens in limbo, all to side x.
+    void place(int32_t* g, std::size_t base, uint32_t n, int x) noexcept {
+        for (uint32_t i = 0; i < n; ++i)
+            if (m.cell_z_[base + i] == kLimbo) m.moveToken(g, base + i, -1, x);
     }
     void lift(int32_t* g, std::size_t base, uint32_t n) noexcept {
         for (uint32_t i = 0; i < n; ++i)
             if (member(base + i)) m.moveToken(g, base + i, m.cell_z_[base + i], -1);
     }
     // A cell's tokens of the split (in limbo) drawn to one side as a block:
-    // a side weighs (its cells + 1) times its words' predictive.
+    // a side weighs (its cells + 1) times its words' predictive (each token
+    // against the side's counts without the cell: a proposal, so the cell's
+    // own repeats are left out; the acceptance weighs the exact joint).
+    // The ratios are multiplied in runs of 32 and their logs summed.
     void chooseCell(int32_t* g, std::size_t base, uint32_t n) noexcept {
-        const double lk = place(g, base, n, k) + std::log(cellsOn[0] + 1.0);
-        lift(g, base, n);
-        const double ls = place(g, base, n, s) + std::log(cellsOn[1] + 1.0);
-        lift(g, base, n);
-        const double pk = 1.0 / (1.0 + std::exp(ls - lk));
+        const double beta = m.cfg_.beta, vb = m.V_ * m.cfg_.beta;
+        double logOdds = 0.0, run = 1.0;  // log p(side s) - log p(side k)
+        uint32_t tokens = 0;
+        for (uint32_t i = 0; i < n; ++i) {
+            const std::size_t at = base + i;
+            if (m.cell_z_[at] != kLimbo) continue;
+            const std::size_t row = static_cast<std::size_t>(m.cell_words_[at]) * m.Kp_;
+            run *= (m.nkv_[row + s] + beta) / (m.nkv_[row + k] + beta);
+            if (++tokens % 32 == 0) {
+                logOdds += std::log(run);
+                run = 1.0;
+            }
+        }
+        logOdds += std::log(run) + tokens * std::log((m.nk_[k] + vb) / (m.nk_[s] + vb));
+        logOdds += std::log(cellsOn[1] + 1.0) - std::log(cellsOn[0] + 1.0);
+        const double pk = 1.0 / (1.0 + std::exp(logOdds));
         const int x = m.rng_.uniformDouble() < pk ? k : s;
         place(g, base, n, x);
         cellsOn[x == s] += 1.0;

@@ -45,6 +45,8 @@ Model::~Model() = default;
 const Config& Model::config() const noexcept { return core_->config(); }
 int Model::K() const noexcept { return core_->K(); }
 int Model::activeTopics() const noexcept { return core_->activeTopics(); }
+uint64_t Model::growthMovesAccepted() const noexcept { return core_->growthMovesAccepted(); }
+double Model::learnedGamma() const noexcept { return core_->learnedGamma(); }
 bool Model::topicCapReached() const noexcept { return core_->topicCapReached(); }
 bool Model::topicOpen(int k) const noexcept { return core_->topicOpen(k); }
 void Model::outputNumbering(std::span<uint16_t> map) const noexcept { core_->outputNumbering(map); }

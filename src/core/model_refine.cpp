@@ -115,13 +115,18 @@ uint32_t ModelCore::wordsInStep(int64_t step) const noexcept {
 }
 
 // With growth, the moves of growth from the data follow refinement each time
-// it crosses a multiple of the model's words (about a sweep's worth of
-// tokens: src/core/growth.cpp), so a realtime refiner grows its topics too.
+// it crosses a multiple of the window's words (a sweep's worth of tokens:
+// src/core/growth.cpp), so a realtime refiner grows its topics too.
+// Under a control (a time budget), only when it affords a sweep's worth of
+// tokens more: a move costs about that much.
 RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
     const uint64_t before = tokens_refined_;
     const RefineCount rc = refineWindows(picker, limits);
-    const uint64_t every = words_in_model_;
-    if (cfg_.grow && every > 0 && before / every != tokens_refined_ / every) growthMoves();
+    if (!cfg_.grow || cfg_.fixed) return rc;
+    const uint64_t every = windowTokens();
+    if (every > 0 && before / every != tokens_refined_ / every &&
+        (!limits.control || limits.control->beforeRound(every)))
+        growthMoves();
     return rc;
 }
 
