@@ -19,8 +19,8 @@ namespace {
 constexpr uint16_t kLimbo = 0xFFFF;
 // Restricted Gibbs scans of a split's two topics after their sequential
 // allocation: of whole cells, then of single tokens.
-constexpr int kSplitScans = 2;
-constexpr int kTokenScans = 2;
+constexpr int kSplitScans = 1;
+constexpr int kTokenScans = 1;
 // Escobar and West's chain, run from the given gamma at every move: long
 // enough to forget its start (each step draws from the posterior's mixture).
 constexpr int kConcentrationSteps = 20;
