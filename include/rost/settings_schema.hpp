@@ -46,9 +46,9 @@
     X("beta", Real, Model, "0.5", 0, 1e6, "", "", "-b,--beta=1.0", LoOpen, engine.model.beta, \
       "Dirichlet prior on a topic's words (paper: 0.5)") \
     X("topics.grow", Bool, Model, "false", 0, 0, "", "", "--grow.topics.size", 0, engine.model.grow, \
-      "let topics grow: K is then the cap, and a word may open a new topic with weight gamma/V (rost-cli: --grow.topics.size)") \
+      "let topics grow: K is then the cap; split and merge moves between sweeps open and close topics as the data asks (rost-cli: --grow.topics.size)") \
     X("gamma", Real, Model, "0.1", 0, 1e6, "", "", "--gamma=1e-5", LoOpen, engine.model.gamma, \
-      "with topics.grow: the weight of opening a new topic (a Chinese-restaurant-process concentration)") \
+      "with topics.grow: the starting value of the topics' concentration, learned from the data at every move; any value from 1e-7 to 0.1 gives the same topics") \
     X("topicmodel.fixed", Bool, Model, "false", 0, 0, "", "", "", 0, engine.model.fixed, \
       "keep the topic-word counts as given (--in.topicmodel, set_topic_model): refinement changes only the labels (rostpy: update_model=False)") \
     X("cell.space", Integer, Model, "64", 1, 65536, "", "", "--cell.space=32", 0, engine.model.cell_space, \

@@ -30,7 +30,8 @@ struct Tables {
     // K topics are open. With growth a topic is open while it holds a word
     // (n_k > 0; inv is 0 for a closed one), `active` counts the open ones,
     // `hi` is 1 + the highest open label, and a word opens topic `slot` (the
-    // lowest closed label; K when none is left) with weight `fresh` = gamma / V.
+    // lowest closed label; K when none is left) with weight `fresh` (the
+    // model sets kGrowthFreshMass / V: docs/design.md, "Growth from the data").
     // The growth kernels are the KP = kGrow instances.
     bool grow = false;
     int active = 0;

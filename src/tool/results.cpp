@@ -61,7 +61,12 @@ std::string topicsLine(const Model& m) {
     char g[32];
     std::snprintf(g, sizeof g, "%g", m.config().gamma);
     s += g;
-    s += ")";
+    s += " at the start";
+    if (m.learnedGamma() > 0.0) {
+        std::snprintf(g, sizeof g, "%.3g", m.learnedGamma());
+        (s += ", learned ") += g;
+    }
+    s += "; " + std::to_string(m.growthMovesAccepted()) + " split and merge moves accepted)";
     if (m.topicCapReached()) s += "; the cap was reached: no new topic could open (raise -K)";
     return s + "\n";
 }
