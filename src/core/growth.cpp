@@ -31,7 +31,12 @@ double lg(double x) noexcept { return std::lgamma(x); }
 
 template <typename F>
 void ModelCore::forEachWindowCell(F&& f) noexcept {
-    for (int64_t step = oldestStep(); step < steps_; ++step) {
+    forEachCellIn(oldestStep(), steps_, f);
+}
+
+template <typename F>
+void ModelCore::forEachCellIn(int64_t s0, int64_t s1, F&& f) noexcept {
+    for (int64_t step = s0; step < s1; ++step) {
         const std::size_t slot = slotOf(step);
         for (int c = 0; c < cells_; ++c) {
             const uint32_t n = cell_n_[slot * cells_ + c];
@@ -55,16 +60,55 @@ void ModelCore::moveToken(int32_t* cellCounts, std::size_t at, int from, int to)
     cell_z_[at] = static_cast<uint16_t>(to >= 0 ? to : kLimbo);
 }
 
+// What the moves' joint needs of the whole window, counted once a move:
+// the cells (tables) that use each topic, and the cells' Dirichlet
+// normaliser's change when A topics become A + 1, for A = open - 1 (a merge)
+// and A = open (a split), from a histogram of the cells' sizes.
+struct ModelCore::Census {
+    uint64_t tables = 0;
+    uint32_t tablesOf[kMaxKp] = {};
+    double moreTopics[2] = {0.0, 0.0};  // [0]: open - 1 -> open, [1]: open -> open + 1
+};
+
+void ModelCore::takeCensus(Census& c) noexcept {
+    constexpr uint32_t kSizes = 1024;
+    uint32_t sizes[kSizes] = {};
+    const int A = tables_.active, hi = tables_.hi;
+    const double alpha = cfg_.alpha;
+    auto term = [alpha](double n, int a) { return lg((a + 1) * alpha) - lg(n + (a + 1) * alpha) - lg(a * alpha) + lg(n + a * alpha); };
+    c = Census{};
+    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t n) {
+        for (int k = 0; k < hi; ++k) {
+            const uint32_t used = g[k] > 0;
+            c.tablesOf[k] += used;
+            c.tables += used;
+        }
+        if (n < kSizes) {
+            ++sizes[n];
+        } else {
+            if (A > 1) c.moreTopics[0] += term(n, A - 1);
+            c.moreTopics[1] += term(n, A);
+        }
+    });
+    for (uint32_t n = 1; n < kSizes; ++n) {
+        if (sizes[n] == 0) continue;
+        if (A > 1) c.moreTopics[0] += sizes[n] * term(n, A - 1);
+        c.moreTopics[1] += sizes[n] * term(n, A);
+    }
+}
+
 // log p(topics a and b apart) - log p(a and b one topic), on the current
-// counts (a and b apart), with `A` topics open once they are one. The joint
-// is the collapsed one of a window of cells: each open topic's words
-// Dirichlet(beta), each cell's topics Dirichlet(alpha) over the open topics,
-// and the open topics a Dirichlet process of concentration gamma over the
-// cells that use them (tables, as in an HDP: a cell uses a topic or not).
-double ModelCore::splitLogRatio(int a, int b, int A, double gamma) noexcept {
+// counts (a and b apart). The joint is the collapsed one of a window of
+// cells: each open topic's words Dirichlet(beta), each cell's topics
+// Dirichlet(alpha) over the open topics (`moreTopics`: the normalisers'
+// change for one topic more), and the open topics a Dirichlet process of
+// concentration gamma over the cells that use them (tables, as in an HDP's
+// top level: gamma^topics prod Gamma(m_k) / Gamma(gamma + M)); `others`: the
+// tables of every other topic.
+double ModelCore::splitLogRatio(int a, int b, double moreTopics, uint64_t others, double gamma) noexcept {
     const double beta = cfg_.beta, alpha = cfg_.alpha, vb = V_ * cfg_.beta;
     const double lgBeta = lg(beta), lgAlpha = lg(alpha);
-    double d = 0.0;
+    double d = moreTopics;
     for (int v = 0; v < V_; ++v) {
         const int32_t* row = nkv_.data() + static_cast<std::size_t>(v) * Kp_;
         const int32_t na = row[a], nb = row[b];
@@ -73,21 +117,17 @@ double ModelCore::splitLogRatio(int a, int b, int A, double gamma) noexcept {
     }
     const double Na = nk_[a], Nb = nk_[b];
     d += lg(vb) - lg(Na + vb) - lg(Nb + vb) + lg(Na + Nb + vb);
-    const double aJoint = A * alpha, aSplit = (A + 1) * alpha;
-    const double lgJoint = lg(aJoint), lgSplit = lg(aSplit);
-    uint64_t ma = 0, mb = 0, mBoth = 0, mOthers = 0;
-    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t n) {
+    uint64_t ma = 0, mb = 0, mBoth = 0;
+    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t) {
         const int32_t ca = g[a], cb = g[b];
-        if ((ca | cb) != 0) d += lg(ca + alpha) + lg(cb + alpha) - lg(ca + cb + alpha) - lgAlpha;
-        d += lgSplit - lg(n + aSplit) - lgJoint + lg(n + aJoint);
+        if ((ca | cb) == 0) return;
+        d += lg(ca + alpha) + lg(cb + alpha) - lg(ca + cb + alpha) - lgAlpha;
         ma += ca > 0;
         mb += cb > 0;
         mBoth += ca > 0 && cb > 0;
-        for (int k = 0; k < K_; ++k) mOthers += k != a && k != b && g[k] > 0;
     });
-    // The tables' Dirichlet process: gamma^topics * prod Gamma(m_k) / Gamma(gamma + M)... / Gamma(gamma).
     const double mJoint = static_cast<double>(ma + mb - mBoth);
-    const double M = static_cast<double>(mOthers) + mJoint;
+    const double M = static_cast<double>(others) + mJoint;
     d += std::log(gamma);
     if (ma > 0) d += lg(static_cast<double>(ma));
     if (mb > 0) d += lg(static_cast<double>(mb));
@@ -107,7 +147,9 @@ uint64_t ModelCore::windowTokens() noexcept {
 // other token of k is taken out (limbo), then put back cell by cell.
 struct ModelCore::Split {
     ModelCore& m;
+    uint64_t budget;  // tokens the split may take out at most (its steps' words)
     int k = -1, s = -1;
+    int64_t s0 = 0, s1 = 0;  // the steps it moves tokens in: around anchor i's, within the budget
     std::size_t anchorI = 0, anchorJ = 0;
     double cellsOn[2] = {0.0, 0.0};  // cells on each side (the allocation's prior)
 
@@ -159,12 +201,36 @@ struct ModelCore::Split {
         return m.rng_.uniformDouble() * (wk + ws) < wk ? k : s;
     }
     bool anchors() noexcept;
+    void chooseSteps(int64_t stepI) noexcept;
     void allocate() noexcept;
 };
 
-// Anchor i uniformly over the window's tokens (its topic is k), anchor j
-// uniformly over k's others; every other token of k to limbo, j to s, and
-// the anchors' cells to their sides. False when there is nothing to split.
+// The steps around anchor i's, alternately later and earlier, while their
+// words stay within the budget (at least anchor i's step).
+void ModelCore::Split::chooseSteps(int64_t stepI) noexcept {
+    s0 = stepI;
+    s1 = stepI + 1;
+    uint64_t words = m.wordsInStep(stepI);
+    const int64_t first = m.oldestStep(), end = m.steps_;
+    for (bool later = true;; later = !later) {
+        const bool canLater = s1 < end, canEarlier = s0 > first;
+        if (!canLater && !canEarlier) return;
+        const int64_t next = (later && canLater) || !canEarlier ? s1 : s0 - 1;
+        const uint64_t w = m.wordsInStep(next);
+        if (words + w > budget) return;
+        words += w;
+        if (next == s1) {
+            ++s1;
+        } else {
+            --s0;
+        }
+    }
+}
+
+// Anchor i uniformly over the window's tokens (its topic is k), the steps
+// around it (chooseSteps), anchor j uniformly over k's other tokens there;
+// k's other tokens there to limbo, j to s, and the anchors' cells to their
+// sides. False when there is nothing to split.
 bool ModelCore::Split::anchors() noexcept {
     const uint64_t N = m.windowTokens();
     s = m.tables_.slot;
@@ -174,21 +240,25 @@ bool ModelCore::Split::anchors() noexcept {
     uint32_t nI = 0, nJ = 0;
     int32_t *cellI = nullptr, *cellJ = nullptr;
     uint64_t seen = 0, inK = 0;
-    m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
-        if (k < 0 && pick < seen + n) {
-            anchorI = base + (pick - seen);
-            k = m.cell_z_[anchorI];
-            cellI = g;
-            baseI = base;
-            nI = n;
-        }
-        seen += n;
-    });
-    m.forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t) { inK += static_cast<uint64_t>(g[k]); });
+    for (int64_t step = m.oldestStep(); step < m.steps_ && k < 0; ++step) {
+        m.forEachCellIn(step, step + 1, [&](int32_t* g, std::size_t base, uint32_t n) {
+            if (k < 0 && pick < seen + n) {
+                anchorI = base + (pick - seen);
+                k = m.cell_z_[anchorI];
+                cellI = g;
+                baseI = base;
+                nI = n;
+                chooseSteps(step);
+            }
+            seen += n;
+        });
+    }
+    if (k < 0) return false;
+    m.forEachCellIn(s0, s1, [&](const int32_t* g, std::size_t, uint32_t) { inK += static_cast<uint64_t>(g[k]); });
     if (inK < 2) return false;
     const uint64_t pickJ = static_cast<uint64_t>(m.rng_.uniformDouble() * static_cast<double>(inK - 1));
     seen = 0;
-    m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+    m.forEachCellIn(s0, s1, [&](int32_t* g, std::size_t base, uint32_t n) {
         for (uint32_t i = 0; i < n; ++i) {
             const std::size_t at = base + i;
             if (m.cell_z_[at] != k || at == anchorI) continue;
@@ -214,13 +284,13 @@ bool ModelCore::Split::anchors() noexcept {
 // (sequential allocation), then Gibbs scans of the cells; then restricted
 // Gibbs scans of single tokens.
 void ModelCore::Split::allocate() noexcept {
-    m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+    m.forEachCellIn(s0, s1, [&](int32_t* g, std::size_t base, uint32_t n) {
         bool any = false;
         for (uint32_t i = 0; i < n && !any; ++i) any = m.cell_z_[base + i] == kLimbo;
         if (any) chooseCell(g, base, n);
     });
     for (int scan = 0; scan < kSplitScans; ++scan) {
-        m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        m.forEachCellIn(s0, s1, [&](int32_t* g, std::size_t base, uint32_t n) {
             if (g[k] == 0 && g[s] == 0) return;
             double& on = cellsOn[g[s] > g[k]];
             on = on > 0.0 ? on - 1.0 : 0.0;
@@ -229,7 +299,7 @@ void ModelCore::Split::allocate() noexcept {
         });
     }
     for (int scan = 0; scan < kTokenScans; ++scan) {
-        m.forEachWindowCell([&](int32_t* g, std::size_t base, uint32_t n) {
+        m.forEachCellIn(s0, s1, [&](int32_t* g, std::size_t base, uint32_t n) {
             for (uint32_t i = 0; i < n; ++i) {
                 const std::size_t at = base + i;
                 if (!member(at)) continue;
@@ -240,14 +310,15 @@ void ModelCore::Split::allocate() noexcept {
     }
 }
 
-// Topic k's tokens in the window split into k and a new topic (Split), the
-// proposal accepted with probability min(1, joint ratio), else the new topic
-// folds back into k.
-bool ModelCore::trySplit(double gamma) noexcept {
-    Split split{*this};
+// Topic k's tokens (in the steps the budget allows) split into k and a new
+// topic (Split), the proposal accepted with probability min(1, joint ratio),
+// else the new topic folds back into k.
+bool ModelCore::trySplit(double gamma, const Census& census, uint64_t budget) noexcept {
+    Split split{*this, budget};
     if (!split.anchors()) return false;
     split.allocate();
-    const double logRatio = splitLogRatio(split.k, split.s, tables_.active, gamma);
+    const uint64_t others = census.tables - census.tablesOf[split.k];
+    const double logRatio = splitLogRatio(split.k, split.s, census.moreTopics[1], others, gamma);
     const double u = rng_.uniformDouble();
     if (u > 0.0 && std::log(u) < logRatio) return true;
     foldTopic(split.s, split.k);
@@ -274,7 +345,7 @@ void ModelCore::foldTopic(int from, int into) noexcept {
 
 // Two open topics drawn uniformly become one (the lower label) with
 // probability min(1, joint ratio).
-bool ModelCore::tryMerge(double gamma) noexcept {
+bool ModelCore::tryMerge(double gamma, const Census& census) noexcept {
     const int A = tables_.active;
     if (A < 2) return false;
     const auto first = static_cast<int>(rng_.below(static_cast<uint32_t>(A)));
@@ -288,28 +359,30 @@ bool ModelCore::tryMerge(double gamma) noexcept {
         ++seen;
     }
     if (a > b) std::swap(a, b);
-    const double logRatio = -splitLogRatio(a, b, A - 1, gamma);
+    const uint64_t others = census.tables - census.tablesOf[a] - census.tablesOf[b];
+    const double logRatio = -splitLogRatio(a, b, census.moreTopics[0], others, gamma);
     const double u = rng_.uniformDouble();
     if (!(u > 0.0 && std::log(u) < logRatio)) return false;
     foldTopic(b, a);
     return true;
 }
 
-void ModelCore::growthMoves() noexcept {
+void ModelCore::growthMoves(uint64_t budget) noexcept {
     if (!cfg_.grow || cfg_.fixed || steps_ == 0 || tables_.active == 0) return;
+    Census census;
+    takeCensus(census);
     // The concentration from the data: Escobar and West's chain given the
     // open topics and the cells that use them, from the setting's gamma.
-    uint64_t tablesUsed = 0;
-    forEachWindowCell([&](const int32_t* g, std::size_t, uint32_t) {
-        for (int k = 0; k < tables_.hi; ++k) tablesUsed += g[k] > 0;
-    });
     double gamma = cfg_.gamma;
-    for (int i = 0; i < kConcentrationSteps; ++i)
-        gamma = concentration::resample(gamma, tables_.active, tablesUsed, rng_);
+    for (int i = 0; i < kConcentrationSteps; ++i) gamma = concentration::resample(gamma, tables_.active, census.tables, rng_);
     gamma_learned_ = gamma;
-    bool changed = trySplit(gamma);
-    kernel::updateTopics(tables_);
-    changed |= tryMerge(gamma);
+    bool changed = false;
+    if (trySplit(gamma, census, budget)) {
+        changed = true;
+        kernel::updateTopics(tables_);
+        takeCensus(census);
+    }
+    changed |= tryMerge(gamma, census);
     if (changed) ++growth_moves_;
     kernel::refreshReciprocals(tables_);
     kernel::updateTopics(tables_);

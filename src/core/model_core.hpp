@@ -172,16 +172,22 @@ private:
     double freshMass() const noexcept { return cfg_.grow && tables_.active < K_ ? kFreshMass : 0.0; }
     // Growth from the data (src/core/growth.cpp): between sweeps, a split and
     // a merge move on the model's own tables and the concentration learned.
-    void growthMoves() noexcept;
+    // `budget`: the tokens a split may move at most (its steps around its
+    // first anchor's; the whole window when it holds fewer).
+    void growthMoves(uint64_t budget = UINT64_MAX) noexcept;
+    struct Census;
+    void takeCensus(Census& c) noexcept;
     struct Split;
-    bool trySplit(double gamma) noexcept;
-    bool tryMerge(double gamma) noexcept;
+    bool trySplit(double gamma, const Census& census, uint64_t budget) noexcept;
+    bool tryMerge(double gamma, const Census& census) noexcept;
     void foldTopic(int from, int into) noexcept;
-    double splitLogRatio(int a, int b, int A, double gamma) noexcept;
+    double splitLogRatio(int a, int b, double moreTopics, uint64_t others, double gamma) noexcept;
     uint64_t windowTokens() noexcept;
     void moveToken(int32_t* cellCounts, std::size_t at, int from, int to) noexcept;
     template <typename F>
     void forEachWindowCell(F&& f) noexcept;
+    template <typename F>
+    void forEachCellIn(int64_t s0, int64_t s1, F&& f) noexcept;
     RefineCount refineWindows(StepPicker& picker, const RefineLimits& limits) noexcept;
     int32_t* nck(std::size_t slot, int cell) noexcept {
         return nck_.data() + (slot * cells_ + static_cast<std::size_t>(cell)) * Kp_;
@@ -391,6 +397,7 @@ private:
     // Growth from the data: the concentration of the last move, and the moves accepted (not state).
     double gamma_learned_ = 0.0;
     uint64_t growth_moves_ = 0;
+    bool move_due_ = false;  // a move for the start of the next refine() under a control
     bool nkv_is_window_ = true;  // false once counts outside the window (prior, kept evictions) exist
     std::size_t memory_bytes_ = 0;
 

@@ -116,17 +116,28 @@ uint32_t ModelCore::wordsInStep(int64_t step) const noexcept {
 
 // With growth, the moves of growth from the data follow refinement each time
 // it crosses a multiple of the window's words (a sweep's worth of tokens:
-// src/core/growth.cpp), so a realtime refiner grows its topics too.
-// Under a control (a time budget), only when it affords a sweep's worth of
-// tokens more: a move costs about that much.
+// src/core/growth.cpp), so a realtime refiner grows its topics too. Under a
+// control (a time budget) the move waits for the start of the next call and
+// takes a quarter of what that call can afford: its split moves the tokens
+// of as many steps as that share allows (the whole window when it fits).
 RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
+    const bool growing = cfg_.grow && !cfg_.fixed;
+    if (growing && move_due_ && limits.control) {
+        move_due_ = false;
+        const uint64_t allowance = limits.control->tokenAllowance();
+        growthMoves(allowance == UINT64_MAX ? UINT64_MAX : allowance / 4);
+    }
     const uint64_t before = tokens_refined_;
     const RefineCount rc = refineWindows(picker, limits);
-    if (!cfg_.grow || cfg_.fixed) return rc;
+    if (!growing) return rc;
     const uint64_t every = windowTokens();
-    if (every > 0 && before / every != tokens_refined_ / every &&
-        (!limits.control || limits.control->beforeRound(every)))
-        growthMoves();
+    if (every > 0 && before / every != tokens_refined_ / every) {
+        if (limits.control) {
+            move_due_ = true;
+        } else {
+            growthMoves();
+        }
+    }
     return rc;
 }
 
