@@ -190,3 +190,101 @@ TEST(TopicGrowth, PluginPerplexityNormalisesOverTheOpenTopics) {
         EXPECT_NEAR(got.nll, nll, 1e-9 * std::abs(nll)) << "step " << t;
     }
 }
+
+namespace {
+
+// Steps in order, over and over (a sweep picker).
+class InOrder final : public rost::StepPicker {
+public:
+    explicit InOrder(const rost::Model& m) : m_(m), t_(m.oldestStep()) {}
+    int64_t next() noexcept override {
+        const int64_t t = t_;
+        t_ = t_ + 1 < m_.steps() ? t_ + 1 : m_.oldestStep();
+        return t;
+    }
+
+private:
+    const rost::Model& m_;
+    int64_t t_;
+};
+
+// A time budget's stand-in: refines or not, and affords `allowance` tokens.
+class Afford final : public rost::RefineControl {
+public:
+    bool refine = true;
+    uint64_t allowance = UINT64_MAX;
+    bool beforeRound(uint64_t) noexcept override { return refine; }
+    uint64_t tokenAllowance() noexcept override { return allowance; }
+};
+
+} // namespace
+
+// Under a control (a time budget) a move earned by one call runs at the start
+// of the next, and its split moves only the tokens of the steps the call's
+// share affords: on a stream whose last three steps bring new words (new
+// terrain), from one topic, a split within three steps opens their topic:
+// its words are new ones, from three steps at most.
+TEST(TopicGrowth, UnderATimeBudgetTheSplitTakesOnlyTheStepsItAffords) {
+    rost::Config c;
+    c.K = 8;
+    c.V = 400;
+    c.grow = true;
+    c.frame_width = c.frame_height = 32;
+    c.cell_space = 16;  // 4 cells a step
+    c.ring_steps = 16;
+    c.seed = 8;
+    rost::Model m(c);
+    rost::Rng r(9);
+    constexpr int kSteps = 10, kWords = 200;
+    auto burst = [](int t) { return t >= 7; };
+    for (int t = 0; t < kSteps; ++t) {
+        std::vector<uint32_t> w(kWords);
+        std::vector<rost::Position> p(kWords);
+        for (int i = 0; i < kWords; ++i) {
+            w[i] = (burst(t) ? 200u : 0u) + r.below(200);
+            p[i] = {static_cast<int32_t>(r.below(32)), static_cast<int32_t>(r.below(32))};
+        }
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+    }
+    ASSERT_EQ(m.activeTopics(), 1);
+    InOrder order(m);
+    Afford control;
+    rost::RefineLimits limits;
+    limits.control = &control;
+    bool split = false;
+    for (int call = 0; call < 40 && !split; ++call) {
+        limits.steps = kSteps;  // a sweep: the next call owes a move
+        control.refine = true;
+        control.allowance = UINT64_MAX;
+        m.refine(order, limits);
+        ASSERT_EQ(m.activeTopics(), 1) << "no move before the next call";
+        control.refine = false;  // the next call only moves
+        control.allowance = 4 * 3 * kWords;  // a quarter: three steps' words
+        m.refine(order, limits);
+        split = m.activeTopics() == 2;
+    }
+    ASSERT_TRUE(split) << "the new words' topic opened";
+    // The new topic is the one step 0 does not use: it holds new words only,
+    // from at most three steps (refinement may later move words between the
+    // two, so this looks right after the split's call).
+    std::vector<uint16_t> z0(m.observationSize(0));
+    m.observationSamples(0, z0);
+    int first = -1, last = -1, newWords = 0;
+    for (int t = 0; t < kSteps; ++t) {
+        std::vector<uint32_t> w(m.observationSize(static_cast<uint64_t>(t)));
+        std::vector<uint16_t> z(w.size());
+        m.observationWords(static_cast<uint64_t>(t), w);
+        m.observationSamples(static_cast<uint64_t>(t), z);
+        for (std::size_t i = 0; i < z.size(); ++i) {
+            if (z[i] == z0[0]) continue;
+            EXPECT_GE(w[i], 200u) << "step " << t << ": an old word in the new topic";
+            if (first < 0) first = t;
+            last = t;
+            ++newWords;
+        }
+    }
+    EXPECT_LE(last - first + 1, 3) << "the new topic's steps " << first << ".." << last;
+    EXPECT_GT(newWords, kWords) << "the new topic holds the new steps' words";
+    std::string why;
+    EXPECT_TRUE(m.checkInvariants(&why)) << why;
+}

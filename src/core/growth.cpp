@@ -149,13 +149,18 @@ struct ModelCore::Split {
     ModelCore& m;
     uint64_t budget;  // tokens the split may take out at most (its steps' words)
     int k = -1, s = -1;
+    // The label k's side takes while the split is drawn: k itself when the
+    // split covers the whole window; otherwise a second closed label, so that
+    // k's tokens outside the steps do not weigh on the allocation (both sides
+    // start empty), folded back into k afterwards (or k when none is left).
+    int side = -1;
     int64_t s0 = 0, s1 = 0;  // the steps it moves tokens in: around anchor i's, within the budget
     std::size_t anchorI = 0, anchorJ = 0;
     double cellsOn[2] = {0.0, 0.0};  // cells on each side (the allocation's prior)
 
     bool member(std::size_t at) const noexcept {
         const int z = m.cell_z_[at];
-        return (z == k || z == s) && at != anchorI && at != anchorJ;
+        return (z == side || z == s) && at != anchorI && at != anchorJ;
     }
     // A cell's tokens in limbo, all to side x.
     void place(int32_t* g, std::size_t base, uint32_t n, int x) noexcept {
@@ -179,16 +184,16 @@ struct ModelCore::Split {
             const std::size_t at = base + i;
             if (m.cell_z_[at] != kLimbo) continue;
             const std::size_t row = static_cast<std::size_t>(m.cell_words_[at]) * m.Kp_;
-            run *= (m.nkv_[row + s] + beta) / (m.nkv_[row + k] + beta);
+            run *= (m.nkv_[row + s] + beta) / (m.nkv_[row + side] + beta);
             if (++tokens % 32 == 0) {
                 logOdds += std::log(run);
                 run = 1.0;
             }
         }
-        logOdds += std::log(run) + tokens * std::log((m.nk_[k] + vb) / (m.nk_[s] + vb));
+        logOdds += std::log(run) + tokens * std::log((m.nk_[side] + vb) / (m.nk_[s] + vb));
         logOdds += std::log(cellsOn[1] + 1.0) - std::log(cellsOn[0] + 1.0);
         const double pk = 1.0 / (1.0 + std::exp(logOdds));
-        const int x = m.rng_.uniformDouble() < pk ? k : s;
+        const int x = m.rng_.uniformDouble() < pk ? side : s;
         place(g, base, n, x);
         cellsOn[x == s] += 1.0;
     }
@@ -196,9 +201,9 @@ struct ModelCore::Split {
     int draw(const int32_t* g, std::size_t at) noexcept {
         const double alpha = m.cfg_.alpha, beta = m.cfg_.beta, vb = m.V_ * m.cfg_.beta;
         const std::size_t row = static_cast<std::size_t>(m.cell_words_[at]) * m.Kp_;
-        const double wk = (g[k] + alpha) * (m.nkv_[row + k] + beta) / (m.nk_[k] + vb);
+        const double wk = (g[side] + alpha) * (m.nkv_[row + side] + beta) / (m.nk_[side] + vb);
         const double ws = (g[s] + alpha) * (m.nkv_[row + s] + beta) / (m.nk_[s] + vb);
-        return m.rng_.uniformDouble() * (wk + ws) < wk ? k : s;
+        return m.rng_.uniformDouble() * (wk + ws) < wk ? side : s;
     }
     bool anchors() noexcept;
     void chooseSteps(int64_t stepI) noexcept;
@@ -254,6 +259,10 @@ bool ModelCore::Split::anchors() noexcept {
         });
     }
     if (k < 0) return false;
+    side = k;
+    if (s0 > m.oldestStep() || s1 < m.steps_)
+        for (int t = s + 1; t < m.K_ && side == k; ++t)
+            if (m.nk_[t] == 0) side = t;
     m.forEachCellIn(s0, s1, [&](const int32_t* g, std::size_t, uint32_t) { inK += static_cast<uint64_t>(g[k]); });
     if (inK < 2) return false;
     const uint64_t pickJ = static_cast<uint64_t>(m.rng_.uniformDouble() * static_cast<double>(inK - 1));
@@ -272,10 +281,11 @@ bool ModelCore::Split::anchors() noexcept {
         }
     });
     m.moveToken(cellJ, anchorJ, -1, s);
+    if (side != k) m.moveToken(cellI, anchorI, k, side);
     place(cellJ, baseJ, nJ, s);
-    place(cellI, baseI, nI, k);
-    cellsOn[cellJ[s] > cellJ[k]] += 1.0;
-    if (cellI != cellJ) cellsOn[cellI[s] > cellI[k]] += 1.0;
+    place(cellI, baseI, nI, side);
+    cellsOn[cellJ[s] > cellJ[side]] += 1.0;
+    if (cellI != cellJ) cellsOn[cellI[s] > cellI[side]] += 1.0;
     return true;
 }
 
@@ -291,8 +301,8 @@ void ModelCore::Split::allocate() noexcept {
     });
     for (int scan = 0; scan < kSplitScans; ++scan) {
         m.forEachCellIn(s0, s1, [&](int32_t* g, std::size_t base, uint32_t n) {
-            if (g[k] == 0 && g[s] == 0) return;
-            double& on = cellsOn[g[s] > g[k]];
+            if (g[side] == 0 && g[s] == 0) return;
+            double& on = cellsOn[g[s] > g[side]];
             on = on > 0.0 ? on - 1.0 : 0.0;
             lift(g, base, n);
             chooseCell(g, base, n);
@@ -317,6 +327,7 @@ bool ModelCore::trySplit(double gamma, const Census& census, uint64_t budget) no
     Split split{*this, budget};
     if (!split.anchors()) return false;
     split.allocate();
+    if (split.side != split.k) foldTopic(split.side, split.k);
     const uint64_t others = census.tables - census.tablesOf[split.k];
     const double logRatio = splitLogRatio(split.k, split.s, census.moreTopics[1], others, gamma);
     const double u = rng_.uniformDouble();
