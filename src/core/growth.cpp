@@ -25,7 +25,12 @@ constexpr int kTokenScans = 1;
 // enough to forget its start (each step draws from the posterior's mixture).
 constexpr int kConcentrationSteps = 20;
 
-double lg(double x) noexcept { return std::lgamma(x); }
+// lgamma_r, not std::lgamma: std::lgamma writes the global signgam, a data
+// race between models refined on different threads.
+double lg(double x) noexcept {
+    int sign = 0;
+    return ::lgamma_r(x, &sign);
+}
 
 } // namespace
 
@@ -175,7 +180,8 @@ struct ModelCore::Split {
     // a side weighs (its cells + 1) times its words' predictive (each token
     // against the side's counts without the cell: a proposal, so the cell's
     // own repeats are left out; the acceptance weighs the exact joint).
-    // The ratios are multiplied in runs of 32 and their logs summed.
+    // The ratios are multiplied, their log taken when the product nears the
+    // double's range.
     void chooseCell(int32_t* g, std::size_t base, uint32_t n) noexcept {
         const double beta = m.cfg_.beta, vb = m.V_ * m.cfg_.beta;
         double logOdds = 0.0, run = 1.0;  // log p(side s) - log p(side k)
@@ -185,7 +191,8 @@ struct ModelCore::Split {
             if (m.cell_z_[at] != kLimbo) continue;
             const std::size_t row = static_cast<std::size_t>(m.cell_words_[at]) * m.Kp_;
             run *= (m.nkv_[row + s] + beta) / (m.nkv_[row + side] + beta);
-            if (++tokens % 32 == 0) {
+            ++tokens;
+            if (run > 1e100 || run < 1e-100) {  // any beta and count: no overflow
                 logOdds += std::log(run);
                 run = 1.0;
             }
@@ -239,7 +246,7 @@ void ModelCore::Split::chooseSteps(int64_t stepI) noexcept {
 bool ModelCore::Split::anchors() noexcept {
     const uint64_t N = m.windowTokens();
     s = m.tables_.slot;
-    if (N < 2 || s >= m.K_) return false;
+    if (N < 2 || s >= m.K_ || m.nk_[s] != 0) return false;
     const uint64_t pick = static_cast<uint64_t>(m.rng_.uniformDouble() * static_cast<double>(N));
     std::size_t baseI = 0, baseJ = 0;
     uint32_t nI = 0, nJ = 0;
@@ -369,6 +376,7 @@ bool ModelCore::tryMerge(double gamma, const Census& census) noexcept {
         if (seen == second) b = k;
         ++seen;
     }
+    if (a < 0 || b < 0) return false;  // tables_ not current: no move
     if (a > b) std::swap(a, b);
     const uint64_t others = census.tables - census.tablesOf[a] - census.tablesOf[b];
     const double logRatio = -splitLogRatio(a, b, census.moreTopics[0], others, gamma);
@@ -387,14 +395,12 @@ void ModelCore::growthMoves(uint64_t budget) noexcept {
     double gamma = cfg_.gamma;
     for (int i = 0; i < kConcentrationSteps; ++i) gamma = concentration::resample(gamma, tables_.active, census.tables, rng_);
     gamma_learned_ = gamma;
-    bool changed = false;
     if (trySplit(gamma, census, budget)) {
-        changed = true;
+        ++growth_moves_;
         kernel::updateTopics(tables_);
         takeCensus(census);
     }
-    changed |= tryMerge(gamma, census);
-    if (changed) ++growth_moves_;
+    if (tryMerge(gamma, census)) ++growth_moves_;
     kernel::refreshReciprocals(tables_);
     kernel::updateTopics(tables_);
 }

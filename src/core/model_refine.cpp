@@ -123,9 +123,14 @@ uint32_t ModelCore::wordsInStep(int64_t step) const noexcept {
 RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) noexcept {
     const bool growing = cfg_.grow && !cfg_.fixed;
     if (growing && move_due_ && limits.control) {
-        move_due_ = false;
+        // Not when a quarter of the allowance is less than a step's words on
+        // average (a call with no time left): the move waits for a call that has it.
         const uint64_t allowance = limits.control->tokenAllowance();
-        growthMoves(allowance == UINT64_MAX ? UINT64_MAX : allowance / 4);
+        const uint64_t stepsIn = static_cast<uint64_t>(steps_ - oldestStep());
+        if (allowance == UINT64_MAX || (stepsIn > 0 && allowance / 4 >= windowTokens() / stepsIn)) {
+            move_due_ = false;
+            growthMoves(allowance == UINT64_MAX ? UINT64_MAX : allowance / 4);
+        }
     }
     const uint64_t before = tokens_refined_;
     const RefineCount rc = refineWindows(picker, limits);
