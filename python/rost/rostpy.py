@@ -367,7 +367,7 @@ class _ROST:
         _unsupported("shuffle_topics", "rost draws the initial topics itself, seeded")
 
     def update_gamma(self):
-        _unsupported("update_gamma", "rost's gamma is fixed when the model is made")
+        _unsupported("update_gamma", "rost learns gamma from the data at every growth move (docs/design.md, 'Growth from the data')")
 
     def topic_perplexity(self, pose):
         _unsupported("topic_perplexity", "rost measures word perplexity (time_perplexity, word_perplexity)")
