@@ -396,6 +396,7 @@ TEST(ModelState, CopiedStateResumesBitForBit) {
         ASSERT_EQ(saved[i].size(), layoutB[i].bytes) << layoutB[i].name;
         std::memcpy(layoutB[i].data, saved[i].data(), layoutB[i].bytes);
     }
+    b.stateRestored();  // as the API asks after the sections were written back
     std::string why;
     ASSERT_TRUE(b.checkInvariants(&why)) << why;
     for (int f = 0; f < 5; ++f) {

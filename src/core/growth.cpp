@@ -141,11 +141,6 @@ double ModelCore::splitLogRatio(int a, int b, double moreTopics, uint64_t others
     return d;
 }
 
-uint64_t ModelCore::windowTokens() noexcept {
-    uint64_t n = 0;
-    forEachWindowCell([&](const int32_t*, std::size_t, uint32_t c) { n += c; });
-    return n;
-}
 
 // A split proposal of topic k into k and s (the lowest closed label), drawn
 // on the model's tables: anchors i (stays in k) and j (goes to s); every

@@ -182,7 +182,7 @@ private:
     bool tryMerge(double gamma, const Census& census) noexcept;
     void foldTopic(int from, int into) noexcept;
     double splitLogRatio(int a, int b, double moreTopics, uint64_t others, double gamma) noexcept;
-    uint64_t windowTokens() noexcept;
+    uint64_t windowTokens() const noexcept { return window_words_; }
     void moveToken(int32_t* cellCounts, std::size_t at, int from, int to) noexcept;
     template <typename F>
     void forEachWindowCell(F&& f) noexcept;
@@ -394,6 +394,7 @@ private:
     int64_t steps_ = 0;
     uint64_t tokens_refined_ = 0;
     uint64_t words_in_model_ = 0;
+    uint64_t window_words_ = 0;  // words in the window's cells (derived: recounted by stateRestored)
     // Growth from the data: the concentration of the last move, and the moves accepted (not state).
     double gamma_learned_ = 0.0;
     uint64_t growth_moves_ = 0;

@@ -183,6 +183,7 @@ void ModelCore::evict(std::size_t slot) noexcept {
     } else {
         nkv_is_window_ = false;
     }
+    for (int c = 0; c < cells_; ++c) window_words_ -= cell_n_[slot * cells_ + c];
     std::fill_n(cell_n_.data() + slot * cells_, cells_, 0u);
     std::fill_n(nck_.data() + slot * cells_ * Kp_, static_cast<std::size_t>(cells_) * Kp_, 0);
     std::fill_n(cell_surprise_.data() + slot * cells_, cells_, 0.f);
@@ -272,6 +273,7 @@ AddResult ModelCore::addObservation(std::span<const uint32_t> words, std::span<c
     observeSurprise(step, slot, obs, firstNew);
     drawInitialLabels(slot, firstNew, labelled);
     if (!cfg_.fixed) words_in_model_ += res.kept;
+    window_words_ += res.kept;
     ++frames_;
     return res;
 }
@@ -392,6 +394,9 @@ void ModelCore::outputNumbering(std::span<uint16_t> map) const noexcept {
 
 void ModelCore::stateRestored() noexcept {
     kernel::updateTopics(tables_);
+    window_words_ = 0;
+    for (int64_t t = oldestStep(); t < steps_; ++t)
+        for (int c = 0; c < cells_; ++c) window_words_ += cell_n_[slotOf(t) * cells_ + c];
 }
 
 bool ModelCore::checkInvariants(std::string* why) const {
@@ -432,6 +437,7 @@ bool ModelCore::checkInvariants(std::string* why) const {
                     std::to_string(words_in_model_));
     std::vector<int32_t> hist;
     if (nkv_is_window_) hist.assign(static_cast<std::size_t>(V_) * Kp_, 0);
+    uint64_t windowWords = 0;
     for (int64_t t = oldestStep(); t < steps_; ++t) {
         const std::size_t slot = slotOf(t);
         if (slot_step_[slot] != t) return fail("ring slot " + std::to_string(slot) + " does not hold step " + std::to_string(t));
@@ -440,6 +446,7 @@ bool ModelCore::checkInvariants(std::string* why) const {
             const std::size_t base = (slot * cells_ + static_cast<std::size_t>(c)) * cap_;
             const uint32_t n = cell_n_[slot * cells_ + c];
             if (n > static_cast<uint32_t>(cap_)) return fail("cell over capacity");
+            windowWords += n;
             for (uint32_t i = 0; i < n; ++i) {
                 const int z = cell_z_[base + i];
                 if (z >= K_) return fail("label out of range in step " + std::to_string(t));
@@ -453,6 +460,9 @@ bool ModelCore::checkInvariants(std::string* why) const {
                                 ", topic " + std::to_string(k));
         }
     }
+    if (windowWords != window_words_)
+        return fail("words in the window's cells = " + std::to_string(windowWords) + " but counted " +
+                    std::to_string(window_words_));
     if (nkv_is_window_)
         for (std::size_t i = 0; i < hist.size(); ++i)
             if (hist[i] != nkv_[i])

@@ -12,7 +12,7 @@
 
 namespace rost {
 
-// A step picker over every step of a window in order, `sweeps` times.
+// A step picker over every step of a window in order, round and round.
 class SweepPicker final : public StepPicker {
 public:
     SweepPicker(int64_t first, int64_t end) noexcept : first_(first), end_(end), t_(first) {}
@@ -25,7 +25,6 @@ public:
 private:
     int64_t first_, end_, t_;
 };
-
 
 // A window's plan: its picks, its tasks (cells) and rounds, its key.
 // Two plans: with workers and a budget known in advance, the next
