@@ -30,10 +30,10 @@ namespace {
 rost::WordStream g_stream;
 int g_width = 0, g_height = 0, g_V = 0;
 
-// K = 16 over the stream's vocabulary and frame, a ring that holds it all.
-rost::Config streamConfig(int threads, int window) {
+// K topics (16 unless given) over the stream's vocabulary and frame, a ring that holds it all.
+rost::Config streamConfig(int threads, int window, int K = 16) {
     rost::Config c;
-    c.K = 16;
+    c.K = K;
     c.V = g_V;
     c.frame_width = g_width;
     c.frame_height = g_height;
@@ -43,8 +43,8 @@ rost::Config streamConfig(int threads, int window) {
     return c;
 }
 
-std::unique_ptr<rost::Model> loadedModel(int threads, int window) {
-    auto m = std::make_unique<rost::Model>(streamConfig(threads, window));
+std::unique_ptr<rost::Model> loadedModel(int threads, int window, int K = 16) {
+    auto m = std::make_unique<rost::Model>(streamConfig(threads, window, K));
     for (const auto& o : g_stream.observations) (void)m->addObservation(o.words, o.positions);
     m->refineAll(2);  // past the random start
     return m;
@@ -53,7 +53,8 @@ std::unique_ptr<rost::Model> loadedModel(int threads, int window) {
 void BM_RefineAll(benchmark::State& state) {
     const auto threads = static_cast<int>(state.range(0));
     const auto window = static_cast<int>(state.range(1));
-    auto m = loadedModel(threads, window);
+    const auto K = static_cast<int>(state.range(2));
+    auto m = loadedModel(threads, window, K);
     uint64_t tokens = 0;
     for (auto _ : state) tokens += m->refineAll(1);
     state.SetItemsProcessed(static_cast<int64_t>(tokens));
@@ -61,12 +62,22 @@ void BM_RefineAll(benchmark::State& state) {
     state.counters["W"] = window;
 }
 BENCHMARK(BM_RefineAll)
-    ->ArgNames({"threads", "W"})
-    ->Args({1, 1})
-    ->Args({1, 256})
-    ->Args({2, 256})
-    ->Args({1, 1024})
-    ->Args({2, 1024})
+    ->ArgNames({"threads", "W", "K"})
+    ->Args({1, 1, 16})
+    ->Args({1, 256, 16})
+    ->Args({2, 256, 16})
+    ->Args({1, 1024, 16})
+    ->Args({2, 1024, 16})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+// Scaling past two cores (issue 32, item 2; bench/RESULTS.md "Every core past
+// eight threads"): 1 to 16 threads at K = 16 and 64. On fewer cores than
+// threads the workers take turns: select these with --benchmark_filter=Scaling
+// on a machine with 16 cores.
+BENCHMARK(BM_RefineAll)
+    ->Name("BM_RefineAllScaling")
+    ->ArgNames({"threads", "W", "K"})
+    ->ArgsProduct({{1, 2, 4, 8, 16}, {256}, {16, 64}})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 
@@ -99,6 +110,14 @@ void BM_ModelSetUp(benchmark::State& state) {
     }
 }
 BENCHMARK(BM_ModelSetUp)->ArgNames({"threads"})->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ModelSetUp)
+    ->Name("BM_ModelSetUpScaling")
+    ->ArgNames({"threads"})
+    ->Arg(4)
+    ->Arg(8)
+    ->Arg(16)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
 
 void BM_FinalPass(benchmark::State& state) {
     const auto threads = static_cast<int>(state.range(0));
@@ -125,6 +144,14 @@ BENCHMARK(BM_FinalPass)
     ->Args({2, 0})
     ->Args({1, 1})
     ->Args({2, 1})
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FinalPass)
+    ->Name("BM_FinalPassScaling")
+    ->ArgNames({"threads", "batch"})
+    ->Args({4, 1})
+    ->Args({8, 1})
+    ->Args({16, 1})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 

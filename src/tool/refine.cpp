@@ -4,6 +4,8 @@
 
 #include <chrono>
 #include <cstdio>
+#include <system_error>
+#include <thread>
 
 #include "collector.hpp"
 #include "outputs.hpp"
@@ -35,7 +37,8 @@ Status play(const StreamStage& in, Collector& collector, bool quiet) {
     return {};
 }
 
-Status writeRefineSummary(OutputDir& out, const RefineOptions& o, const StreamStage& in, const Collector& c) {
+// Draws and writes summary.png into the staging directory (tracked by the caller).
+Status writeRefineSummary(const OutputDir& out, const RefineOptions& o, const StreamStage& in, const Collector& c) {
     SummaryInput si;
     si.title = "rost refine: " + o.words;
     char sub[200];
@@ -46,9 +49,28 @@ Status writeRefineSummary(OutputDir& out, const RefineOptions& o, const StreamSt
     si.K = in.ec.model.K;
     si.rows = c.rows();
     si.resumed = in.resuming;
-    if (Status st = writePng(out.staged("summary.png"), drawSummary(si)); !st.ok()) return st;
-    out.track("summary.png");
-    return {};
+    return writePng(out.staged("summary.png"), drawSummary(si));
+}
+
+// The result files and summary.png, the summary drawn and compressed on a
+// second thread while the CSV files are formatted and written (the end of a
+// command is otherwise serial: docs/design.md, "The rest of a command"). No
+// thread to be had: one after the other.
+Status writeRefineOutputs(OutputDir& out, const RefineOptions& o, const StreamStage& in, const Collector& c) {
+    Status png;
+    std::thread summary;
+    if (o.summary) {
+        try {
+            summary = std::thread([&] { png = writeRefineSummary(out, o, in, c); });
+        } catch (const std::system_error&) {
+            png = writeRefineSummary(out, o, in, c);
+        }
+    }
+    Status st = writeResultFiles(out, c, *in.engine, {});
+    if (summary.joinable()) summary.join();
+    if (st.ok()) st = png;
+    if (st.ok() && o.summary) out.track("summary.png");
+    return st;
 }
 
 } // namespace
@@ -80,8 +102,7 @@ int refineCommand(const RefineOptions& o) {
 
     collector.finish(o.model.settings.final_sweeps);
     Status st = collector.closeStreams();
-    if (st.ok()) st = writeResultFiles(out, collector, *in.engine, {});
-    if (st.ok() && o.summary) st = writeRefineSummary(out, o, in, collector);
+    if (st.ok()) st = writeRefineOutputs(out, o, in, collector);
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) {
