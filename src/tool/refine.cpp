@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <exception>
 #include <system_error>
 #include <thread>
 
@@ -61,7 +62,13 @@ Status writeRefineOutputs(OutputDir& out, const RefineOptions& o, const StreamSt
     std::thread summary;
     if (o.summary) {
         try {
-            summary = std::thread([&] { png = writeRefineSummary(out, o, in, c); });
+            summary = std::thread([&] {
+                try {
+                    png = writeRefineSummary(out, o, in, c);
+                } catch (const std::exception& e) {  // out of memory drawing it: an error, not a crash
+                    png = Status::error(out.staged("summary.png") + ": cannot draw the summary: " + e.what());
+                }
+            });
         } catch (const std::system_error&) {
             png = writeRefineSummary(out, o, in, c);
         }
