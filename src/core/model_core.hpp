@@ -241,6 +241,7 @@ private:
     void sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept;
     template <int KP, kernel::Path P>
     void frozenTask(int worker, uint32_t task) noexcept;
+    void prefetchTask(uint32_t task) const noexcept;
     template <int KP, kernel::Path P>
     void liveTask(int worker, uint32_t task) noexcept;
     template <int KP>

@@ -29,8 +29,11 @@ struct ModelCore::WindowJob final : detail::WorkerPool::Job {
     void begin(int worker) noexcept override {
         if (pending) model->takeMoves(*pending, static_cast<uint32_t>(worker));
     }
+    uint32_t count = 0;
+
     void task(int worker, uint32_t index) noexcept override {
         const uint32_t t = tasks[index];
+        if (index + 1 < count && tasks[index + 1] != Windows::kPlanTask) model->prefetchTask(tasks[index + 1]);
         if (t == Windows::kPlanTask)
             model->planNextWindow();
         else
@@ -182,6 +185,20 @@ void ModelCore::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) c
         h = nck(slots.temporal[j], cell);
         for (int k = 0; k < Kp; ++k) g[k] += h[k];
     }
+}
+
+// The next task's cell (its labels, words and counts) on its way to the
+// cache while this one refines.
+void ModelCore::prefetchTask(uint32_t task) const noexcept {
+    const Windows::Plan& plan = win_->plan();
+    const std::size_t cell = static_cast<std::size_t>(plan.task_cell[task]);
+    const std::size_t at = slotOf(plan.task_step[task]) * cells_ + cell;
+    const uint32_t n = cell_n_[at];
+    const char* z = reinterpret_cast<const char*>(cell_z_.data() + at * cap_);
+    const char* words = reinterpret_cast<const char*>(cell_words_.data() + at * cap_);
+    for (std::size_t b = 0; b < n * sizeof(uint16_t); b += kCacheLine) __builtin_prefetch(z + b, 1);
+    for (std::size_t b = 0; b < n * sizeof(uint32_t); b += kCacheLine) __builtin_prefetch(words + b, 0);
+    __builtin_prefetch(nck(at / cells_, static_cast<int>(cell)), 1);
 }
 
 template <int KP, kernel::Path P>
@@ -409,9 +426,11 @@ void ModelCore::runRound(int c) noexcept {
     WindowJob job;
     job.model = this;
     job.kernel = frozen_kernel_[path];
+    job.count = e - b;
     if (pool_) {
         const auto n = static_cast<std::size_t>(pool_->workers());
         log.n = P.owned_begin[c + 1] - P.owned_begin[c];
+        job.count = log.n;
         job.tasks = log.task_list = P.owned.data() + P.owned_begin[c];
         if (w.defer) {  // taken during the next round: keep the round's own list and offsets
             std::memcpy(log.tasks.data(), job.tasks, log.n * sizeof(uint32_t));
