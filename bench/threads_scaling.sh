@@ -35,6 +35,15 @@ mkdir -p "$out"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 echo "machine: $(nproc) CPUs; $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
+# bench_parallel's rows (medians with repetitions); a failed run stops the script with its output.
+run_bench() {
+  if ! "$bench" "$@" > "$tmp/bench.txt" 2>&1; then
+    cat "$tmp/bench.txt" >&2
+    echo "threads_scaling: $bench $* failed" >&2
+    exit 1
+  fi
+  grep -E '^BM' "$tmp/bench.txt" | grep -v '_mean \|_stddev \|_cv ' || { echo "threads_scaling: $bench ran no benchmark" >&2; exit 1; }
+}
 median() { sort -n | awk '{ x[NR] = $1 } END { print (NR % 2) ? x[(NR + 1) / 2] : (x[NR / 2] + x[NR / 2 + 1]) / 2 }'; }
 
 if [[ " $parts " == *" bench "* ]]; then
@@ -43,16 +52,15 @@ if [[ " $parts " == *" bench "* ]]; then
     p=$positions
     [ "$layout" = stream ] && p=""
     echo "== bench_parallel, $layout"
-    "$bench" "$words" $p --benchmark_filter="$filter" --benchmark_repetitions="$reps" \
-      --benchmark_report_aggregates_only=true --benchmark_out="$out/bench-$layout.json" \
-      --benchmark_out_format=json 2>&1 | grep -E '_median|^BM|Error|error' | grep -v '_mean\|_stddev\|_cv' || true
+    run_bench "$words" $p --benchmark_filter="$filter" --benchmark_repetitions="$reps" \
+      --benchmark_report_aggregates_only=true --benchmark_out="$out/bench-$layout.json" --benchmark_out_format=json
   done
 fi
 
 if [[ " $parts " == *" phases "* ]]; then
   echo "== bench_parallel, the rest of a command"
-  "$bench" "$words" "$positions" --benchmark_filter='Read|SetUp|Final.*batch:1' --benchmark_repetitions="$reps" \
-    --benchmark_report_aggregates_only=true 2>&1 | grep -E '^BM|Error|error' | grep -v '_mean\|_stddev\|_cv' || true
+  run_bench "$words" "$positions" --benchmark_filter='Read|SetUp|Final.*batch:1' --benchmark_repetitions="$reps" \
+    --benchmark_report_aggregates_only=true
   for r in 1 2 3 4 5; do
     s=$(date +%s%N); "$rost" --version > /dev/null; e=$(date +%s%N)
     echo $(( (e - s) / 1000 ))
@@ -68,6 +76,7 @@ if [[ " $parts " == *" cli "* ]]; then
         mkdir -p "$tmp/trt-$K-$t" && (cd "$tmp/trt-$K-$t" && "$trt" -i "$words" -K "$K" -n 20 --threads "$t" > /dev/null)
         sed -n 's/^refined [0-9]* tokens in \([0-9.]*\) s.*/\1/p' "$tmp/trt-$K-$t/topics.log"
       done > "$tmp/trt-times"
+      [ -s "$tmp/trt-times" ] || { echo "threads_scaling: no 'refined N tokens in S s' line in topics.refine.t's topics.log" >&2; exit 1; }
       m=$(median < "$tmp/trt-times")
       [ -n "$one" ] || one=$m
       line+=" $t: ${m}s ($(awk -v a="$one" -v b="$m" 'BEGIN { printf "%.2f", a / b }')x)"
