@@ -29,7 +29,7 @@ struct ModelCore::WindowJob final : detail::WorkerPool::Job {
     void begin(int worker) noexcept override {
         if (pending) model->takeMoves(*pending, static_cast<uint32_t>(worker));
     }
-    uint32_t count = 0;
+    uint32_t count = 0;  // tasks in the list: the one after a task is prefetched
 
     void task(int worker, uint32_t index) noexcept override {
         const uint32_t t = tasks[index];
@@ -426,7 +426,6 @@ void ModelCore::runRound(int c) noexcept {
     WindowJob job;
     job.model = this;
     job.kernel = frozen_kernel_[path];
-    job.count = e - b;
     if (pool_) {
         const auto n = static_cast<std::size_t>(pool_->workers());
         log.n = P.owned_begin[c + 1] - P.owned_begin[c];
@@ -454,6 +453,7 @@ void ModelCore::runRound(int c) noexcept {
         }
     } else {
         log.n = e - b;
+        job.count = log.n;
         job.tasks = log.task_list = P.order.data() + b;
         for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
         takeMoves(log, 0);
