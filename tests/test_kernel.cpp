@@ -4,7 +4,9 @@
 #include <cstring>
 #include <vector>
 
+#include "counter_rng.hpp"
 #include "kernel.hpp"
+#include "kernel_pair.hpp"
 #include "rost/model.hpp"
 
 namespace {
@@ -150,6 +152,86 @@ TEST(KernelSimdMatchesScalar, WholeModelRunsGiveIdenticalLabels) {
         }
         EXPECT_EQ(simd.tokensRefined(), scalar.tokensRefined());
     }
+}
+
+// Two cells of a round refined as a pair (src/core/kernel_pair.hpp) get
+// exactly what refineCellFrozen gives each alone: labels, cell counts and
+// neighbourhood sums, for cells of equal and unequal word counts (the
+// longer one's last words after the interleaved part), at the interleaved
+// K (16) and at K the pair runs one cell after the other (32), on both paths.
+template <int KP, rost::kernel::Path P>
+void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
+    constexpr int V = 97;
+    rost::Rng r(seed);
+    std::vector<int32_t> nkv(static_cast<std::size_t>(V) * KP), nk(KP, 0);
+    std::vector<float> inv(KP), dec(KP), inc(KP);
+    for (int v = 0; v < V; ++v)
+        for (int k = 0; k < KP; ++k) {
+            nkv[static_cast<std::size_t>(v) * KP + k] = static_cast<int32_t>(r.below(6)) + 1;
+            nk[k] += nkv[static_cast<std::size_t>(v) * KP + k];
+        }
+    rost::kernel::Tables t;
+    t.nkv = nkv.data();
+    t.nk = nk.data();
+    t.inv = inv.data();
+    t.dec = dec.data();
+    t.inc = inc.data();
+    t.K = t.Kp = t.active = t.hi = t.slot = KP;
+    t.alpha = 0.1f;
+    t.beta = 0.5f;
+    t.vbeta = V * 0.5f;
+    rost::kernel::refreshReciprocals(t);
+    struct Cell {
+        std::vector<int32_t> g, nc;
+        std::vector<uint32_t> words;
+        std::vector<uint16_t> z, z0;
+    };
+    auto make = [&](uint32_t n) {
+        Cell c{std::vector<int32_t>(KP), std::vector<int32_t>(KP, 0), std::vector<uint32_t>(n),
+               std::vector<uint16_t>(n), std::vector<uint16_t>(n)};
+        for (uint32_t i = 0; i < n; ++i) {
+            c.words[i] = r.below(V);
+            c.z[i] = c.z0[i] = static_cast<uint16_t>(r.below(KP));
+            ++c.nc[c.z[i]];
+        }
+        for (int k = 0; k < KP; ++k) c.g[k] = c.nc[k] + static_cast<int32_t>(r.below(20));
+        return c;
+    };
+    const Cell a0 = make(nA), b0 = make(nB);
+    Cell a1 = a0, b1 = b0, a2 = a0, b2 = b0;
+    auto view = [](Cell& c) {
+        return rost::kernel::FrozenCell{c.g.data(), c.nc.data(), c.words.data(), c.z.data(), c.z0.data(),
+                                        static_cast<uint32_t>(c.words.size())};
+    };
+    for (uint64_t pick = 0; pick < 3; ++pick) {  // a task's picks, in turn
+        rost::detail::CounterRng ra(seed, 2 * pick), rb(seed, 2 * pick + 1);
+        rost::kernel::refineCellFrozen<KP, P>(t, a1.g.data(), a1.nc.data(), a1.words.data(), a1.z.data(), a1.z0.data(),
+                                              nA, ra);
+        rost::kernel::refineCellFrozen<KP, P>(t, b1.g.data(), b1.nc.data(), b1.words.data(), b1.z.data(), b1.z0.data(),
+                                              nB, rb);
+        rost::detail::CounterRng pa(seed, 2 * pick), pb(seed, 2 * pick + 1);
+        rost::kernel::refineCellsFrozenPair<KP, P>(t, view(a2), pa, view(b2), pb);
+    }
+    const char* path = P == rost::kernel::Path::Simd ? "simd" : "scalar";
+    if (nA >= 9) {
+        EXPECT_NE(a1.z, a0.z) << "the draws moved some labels";
+    }
+    EXPECT_EQ(a2.z, a1.z) << "K " << KP << " " << path << " cell A, " << nA << " and " << nB << " words";
+    EXPECT_EQ(b2.z, b1.z) << "K " << KP << " " << path << " cell B, " << nA << " and " << nB << " words";
+    EXPECT_TRUE(a2.g == a1.g && b2.g == b1.g) << "K " << KP << " " << path << ": neighbourhood sums";
+    EXPECT_TRUE(a2.nc == a1.nc && b2.nc == b1.nc) << "K " << KP << " " << path << ": cell counts";
+}
+
+TEST(KernelPair, TwoCellsOfARoundGetWhatEachGetsAlone) {
+    using rost::kernel::Path;
+    for (const auto& [nA, nB] : {std::pair{25u, 25u}, std::pair{40u, 9u}, std::pair{3u, 31u}, std::pair{1u, 1u}}) {
+        pairCase<16, Path::Simd>(nA, nB, 11 + nA);
+        pairCase<16, Path::Scalar>(nA, nB, 11 + nA);
+        pairCase<32, Path::Simd>(nA, nB, 17 + nB);
+    }
+#if defined(ROST_KERNEL_SIMD)
+    EXPECT_TRUE((rost::kernel::interleavesPairs<16, Path::Simd>())) << "K = 16 interleaves on a vector path";
+#endif
 }
 
 } // namespace

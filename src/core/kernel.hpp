@@ -26,15 +26,8 @@
 #include <cstdint>
 
 #include "kernel_tables.hpp"
+#include "kernel_v4.hpp"
 #include "rost/random.hpp"
-
-#if defined(__SSE2__) && !defined(ROST_FORCE_SCALAR)
-#include <emmintrin.h>
-#define ROST_SIMD_SSE2 1
-#elif (defined(__ARM_NEON) || defined(__ARM_NEON__)) && !defined(ROST_FORCE_SCALAR)
-#include <arm_neon.h>
-#define ROST_SIMD_NEON 1
-#endif
 
 namespace rost::kernel {
 
@@ -124,104 +117,6 @@ inline float leftReciprocal(Tables& t, int z, int32_t nz) noexcept {
     }
     return t.dec[z];
 }
-// ---- 4-lane vector wrapper -------------------------------------------------
-
-namespace v4 {
-#if defined(ROST_SIMD_SSE2)
-using F = __m128;
-using I = __m128i;
-inline F load(const float* p) noexcept { return _mm_loadu_ps(p); }
-inline I load(const int32_t* p) noexcept { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
-inline void store(float* p, F x) noexcept { _mm_storeu_ps(p, x); }
-inline void store(int32_t* p, I x) noexcept { _mm_storeu_si128(reinterpret_cast<__m128i*>(p), x); }
-inline F set(float x) noexcept { return _mm_set1_ps(x); }
-inline I seti(int32_t x) noexcept { return _mm_set1_epi32(x); }
-inline I iota(int32_t b) noexcept { return _mm_setr_epi32(b, b + 1, b + 2, b + 3); }
-inline I niota(int32_t b) noexcept { return _mm_setr_epi32(-b, -b - 1, -b - 2, -b - 3); }
-inline F add(F a, F b) noexcept { return _mm_add_ps(a, b); }
-inline F sub(F a, F b) noexcept { return _mm_sub_ps(a, b); }
-inline F mul(F a, F b) noexcept { return _mm_mul_ps(a, b); }
-inline F zero() noexcept { return _mm_setzero_ps(); }
-inline I zeroi() noexcept { return _mm_setzero_si128(); }
-inline F shift1(F p) noexcept {  // (0, p0, p1, p2)
-    return _mm_castsi128_ps(_mm_slli_si128(_mm_castps_si128(p), 4));
-}
-inline I add(I a, I b) noexcept { return _mm_add_epi32(a, b); }
-inline I sub(I a, I b) noexcept { return _mm_sub_epi32(a, b); }
-inline F cvt(I a) noexcept { return _mm_cvtepi32_ps(a); }
-inline I eq(I a, I b) noexcept { return _mm_cmpeq_epi32(a, b); }  // all ones where equal
-inline I le(F a, F b) noexcept { return _mm_castps_si128(_mm_cmple_ps(a, b)); }
-inline F select(I m, F a, F b) noexcept {
-    const F mf = _mm_castsi128_ps(m);
-    return _mm_or_ps(_mm_and_ps(mf, a), _mm_andnot_ps(mf, b));
-}
-inline F scan(F p) noexcept {
-    p = _mm_add_ps(p, _mm_castsi128_ps(_mm_slli_si128(_mm_castps_si128(p), 4)));
-    return _mm_add_ps(p, _mm_castsi128_ps(_mm_slli_si128(_mm_castps_si128(p), 8)));
-}
-inline F last(F p) noexcept { return _mm_shuffle_ps(p, p, _MM_SHUFFLE(3, 3, 3, 3)); }
-inline float first(F p) noexcept { return _mm_cvtss_f32(p); }
-inline int32_t hsum(I a) noexcept {
-    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(1, 0, 3, 2)));
-    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(2, 3, 0, 1)));
-    return _mm_cvtsi128_si32(a);
-}
-inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
-    a = _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(1, 0, 3, 2)));
-    return _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(2, 3, 0, 1)));
-}
-inline int32_t firsti(I a) noexcept { return _mm_cvtsi128_si32(a); }
-#elif defined(ROST_SIMD_NEON)
-using F = float32x4_t;
-using I = int32x4_t;
-inline F load(const float* p) noexcept { return vld1q_f32(p); }
-inline I load(const int32_t* p) noexcept { return vld1q_s32(p); }
-inline void store(float* p, F x) noexcept { vst1q_f32(p, x); }
-inline void store(int32_t* p, I x) noexcept { vst1q_s32(p, x); }
-inline F set(float x) noexcept { return vdupq_n_f32(x); }
-inline I seti(int32_t x) noexcept { return vdupq_n_s32(x); }
-inline I iota(int32_t b) noexcept {
-    const int32_t v[4] = {b, b + 1, b + 2, b + 3};
-    return vld1q_s32(v);
-}
-inline I niota(int32_t b) noexcept {
-    const int32_t v[4] = {-b, -b - 1, -b - 2, -b - 3};
-    return vld1q_s32(v);
-}
-inline F add(F a, F b) noexcept { return vaddq_f32(a, b); }
-inline F sub(F a, F b) noexcept { return vsubq_f32(a, b); }
-inline F mul(F a, F b) noexcept { return vmulq_f32(a, b); }
-inline F zero() noexcept { return vdupq_n_f32(0.f); }
-inline I zeroi() noexcept { return vdupq_n_s32(0); }
-inline F shift1(F p) noexcept { return vextq_f32(vdupq_n_f32(0.f), p, 3); }  // (0, p0, p1, p2)
-inline I add(I a, I b) noexcept { return vaddq_s32(a, b); }
-inline I sub(I a, I b) noexcept { return vsubq_s32(a, b); }
-inline F cvt(I a) noexcept { return vcvtq_f32_s32(a); }
-inline I eq(I a, I b) noexcept { return vreinterpretq_s32_u32(vceqq_s32(a, b)); }
-inline I le(F a, F b) noexcept { return vreinterpretq_s32_u32(vcleq_f32(a, b)); }
-inline F select(I m, F a, F b) noexcept { return vbslq_f32(vreinterpretq_u32_s32(m), a, b); }
-inline F scan(F p) noexcept {
-    const F zero = vdupq_n_f32(0.f);
-    p = vaddq_f32(p, vextq_f32(zero, p, 3));
-    return vaddq_f32(p, vextq_f32(zero, p, 2));
-}
-inline F last(F p) noexcept { return vdupq_n_f32(vgetq_lane_f32(p, 3)); }
-inline float first(F p) noexcept { return vgetq_lane_f32(p, 0); }
-inline int32_t hsum(I a) noexcept {
-    const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));
-    return vget_lane_s32(vpadd_s32(h, h), 0);
-}
-inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
-    const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));
-    const int32x2_t s = vpadd_s32(h, h);
-    return vcombine_s32(s, s);
-}
-inline int32_t firsti(I a) noexcept { return vgetq_lane_s32(a, 0); }
-#endif
-} // namespace v4
-#if defined(ROST_SIMD_SSE2) || defined(ROST_SIMD_NEON)
-#define ROST_KERNEL_SIMD 1
-#endif
 #define ROST_KERNEL_INLINE inline __attribute__((always_inline))
 
 inline constexpr int kMaxK = 1024;                // the schema's largest K (a multiple of kBlock)
@@ -556,6 +451,51 @@ inline void refineCellFrozenScanScalar(const Tables& t, int32_t* nG, int32_t* nc
 }
 
 #if defined(ROST_SIMD_SSE2) || defined(ROST_SIMD_NEON)
+// One word of refineCellFrozenScanSimd: word (row) leaves topic a of the frozen
+// counts (reciprocal va) and topic z of the cell's sums g; returns the drawn
+// topic, which g has joined. iv: the frozen reciprocals.
+template <int KP>
+ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, const v4::F* iv, const int32_t* row, int a, int z,
+                                      float u01, v4::F va, int nbL, v4::F beta, v4::F alpha) noexcept {
+    v4::F cum[KP > 0 ? KP / kBlock : kMaxBlocks];
+    const v4::I aa = v4::seti(a), zz = v4::seti(z);
+    v4::F carry = v4::set(0.f);
+    for (int b = 0; b < nbL; ++b) {
+        const v4::I lanes = v4::iota(kBlock * b);
+        const v4::I ma = v4::eq(lanes, aa);
+        const v4::I r = v4::add(v4::load(row + kBlock * b), ma);
+        g[b] = v4::add(g[b], v4::eq(lanes, zz));
+        const v4::F ivb = v4::select(ma, va, iv[b]);
+        const v4::F p = v4::scan(v4::mul(v4::mul(v4::add(v4::cvt(r), beta), ivb), v4::add(v4::cvt(g[b]), alpha)));
+        if (b == 0) {
+            cum[b] = p;
+            carry = v4::last(p);
+        } else {
+            cum[b] = v4::add(p, carry);
+            carry = v4::add(carry, v4::last(p));
+        }
+    }
+    v4::F total = carry;
+    if constexpr (KP == kGrow) total = v4::add(carry, v4::set(freshWeight<KP>(t)));
+    const v4::F uu = v4::mul(v4::set(u01), total);
+    v4::I count = v4::le(cum[0], uu);
+    for (int b = 1; b < nbL; ++b) count = v4::add(count, v4::le(cum[b], uu));
+    count = v4::hbroadcast(count);
+    int k = -v4::firsti(count);
+    if constexpr (KP == kGrow) {
+        k = drawnTopic<KP>(t, k, a);
+        count = v4::seti(-k);
+    }
+    for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
+    return k;
+}
+
+// The frozen reciprocal of topic a for a word that leaves it.
+template <int KP>
+ROST_KERNEL_INLINE v4::F frozenLeft(const Tables& t, int a) noexcept {
+    return v4::set(KP == kGrow && t.nk[a] == 1 ? 0.f : t.dec[a]);
+}
+
 template <int KP, typename R>
 inline void refineCellFrozenScanSimd(const Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words,
                                  uint16_t* topics, const uint16_t* z0, uint32_t n, R& rng) noexcept {
@@ -563,7 +503,7 @@ inline void refineCellFrozenScanSimd(const Tables& t, int32_t* nG, int32_t* nc, 
     const int nb = Kp / kBlock;
     constexpr int kArr = KP > 0 ? KP / kBlock : kMaxBlocks;
     v4::I g[kArr];
-    v4::F iv[kArr], cum[kArr];
+    v4::F iv[kArr];
     for (int b = 0; b < nb; ++b) {
         g[b] = v4::load(nG + kBlock * b);
         iv[b] = v4::load(t.inv + kBlock * b);
@@ -573,39 +513,9 @@ inline void refineCellFrozenScanSimd(const Tables& t, int32_t* nG, int32_t* nc, 
         const int32_t* row = t.nkv + static_cast<std::size_t>(words[i]) * static_cast<std::size_t>(Kp);
         const int a = z0[i], z = topics[i];
         const float u01 = rng.uniformFloat();
-        const v4::I aa = v4::seti(a), zz = v4::seti(z);
-        const v4::F va = v4::set(KP == kGrow && t.nk[a] == 1 ? 0.f : t.dec[a]);
-        v4::F carry = v4::set(0.f);
         const int nbL = liveLanes<KP>(t, Kp) / kBlock;
         if (nbL < 1) __builtin_unreachable();  // at least one topic is active
-        for (int b = 0; b < nbL; ++b) {
-            const v4::I lanes = v4::iota(kBlock * b);
-            const v4::I ma = v4::eq(lanes, aa);
-            const v4::I r = v4::add(v4::load(row + kBlock * b), ma);
-            g[b] = v4::add(g[b], v4::eq(lanes, zz));
-            const v4::F ivb = v4::select(ma, va, iv[b]);
-            const v4::F p =
-                v4::scan(v4::mul(v4::mul(v4::add(v4::cvt(r), beta), ivb), v4::add(v4::cvt(g[b]), alpha)));
-            if (b == 0) {
-                cum[b] = p;
-                carry = v4::last(p);
-            } else {
-                cum[b] = v4::add(p, carry);
-                carry = v4::add(carry, v4::last(p));
-            }
-        }
-        v4::F total = carry;
-        if constexpr (KP == kGrow) total = v4::add(carry, v4::set(freshWeight<KP>(t)));
-        const v4::F uu = v4::mul(v4::set(u01), total);
-        v4::I count = v4::le(cum[0], uu);
-        for (int b = 1; b < nbL; ++b) count = v4::add(count, v4::le(cum[b], uu));
-        count = v4::hbroadcast(count);
-        int k = -v4::firsti(count);
-        if constexpr (KP == kGrow) {
-            k = drawnTopic<KP>(t, k, a);
-            count = v4::seti(-k);
-        }
-        for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
+        const int k = frozenScanWord<KP>(t, g, iv, row, a, z, u01, frozenLeft<KP>(t, a), nbL, beta, alpha);
         if (k != z) {
             --nc[z];
             ++nc[k];

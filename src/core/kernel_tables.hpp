@@ -43,4 +43,15 @@ struct Tables {
     float vbeta = 0.f;
 };
 
+// One cell of a frozen round: its neighbourhood sums, its own counts, its
+// words, labels and round-start labels, and its word count.
+struct FrozenCell {
+    int32_t* nG;
+    int32_t* nc;
+    const uint32_t* words;
+    uint16_t* topics;
+    const uint16_t* z0;
+    uint32_t n;
+};
+
 } // namespace rost::kernel

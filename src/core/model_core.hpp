@@ -241,6 +241,11 @@ private:
     void sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept;
     template <int KP, kernel::Path P>
     void frozenTask(int worker, uint32_t task) noexcept;
+    template <int KP, kernel::Path P>
+    void frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept;
+    template <int KP>
+    kernel::FrozenCell openFrozenTask(uint32_t task, int32_t* g) noexcept;
+    void logMoves(int worker, uint32_t task, const kernel::FrozenCell& c) noexcept;
     void prefetchTask(uint32_t task) const noexcept;
     template <int KP, kernel::Path P>
     void liveTask(int worker, uint32_t task) noexcept;
@@ -384,6 +389,8 @@ private:
     using TaskKernel = void (ModelCore::*)(int, uint32_t) noexcept;
     TaskKernel frozen_kernel_[2] = {};  // [Scalar, Simd]
     TaskKernel live_kernel_[2] = {};
+    using PairKernel = void (ModelCore::*)(int, uint32_t, uint32_t) noexcept;
+    PairKernel pair_kernel_[2] = {};  // two frozen tasks at once; null: one at a time
     std::unique_ptr<Windows> win_;
     std::unique_ptr<detail::WorkerPool> pool_;
     std::unique_ptr<Measure> measure_;

@@ -13,6 +13,7 @@ namespace rost {
 void ModelCore::setFixedTaskKernels() noexcept {
     frozen_kernel_[0] = frozen_kernel_[1] = &ModelCore::fixedTask;
     live_kernel_[0] = live_kernel_[1] = &ModelCore::fixedTask;
+    pair_kernel_[0] = pair_kernel_[1] = nullptr;
 }
 
 void ModelCore::fixedTask(int worker, uint32_t task) noexcept {
@@ -23,7 +24,7 @@ void ModelCore::fixedTask(int worker, uint32_t task) noexcept {
     const std::size_t slot = slotOf(step);
     const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(cell)];
     const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
-    int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
+    int32_t* g = w.sums(worker, 0);
     neighbourhood(step, cell, g, false);
     for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
         detail::CounterRng rng(plan.key, p);

@@ -39,6 +39,18 @@ struct ModelCore::WindowJob final : detail::WorkerPool::Job {
         else
             (model->*kernel)(worker, t);
     }
+    PairKernel pair = nullptr;  // set: pairs (src/core/kernel_pair.hpp)
+    void taskPair(int worker, uint32_t index) noexcept override {
+        const uint32_t a = tasks[index], b = tasks[index + 1];
+        if (a == Windows::kPlanTask || b == Windows::kPlanTask) {
+            task(worker, index);
+            task(worker, index + 1);
+            return;
+        }
+        for (uint32_t j = index + 2; j < index + 4 && j < count; ++j)
+            if (tasks[j] != Windows::kPlanTask) model->prefetchTask(tasks[j]);
+        (model->*pair)(worker, a, b);
+    }
 };
 
 // The merge of a round on the pool (merges not deferred): task r adds the
@@ -154,108 +166,6 @@ void ModelCore::allocateWindows() {
     w.sizeWorkers(static_cast<std::size_t>(cfg_.threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
     if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
     memory_bytes_ += w.bytes();
-}
-
-template <int KP>
-void ModelCore::setTaskKernels() noexcept {
-    frozen_kernel_[0] = &ModelCore::frozenTask<KP, kernel::Path::Scalar>;
-    frozen_kernel_[1] = &ModelCore::frozenTask<KP, kernel::Path::Simd>;
-    live_kernel_[0] = &ModelCore::liveTask<KP, kernel::Path::Scalar>;
-    live_kernel_[1] = &ModelCore::liveTask<KP, kernel::Path::Simd>;
-}
-template void ModelCore::setTaskKernels<kernel::kGrow>() noexcept;
-template void ModelCore::setTaskKernels<0>() noexcept;
-template void ModelCore::setTaskKernels<16>() noexcept;
-template void ModelCore::setTaskKernels<32>() noexcept;
-template void ModelCore::setTaskKernels<64>() noexcept;
-
-template <int KP>
-void ModelCore::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept {
-    // With growth only the live blocks can hold counts (every cell's count of
-    // a closed topic is 0): the rest is zero, so the cost follows the open topics.
-    const int Kp = kernel::liveLanes<KP>(tables_, KP > 0 ? KP : Kp_);
-    for (int k = Kp; k < Kp_; ++k) g[k] = 0;
-    const int32_t* h = nck(slots.self, static_cast<int>(nbr_cell_[nbr_begin_[cell]]));
-    for (int k = 0; k < Kp; ++k) g[k] = h[k];
-    for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
-        h = nck(slots.self, static_cast<int>(nbr_cell_[j]));
-        for (int k = 0; k < Kp; ++k) g[k] += h[k];
-    }
-    for (int j = 0; j < slots.count; ++j) {
-        h = nck(slots.temporal[j], cell);
-        for (int k = 0; k < Kp; ++k) g[k] += h[k];
-    }
-}
-
-// The next task's cell (its labels, words and counts) on its way to the
-// cache while this one refines.
-void ModelCore::prefetchTask(uint32_t task) const noexcept {
-    const Windows::Plan& plan = win_->plan();
-    const std::size_t cell = static_cast<std::size_t>(plan.task_cell[task]);
-    const std::size_t at = slotOf(plan.task_step[task]) * cells_ + cell;
-    const uint32_t n = cell_n_[at];
-    const char* z = reinterpret_cast<const char*>(cell_z_.data() + at * cap_);
-    const char* words = reinterpret_cast<const char*>(cell_words_.data() + at * cap_);
-    for (std::size_t b = 0; b < n * sizeof(uint16_t); b += kCacheLine) __builtin_prefetch(z + b, 1);
-    for (std::size_t b = 0; b < n * sizeof(uint32_t); b += kCacheLine) __builtin_prefetch(words + b, 0);
-    __builtin_prefetch(nck(at / cells_, static_cast<int>(cell)), 1);
-}
-
-template <int KP, kernel::Path P>
-void ModelCore::frozenTask(int worker, uint32_t task) noexcept {
-    Windows& w = *win_;
-    const Windows::Plan& plan = w.plan();
-    const int64_t step = plan.task_step[task];
-    const int cell = plan.task_cell[task];
-    StepSlots slots;
-    stepSlots(step, slots);
-    const std::size_t slot = slots.self;
-    const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(cell)];
-    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
-    uint16_t* z = cell_z_.data() + base;
-    const uint32_t* words = cell_words_.data() + base;
-    uint16_t* z0 = w.z0.data() + plan.task_z0[task];
-    std::memcpy(z0, z, n * sizeof(uint16_t));
-    int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
-    sumNeighbourhood<KP>(slots, cell, g);
-    for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
-        detail::CounterRng rng(plan.key, p);
-        kernel::refineCellFrozen<KP, P>(w.worker_tables[static_cast<std::size_t>(worker)], g, nck(slot, cell), words, z,
-                                        z0, n, rng);
-    }
-    // The merge after the round reads only the moves; the change to n_k is
-    // the worker's part (added up after the round).
-    MoveLog& log = w.logs[w.round & 1];
-    uint64_t* moves = log.moves.data() + plan.task_z0[task];
-    int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
-    uint32_t m = 0;
-    for (uint32_t j = 0; j < n; ++j)
-        if (z[j] != z0[j]) {
-            moves[m++] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
-            --dnk[z0[j]];
-            ++dnk[z[j]];
-        }
-    log.count[task] = m;
-}
-
-template <int KP, kernel::Path P>
-void ModelCore::liveTask(int worker, uint32_t task) noexcept {
-    Windows& w = *win_;
-    const Windows::Plan& plan = w.plan();
-    const int64_t step = plan.task_step[task];
-    const int cell = plan.task_cell[task];
-    StepSlots slots;
-    stepSlots(step, slots);
-    const std::size_t slot = slots.self;
-    const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(cell)];
-    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
-    int32_t* g = w.worker_g.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
-    sumNeighbourhood<KP>(slots, cell, g);
-    for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
-        detail::CounterRng rng(plan.key, p);
-        kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
-                                  rng);
-    }
 }
 
 // Adds the step's next non-empty cells to the window until it is full,
@@ -426,6 +336,8 @@ void ModelCore::runRound(int c) noexcept {
     WindowJob job;
     job.model = this;
     job.kernel = frozen_kernel_[path];
+    job.pair = pair_kernel_[path];
+    job.pairs = job.pair != nullptr;
     if (pool_) {
         const auto n = static_cast<std::size_t>(pool_->workers());
         log.n = P.owned_begin[c + 1] - P.owned_begin[c];
@@ -455,7 +367,7 @@ void ModelCore::runRound(int c) noexcept {
         log.n = e - b;
         job.count = log.n;
         job.tasks = log.task_list = P.order.data() + b;
-        for (uint32_t i = 0; i < e - b; ++i) job.task(0, i);
+        detail::WorkerPool::runInTurn(job, log.n);
         takeMoves(log, 0);
     }
     finishRound();

@@ -112,18 +112,33 @@ uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
             if (next >= end) break;
             // A successful claim of a task not yet done pins the job: the
             // caller cannot start another before this task is counted done.
-            const uint64_t claimed = i == 0 ? c + 1 : c - (uint64_t{1} << 20);
+            const bool two = i == 0 && job_->pairs && next + 1 < end;
+            const uint64_t claimed = i == 0 ? c + (two ? 2 : 1) : c - (uint64_t{1} << 20);
             if (!word.compare_exchange_weak(c, claimed, std::memory_order_acquire, std::memory_order_acquire)) continue;
-            ++ran;
+            ran += two ? 2 : 1;
             if (!begun) {
                 begun = true;
                 job_->begin(worker);
             }
-            job_->task(worker, static_cast<uint32_t>(i == 0 ? next : end - 1));
+            if (two)
+                job_->taskPair(worker, static_cast<uint32_t>(next));
+            else
+                job_->task(worker, static_cast<uint32_t>(i == 0 ? next : end - 1));
             c = word.load(std::memory_order_acquire);
         }
     }
     return ran;
+}
+
+void WorkerPool::runInTurn(Job& job, uint32_t count) noexcept {
+    for (uint32_t i = 0; i < count;) {
+        if (job.pairs && i + 1 < count) {
+            job.taskPair(0, i);
+            i += 2;
+        } else {
+            job.task(0, i++);
+        }
+    }
 }
 
 void WorkerPool::countDone(uint32_t ran, uint32_t count) noexcept {
@@ -136,7 +151,7 @@ void WorkerPool::run(Job& job, uint32_t count, const uint32_t* cuts) noexcept {
     if (count == 0) return;
     if (workers_ == 1) {
         job.begin(0);
-        for (uint32_t i = 0; i < count; ++i) job.task(0, i);
+        runInTurn(job, count);
         return;
     }
     job_ = &job;

@@ -43,6 +43,14 @@ public:
         // and before running it (so the job cannot end while it runs); a
         // worker that claims no task of the job does not run it.
         virtual void begin(int /*worker*/) noexcept {}
+        // Tasks index and index + 1 at once: with `pairs` set, a worker
+        // claims the tasks of its own range two at a time while two are
+        // left (thieves still take one). Default: one, then the other.
+        virtual void taskPair(int worker, uint32_t index) noexcept {
+            task(worker, index);
+            task(worker, index + 1);
+        }
+        bool pairs = false;
 
     protected:
         ~Job() = default;
@@ -68,6 +76,10 @@ public:
     // `cuts`, when given, holds workers() + 1 ascending task indices from 0
     // to count: worker w's own range is [cuts[w], cuts[w + 1]).
     void run(Job& job, uint32_t count, const uint32_t* cuts = nullptr) noexcept;
+
+    // Runs tasks 0..count-1 of the job on the calling thread, in turn (in
+    // pairs where the job takes them so), as worker 0. No begin().
+    static void runInTurn(Job& job, uint32_t count) noexcept;
 
     // Jobs run so far (for tests).
     uint64_t jobs() const noexcept { return jobs_; }

@@ -1,0 +1,89 @@
+#pragma once
+
+// Two cells of one round refined together, against frozen word-topic counts
+// (src/core/refine_tasks.cpp). Internal to the library.
+//
+// A word's draw waits on the previous word's (the cell's neighbourhood sums
+// carry it), so one cell's words form one chain of dependent vector
+// operations and a core runs it well below its issue width. Two tasks of a
+// round share nothing a round writes: each has its own cell, labels, sums and
+// counter-based draws, and the word-topic counts are frozen. Interleaving
+// their words word by word gives a core two independent chains, and each
+// cell gets exactly the draws and labels refineCellFrozen gives it alone.
+
+#include <algorithm>
+
+#include "kernel.hpp"
+
+namespace rost::kernel {
+
+// Whether refineCellsFrozenPair interleaves the two cells: a vector path
+// with K known at compile time and at most kPairBlocks blocks, so both
+// chains' sums and the reciprocals stay in registers (16 on SSE2).
+inline constexpr int kPairBlocks = 4;
+template <int KP, Path P>
+constexpr bool interleavesPairs() noexcept {
+#if defined(ROST_KERNEL_SIMD)
+    return P == Path::Simd && KP > 0 && KP / kBlock <= kPairBlocks;
+#else
+    return false;
+#endif
+}
+
+#if defined(ROST_KERNEL_SIMD)
+// The first m words of A and of B, word by word: refineCellFrozenScanSimd's
+// operations on each.
+template <int KP, typename R>
+inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb,
+                                     uint32_t m) noexcept {
+    constexpr int nb = KP / kBlock;
+    v4::I ga[nb], gb[nb];
+    v4::F iv[nb];
+    for (int b = 0; b < nb; ++b) {
+        ga[b] = v4::load(A.nG + kBlock * b);
+        gb[b] = v4::load(B.nG + kBlock * b);
+        iv[b] = v4::load(t.inv + kBlock * b);
+    }
+    const v4::F beta = v4::set(t.beta), alpha = v4::set(t.alpha);
+    for (uint32_t i = 0; i < m; ++i) {
+        const int32_t* rowA = t.nkv + static_cast<std::size_t>(A.words[i]) * KP;
+        const int32_t* rowB = t.nkv + static_cast<std::size_t>(B.words[i]) * KP;
+        const int aA = A.z0[i], zA = A.topics[i], aB = B.z0[i], zB = B.topics[i];
+        const float uA = ra.uniformFloat(), uB = rb.uniformFloat();
+        const int kA = frozenScanWord<KP>(t, ga, iv, rowA, aA, zA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
+        const int kB = frozenScanWord<KP>(t, gb, iv, rowB, aB, zB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
+        if (kA != zA) {
+            --A.nc[zA];
+            ++A.nc[kA];
+            A.topics[i] = static_cast<uint16_t>(kA);
+        }
+        if (kB != zB) {
+            --B.nc[zB];
+            ++B.nc[kB];
+            B.topics[i] = static_cast<uint16_t>(kB);
+        }
+    }
+    for (int b = 0; b < nb; ++b) {
+        v4::store(A.nG + kBlock * b, ga[b]);
+        v4::store(B.nG + kBlock * b, gb[b]);
+    }
+}
+#endif
+
+// Refines every word of A with draws ra and every word of B with draws rb,
+// as refineCellFrozen on each in turn: two cells of one round (no shared
+// cell counts or sums). Interleaved while both have words (interleavesPairs).
+template <int KP, Path P, typename R>
+inline void refineCellsFrozenPair(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb) noexcept {
+    uint32_t m = 0;
+#if defined(ROST_KERNEL_SIMD)
+    if constexpr (interleavesPairs<KP, P>()) {
+        m = std::min(A.n, B.n);
+        refinePairFrozenScanSimd<KP>(t, A, ra, B, rb, m);
+    }
+#endif
+    if (A.n > m) refineCellFrozen<KP, P>(t, A.nG, A.nc, A.words + m, A.topics + m, A.z0 + m, A.n - m, ra);
+    if (B.n > m) refineCellFrozen<KP, P>(t, B.nG, B.nc, B.words + m, B.topics + m, B.z0 + m, B.n - m, rb);
+}
+
+} // namespace rost::kernel

@@ -1,0 +1,160 @@
+// The tasks of a window's rounds (src/core/refine_windows.cpp): a cell
+// refined against the round's frozen word-topic counts, its moves logged
+// for the merge; two such cells at once where the kernel interleaves them
+// (src/core/kernel_pair.hpp); or a cell refined live.
+
+#include <cstring>
+
+#include "counter_rng.hpp"
+#include "kernel.hpp"
+#include "kernel_pair.hpp"
+#include "model_core.hpp"
+#include "refine_windows.hpp"
+
+namespace rost {
+
+template <int KP>
+void ModelCore::setTaskKernels() noexcept {
+    frozen_kernel_[0] = &ModelCore::frozenTask<KP, kernel::Path::Scalar>;
+    frozen_kernel_[1] = &ModelCore::frozenTask<KP, kernel::Path::Simd>;
+    live_kernel_[0] = &ModelCore::liveTask<KP, kernel::Path::Scalar>;
+    live_kernel_[1] = &ModelCore::liveTask<KP, kernel::Path::Simd>;
+    // Pairs where the kernel interleaves them; elsewhere a pair would only
+    // make the tasks a thief can take coarser.
+    pair_kernel_[0] = nullptr;
+    pair_kernel_[1] = nullptr;
+    if constexpr (kernel::interleavesPairs<KP, kernel::Path::Simd>())
+        pair_kernel_[1] = &ModelCore::frozenTaskPair<KP, kernel::Path::Simd>;
+}
+template void ModelCore::setTaskKernels<kernel::kGrow>() noexcept;
+template void ModelCore::setTaskKernels<0>() noexcept;
+template void ModelCore::setTaskKernels<16>() noexcept;
+template void ModelCore::setTaskKernels<32>() noexcept;
+template void ModelCore::setTaskKernels<64>() noexcept;
+
+template <int KP>
+void ModelCore::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept {
+    // With growth only the live blocks can hold counts (every cell's count of
+    // a closed topic is 0): the rest is zero, so the cost follows the open topics.
+    const int Kp = kernel::liveLanes<KP>(tables_, KP > 0 ? KP : Kp_);
+    for (int k = Kp; k < Kp_; ++k) g[k] = 0;
+    const int32_t* h = nck(slots.self, static_cast<int>(nbr_cell_[nbr_begin_[cell]]));
+    for (int k = 0; k < Kp; ++k) g[k] = h[k];
+    for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
+        h = nck(slots.self, static_cast<int>(nbr_cell_[j]));
+        for (int k = 0; k < Kp; ++k) g[k] += h[k];
+    }
+    for (int j = 0; j < slots.count; ++j) {
+        h = nck(slots.temporal[j], cell);
+        for (int k = 0; k < Kp; ++k) g[k] += h[k];
+    }
+}
+
+// The next task's cell (its labels, words and counts) on its way to the
+// cache while this one refines.
+void ModelCore::prefetchTask(uint32_t task) const noexcept {
+    const Windows::Plan& plan = win_->plan();
+    const std::size_t cell = static_cast<std::size_t>(plan.task_cell[task]);
+    const std::size_t at = slotOf(plan.task_step[task]) * cells_ + cell;
+    const uint32_t n = cell_n_[at];
+    const char* z = reinterpret_cast<const char*>(cell_z_.data() + at * cap_);
+    const char* words = reinterpret_cast<const char*>(cell_words_.data() + at * cap_);
+    for (std::size_t b = 0; b < n * sizeof(uint16_t); b += kCacheLine) __builtin_prefetch(z + b, 1);
+    for (std::size_t b = 0; b < n * sizeof(uint32_t); b += kCacheLine) __builtin_prefetch(words + b, 0);
+    __builtin_prefetch(nck(at / cells_, static_cast<int>(cell)), 1);
+}
+
+// A frozen task's cell, with its round-start labels saved and its neighbourhood summed into g.
+template <int KP>
+kernel::FrozenCell ModelCore::openFrozenTask(uint32_t task, int32_t* g) noexcept {
+    Windows& w = *win_;
+    const Windows::Plan& plan = w.plan();
+    const int cell = plan.task_cell[task];
+    StepSlots slots;
+    stepSlots(plan.task_step[task], slots);
+    const std::size_t at = slots.self * cells_ + static_cast<std::size_t>(cell);
+    const uint32_t n = cell_n_[at];
+    uint16_t* z = cell_z_.data() + at * cap_;
+    uint16_t* z0 = w.z0.data() + plan.task_z0[task];
+    std::memcpy(z0, z, n * sizeof(uint16_t));
+    sumNeighbourhood<KP>(slots, cell, g);
+    return {g, nck(slots.self, cell), cell_words_.data() + at * cap_, z, z0, n};
+}
+
+// The merge after the round reads only the moves; the change to n_k is the
+// worker's part (added up after the round).
+void ModelCore::logMoves(int worker, uint32_t task, const kernel::FrozenCell& c) noexcept {
+    Windows& w = *win_;
+    MoveLog& log = w.logs[w.round & 1];
+    uint64_t* moves = log.moves.data() + w.plan().task_z0[task];
+    int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
+    uint32_t m = 0;
+    for (uint32_t j = 0; j < c.n; ++j)
+        if (c.topics[j] != c.z0[j]) {
+            moves[m++] = c.words[j] | uint64_t{c.z0[j]} << 32 | uint64_t{c.topics[j]} << 48;
+            --dnk[c.z0[j]];
+            ++dnk[c.topics[j]];
+        }
+    log.count[task] = m;
+}
+
+template <int KP, kernel::Path P>
+void ModelCore::frozenTask(int worker, uint32_t task) noexcept {
+    Windows& w = *win_;
+    const Windows::Plan& plan = w.plan();
+    const kernel::FrozenCell c = openFrozenTask<KP>(task, w.sums(worker, 0));
+    const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
+    for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
+        detail::CounterRng rng(plan.key, p);
+        kernel::refineCellFrozen<KP, P>(t, c.nG, c.nc, c.words, c.topics, c.z0, c.n, rng);
+    }
+    logMoves(worker, task, c);
+}
+
+// Tasks a and b of one round on one worker: their picks two by two (each
+// task's own in order), each cell with the draws and result it has alone.
+template <int KP, kernel::Path P>
+void ModelCore::frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept {
+    Windows& w = *win_;
+    const Windows::Plan& plan = w.plan();
+    const kernel::FrozenCell A = openFrozenTask<KP>(a, w.sums(worker, 0));
+    const kernel::FrozenCell B = openFrozenTask<KP>(b, w.sums(worker, 1));
+    const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
+    uint32_t pa = plan.task_head[a], pb = plan.task_head[b];
+    for (; pa != Windows::kNone && pb != Windows::kNone; pa = plan.pick_next[pa], pb = plan.pick_next[pb]) {
+        detail::CounterRng ra(plan.key, pa), rb(plan.key, pb);
+        kernel::refineCellsFrozenPair<KP, P>(t, A, ra, B, rb);
+    }
+    for (; pa != Windows::kNone; pa = plan.pick_next[pa]) {
+        detail::CounterRng rng(plan.key, pa);
+        kernel::refineCellFrozen<KP, P>(t, A.nG, A.nc, A.words, A.topics, A.z0, A.n, rng);
+    }
+    for (; pb != Windows::kNone; pb = plan.pick_next[pb]) {
+        detail::CounterRng rng(plan.key, pb);
+        kernel::refineCellFrozen<KP, P>(t, B.nG, B.nc, B.words, B.topics, B.z0, B.n, rng);
+    }
+    logMoves(worker, a, A);
+    logMoves(worker, b, B);
+}
+
+template <int KP, kernel::Path P>
+void ModelCore::liveTask(int worker, uint32_t task) noexcept {
+    Windows& w = *win_;
+    const Windows::Plan& plan = w.plan();
+    const int64_t step = plan.task_step[task];
+    const int cell = plan.task_cell[task];
+    StepSlots slots;
+    stepSlots(step, slots);
+    const std::size_t slot = slots.self;
+    const uint32_t n = cell_n_[slot * cells_ + static_cast<std::size_t>(cell)];
+    const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
+    int32_t* g = w.sums(worker, 0);
+    sumNeighbourhood<KP>(slots, cell, g);
+    for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
+        detail::CounterRng rng(plan.key, p);
+        kernel::refineCell<KP, P>(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n,
+                                  rng);
+    }
+}
+
+} // namespace rost
