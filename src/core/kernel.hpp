@@ -454,8 +454,14 @@ inline void refineCellFrozenScanScalar(const Tables& t, int32_t* nG, int32_t* nc
 // One word of refineCellFrozenScanSimd: word (row) leaves topic a of the frozen
 // counts (reciprocal va) and topic z of the cell's sums g; returns the drawn
 // topic, which g has joined. iv: the frozen reciprocals.
-template <int KP>
-ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, const v4::F* iv, const int32_t* row, int a, int z,
+// kByLabel: g joins the topic by its label (a compare with the blocks'
+// lane numbers, as for a and z) rather than by the count vector (its
+// negated lane numbers: one step shorter, eight more constants).
+// iv: the frozen reciprocals, in registers (v4::F*) or read from t.inv (float*).
+inline v4::F ivBlock(const v4::F* iv, int b) noexcept { return iv[b]; }
+inline v4::F ivBlock(const float* iv, int b) noexcept { return v4::load(iv + kBlock * b); }
+template <int KP, bool kByLabel = false, typename IV>
+ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, IV iv, const int32_t* row, int a, int z,
                                       float u01, v4::F va, int nbL, v4::F beta, v4::F alpha) noexcept {
     v4::F cum[KP > 0 ? KP / kBlock : kMaxBlocks];
     const v4::I aa = v4::seti(a), zz = v4::seti(z);
@@ -465,7 +471,7 @@ ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, const v4::F* iv
         const v4::I ma = v4::eq(lanes, aa);
         const v4::I r = v4::add(v4::load(row + kBlock * b), ma);
         g[b] = v4::add(g[b], v4::eq(lanes, zz));
-        const v4::F ivb = v4::select(ma, va, iv[b]);
+        const v4::F ivb = v4::select(ma, va, ivBlock(iv, b));
         const v4::F p = v4::scan(v4::mul(v4::mul(v4::add(v4::cvt(r), beta), ivb), v4::add(v4::cvt(g[b]), alpha)));
         if (b == 0) {
             cum[b] = p;
@@ -486,7 +492,12 @@ ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, const v4::F* iv
         k = drawnTopic<KP>(t, k, a);
         count = v4::seti(-k);
     }
-    for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
+    if constexpr (kByLabel) {
+        const v4::I kk = v4::seti(k);
+        for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], v4::eq(v4::iota(kBlock * b), kk));
+    } else {
+        for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], v4::eq(v4::niota(kBlock * b), count));
+    }
     return k;
 }
 

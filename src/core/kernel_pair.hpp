@@ -50,8 +50,8 @@ inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra
         const int32_t* rowB = t.nkv + static_cast<std::size_t>(B.words[i]) * KP;
         const int aA = A.z0[i], zA = A.topics[i], aB = B.z0[i], zB = B.topics[i];
         const float uA = ra.uniformFloat(), uB = rb.uniformFloat();
-        const int kA = frozenScanWord<KP>(t, ga, iv, rowA, aA, zA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
-        const int kB = frozenScanWord<KP>(t, gb, iv, rowB, aB, zB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
+        const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, zA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
+        const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, zB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
         if (kA != zA) {
             --A.nc[zA];
             ++A.nc[kA];

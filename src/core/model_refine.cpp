@@ -59,27 +59,13 @@ void ModelCore::stepSlots(int64_t step, StepSlots& out) const noexcept {
 
 template <int KP, kernel::Path P>
 uint32_t ModelCore::refineCells(const StepSlots& slots, int c0, int c1) noexcept {
-    const int Kp = KP > 0 ? KP : Kp_;
     const std::size_t slot = slots.self;
     int32_t* g = scratch_g_.data();
     uint32_t total = 0;
     for (int cell = c0; cell < c1; ++cell) {
         const uint32_t n = cell_n_[slot * cells_ + cell];
         if (n == 0) continue;
-        // G(c): the cell, its spatial neighbours, the same cell at t +- 1..g.time
-        // (with growth only the live blocks: a closed topic's counts are all 0).
-        const int L = kernel::liveLanes<KP>(tables_, Kp);
-        for (int k = L; k < Kp; ++k) g[k] = 0;
-        const int32_t* h = nck(slot, nbr_cell_[nbr_begin_[cell]]);
-        for (int k = 0; k < L; ++k) g[k] = h[k];
-        for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
-            h = nck(slot, static_cast<int>(nbr_cell_[j]));
-            for (int k = 0; k < L; ++k) g[k] += h[k];
-        }
-        for (int j = 0; j < slots.count; ++j) {
-            h = nck(slots.temporal[j], cell);
-            for (int k = 0; k < L; ++k) g[k] += h[k];
-        }
+        sumNeighbourhood<KP>(slots, cell, g);  // G(c)
         const std::size_t base = (slot * cells_ + static_cast<std::size_t>(cell)) * cap_;
         if (cfg_.fixed)
             kernel::refineCellFixed(tables_, g, nck(slot, cell), cell_words_.data() + base, cell_z_.data() + base, n, rng_);

@@ -32,23 +32,52 @@ template void ModelCore::setTaskKernels<16>() noexcept;
 template void ModelCore::setTaskKernels<32>() noexcept;
 template void ModelCore::setTaskKernels<64>() noexcept;
 
+// G(c): the cell, its spatial neighbours, the same cell at t +- 1..g.time.
+// The sums build in a local array (K known: registers) from locals, then
+// go to g once: summed in g itself, every add was a store the compiler had to
+// assume might change the model's own fields, so each neighbour re-read them
+// and no add was a vector one.
 template <int KP>
 void ModelCore::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) const noexcept {
-    // With growth only the live blocks can hold counts (every cell's count of
-    // a closed topic is 0): the rest is zero, so the cost follows the open topics.
-    const int Kp = kernel::liveLanes<KP>(tables_, KP > 0 ? KP : Kp_);
-    for (int k = Kp; k < Kp_; ++k) g[k] = 0;
-    const int32_t* h = nck(slots.self, static_cast<int>(nbr_cell_[nbr_begin_[cell]]));
-    for (int k = 0; k < Kp; ++k) g[k] = h[k];
-    for (uint32_t j = nbr_begin_[cell] + 1; j < nbr_begin_[cell + 1]; ++j) {
-        h = nck(slots.self, static_cast<int>(nbr_cell_[j]));
-        for (int k = 0; k < Kp; ++k) g[k] += h[k];
-    }
-    for (int j = 0; j < slots.count; ++j) {
-        h = nck(slots.temporal[j], cell);
-        for (int k = 0; k < Kp; ++k) g[k] += h[k];
+    const int32_t* const counts = nck_.data();
+    const std::size_t stride = static_cast<std::size_t>(Kp_), cells = static_cast<std::size_t>(cells_);
+    const auto at = [&](std::size_t slot, uint32_t c) { return counts + (slot * cells + c) * stride; };
+    const uint32_t b = nbr_begin_[cell], e = nbr_begin_[cell + 1];
+    if constexpr (KP > 0) {
+        alignas(64) int32_t acc[KP];
+        const int32_t* h = at(slots.self, nbr_cell_[b]);
+        for (int k = 0; k < KP; ++k) acc[k] = h[k];
+        for (uint32_t j = b + 1; j < e; ++j) {
+            h = at(slots.self, nbr_cell_[j]);
+            for (int k = 0; k < KP; ++k) acc[k] += h[k];
+        }
+        for (int j = 0; j < slots.count; ++j) {
+            h = at(slots.temporal[j], static_cast<uint32_t>(cell));
+            for (int k = 0; k < KP; ++k) acc[k] += h[k];
+        }
+        std::memcpy(g, acc, sizeof acc);
+    } else {
+        // With growth only the live blocks can hold counts (every cell's count
+        // of a closed topic is 0): the rest is zero, so the cost follows the open topics.
+        const int Kp = kernel::liveLanes<KP>(tables_, Kp_);
+        for (int k = Kp; k < Kp_; ++k) g[k] = 0;
+        const int32_t* h = at(slots.self, nbr_cell_[b]);
+        for (int k = 0; k < Kp; ++k) g[k] = h[k];
+        for (uint32_t j = b + 1; j < e; ++j) {
+            h = at(slots.self, nbr_cell_[j]);
+            for (int k = 0; k < Kp; ++k) g[k] += h[k];
+        }
+        for (int j = 0; j < slots.count; ++j) {
+            h = at(slots.temporal[j], static_cast<uint32_t>(cell));
+            for (int k = 0; k < Kp; ++k) g[k] += h[k];
+        }
     }
 }
+template void ModelCore::sumNeighbourhood<kernel::kGrow>(const StepSlots&, int, int32_t*) const noexcept;
+template void ModelCore::sumNeighbourhood<0>(const StepSlots&, int, int32_t*) const noexcept;
+template void ModelCore::sumNeighbourhood<16>(const StepSlots&, int, int32_t*) const noexcept;
+template void ModelCore::sumNeighbourhood<32>(const StepSlots&, int, int32_t*) const noexcept;
+template void ModelCore::sumNeighbourhood<64>(const StepSlots&, int, int32_t*) const noexcept;
 
 // The next task's cell (its labels, words and counts) on its way to the
 // cache while this one refines.
@@ -88,12 +117,17 @@ void ModelCore::logMoves(int worker, uint32_t task, const kernel::FrozenCell& c)
     MoveLog& log = w.logs[w.round & 1];
     uint64_t* moves = log.moves.data() + w.plan().task_z0[task];
     int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
+    // (Locals: the stores to moves and dnk could alias c's fields.)
+    const uint32_t n = c.n;
+    const uint32_t* const words = c.words;
+    const uint16_t* const z = c.topics;
+    const uint16_t* const z0 = c.z0;
     uint32_t m = 0;
-    for (uint32_t j = 0; j < c.n; ++j)
-        if (c.topics[j] != c.z0[j]) {
-            moves[m++] = c.words[j] | uint64_t{c.z0[j]} << 32 | uint64_t{c.topics[j]} << 48;
-            --dnk[c.z0[j]];
-            ++dnk[c.topics[j]];
+    for (uint32_t j = 0; j < n; ++j)
+        if (z[j] != z0[j]) {
+            moves[m++] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
+            --dnk[z0[j]];
+            ++dnk[z[j]];
         }
     log.count[task] = m;
 }
