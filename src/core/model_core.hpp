@@ -244,8 +244,8 @@ private:
     template <int KP, kernel::Path P>
     void frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept;
     template <int KP>
-    kernel::FrozenCell openFrozenTask(uint32_t task, int32_t* g) noexcept;
-    void logMoves(int worker, uint32_t task, const kernel::FrozenCell& c) noexcept;
+    kernel::FrozenCell openFrozenTask(uint32_t task, int32_t* g, int32_t* start) noexcept;
+    void logMoves(int worker, uint32_t task, const kernel::FrozenCell& c, const int32_t* start) noexcept;
     void prefetchTask(uint32_t task) const noexcept;
     template <int KP, kernel::Path P>
     void liveTask(int worker, uint32_t task) noexcept;

@@ -93,9 +93,10 @@ void ModelCore::prefetchTask(uint32_t task) const noexcept {
     __builtin_prefetch(nck(at / cells_, static_cast<int>(cell)), 1);
 }
 
-// A frozen task's cell, with its round-start labels saved and its neighbourhood summed into g.
+// A frozen task's cell, with its round-start labels and counts saved (in
+// start) and its neighbourhood summed into g.
 template <int KP>
-kernel::FrozenCell ModelCore::openFrozenTask(uint32_t task, int32_t* g) noexcept {
+kernel::FrozenCell ModelCore::openFrozenTask(uint32_t task, int32_t* g, int32_t* start) noexcept {
     Windows& w = *win_;
     const Windows::Plan& plan = w.plan();
     const int cell = plan.task_cell[task];
@@ -106,43 +107,47 @@ kernel::FrozenCell ModelCore::openFrozenTask(uint32_t task, int32_t* g) noexcept
     uint16_t* z = cell_z_.data() + at * cap_;
     uint16_t* z0 = w.z0.data() + plan.task_z0[task];
     std::memcpy(z0, z, n * sizeof(uint16_t));
+    int32_t* nc = nck(slots.self, cell);
+    std::memcpy(start, nc, static_cast<std::size_t>(Kp_) * sizeof(int32_t));
     sumNeighbourhood<KP>(slots, cell, g);
-    return {g, nck(slots.self, cell), cell_words_.data() + at * cap_, z, z0, n};
+    return {g, nc, cell_words_.data() + at * cap_, z, z0, n};
 }
 
-// The merge after the round reads only the moves; the change to n_k is the
-// worker's part (added up after the round).
-void ModelCore::logMoves(int worker, uint32_t task, const kernel::FrozenCell& c) noexcept {
+// The merge after the round reads only the moves, listed here without a
+// branch on whether a word moved (a move slot is written for every word and
+// kept when it moved). The change to n_k is the worker's part (added up
+// after the round): the cell's counts less those it started with.
+void ModelCore::logMoves(int worker, uint32_t task, const kernel::FrozenCell& c, const int32_t* start) noexcept {
     Windows& w = *win_;
     MoveLog& log = w.logs[w.round & 1];
-    uint64_t* moves = log.moves.data() + w.plan().task_z0[task];
-    int32_t* dnk = w.dnk.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
+    uint64_t* const moves = log.moves.data() + w.plan().task_z0[task];
+    int32_t* const dnk = w.dnk.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
     // (Locals: the stores to moves and dnk could alias c's fields.)
     const uint32_t n = c.n;
     const uint32_t* const words = c.words;
     const uint16_t* const z = c.topics;
     const uint16_t* const z0 = c.z0;
+    const int32_t* const nc = c.nc;
     uint32_t m = 0;
-    for (uint32_t j = 0; j < n; ++j)
-        if (z[j] != z0[j]) {
-            moves[m++] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
-            --dnk[z0[j]];
-            ++dnk[z[j]];
-        }
+    for (uint32_t j = 0; j < n; ++j) {
+        moves[m] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
+        m += z[j] != z0[j] ? 1u : 0u;
+    }
     log.count[task] = m;
+    for (int k = 0; k < Kp_; ++k) dnk[k] += nc[k] - start[k];
 }
 
 template <int KP, kernel::Path P>
 void ModelCore::frozenTask(int worker, uint32_t task) noexcept {
     Windows& w = *win_;
     const Windows::Plan& plan = w.plan();
-    const kernel::FrozenCell c = openFrozenTask<KP>(task, w.sums(worker, 0));
+    const kernel::FrozenCell c = openFrozenTask<KP>(task, w.sums(worker, 0), w.startCounts(worker, 0));
     const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
     for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
         detail::CounterRng rng(plan.key, p);
         kernel::refineCellFrozen<KP, P>(t, c.nG, c.nc, c.words, c.topics, c.z0, c.n, rng);
     }
-    logMoves(worker, task, c);
+    logMoves(worker, task, c, w.startCounts(worker, 0));
 }
 
 // Tasks a and b of one round on one worker: their picks two by two (each
@@ -151,8 +156,8 @@ template <int KP, kernel::Path P>
 void ModelCore::frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept {
     Windows& w = *win_;
     const Windows::Plan& plan = w.plan();
-    const kernel::FrozenCell A = openFrozenTask<KP>(a, w.sums(worker, 0));
-    const kernel::FrozenCell B = openFrozenTask<KP>(b, w.sums(worker, 1));
+    const kernel::FrozenCell A = openFrozenTask<KP>(a, w.sums(worker, 0), w.startCounts(worker, 0));
+    const kernel::FrozenCell B = openFrozenTask<KP>(b, w.sums(worker, 1), w.startCounts(worker, 1));
     const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
     uint32_t pa = plan.task_head[a], pb = plan.task_head[b];
     for (; pa != Windows::kNone && pb != Windows::kNone; pa = plan.pick_next[pa], pb = plan.pick_next[pb]) {
@@ -167,8 +172,8 @@ void ModelCore::frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept {
         detail::CounterRng rng(plan.key, pb);
         kernel::refineCellFrozen<KP, P>(t, B.nG, B.nc, B.words, B.topics, B.z0, B.n, rng);
     }
-    logMoves(worker, a, A);
-    logMoves(worker, b, B);
+    logMoves(worker, a, A, w.startCounts(worker, 0));
+    logMoves(worker, b, B, w.startCounts(worker, 1));
 }
 
 template <int KP, kernel::Path P>

@@ -154,7 +154,7 @@ struct ModelCore::Windows {
     // reads the model's), so the rows a round reads are in its core's cache:
     // the copies are made equal when a refinement starts, and each round's
     // moves are added to every copy (docs/design.md, "Refinement on every core").
-    AlignedBuffer<int32_t> worker_g;  // two per worker (a pair of tasks: src/core/kernel_pair.hpp)
+    AlignedBuffer<int32_t> worker_g;  // two sums and start counts per worker (a pair: src/core/kernel_pair.hpp)
     std::size_t g_stride = 0;
     AlignedBuffer<kernel::Tables> worker_tables;
     AlignedBuffer<int32_t> replicas;
@@ -169,8 +169,10 @@ struct ModelCore::Windows {
 
     // Worker `worker`'s neighbourhood sums: j = 0, or 1 for the second task of a pair.
     int32_t* sums(int worker, int j) noexcept {
-        return worker_g.data() + (2 * static_cast<std::size_t>(worker) + static_cast<std::size_t>(j)) * g_stride;
+        return worker_g.data() + (2 * static_cast<std::size_t>(worker) + static_cast<std::size_t>(j)) * 2 * g_stride;
     }
+    // Beside them, the task's cell counts when it started (its change to n_k at the end).
+    int32_t* startCounts(int worker, int j) noexcept { return sums(worker, j) + g_stride; }
     std::size_t workerBytes() const noexcept {
         return worker_g.bytes() + worker_tables.bytes() + replicas.bytes() + dnk.bytes() + merged.bytes() +
                plans[0].round_cuts.bytes() + plans[1].round_cuts.bytes();
@@ -178,7 +180,7 @@ struct ModelCore::Windows {
     // Sized for n workers over a V x Kp table (set-up code).
     void sizeWorkers(std::size_t n, std::size_t V, std::size_t Kp) {
         g_stride = Kp;
-        worker_g.reset(2 * n * Kp);
+        worker_g.reset(4 * n * Kp);
         worker_tables.reset(n);
         replicas.reset(W > 1 ? (n - 1) * V * Kp : 0);
         dnk.reset(n * Kp);
