@@ -93,6 +93,19 @@ void ModelCore::prefetchTask(uint32_t task) const noexcept {
     __builtin_prefetch(nck(at / cells_, static_cast<int>(cell)), 1);
 }
 
+namespace {
+
+// K counts copied, and their change added (restrict: vector loops, no call).
+void copyCounts(int32_t* __restrict to, const int32_t* __restrict from, int K) noexcept {
+    for (int k = 0; k < K; ++k) to[k] = from[k];
+}
+void addChange(int32_t* __restrict to, const int32_t* __restrict now, const int32_t* __restrict before,
+               int K) noexcept {
+    for (int k = 0; k < K; ++k) to[k] += now[k] - before[k];
+}
+
+} // namespace
+
 // A frozen task's cell, with its round-start labels and counts saved (in
 // start) and its neighbourhood summed into g.
 template <int KP>
@@ -108,7 +121,7 @@ kernel::FrozenCell ModelCore::openFrozenTask(uint32_t task, int32_t* g, int32_t*
     uint16_t* z0 = w.z0.data() + plan.task_z0[task];
     std::memcpy(z0, z, n * sizeof(uint16_t));
     int32_t* nc = nck(slots.self, cell);
-    std::memcpy(start, nc, static_cast<std::size_t>(Kp_) * sizeof(int32_t));
+    copyCounts(start, nc, Kp_);
     sumNeighbourhood<KP>(slots, cell, g);
     return {g, nc, cell_words_.data() + at * cap_, z, z0, n};
 }
@@ -127,14 +140,13 @@ void ModelCore::logMoves(int worker, uint32_t task, const kernel::FrozenCell& c,
     const uint32_t* const words = c.words;
     const uint16_t* const z = c.topics;
     const uint16_t* const z0 = c.z0;
-    const int32_t* const nc = c.nc;
     uint32_t m = 0;
     for (uint32_t j = 0; j < n; ++j) {
         moves[m] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
         m += z[j] != z0[j] ? 1u : 0u;
     }
     log.count[task] = m;
-    for (int k = 0; k < Kp_; ++k) dnk[k] += nc[k] - start[k];
+    addChange(dnk, c.nc, start, Kp_);
 }
 
 template <int KP, kernel::Path P>
