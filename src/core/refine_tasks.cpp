@@ -43,6 +43,27 @@ void ModelCore::sumNeighbourhood(const StepSlots& slots, int cell, int32_t* g) c
     const std::size_t stride = static_cast<std::size_t>(Kp_), cells = static_cast<std::size_t>(cells_);
     const auto at = [&](std::size_t slot, uint32_t c) { return counts + (slot * cells + c) * stride; };
     const uint32_t b = nbr_begin_[cell], e = nbr_begin_[cell + 1];
+#if defined(ROST_KERNEL_SIMD)
+    if constexpr (KP > 0) {
+        // (Written with the kernel's vectors: GCC keeps a plain array of 16
+        // sums in general registers, one scalar add each.)
+        constexpr int nb = KP / kernel::kBlock;
+        using kernel::v4::load;
+        kernel::v4::I acc[nb];
+        const int32_t* h = at(slots.self, nbr_cell_[b]);
+        for (int q = 0; q < nb; ++q) acc[q] = load(h + kernel::kBlock * q);
+        for (uint32_t j = b + 1; j < e; ++j) {
+            h = at(slots.self, nbr_cell_[j]);
+            for (int q = 0; q < nb; ++q) acc[q] = kernel::v4::add(acc[q], load(h + kernel::kBlock * q));
+        }
+        for (int j = 0; j < slots.count; ++j) {
+            h = at(slots.temporal[j], static_cast<uint32_t>(cell));
+            for (int q = 0; q < nb; ++q) acc[q] = kernel::v4::add(acc[q], load(h + kernel::kBlock * q));
+        }
+        for (int q = 0; q < nb; ++q) kernel::v4::store(g + kernel::kBlock * q, acc[q]);
+        return;
+    }
+#endif
     if constexpr (KP > 0) {
         alignas(64) int32_t acc[KP];
         const int32_t* h = at(slots.self, nbr_cell_[b]);
