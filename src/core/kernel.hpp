@@ -309,7 +309,8 @@ inline void refineCellScanScalar(Tables& t, int32_t* nG, int32_t* nc, const uint
 #if defined(ROST_SIMD_SSE2) || defined(ROST_SIMD_NEON)
 template <int KP, typename R>
 inline void refineCellScanSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32_t* words, uint16_t* topics,
-                           uint32_t n, R& rng) noexcept {
+                           uint32_t n, R& draws) noexcept {
+    R rng = draws;  // a local: the count and label stores could otherwise change it
     const int Kp = KP > 0 ? KP : t.Kp;
     const int nb = Kp / kBlock;
     constexpr int kArr = KP > 0 ? KP / kBlock : kMaxBlocks;
@@ -404,6 +405,7 @@ inline void refineCellScanSimd(Tables& t, int32_t* nG, int32_t* nc, const uint32
         }
     }
     for (int b = 0; b < nb; ++b) v4::store(nG + kBlock * b, g[b]);
+    draws = rng;
 }
 #endif
 
@@ -520,10 +522,11 @@ inline void refineCellFrozenScanSimd(const Tables& t, int32_t* nG, int32_t* nc, 
         iv[b] = v4::load(t.inv + kBlock * b);
     }
     const v4::F beta = v4::set(t.beta), alpha = v4::set(t.alpha);
+    R draws = rng;  // a local: the label and count stores could otherwise change it
     for (uint32_t i = 0; i < n; ++i) {
         const int32_t* row = t.nkv + static_cast<std::size_t>(words[i]) * static_cast<std::size_t>(Kp);
         const int a = z0[i], z = topics[i];
-        const float u01 = rng.uniformFloat();
+        const float u01 = draws.uniformFloat();
         const int nbL = liveLanes<KP>(t, Kp) / kBlock;
         if (nbL < 1) __builtin_unreachable();  // at least one topic is active
         const int k = frozenScanWord<KP>(t, g, iv, row, a, z, u01, frozenLeft<KP>(t, a), nbL, beta, alpha);
@@ -534,6 +537,7 @@ inline void refineCellFrozenScanSimd(const Tables& t, int32_t* nG, int32_t* nc, 
         }
     }
     for (int b = 0; b < nb; ++b) v4::store(nG + kBlock * b, g[b]);
+    rng = draws;
 }
 #endif
 

@@ -37,6 +37,17 @@ template <int KP, typename R>
 inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb,
                                      uint32_t m) noexcept {
     constexpr int nb = KP / kBlock;
+    // Locals, the generators too: a store to the cells' counts or labels
+    // could otherwise change them, and each word would reload them.
+    int32_t* const ncA = A.nc;
+    int32_t* const ncB = B.nc;
+    const uint32_t* const wA = A.words;
+    const uint32_t* const wB = B.words;
+    uint16_t* const zA = A.topics;
+    uint16_t* const zB = B.topics;
+    const uint16_t* const z0A = A.z0;
+    const uint16_t* const z0B = B.z0;
+    R gA = ra, gB = rb;
     v4::I ga[nb], gb[nb];
     v4::F iv[nb];
     for (int b = 0; b < nb; ++b) {
@@ -46,27 +57,29 @@ inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra
     }
     const v4::F beta = v4::set(t.beta), alpha = v4::set(t.alpha);
     for (uint32_t i = 0; i < m; ++i) {
-        const int32_t* rowA = t.nkv + static_cast<std::size_t>(A.words[i]) * KP;
-        const int32_t* rowB = t.nkv + static_cast<std::size_t>(B.words[i]) * KP;
-        const int aA = A.z0[i], zA = A.topics[i], aB = B.z0[i], zB = B.topics[i];
-        const float uA = ra.uniformFloat(), uB = rb.uniformFloat();
-        const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, zA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
-        const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, zB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
-        if (kA != zA) {
-            --A.nc[zA];
-            ++A.nc[kA];
-            A.topics[i] = static_cast<uint16_t>(kA);
+        const int32_t* rowA = t.nkv + static_cast<std::size_t>(wA[i]) * KP;
+        const int32_t* rowB = t.nkv + static_cast<std::size_t>(wB[i]) * KP;
+        const int aA = z0A[i], cA = zA[i], aB = z0B[i], cB = zB[i];
+        const float uA = gA.uniformFloat(), uB = gB.uniformFloat();
+        const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, cA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
+        const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, cB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
+        if (kA != cA) {
+            --ncA[cA];
+            ++ncA[kA];
+            zA[i] = static_cast<uint16_t>(kA);
         }
-        if (kB != zB) {
-            --B.nc[zB];
-            ++B.nc[kB];
-            B.topics[i] = static_cast<uint16_t>(kB);
+        if (kB != cB) {
+            --ncB[cB];
+            ++ncB[kB];
+            zB[i] = static_cast<uint16_t>(kB);
         }
     }
     for (int b = 0; b < nb; ++b) {
         v4::store(A.nG + kBlock * b, ga[b]);
         v4::store(B.nG + kBlock * b, gb[b]);
     }
+    ra = gA;
+    rb = gB;
 }
 #endif
 
