@@ -47,7 +47,7 @@ inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra
     uint16_t* const zB = B.topics;
     const uint16_t* const z0A = A.z0;
     const uint16_t* const z0B = B.z0;
-    R gA = ra, gB = rb;
+    R drawsA = ra, drawsB = rb;
     v4::I ga[nb], gb[nb];
     v4::F iv[nb];
     for (int b = 0; b < nb; ++b) {
@@ -60,7 +60,7 @@ inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra
         const int32_t* rowA = t.nkv + static_cast<std::size_t>(wA[i]) * KP;
         const int32_t* rowB = t.nkv + static_cast<std::size_t>(wB[i]) * KP;
         const int aA = z0A[i], cA = zA[i], aB = z0B[i], cB = zB[i];
-        const float uA = gA.uniformFloat(), uB = gB.uniformFloat();
+        const float uA = drawsA.uniformFloat(), uB = drawsB.uniformFloat();
         const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, cA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
         const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, cB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
         if (kA != cA) {
@@ -78,8 +78,8 @@ inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra
         v4::store(A.nG + kBlock * b, ga[b]);
         v4::store(B.nG + kBlock * b, gb[b]);
     }
-    ra = gA;
-    rb = gB;
+    ra = drawsA;
+    rb = drawsB;
 }
 #endif
 
