@@ -8,8 +8,11 @@
 
 #include <atomic>
 #include <bit>
-#include <thread>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <future>
+#include <thread>
 #include <string>
 #include <vector>
 
@@ -658,6 +661,75 @@ TEST(WorkerPool, EveryTaskRunsExactlyOnceAlsoWithMoreThreadsThanCores) {
     pool.run(job, 0);
     EXPECT_EQ(job.runs[0].load(), 1002u);
     EXPECT_EQ(job.runs[63].load(), 1001u);
+}
+
+// A job that takes pairs (src/core/kernel_pair.hpp): an owner claims the
+// tasks of its own range two at a time, thieves one; every task still runs
+// exactly once, a pair is always two neighbouring tasks of one owner's range,
+// and both ways of running a task happen. With one worker the tasks go in
+// turn, in pairs but for an odd last one.
+struct PairCountJob final : detail::WorkerPool::Job {
+    std::vector<std::atomic<uint32_t>> runs = std::vector<std::atomic<uint32_t>>(61);
+    std::vector<uint32_t> cuts;
+    std::atomic<uint32_t> pairRuns{0}, singleRuns{0}, pairsAcrossRanges{0};
+    PairCountJob() { pairs = true; }
+    void work() const noexcept {
+        volatile double x = 1.0;
+        for (int i = 0; i < 2000; ++i) x = x * 1.0000001;
+    }
+    void task(int /*worker*/, uint32_t index) noexcept override {
+        runs[index].fetch_add(1, std::memory_order_relaxed);
+        singleRuns.fetch_add(1, std::memory_order_relaxed);
+        work();
+    }
+    void taskPair(int /*worker*/, uint32_t index) noexcept override {
+        runs[index].fetch_add(1, std::memory_order_relaxed);
+        runs[index + 1].fetch_add(1, std::memory_order_relaxed);
+        pairRuns.fetch_add(1, std::memory_order_relaxed);
+        for (std::size_t w = 1; w + 1 < cuts.size(); ++w)
+            if (index + 1 == cuts[w]) pairsAcrossRanges.fetch_add(1, std::memory_order_relaxed);
+        work();
+        work();
+    }
+};
+
+// Runs f on a thread of its own; past the deadline (a job the pool never
+// ends: a claim past a range's end leaves its count short) the test binary
+// fails at once instead of waiting for ctest's limit.
+template <typename F>
+void withinDeadline(F f, std::chrono::seconds limit) {
+    std::promise<void> done;
+    std::future<void> finished = done.get_future();
+    std::thread t([&] {
+        f();
+        done.set_value();
+    });
+    if (finished.wait_for(limit) != std::future_status::ready) {
+        std::fprintf(stderr, "the pool's jobs did not end within %lld s\n", static_cast<long long>(limit.count()));
+        std::_Exit(1);
+    }
+    t.join();
+}
+
+TEST(WorkerPool, PairsAreClaimedWithinARangeAndEveryTaskStillRunsOnce) {
+    detail::WorkerPool pool(4);
+    PairCountJob job;
+    job.cuts = {0, 13, 30, 31, 61};  // ranges of odd, even and single sizes
+    withinDeadline([&] {
+        for (int i = 0; i < 500; ++i) pool.run(job, 61, job.cuts.data());
+    }, std::chrono::seconds(120));
+    for (const auto& r : job.runs) EXPECT_EQ(r.load(), 500u);
+    EXPECT_EQ(job.pairsAcrossRanges.load(), 0u) << "a pair never spans two owners' ranges";
+    EXPECT_GT(job.pairRuns.load(), 0u);
+    EXPECT_GT(job.singleRuns.load(), 0u) << "the odd ends and thieves run single tasks";
+    EXPECT_EQ(2 * job.pairRuns.load() + job.singleRuns.load(), 500u * 61u);
+
+    PairCountJob alone;
+    detail::WorkerPool one(1);
+    one.run(alone, 7);
+    for (uint32_t i = 0; i < 7; ++i) EXPECT_EQ(alone.runs[i].load(), 1u);
+    EXPECT_EQ(alone.pairRuns.load(), 3u);
+    EXPECT_EQ(alone.singleRuns.load(), 1u);
 }
 
 } // namespace
