@@ -98,6 +98,17 @@ void WorkerPool::workerMain(int index, const ThreadSettings* settings, uint32_t 
     }
 }
 
+// Claims the front task of the range the caller owns (only the owner moves
+// its front; thieves move the end), c being the word as the caller's last
+// claim left it. False when no task is left there.
+bool WorkerPool::claimFront(std::atomic<uint64_t>& word, uint64_t c) noexcept {
+    const uint64_t next = c & kField;
+    for (;;) {
+        if (next >= ((c >> 20) & kField)) return false;
+        if (word.compare_exchange_weak(c, c + 1, std::memory_order_acquire, std::memory_order_acquire)) return true;
+    }
+}
+
 uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
     const uint64_t gen = generation & 0xFFFFFFu;
     uint32_t ran = 0;
@@ -112,18 +123,23 @@ uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
             if (next >= end) break;
             // A successful claim of a task not yet done pins the job: the
             // caller cannot start another before this task is counted done.
-            const bool two = i == 0 && job_->pairs && next + 1 < end;
-            const uint64_t claimed = i == 0 ? c + (two ? 2 : 1) : c - (uint64_t{1} << 20);
+            // Nothing of the job (job_ included) is read before it.
+            const uint64_t claimed = i == 0 ? c + 1 : c - (uint64_t{1} << 20);
             if (!word.compare_exchange_weak(c, claimed, std::memory_order_acquire, std::memory_order_acquire)) continue;
-            ran += two ? 2 : 1;
+            ++ran;
             if (!begun) {
                 begun = true;
                 job_->begin(worker);
             }
-            if (two)
+            // A job that takes pairs: the owner takes the next task of its
+            // range too while one is left.
+            const bool two = i == 0 && job_->pairs && claimFront(word, claimed);
+            if (two) {
+                ++ran;
                 job_->taskPair(worker, static_cast<uint32_t>(next));
-            else
+            } else {
                 job_->task(worker, static_cast<uint32_t>(i == 0 ? next : end - 1));
+            }
             c = word.load(std::memory_order_acquire);
         }
     }

@@ -92,6 +92,7 @@ private:
     // Claims and runs tasks of the job of `generation` until none is left;
     // returns how many it ran.
     uint32_t runTasks(int worker, uint32_t generation) noexcept;
+    static bool claimFront(std::atomic<uint64_t>& word, uint64_t c) noexcept;
     // Counts the worker's tasks done (one add per worker and job).
     void countDone(uint32_t ran, uint32_t count) noexcept;
     static void waitFor(std::atomic<uint32_t>& a, uint32_t want) noexcept;
