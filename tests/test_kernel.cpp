@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -185,10 +186,12 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
         std::vector<int32_t> g, nc;
         std::vector<uint32_t> words;
         std::vector<uint16_t> z, z0;
+        std::vector<uint64_t> moves;
+        uint32_t moved = 0;
     };
     auto make = [&](uint32_t n) {
         Cell c{std::vector<int32_t>(KP), std::vector<int32_t>(KP, 0), std::vector<uint32_t>(n),
-               std::vector<uint16_t>(n), std::vector<uint16_t>(n)};
+               std::vector<uint16_t>(n), std::vector<uint16_t>(n), std::vector<uint64_t>(n), 0};
         for (uint32_t i = 0; i < n; ++i) {
             c.words[i] = r.below(V);
             c.z[i] = c.z0[i] = static_cast<uint16_t>(r.below(KP));
@@ -200,17 +203,21 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
     const Cell a0 = make(nA), b0 = make(nB);
     Cell a1 = a0, b1 = b0, a2 = a0, b2 = b0;
     auto view = [](Cell& c) {
-        return rost::kernel::FrozenCell{c.g.data(), c.nc.data(), c.words.data(), c.z.data(), c.z0.data(),
-                                        static_cast<uint32_t>(c.words.size())};
+        return rost::kernel::FrozenCell{c.g.data(),  c.nc.data(), c.words.data(), c.z.data(), c.z0.data(),
+                                        static_cast<uint32_t>(c.words.size()), c.moves.data()};
+    };
+    auto alone = [&](Cell& c, rost::detail::CounterRng& rng) {
+        c.moved = rost::kernel::refineCellFrozen<KP, P>(t, c.g.data(), c.words.data(), c.z.data(), c.z0.data(),
+                                                        static_cast<uint32_t>(c.words.size()), rng, c.moves.data());
     };
     for (uint64_t pick = 0; pick < 3; ++pick) {  // a task's picks, in turn
         rost::detail::CounterRng ra(seed, 2 * pick), rb(seed, 2 * pick + 1);
-        rost::kernel::refineCellFrozen<KP, P>(t, a1.g.data(), a1.nc.data(), a1.words.data(), a1.z.data(), a1.z0.data(),
-                                              nA, ra);
-        rost::kernel::refineCellFrozen<KP, P>(t, b1.g.data(), b1.nc.data(), b1.words.data(), b1.z.data(), b1.z0.data(),
-                                              nB, rb);
+        alone(a1, ra);
+        alone(b1, rb);
         rost::detail::CounterRng pa(seed, 2 * pick), pb(seed, 2 * pick + 1);
-        rost::kernel::refineCellsFrozenPair<KP, P>(t, view(a2), pa, view(b2), pb);
+        const rost::kernel::PairMoves moved = rost::kernel::refineCellsFrozenPair<KP, P>(t, view(a2), pa, view(b2), pb);
+        a2.moved = moved.a;
+        b2.moved = moved.b;
     }
     const char* path = P == rost::kernel::Path::Simd ? "simd" : "scalar";
     if (nA >= 9) {
@@ -219,7 +226,28 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
     EXPECT_EQ(a2.z, a1.z) << "K " << KP << " " << path << " cell A, " << nA << " and " << nB << " words";
     EXPECT_EQ(b2.z, b1.z) << "K " << KP << " " << path << " cell B, " << nA << " and " << nB << " words";
     EXPECT_TRUE(a2.g == a1.g && b2.g == b1.g) << "K " << KP << " " << path << ": neighbourhood sums";
-    EXPECT_TRUE(a2.nc == a1.nc && b2.nc == b1.nc) << "K " << KP << " " << path << ": cell counts";
+    // The kernels leave the cells' own counts to the task; the sums carry
+    // every move, and the moves list (the last pick's) names each word that
+    // left its round-start label, in order: word | from << 32 | to << 48.
+    EXPECT_TRUE(a2.nc == a0.nc && b2.nc == b0.nc) << "K " << KP << " " << path << ": cell counts untouched";
+    for (const auto* c : {&a0, &b0}) {
+        const Cell& now = c == &a0 ? a2 : b2;
+        const Cell& single = c == &a0 ? a1 : b1;
+        std::vector<int32_t> change(KP, 0);
+        std::vector<uint64_t> moves;
+        for (std::size_t i = 0; i < now.z.size(); ++i) {
+            ++change[now.z[i]];
+            --change[c->z[i]];
+            if (now.z[i] != c->z0[i])
+                moves.push_back(now.words[i] | uint64_t{c->z0[i]} << 32 | uint64_t{now.z[i]} << 48);
+        }
+        for (int k = 0; k < KP; ++k)
+            EXPECT_EQ(now.g[k] - c->g[k], change[k]) << "K " << KP << " " << path << ": sums follow the labels, topic " << k;
+        ASSERT_EQ(now.moved, moves.size()) << "K " << KP << " " << path << ": moves listed";
+        ASSERT_EQ(single.moved, moves.size()) << "K " << KP << " " << path << ": moves listed alone";
+        EXPECT_TRUE(std::equal(moves.begin(), moves.end(), now.moves.begin())) << "K " << KP << " " << path;
+        EXPECT_TRUE(std::equal(moves.begin(), moves.end(), single.moves.begin())) << "K " << KP << " " << path;
+    }
 }
 
 TEST(KernelPair, TwoCellsOfARoundGetWhatEachGetsAlone) {

@@ -47,6 +47,7 @@
 
 #include "counter_rng.hpp"
 #include "kernel.hpp"
+#include "kernel_frozen.hpp"
 #include "rost/model.hpp"
 
 namespace {
@@ -464,13 +465,21 @@ void frozenCase(const int K) {
             uint16_t z = static_cast<uint16_t>(c);
             const uint16_t z0 = a;
             rost::detail::CounterRng rng(12345, static_cast<uint64_t>(d));
-            if (path == Path::Simd)
-                rost::kernel::refineCellFrozen<0, Path::Simd>(t, g.data(), nc.data(), &word, &z, &z0, 1, rng);
-            else
-                rost::kernel::refineCellFrozen<0, Path::Scalar>(t, g.data(), nc.data(), &word, &z, &z0, 1, rng);
+            uint64_t move = 0;
+            const uint32_t moved =
+                path == Path::Simd
+                    ? rost::kernel::refineCellFrozen<0, Path::Simd>(t, g.data(), &word, &z, &z0, 1, rng, &move)
+                    : rost::kernel::refineCellFrozen<0, Path::Scalar>(t, g.data(), &word, &z, &z0, 1, rng, &move);
+            ASSERT_EQ(moved, z != z0 ? 1u : 0u) << "a move listed when the word left its round-start label";
+            if (moved) {
+                ASSERT_EQ(move, word | uint64_t{z0} << 32 | uint64_t{z} << 48);
+            }
             counts[z] += 1;
             ASSERT_EQ(g[z], g0[z] + (z == c ? 0 : 1)) << "the neighbourhood sums follow the new label";
-            ASSERT_EQ(nc[z], 1);
+            if (z != c) {
+                ASSERT_EQ(g[c], g0[c] - 1) << "and leave the old one";
+            }
+            ASSERT_EQ(nc, nc0) << "the cell's own counts are the task's to set, from the sums";
         }
         GoodnessOfFit gof;
         for (int k = 0; k < K; ++k) {
@@ -576,8 +585,11 @@ uint16_t growthDraw(GrowthSceneT<KK>& sc, int variant, int d, int32_t* nc) {
     rost::detail::CounterRng rng(777, static_cast<uint64_t>(d));
     if (variant == 0) rost::kernel::refineCell<kGrow, Path::Simd>(sc.t, g, nc, &sc.word, &z, 1, rng);
     if (variant == 1) rost::kernel::refineCell<kGrow, Path::Scalar>(sc.t, g, nc, &sc.word, &z, 1, rng);
-    if (variant == 2) rost::kernel::refineCellFrozen<kGrow, Path::Simd>(sc.t, g, nc, &sc.word, &z, &z0, 1, rng);
-    if (variant == 3) rost::kernel::refineCellFrozen<kGrow, Path::Scalar>(sc.t, g, nc, &sc.word, &z, &z0, 1, rng);
+    uint64_t move = 0;
+    if (variant == 2) rost::kernel::refineCellFrozen<kGrow, Path::Simd>(sc.t, g, &sc.word, &z, &z0, 1, rng, &move);
+    if (variant == 3) rost::kernel::refineCellFrozen<kGrow, Path::Scalar>(sc.t, g, &sc.word, &z, &z0, 1, rng, &move);
+    if (variant >= 2)  // the frozen kernels leave the cell's counts to the task, which sets them from the sums
+        for (int k = 0; k < GrowthSceneT<KK>::Kp; ++k) nc[k] = sc.nc0[k] + g[k] - sc.g0[k];
     return z;
 }
 

@@ -13,7 +13,7 @@
 
 #include <algorithm>
 
-#include "kernel.hpp"
+#include "kernel_frozen.hpp"
 
 namespace rost::kernel {
 
@@ -34,19 +34,20 @@ constexpr bool interleavesPairs() noexcept {
 // The first m words of A and of B, word by word: refineCellFrozenScanSimd's
 // operations on each.
 template <int KP, typename R>
-inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb,
-                                     uint32_t m) noexcept {
+inline PairMoves refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb,
+                                          uint32_t m) noexcept {
     constexpr int nb = KP / kBlock;
     // Locals, the generators too: a store to the cells' counts or labels
     // could otherwise change them, and each word would reload them.
-    int32_t* const ncA = A.nc;
-    int32_t* const ncB = B.nc;
     const uint32_t* const wA = A.words;
     const uint32_t* const wB = B.words;
     uint16_t* const zA = A.topics;
     uint16_t* const zB = B.topics;
     const uint16_t* const z0A = A.z0;
     const uint16_t* const z0B = B.z0;
+    uint64_t* const movesA = A.moves;
+    uint64_t* const movesB = B.moves;
+    uint32_t mA = 0, mB = 0;
     R drawsA = ra, drawsB = rb;
     v4::I ga[nb], gb[nb];
     v4::F iv[nb];
@@ -57,22 +58,17 @@ inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra
     }
     const v4::F beta = v4::set(t.beta), alpha = v4::set(t.alpha);
     for (uint32_t i = 0; i < m; ++i) {
-        const int32_t* rowA = t.nkv + static_cast<std::size_t>(wA[i]) * KP;
-        const int32_t* rowB = t.nkv + static_cast<std::size_t>(wB[i]) * KP;
+        const uint32_t vA = wA[i], vB = wB[i];
+        const int32_t* rowA = t.nkv + static_cast<std::size_t>(vA) * KP;
+        const int32_t* rowB = t.nkv + static_cast<std::size_t>(vB) * KP;
         const int aA = z0A[i], cA = zA[i], aB = z0B[i], cB = zB[i];
         const float uA = drawsA.uniformFloat(), uB = drawsB.uniformFloat();
         const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, cA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
         const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, cB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
-        if (kA != cA) {
-            --ncA[cA];
-            ++ncA[kA];
-            zA[i] = static_cast<uint16_t>(kA);
-        }
-        if (kB != cB) {
-            --ncB[cB];
-            ++ncB[kB];
-            zB[i] = static_cast<uint16_t>(kB);
-        }
+        zA[i] = static_cast<uint16_t>(kA);
+        zB[i] = static_cast<uint16_t>(kB);
+        mA = logMove(movesA, mA, vA, aA, kA);
+        mB = logMove(movesB, mB, vB, aB, kB);
     }
     for (int b = 0; b < nb; ++b) {
         v4::store(A.nG + kBlock * b, ga[b]);
@@ -80,23 +76,30 @@ inline void refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra
     }
     ra = drawsA;
     rb = drawsB;
+    return {mA, mB};
 }
 #endif
 
 // Refines every word of A with draws ra and every word of B with draws rb,
 // as refineCellFrozen on each in turn: two cells of one round (no shared
 // cell counts or sums). Interleaved while both have words (interleavesPairs).
+// Returns the moves each listed.
 template <int KP, Path P, typename R>
-inline void refineCellsFrozenPair(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb) noexcept {
+inline PairMoves refineCellsFrozenPair(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B,
+                                       R& rb) noexcept {
     uint32_t m = 0;
+    PairMoves moved;
 #if defined(ROST_KERNEL_SIMD)
     if constexpr (interleavesPairs<KP, P>()) {
         m = std::min(A.n, B.n);
-        refinePairFrozenScanSimd<KP>(t, A, ra, B, rb, m);
+        moved = refinePairFrozenScanSimd<KP>(t, A, ra, B, rb, m);
     }
 #endif
-    if (A.n > m) refineCellFrozen<KP, P>(t, A.nG, A.nc, A.words + m, A.topics + m, A.z0 + m, A.n - m, ra);
-    if (B.n > m) refineCellFrozen<KP, P>(t, B.nG, B.nc, B.words + m, B.topics + m, B.z0 + m, B.n - m, rb);
+    if (A.n > m)
+        moved.a += refineCellFrozen<KP, P>(t, A.nG, A.words + m, A.topics + m, A.z0 + m, A.n - m, ra, A.moves + moved.a);
+    if (B.n > m)
+        moved.b += refineCellFrozen<KP, P>(t, B.nG, B.words + m, B.topics + m, B.z0 + m, B.n - m, rb, B.moves + moved.b);
+    return moved;
 }
 
 } // namespace rost::kernel

@@ -44,7 +44,8 @@ struct Tables {
 };
 
 // One cell of a frozen round: its neighbourhood sums, its own counts, its
-// words, labels and round-start labels, and its word count.
+// words, labels and round-start labels, its word count, and room for its
+// moves (one for each word).
 struct FrozenCell {
     int32_t* nG;
     int32_t* nc;
@@ -52,6 +53,13 @@ struct FrozenCell {
     uint16_t* topics;
     const uint16_t* z0;
     uint32_t n;
+    uint64_t* moves;
+};
+
+// The moves two cells of a pair listed.
+struct PairMoves {
+    uint32_t a = 0;
+    uint32_t b = 0;
 };
 
 } // namespace rost::kernel

@@ -97,8 +97,12 @@ inline F scan(F p) noexcept {
 inline F last(F p) noexcept { return vdupq_n_f32(vgetq_lane_f32(p, 3)); }
 inline float first(F p) noexcept { return vgetq_lane_f32(p, 0); }
 inline int32_t hsum(I a) noexcept {
+#if defined(__aarch64__)
+    return vaddvq_s32(a);  // one across-lanes add
+#else
     const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));
     return vget_lane_s32(vpadd_s32(h, h), 0);
+#endif
 }
 inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
     const int32x2_t h = vadd_s32(vget_low_s32(a), vget_high_s32(a));

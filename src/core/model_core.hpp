@@ -245,7 +245,9 @@ private:
     void frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept;
     template <int KP>
     kernel::FrozenCell openFrozenTask(uint32_t task, int32_t* g, int32_t* start) noexcept;
-    void logMoves(int worker, uint32_t task, const kernel::FrozenCell& c, const int32_t* start) noexcept;
+    template <int KP>
+    void closeFrozenTask(int worker, uint32_t task, const kernel::FrozenCell& c, const int32_t* start,
+                         uint32_t moved) noexcept;
     void prefetchTask(uint32_t task) const noexcept;
     template <int KP, kernel::Path P>
     void liveTask(int worker, uint32_t task) noexcept;

@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "counter_rng.hpp"
-#include "kernel.hpp"
+#include "kernel_frozen.hpp"
 #include "kernel_pair.hpp"
 #include "model_core.hpp"
 #include "refine_windows.hpp"
@@ -116,19 +116,32 @@ void ModelCore::prefetchTask(uint32_t task) const noexcept {
 
 namespace {
 
-// K counts copied, and their change added (restrict: vector loops, no call).
-void copyCounts(int32_t* __restrict to, const int32_t* __restrict from, int K) noexcept {
-    for (int k = 0; k < K; ++k) to[k] = from[k];
+// (restrict: vector loops, no call; K known where KP > 0.) The cell's
+// counts less its sums.
+template <int KP>
+void countsLessSums(int32_t* __restrict to, const int32_t* __restrict nc, const int32_t* __restrict g,
+                    int Kp) noexcept {
+    const int K = KP > 0 ? KP : Kp;
+    for (int k = 0; k < K; ++k) to[k] = nc[k] - g[k];
 }
-void addChange(int32_t* __restrict to, const int32_t* __restrict now, const int32_t* __restrict before,
-               int K) noexcept {
-    for (int k = 0; k < K; ++k) to[k] += now[k] - before[k];
+// The cell's counts from its sums, and their change added to dnk.
+template <int KP>
+void countsFromSums(int32_t* __restrict nc, int32_t* __restrict dnk, const int32_t* __restrict less,
+                    const int32_t* __restrict g, int Kp) noexcept {
+    const int K = KP > 0 ? KP : Kp;
+    for (int k = 0; k < K; ++k) {
+        const int32_t now = less[k] + g[k];
+        dnk[k] += now - nc[k];
+        nc[k] = now;
+    }
 }
 
 } // namespace
 
-// A frozen task's cell, with its round-start labels and counts saved (in
-// start) and its neighbourhood summed into g.
+// A frozen task's cell, with its round-start labels saved and its
+// neighbourhood summed into g. The kernels update g word by word and leave
+// the cell's own counts nc alone: g is nc plus counts no task of the round
+// writes, so `start` keeps nc - g, and closeFrozenTask sets nc to start + g.
 template <int KP>
 kernel::FrozenCell ModelCore::openFrozenTask(uint32_t task, int32_t* g, int32_t* start) noexcept {
     Windows& w = *win_;
@@ -142,32 +155,23 @@ kernel::FrozenCell ModelCore::openFrozenTask(uint32_t task, int32_t* g, int32_t*
     uint16_t* z0 = w.z0.data() + plan.task_z0[task];
     std::memcpy(z0, z, n * sizeof(uint16_t));
     int32_t* nc = nck(slots.self, cell);
-    copyCounts(start, nc, Kp_);
     sumNeighbourhood<KP>(slots, cell, g);
-    return {g, nc, cell_words_.data() + at * cap_, z, z0, n};
+    countsLessSums<KP>(start, nc, g, Kp_);
+    uint64_t* moves = w.logs[w.round & 1].moves.data() + plan.task_z0[task];
+    return {g, nc, cell_words_.data() + at * cap_, z, z0, n, moves};
 }
 
-// The merge after the round reads only the moves, listed here without a
-// branch on whether a word moved (a move slot is written for every word and
-// kept when it moved). The change to n_k is the worker's part (added up
-// after the round): the cell's counts less those it started with.
-void ModelCore::logMoves(int worker, uint32_t task, const kernel::FrozenCell& c, const int32_t* start) noexcept {
+// The end of a frozen task: its `moved` moves (listed by the kernels in
+// c.moves) counted for the merge after the round, the cell's counts set
+// from its sums, and their change added to the worker's part of n_k's
+// change (added up after the round).
+template <int KP>
+void ModelCore::closeFrozenTask(int worker, uint32_t task, const kernel::FrozenCell& c, const int32_t* start,
+                                uint32_t moved) noexcept {
     Windows& w = *win_;
-    MoveLog& log = w.logs[w.round & 1];
-    uint64_t* const moves = log.moves.data() + w.plan().task_z0[task];
+    w.logs[w.round & 1].count[task] = moved;
     int32_t* const dnk = w.dnk.data() + static_cast<std::size_t>(worker) * static_cast<std::size_t>(Kp_);
-    // (Locals: the stores to moves and dnk could alias c's fields.)
-    const uint32_t n = c.n;
-    const uint32_t* const words = c.words;
-    const uint16_t* const z = c.topics;
-    const uint16_t* const z0 = c.z0;
-    uint32_t m = 0;
-    for (uint32_t j = 0; j < n; ++j) {
-        moves[m] = words[j] | uint64_t{z0[j]} << 32 | uint64_t{z[j]} << 48;
-        m += z[j] != z0[j] ? 1u : 0u;
-    }
-    log.count[task] = m;
-    addChange(dnk, c.nc, start, Kp_);
+    countsFromSums<KP>(c.nc, dnk, start, c.nG, Kp_);
 }
 
 template <int KP, kernel::Path P>
@@ -176,11 +180,12 @@ void ModelCore::frozenTask(int worker, uint32_t task) noexcept {
     const Windows::Plan& plan = w.plan();
     const kernel::FrozenCell c = openFrozenTask<KP>(task, w.sums(worker, 0), w.startCounts(worker, 0));
     const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
+    uint32_t moved = 0;  // the last pick's list is the task's
     for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
         detail::CounterRng rng(plan.key, p);
-        kernel::refineCellFrozen<KP, P>(t, c.nG, c.nc, c.words, c.topics, c.z0, c.n, rng);
+        moved = kernel::refineCellFrozen<KP, P>(t, c.nG, c.words, c.topics, c.z0, c.n, rng, c.moves);
     }
-    logMoves(worker, task, c, w.startCounts(worker, 0));
+    closeFrozenTask<KP>(worker, task, c, w.startCounts(worker, 0), moved);
 }
 
 // Tasks a and b of one round on one worker: their picks two by two (each
@@ -193,20 +198,21 @@ void ModelCore::frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept {
     const kernel::FrozenCell B = openFrozenTask<KP>(b, w.sums(worker, 1), w.startCounts(worker, 1));
     const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
     uint32_t pa = plan.task_head[a], pb = plan.task_head[b];
+    kernel::PairMoves moved;  // each task's last pick's list is its own
     for (; pa != Windows::kNone && pb != Windows::kNone; pa = plan.pick_next[pa], pb = plan.pick_next[pb]) {
         detail::CounterRng ra(plan.key, pa), rb(plan.key, pb);
-        kernel::refineCellsFrozenPair<KP, P>(t, A, ra, B, rb);
+        moved = kernel::refineCellsFrozenPair<KP, P>(t, A, ra, B, rb);
     }
     for (; pa != Windows::kNone; pa = plan.pick_next[pa]) {
         detail::CounterRng rng(plan.key, pa);
-        kernel::refineCellFrozen<KP, P>(t, A.nG, A.nc, A.words, A.topics, A.z0, A.n, rng);
+        moved.a = kernel::refineCellFrozen<KP, P>(t, A.nG, A.words, A.topics, A.z0, A.n, rng, A.moves);
     }
     for (; pb != Windows::kNone; pb = plan.pick_next[pb]) {
         detail::CounterRng rng(plan.key, pb);
-        kernel::refineCellFrozen<KP, P>(t, B.nG, B.nc, B.words, B.topics, B.z0, B.n, rng);
+        moved.b = kernel::refineCellFrozen<KP, P>(t, B.nG, B.words, B.topics, B.z0, B.n, rng, B.moves);
     }
-    logMoves(worker, a, A, w.startCounts(worker, 0));
-    logMoves(worker, b, B, w.startCounts(worker, 1));
+    closeFrozenTask<KP>(worker, a, A, w.startCounts(worker, 0), moved.a);
+    closeFrozenTask<KP>(worker, b, B, w.startCounts(worker, 1), moved.b);
 }
 
 template <int KP, kernel::Path P>

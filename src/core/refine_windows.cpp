@@ -402,19 +402,19 @@ void ModelCore::runLiveRound(uint32_t task) noexcept {
     syncWorkerTables(false);  // n_k and the open topics moved with the cell
 }
 
-// Adds a round's moves to copy `copy` of n_k^v (integer adds, in any order
-// the same) and records that the copy took them. Run by the copy's worker,
-// or by the calling thread between jobs.
+// Adds a round's moves to copy `copy` of n_k^v (integer adds, in any order the same) and
+// records that the copy took them. Run by the copy's worker, or by the calling thread between jobs.
 void ModelCore::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
     Windows& w = *win_;
-    int32_t* nkv = w.worker_tables[copy].nkv;
+    int32_t* const nkv = w.worker_tables[copy].nkv;
+    const auto Kp = static_cast<std::size_t>(Kp_);  // a local: a count's store could otherwise change Kp_
     for (uint32_t i = 0; i < log.n; ++i) {
         const uint32_t t = log.task_list[i];
         if (t == Windows::kPlanTask) continue;
         const uint64_t* moves = log.moves.data() + log.task_off[t];
         for (uint32_t c = 0, m = log.count[t]; c < m; ++c) {
             const uint64_t mv = moves[c];
-            int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp_;
+            int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp;
             --row[static_cast<uint16_t>(mv >> 32)];
             ++row[static_cast<uint16_t>(mv >> 48)];
         }
