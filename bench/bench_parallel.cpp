@@ -71,13 +71,13 @@ BENCHMARK(BM_RefineAll)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 // Scaling past two cores (issue 32, item 2; bench/RESULTS.md "Every core past
-// eight threads"): 1 to 16 threads at K = 16 and 64. On fewer cores than
+// eight threads"): 1 to 16 threads at K = 16, 32 and 64. On fewer cores than
 // threads the workers take turns: select these with --benchmark_filter=Scaling
 // on a machine with 16 cores.
 BENCHMARK(BM_RefineAll)
     ->Name("BM_RefineAllScaling")
     ->ArgNames({"threads", "W", "K"})
-    ->ArgsProduct({{1, 2, 4, 8, 16}, {256}, {16, 64}})
+    ->ArgsProduct({{1, 2, 4, 8, 16}, {256}, {16, 32, 64}})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 

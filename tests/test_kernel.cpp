@@ -165,7 +165,7 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
     constexpr int V = 97;
     rost::Rng r(seed);
     std::vector<int32_t> nkv(static_cast<std::size_t>(V) * KP), nk(KP, 0);
-    std::vector<float> inv(KP), dec(KP), inc(KP);
+    std::vector<float> inv(KP), dec(KP), inc(KP), left(KP * KP);
     for (int v = 0; v < V; ++v)
         for (int k = 0; k < KP; ++k) {
             nkv[static_cast<std::size_t>(v) * KP + k] = static_cast<int32_t>(r.below(6)) + 1;
@@ -177,11 +177,13 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
     t.inv = inv.data();
     t.dec = dec.data();
     t.inc = inc.data();
+    t.left = left.data();
     t.K = t.Kp = t.active = t.hi = t.slot = KP;
     t.alpha = 0.1f;
     t.beta = 0.5f;
     t.vbeta = V * 0.5f;
     rost::kernel::refreshReciprocals(t);
+    rost::kernel::fillLeft(t);
     struct Cell {
         std::vector<int32_t> g, nc;
         std::vector<uint32_t> words;

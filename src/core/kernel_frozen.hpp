@@ -11,6 +11,16 @@ namespace rost::kernel {
 
 // ---- the register kernels against frozen word-topic counts ----------------
 
+// t.left from t.inv and t.dec, which hold still for a round.
+inline void fillLeft(Tables& t) noexcept {
+    const int Kp = t.Kp;
+    for (int a = 0; a < Kp; ++a) {
+        float* row = t.left + static_cast<std::size_t>(a) * static_cast<std::size_t>(Kp);
+        for (int k = 0; k < Kp; ++k) row[k] = t.inv[k];
+        row[a] = t.dec[a];
+    }
+}
+
 // A frozen kernel's move of word v from its round-start topic a to k, as the
 // round's merge reads it (ModelCore::takeMoves): written for every word
 // without a branch, kept (the count m advanced) only when the word moved.
@@ -106,7 +116,13 @@ ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, IV iv, const in
         const v4::I ma = topicMask<KP>(a, b);
         const v4::I r = v4::add(v4::load(row + kBlock * b), ma);
         g[b] = v4::add(g[b], topicMask<KP>(z, b));
-        const v4::F ivb = v4::select(ma, va, ivBlock(iv, b));
+        // At known K without growth the row of t.left (no select, no
+        // reciprocals in registers); else the frozen ones with lane a's swapped.
+        v4::F ivb;
+        if constexpr (KP > 0)
+            ivb = v4::load(t.left + a * KP + kBlock * b);
+        else
+            ivb = v4::select(ma, va, ivBlock(iv, b));
         const v4::F p = v4::scan(v4::mul(v4::mul(v4::add(v4::cvt(r), beta), ivb), v4::add(v4::cvt(g[b]), alpha)));
         if (b == 0) {
             cum[b] = p;

@@ -50,12 +50,11 @@ inline PairMoves refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, 
     uint32_t mA = 0, mB = 0;
     R drawsA = ra, drawsB = rb;
     v4::I ga[nb], gb[nb];
-    v4::F iv[nb];
     for (int b = 0; b < nb; ++b) {
         ga[b] = v4::load(A.nG + kBlock * b);
         gb[b] = v4::load(B.nG + kBlock * b);
-        iv[b] = v4::load(t.inv + kBlock * b);
     }
+    const float* const iv = t.inv;  // (unread: at known K a word's reciprocals are a row of t.left)
     const v4::F beta = v4::set(t.beta), alpha = v4::set(t.alpha);
     for (uint32_t i = 0; i < m; ++i) {
         const uint32_t vA = wA[i], vB = wB[i];

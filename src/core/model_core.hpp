@@ -346,6 +346,7 @@ private:
     AlignedBuffer<float> inv_;
     AlignedBuffer<float> inv_dec_;
     AlignedBuffer<float> inv_inc_;
+    AlignedBuffer<float> inv_left_;  // Kp x Kp at a fixed K of at most 32 (kernel::Tables::left)
 
     // Ring of temporal cells (slot = step % ring_steps).
     AlignedBuffer<int64_t> slot_step_;   // which step a slot holds, -1 when empty

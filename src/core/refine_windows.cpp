@@ -8,7 +8,7 @@
 #include <string>
 
 #include "counter_rng.hpp"
-#include "kernel.hpp"
+#include "kernel_frozen.hpp"
 #include "measure.hpp"
 #include "refine_windows.hpp"
 #include "model_core.hpp"
@@ -330,6 +330,7 @@ void ModelCore::runRound(int c) noexcept {
         return;
     }
     ++w.round;
+    if (tables_.left) kernel::fillLeft(tables_);  // the round's reciprocals hold still from here
     MoveLog& log = w.logs[w.round & 1];
     log.round = w.round;
     log.task_off = P.task_z0.data();
@@ -373,8 +374,7 @@ void ModelCore::runRound(int c) noexcept {
     finishRound();
 }
 
-// The live kernel refines one cell against the model's n_k^v: its moves go
-// to the workers' copies.
+// The live kernel refines one cell against the model's n_k^v: its moves go to the workers' copies.
 void ModelCore::runLiveRound(uint32_t task) noexcept {
     Windows& w = *win_;
     const Windows::Plan& P = w.plan();
