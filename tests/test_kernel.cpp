@@ -203,21 +203,31 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
         return c;
     };
     const Cell a0 = make(nA), b0 = make(nB);
-    Cell a1 = a0, b1 = b0, a2 = a0, b2 = b0;
+    Cell a1 = a0, b1 = b0, a2 = a0, b2 = b0, a3 = a0, b3 = b0;
     auto view = [](Cell& c) {
         return rost::kernel::FrozenCell{c.g.data(),  c.nc.data(), c.words.data(), c.z.data(), c.z0.data(),
                                         static_cast<uint32_t>(c.words.size()), c.moves.data()};
     };
-    auto alone = [&](Cell& c, rost::detail::CounterRng& rng) {
-        c.moved = rost::kernel::refineCellFrozen<KP, P>(t, c.g.data(), c.words.data(), c.z.data(), c.z0.data(),
-                                                        static_cast<uint32_t>(c.words.size()), rng, c.moves.data());
+    // A task's picks, in turn; the first with the kernels' first-pick form
+    // (every word still at its round-start label), the others without.
+    auto alone = [&](Cell& c, rost::detail::CounterRng& rng, bool first) {
+        const auto n = static_cast<uint32_t>(c.words.size());
+        c.moved = first ? rost::kernel::refineCellFrozen<KP, P, true>(t, c.g.data(), c.words.data(), c.z.data(),
+                                                                      c.z0.data(), n, rng, c.moves.data())
+                        : rost::kernel::refineCellFrozen<KP, P>(t, c.g.data(), c.words.data(), c.z.data(), c.z0.data(),
+                                                                n, rng, c.moves.data());
     };
-    for (uint64_t pick = 0; pick < 3; ++pick) {  // a task's picks, in turn
+    for (uint64_t pick = 0; pick < 3; ++pick) {
         rost::detail::CounterRng ra(seed, 2 * pick), rb(seed, 2 * pick + 1);
-        alone(a1, ra);
-        alone(b1, rb);
+        alone(a1, ra, pick == 0);
+        alone(b1, rb, pick == 0);
+        rost::detail::CounterRng ga(seed, 2 * pick), gb(seed, 2 * pick + 1);
+        alone(a3, ga, false);  // the general form at the first pick too
+        alone(b3, gb, false);
         rost::detail::CounterRng pa(seed, 2 * pick), pb(seed, 2 * pick + 1);
-        const rost::kernel::PairMoves moved = rost::kernel::refineCellsFrozenPair<KP, P>(t, view(a2), pa, view(b2), pb);
+        const rost::kernel::PairMoves moved =
+            pick == 0 ? rost::kernel::refineCellsFrozenPair<KP, P, true>(t, view(a2), pa, view(b2), pb)
+                      : rost::kernel::refineCellsFrozenPair<KP, P>(t, view(a2), pa, view(b2), pb);
         a2.moved = moved.a;
         b2.moved = moved.b;
     }
@@ -225,6 +235,8 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
     if (nA >= 9) {
         EXPECT_NE(a1.z, a0.z) << "the draws moved some labels";
     }
+    EXPECT_TRUE(a3.z == a1.z && b3.z == b1.z && a3.g == a1.g && b3.g == b1.g && a3.moves == a1.moves)
+        << "K " << KP << " " << path << ": the first-pick form gives what the general one gives";
     EXPECT_EQ(a2.z, a1.z) << "K " << KP << " " << path << " cell A, " << nA << " and " << nB << " words";
     EXPECT_EQ(b2.z, b1.z) << "K " << KP << " " << path << " cell B, " << nA << " and " << nB << " words";
     EXPECT_TRUE(a2.g == a1.g && b2.g == b1.g) << "K " << KP << " " << path << ": neighbourhood sums";

@@ -160,7 +160,9 @@ ROST_KERNEL_INLINE v4::F frozenLeft(const Tables& t, int a) noexcept {
     return v4::set(KP == kGrow && t.nk[a] == 1 ? 0.f : t.dec[a]);
 }
 
-template <int KP, typename R>
+// kFirst: the task's first pick of the cell, when every word is still at its
+// round-start label (z0 == topics): one label, one mask a word.
+template <int KP, bool kFirst, typename R>
 inline uint32_t refineCellFrozenScanSimd(const Tables& t, int32_t* nG, const uint32_t* words, uint16_t* topics,
                                          const uint16_t* z0, uint32_t n, R& rng, uint64_t* moves) noexcept {
     const int Kp = KP > 0 ? KP : t.Kp;
@@ -178,7 +180,7 @@ inline uint32_t refineCellFrozenScanSimd(const Tables& t, int32_t* nG, const uin
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t v = words[i];
         const int32_t* row = t.nkv + static_cast<std::size_t>(v) * static_cast<std::size_t>(Kp);
-        const int a = z0[i], z = topics[i];
+        const int z = topics[i], a = kFirst ? z : z0[i];
         const float u01 = draws.uniformFloat();
         const int nbL = liveLanes<KP>(t, Kp) / kBlock;
         if (nbL < 1) __builtin_unreachable();  // at least one topic is active
@@ -249,12 +251,12 @@ inline uint32_t refineCellFrozenLanes(const Tables& t, int32_t* nG, const uint32
 
 // Refines every word of one cell once against frozen word-topic counts (a
 // round of a parallel window); path P as refineCell. Returns the moves listed.
-template <int KP, Path P, typename R>
+template <int KP, Path P, bool kFirst = false, typename R>
 inline uint32_t refineCellFrozen(const Tables& t, int32_t* nG, const uint32_t* words, uint16_t* topics,
                                  const uint16_t* z0, uint32_t n, R& rng, uint64_t* moves) noexcept {
     if (registerKernel<KP>(t)) {
 #if defined(ROST_KERNEL_SIMD)
-        if constexpr (P == Path::Simd) return refineCellFrozenScanSimd<KP>(t, nG, words, topics, z0, n, rng, moves);
+        if constexpr (P == Path::Simd) return refineCellFrozenScanSimd<KP, kFirst>(t, nG, words, topics, z0, n, rng, moves);
 #endif
         return refineCellFrozenScanScalar<KP>(t, nG, words, topics, z0, n, rng, moves);
     }

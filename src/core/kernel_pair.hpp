@@ -33,7 +33,7 @@ constexpr bool interleavesPairs() noexcept {
 #if defined(ROST_KERNEL_SIMD)
 // The first m words of A and of B, word by word: refineCellFrozenScanSimd's
 // operations on each.
-template <int KP, typename R>
+template <int KP, bool kFirst, typename R>
 inline PairMoves refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb,
                                           uint32_t m) noexcept {
     constexpr int nb = KP / kBlock;
@@ -60,7 +60,8 @@ inline PairMoves refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, 
         const uint32_t vA = wA[i], vB = wB[i];
         const int32_t* rowA = t.nkv + static_cast<std::size_t>(vA) * KP;
         const int32_t* rowB = t.nkv + static_cast<std::size_t>(vB) * KP;
-        const int aA = z0A[i], cA = zA[i], aB = z0B[i], cB = zB[i];
+        const int cA = zA[i], cB = zB[i];
+        const int aA = kFirst ? cA : z0A[i], aB = kFirst ? cB : z0B[i];
         const float uA = drawsA.uniformFloat(), uB = drawsB.uniformFloat();
         const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, cA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
         const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, cB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
@@ -82,8 +83,8 @@ inline PairMoves refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, 
 // Refines every word of A with draws ra and every word of B with draws rb,
 // as refineCellFrozen on each in turn: two cells of one round (no shared
 // cell counts or sums). Interleaved while both have words (interleavesPairs).
-// Returns the moves each listed.
-template <int KP, Path P, typename R>
+// Returns the moves each listed. kFirst: the tasks' first picks (refineCellFrozen).
+template <int KP, Path P, bool kFirst = false, typename R>
 inline PairMoves refineCellsFrozenPair(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B,
                                        R& rb) noexcept {
     uint32_t m = 0;
@@ -91,13 +92,13 @@ inline PairMoves refineCellsFrozenPair(const Tables& t, const FrozenCell& A, R& 
 #if defined(ROST_KERNEL_SIMD)
     if constexpr (interleavesPairs<KP, P>()) {
         m = std::min(A.n, B.n);
-        moved = refinePairFrozenScanSimd<KP>(t, A, ra, B, rb, m);
+        moved = refinePairFrozenScanSimd<KP, kFirst>(t, A, ra, B, rb, m);
     }
 #endif
     if (A.n > m)
-        moved.a += refineCellFrozen<KP, P>(t, A.nG, A.words + m, A.topics + m, A.z0 + m, A.n - m, ra, A.moves + moved.a);
+        moved.a += refineCellFrozen<KP, P, kFirst>(t, A.nG, A.words + m, A.topics + m, A.z0 + m, A.n - m, ra, A.moves + moved.a);
     if (B.n > m)
-        moved.b += refineCellFrozen<KP, P>(t, B.nG, B.words + m, B.topics + m, B.z0 + m, B.n - m, rb, B.moves + moved.b);
+        moved.b += refineCellFrozen<KP, P, kFirst>(t, B.nG, B.words + m, B.topics + m, B.z0 + m, B.n - m, rb, B.moves + moved.b);
     return moved;
 }
 

@@ -180,8 +180,12 @@ void ModelCore::frozenTask(int worker, uint32_t task) noexcept {
     const Windows::Plan& plan = w.plan();
     const kernel::FrozenCell c = openFrozenTask<KP>(task, w.sums(worker, 0), w.startCounts(worker, 0));
     const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
-    uint32_t moved = 0;  // the last pick's list is the task's
-    for (uint32_t p = plan.task_head[task]; p != Windows::kNone; p = plan.pick_next[p]) {
+    // The first pick, every word still at its round-start label; then the
+    // others. The last pick's list of moves is the task's.
+    uint32_t p = plan.task_head[task];
+    detail::CounterRng first(plan.key, p);
+    uint32_t moved = kernel::refineCellFrozen<KP, P, true>(t, c.nG, c.words, c.topics, c.z0, c.n, first, c.moves);
+    for (p = plan.pick_next[p]; p != Windows::kNone; p = plan.pick_next[p]) {
         detail::CounterRng rng(plan.key, p);
         moved = kernel::refineCellFrozen<KP, P>(t, c.nG, c.words, c.topics, c.z0, c.n, rng, c.moves);
     }
@@ -197,9 +201,13 @@ void ModelCore::frozenTaskPair(int worker, uint32_t a, uint32_t b) noexcept {
     const kernel::FrozenCell A = openFrozenTask<KP>(a, w.sums(worker, 0), w.startCounts(worker, 0));
     const kernel::FrozenCell B = openFrozenTask<KP>(b, w.sums(worker, 1), w.startCounts(worker, 1));
     const kernel::Tables& t = w.worker_tables[static_cast<std::size_t>(worker)];
+    // The first picks (every word still at its round-start label), then the
+    // others. Each task's last pick's list of moves is its own.
     uint32_t pa = plan.task_head[a], pb = plan.task_head[b];
-    kernel::PairMoves moved;  // each task's last pick's list is its own
-    for (; pa != Windows::kNone && pb != Windows::kNone; pa = plan.pick_next[pa], pb = plan.pick_next[pb]) {
+    detail::CounterRng firstA(plan.key, pa), firstB(plan.key, pb);
+    kernel::PairMoves moved = kernel::refineCellsFrozenPair<KP, P, true>(t, A, firstA, B, firstB);
+    for (pa = plan.pick_next[pa], pb = plan.pick_next[pb]; pa != Windows::kNone && pb != Windows::kNone;
+         pa = plan.pick_next[pa], pb = plan.pick_next[pb]) {
         detail::CounterRng ra(plan.key, pa), rb(plan.key, pb);
         moved = kernel::refineCellsFrozenPair<KP, P>(t, A, ra, B, rb);
     }
