@@ -24,10 +24,11 @@ struct Tables {
     float* inv = nullptr;    // Kp cached 1 / (n_k + V beta); 0 in padding lanes
     float* dec = nullptr;    // Kp cached 1 / (n_k - 1 + V beta)
     float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
-    // Kp x Kp at a fixed K of at most 32, else null: row a is inv with lane a
-    // replaced by dec[a], the reciprocals a word at topic a draws with when it
-    // leaves a in the frozen counts. Filled at each frozen round's start
-    // (kernel::fillLeft), read by the frozen register kernels.
+    // Kp x Kp at a fixed K of at most 32 (a worker's tables), else null: row
+    // a is inv with lane a replaced by dec[a], the reciprocals a word at topic
+    // a draws with when it leaves a in the frozen counts. Filled as a worker
+    // starts its part of a frozen round (kernel::fillLeft), read by the
+    // frozen register kernels.
     float* left = nullptr;
     int K = 0;
     int Kp = 0;

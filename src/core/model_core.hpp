@@ -232,6 +232,8 @@ private:
     void takePendingMoves() noexcept;
     void runLiveRound(uint32_t task) noexcept;
     void syncWorkerTables(bool copy) noexcept;
+    // Whether the workers' tables have kernel::Tables::left (a fixed K of at most 32).
+    bool leftTables() const noexcept { return !cfg_.grow && Kp_ <= 32; }
     bool workerCopiesAgree(std::string* why) const;
     void finishRound() noexcept;
     void countStarted(RefineCount& rc) noexcept;
@@ -346,7 +348,6 @@ private:
     AlignedBuffer<float> inv_;
     AlignedBuffer<float> inv_dec_;
     AlignedBuffer<float> inv_inc_;
-    AlignedBuffer<float> inv_left_;  // Kp x Kp at a fixed K of at most 32 (kernel::Tables::left)
 
     // Ring of temporal cells (slot = step % ring_steps).
     AlignedBuffer<int64_t> slot_step_;   // which step a slot holds, -1 when empty

@@ -45,7 +45,6 @@ ModelCore::ModelCore(const Config& config) : cfg_(config), rng_(config.seed) {
     tables_.inv = inv_.data();
     tables_.dec = inv_dec_.data();
     tables_.inc = inv_inc_.data();
-    tables_.left = inv_left_.data();
     tables_.K = K_;
     tables_.grow = cfg_.grow;
     tables_.fresh = cfg_.grow ? static_cast<float>(kFreshMass / V_) : 0.f;
@@ -56,7 +55,7 @@ ModelCore::ModelCore(const Config& config) : cfg_(config), rng_(config.seed) {
     kernel::refreshReciprocals(tables_);
     kernel::updateTopics(tables_);
 
-    memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + inv_left_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
+    memory_bytes_ = nkv_.bytes() + nk_.bytes() + inv_.bytes() + inv_dec_.bytes() + inv_inc_.bytes() + slot_step_.bytes() + cell_n_.bytes() +
                     cell_words_.bytes() + cell_z_.bytes() + nck_.bytes() + cell_surprise_.bytes() +
                     in_word_.bytes() + in_pos_.bytes() + in_slot_.bytes() + in_n_.bytes() + obs_surprise_.bytes() +
                     nbr_begin_.bytes() + nbr_cell_.bytes() + cell_of_x_.bytes() + cell_of_y_.bytes() + scratch_cell_.bytes() + scratch_z_.bytes() + scratch_count_.bytes() +
@@ -82,7 +81,6 @@ void ModelCore::allocateState() {
     inv_.reset(Kp);
     inv_dec_.reset(Kp);
     inv_inc_.reset(Kp);
-    if (!cfg_.grow && Kp <= 32) inv_left_.reset(Kp * Kp);
 
     slot_step_.reset(ring);
     for (std::size_t s = 0; s < ring; ++s) slot_step_[s] = -1;

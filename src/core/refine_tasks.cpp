@@ -1,6 +1,7 @@
 // The tasks of a window's rounds (src/core/refine_windows.cpp): a cell
 // refined against the round's frozen word-topic counts, its moves logged
-// for the merge; two such cells at once where the kernel interleaves them
+// for the merge, and the merge of a round's moves into a copy of n_k^v; two
+// such cells at once where the kernel interleaves them
 // (src/core/kernel_pair.hpp); or a cell refined live.
 
 #include <cstring>
@@ -174,6 +175,25 @@ void ModelCore::closeFrozenTask(int worker, uint32_t task, const kernel::FrozenC
     countsFromSums<KP>(c.nc, dnk, start, c.nG, Kp_);
 }
 
+// Adds a round's moves to copy `copy` of n_k^v (integer adds, in any order the same) and
+// records that the copy took them. Run by the copy's worker, or by the calling thread between jobs.
+void ModelCore::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
+    Windows& w = *win_;
+    int32_t* const nkv = w.worker_tables[copy].nkv;
+    const auto Kp = static_cast<std::size_t>(Kp_);  // a local: a count's store could otherwise change Kp_
+    for (uint32_t i = 0; i < log.n; ++i) {
+        const uint32_t t = log.task_list[i];
+        if (t == Windows::kPlanTask) continue;
+        const uint64_t* moves = log.moves.data() + log.task_off[t];
+        for (uint32_t c = 0, m = log.count[t]; c < m; ++c) {
+            const uint64_t mv = moves[c];
+            int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp;
+            --row[static_cast<uint16_t>(mv >> 32)];
+            ++row[static_cast<uint16_t>(mv >> 48)];
+        }
+    }
+    w.merged[copy * Windows::kMergedStride] = log.round;
+}
 template <int KP, kernel::Path P>
 void ModelCore::frozenTask(int worker, uint32_t task) noexcept {
     Windows& w = *win_;

@@ -28,6 +28,8 @@ struct ModelCore::WindowJob final : detail::WorkerPool::Job {
 
     void begin(int worker) noexcept override {
         if (pending) model->takeMoves(*pending, static_cast<uint32_t>(worker));
+        kernel::Tables& t = model->win_->worker_tables[static_cast<std::size_t>(worker)];
+        if (t.left) kernel::fillLeft(t);  // the round's reciprocals hold still from here
     }
     uint32_t count = 0;  // tasks in the list: the one after a task is prefetched
 
@@ -98,7 +100,8 @@ void ModelCore::setThreads(int n) {
     pool_.reset();
     const auto size = [&](int threads) {
         memory_bytes_ -= w.workerBytes();
-        w.sizeWorkers(static_cast<std::size_t>(threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
+        w.sizeWorkers(static_cast<std::size_t>(threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_),
+                      leftTables());
         memory_bytes_ += w.workerBytes();
         cfg_.threads = threads;
     };
@@ -163,7 +166,8 @@ void ModelCore::allocateWindows() {
         for (MoveLog& log : w.logs) log.size(w.z0.size(), W);
     }
     w.colours = static_cast<std::size_t>(colours_);
-    w.sizeWorkers(static_cast<std::size_t>(cfg_.threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_));
+    w.sizeWorkers(static_cast<std::size_t>(cfg_.threads), static_cast<std::size_t>(V_), static_cast<std::size_t>(Kp_),
+                  leftTables());
     if (cfg_.threads > 1 && W > 1) pool_ = std::make_unique<detail::WorkerPool>(cfg_.threads);
     memory_bytes_ += w.bytes();
 }
@@ -330,7 +334,6 @@ void ModelCore::runRound(int c) noexcept {
         return;
     }
     ++w.round;
-    if (tables_.left) kernel::fillLeft(tables_);  // the round's reciprocals hold still from here
     MoveLog& log = w.logs[w.round & 1];
     log.round = w.round;
     log.task_off = P.task_z0.data();
@@ -368,6 +371,7 @@ void ModelCore::runRound(int c) noexcept {
         log.n = e - b;
         job.count = log.n;
         job.tasks = log.task_list = P.order.data() + b;
+        job.begin(0);
         detail::WorkerPool::runInTurn(job, log.n);
         takeMoves(log, 0);
     }
@@ -400,26 +404,6 @@ void ModelCore::runLiveRound(uint32_t task) noexcept {
         }
     }
     syncWorkerTables(false);  // n_k and the open topics moved with the cell
-}
-
-// Adds a round's moves to copy `copy` of n_k^v (integer adds, in any order the same) and
-// records that the copy took them. Run by the copy's worker, or by the calling thread between jobs.
-void ModelCore::takeMoves(const MoveLog& log, uint32_t copy) noexcept {
-    Windows& w = *win_;
-    int32_t* const nkv = w.worker_tables[copy].nkv;
-    const auto Kp = static_cast<std::size_t>(Kp_);  // a local: a count's store could otherwise change Kp_
-    for (uint32_t i = 0; i < log.n; ++i) {
-        const uint32_t t = log.task_list[i];
-        if (t == Windows::kPlanTask) continue;
-        const uint64_t* moves = log.moves.data() + log.task_off[t];
-        for (uint32_t c = 0, m = log.count[t]; c < m; ++c) {
-            const uint64_t mv = moves[c];
-            int32_t* row = nkv + static_cast<std::size_t>(static_cast<uint32_t>(mv)) * Kp;
-            --row[static_cast<uint16_t>(mv >> 32)];
-            ++row[static_cast<uint16_t>(mv >> 48)];
-        }
-    }
-    w.merged[copy * Windows::kMergedStride] = log.round;
 }
 
 // The copies that have not taken the round's moves take them: on the
@@ -496,6 +480,7 @@ void ModelCore::syncWorkerTables(bool copy) noexcept {
     for (std::size_t r = 0; r < n; ++r) {
         w.worker_tables[r] = tables_;
         w.worker_tables[r].nkv = r == 0 || w.replicas.size() == 0 ? nkv_.data() : w.replicas.data() + (r - 1) * table;
+        w.worker_tables[r].left = w.left.size() ? w.left.data() + r * static_cast<std::size_t>(Kp_ * Kp_) : nullptr;
     }
     if (!copy || !pool_ || w.replicas.size() == 0) return;
     CopyJob job;

@@ -159,6 +159,11 @@ struct ModelCore::Windows {
     AlignedBuffer<kernel::Tables> worker_tables;
     AlignedBuffer<int32_t> replicas;
     AlignedBuffer<int32_t> dnk;  // a round's change to n_k, one part per worker (its tasks' moves)
+    // Per worker, at a fixed K of at most 32: kernel::Tables::left, Kp x Kp,
+    // filled by the worker itself as it starts its part of a frozen round, so
+    // the lines stay in its core's cache (one table written by the caller
+    // every round moved 4 KiB at K = 32 from core to core each round).
+    AlignedBuffer<float> left;
     bool copies_synced = false;  // inside a refinement: the copies are kept equal
     // The step being expanded into cell picks.
     int64_t cur_step = -1;
@@ -174,16 +179,17 @@ struct ModelCore::Windows {
     // Beside them, the task's cell counts when it started (its change to n_k at the end).
     int32_t* startCounts(int worker, int j) noexcept { return sums(worker, j) + g_stride; }
     std::size_t workerBytes() const noexcept {
-        return worker_g.bytes() + worker_tables.bytes() + replicas.bytes() + dnk.bytes() + merged.bytes() +
+        return worker_g.bytes() + worker_tables.bytes() + replicas.bytes() + dnk.bytes() + left.bytes() + merged.bytes() +
                plans[0].round_cuts.bytes() + plans[1].round_cuts.bytes();
     }
-    // Sized for n workers over a V x Kp table (set-up code).
-    void sizeWorkers(std::size_t n, std::size_t V, std::size_t Kp) {
+    // Sized for n workers over a V x Kp table (set-up code); `lefts`: with the tables of kernel::Tables::left.
+    void sizeWorkers(std::size_t n, std::size_t V, std::size_t Kp, bool lefts) {
         g_stride = Kp;
         worker_g.reset(4 * n * Kp);
         worker_tables.reset(n);
         replicas.reset(W > 1 ? (n - 1) * V * Kp : 0);
         dnk.reset(n * Kp);
+        left.reset(lefts ? n * Kp * Kp : 0);
         merged.reset(n * kMergedStride);
         for (Plan& P : plans) P.round_cuts.reset(colours * (n + 1));
     }
