@@ -11,6 +11,9 @@
 // arithmetic only, so every architecture draws the same numbers.
 
 #include <cstdint>
+#if defined(__aarch64__)
+#include <arm_neon.h>  // vcvts_n_f32_u32
+#endif
 
 namespace rost::detail {
 
@@ -31,7 +34,14 @@ public:
         return static_cast<uint32_t>(mix64(base_ + index_ * 0xD1B54A32D192ED03ull) >> 32);
     }
     // Uniform float in [0, 1) with 24 random bits (exact in binary32), as Rng::uniformFloat.
-    float uniformFloat() noexcept { return static_cast<float>(next() >> 8) * 0x1p-24f; }
+    // (On aarch64 one fixed-point convert, the same value: x * 2^-24 is exact.)
+    float uniformFloat() noexcept {
+#if defined(__aarch64__)
+        return vcvts_n_f32_u32(next() >> 8, 24);
+#else
+        return static_cast<float>(next() >> 8) * 0x1p-24f;
+#endif
+    }
 
 private:
     uint64_t base_;

@@ -98,6 +98,24 @@ ROST_KERNEL_INLINE v4::I topicMask(int k, int b) noexcept {
     }
 }
 
+// Whether the frozen kernels at known K load a word's rows (its counts, its
+// labels' masks, its reciprocals) whole, four blocks an instruction: aarch64.
+#if defined(ROST_V4_LOAD4)
+inline constexpr bool kWholeRows = true;
+#else
+inline constexpr bool kWholeRows = false;
+#endif
+// NB blocks of a row into x (NB a multiple of 4 where kWholeRows).
+template <int NB, typename T, typename V>
+ROST_KERNEL_INLINE void loadRow(const T* p, V* x) noexcept {
+#if defined(ROST_V4_LOAD4)
+    static_assert(NB % 4 == 0);
+    for (int q = 0; q < NB; q += 4) v4::load4(p + kBlock * q, x + q);
+#else
+    for (int b = 0; b < NB; ++b) x[b] = v4::load(p + kBlock * b);
+#endif
+}
+
 // One word of refineCellFrozenScanSimd: word (row) leaves topic a of the frozen
 // counts (reciprocal va) and topic z of the cell's sums g; returns the drawn
 // topic, which g has joined. iv: the frozen reciprocals.
@@ -112,14 +130,26 @@ ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, IV iv, const in
                                       float u01, v4::F va, int nbL, v4::F beta, v4::F alpha) noexcept {
     v4::F cum[KP > 0 ? KP / kBlock : kMaxBlocks];
     v4::F carry = v4::set(0.f);
+    constexpr bool kWhole = KP > 0 && kWholeRows;
+    constexpr int kNB = kWhole ? KP / kBlock : 1;
+    [[maybe_unused]] v4::I rowW[kNB], maW[kNB], mzW[kNB];
+    [[maybe_unused]] v4::F leftW[kNB];
+    if constexpr (kWhole) {
+        loadRow<kNB>(row, rowW);
+        loadRow<kNB>(kLaneMasks<KP>.lane[a], maW);
+        loadRow<kNB>(kLaneMasks<KP>.lane[z], mzW);
+        loadRow<kNB>(t.left + a * KP, leftW);
+    }
     for (int b = 0; b < nbL; ++b) {
-        const v4::I ma = topicMask<KP>(a, b);
-        const v4::I r = v4::add(v4::load(row + kBlock * b), ma);
-        g[b] = v4::add(g[b], topicMask<KP>(z, b));
+        const v4::I ma = kWhole ? maW[b] : topicMask<KP>(a, b);
+        const v4::I r = v4::add(kWhole ? rowW[b] : v4::load(row + kBlock * b), ma);
+        g[b] = v4::add(g[b], kWhole ? mzW[b] : topicMask<KP>(z, b));
         // At known K without growth the row of t.left (no select, no
         // reciprocals in registers); else the frozen ones with lane a's swapped.
         v4::F ivb;
-        if constexpr (KP > 0)
+        if constexpr (kWhole)
+            ivb = leftW[b];
+        else if constexpr (KP > 0)
             ivb = v4::load(t.left + a * KP + kBlock * b);
         else
             ivb = v4::select(ma, va, ivBlock(iv, b));
@@ -140,7 +170,9 @@ ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, IV iv, const in
     if constexpr (kByLabel) {
         int k = -v4::hsum(count);
         if constexpr (KP == kGrow) k = drawnTopic<KP>(t, k, a);
-        for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], topicMask<KP>(k, b));
+        [[maybe_unused]] v4::I mkW[kNB];
+        if constexpr (kWhole) loadRow<kNB>(kLaneMasks<KP>.lane[k], mkW);
+        for (int b = 0; b < nbL; ++b) g[b] = v4::sub(g[b], kWhole ? mkW[b] : topicMask<KP>(k, b));
         return k;
     } else {
         count = v4::hbroadcast(count);

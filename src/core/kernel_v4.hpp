@@ -110,6 +110,25 @@ inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
     return vcombine_s32(s, s);
 }
 inline int32_t firsti(I a) noexcept { return vgetq_lane_s32(a, 0); }
+#if defined(__aarch64__)
+// Four blocks (64 bytes) in one instruction (ld1 of four registers), where
+// block by block GCC emits three.
+#define ROST_V4_LOAD4 1
+inline void load4(const int32_t* p, I* x) noexcept {
+    const int32x4x4_t v = vld1q_s32_x4(p);
+    x[0] = v.val[0];
+    x[1] = v.val[1];
+    x[2] = v.val[2];
+    x[3] = v.val[3];
+}
+inline void load4(const float* p, F* x) noexcept {
+    const float32x4x4_t v = vld1q_f32_x4(p);
+    x[0] = v.val[0];
+    x[1] = v.val[1];
+    x[2] = v.val[2];
+    x[3] = v.val[3];
+}
+#endif
 #endif
 } // namespace rost::kernel::v4
 
