@@ -5,8 +5,8 @@
 //       configuration and for the proposed small-board configuration, as
 //       reported by Model::memoryBytes() / Engine::memory() and as measured by
 //       the C library's allocator (mallinfo2) around construction.
-//   footprint refine SWEEPS [--scalar]
-//       Builds a fixed stream (K = 16, V = 5436, 640x480 frames, 64 px cells),
+//   footprint refine SWEEPS [--scalar] [--K N]
+//       Builds a fixed stream (K = 16 or N, V = 5436, 640x480 frames, 64 px cells),
 //       refines it twice to leave the random start, then runs SWEEPS more
 //       batch sweeps and prints the tokens they refined. Instructions per token
 //       refinement = (instructions(SWEEPS = n) - instructions(SWEEPS = 0)) /
@@ -91,8 +91,9 @@ void printMemory(const char* name, const rost::Config& c) {
 constexpr int kFrames = 24;
 constexpr int kWords = 2000;
 
-int refine(int sweeps, bool scalar) {
+int refine(int sweeps, bool scalar, int K) {
     rost::Config c = defaultConfig();
+    c.K = K;
     c.ring_steps = kFrames;
     c.cell_capacity = 64;
     rost::Model m(c);
@@ -121,7 +122,7 @@ int refine(int sweeps, bool scalar) {
 }
 
 int usage() {
-    std::fprintf(stderr, "usage: footprint memory | footprint refine SWEEPS [--scalar]\n");
+    std::fprintf(stderr, "usage: footprint memory | footprint refine SWEEPS [--scalar] [--K N]\n");
     return 2;
 }
 
@@ -141,9 +142,22 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "footprint: SWEEPS must be an integer in [0, 1000], got '%s'\n", argv[2]);
             return 2;
         }
-        const bool scalar = argc >= 4 && std::strcmp(argv[3], "--scalar") == 0;
-        if (argc >= 4 && !scalar) return usage();
-        return refine(static_cast<int>(sweeps), scalar);
+        bool scalar = false;
+        long K = defaultConfig().K;
+        for (int i = 3; i < argc; ++i) {
+            if (std::strcmp(argv[i], "--scalar") == 0) {
+                scalar = true;
+            } else if (std::strcmp(argv[i], "--K") == 0 && i + 1 < argc) {
+                K = std::strtol(argv[++i], &end, 10);
+                if (*end != '\0' || K < 2 || K > 1024) {
+                    std::fprintf(stderr, "footprint: --K must be an integer in [2, 1024], got '%s'\n", argv[i]);
+                    return 2;
+                }
+            } else {
+                return usage();
+            }
+        }
+        return refine(static_cast<int>(sweeps), scalar, static_cast<int>(K));
     }
     return usage();
 }

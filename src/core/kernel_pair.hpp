@@ -37,7 +37,7 @@ template <int KP, bool kFirst, typename R>
 inline PairMoves refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, R& ra, const FrozenCell& B, R& rb,
                                           uint32_t m) noexcept {
     constexpr int nb = KP / kBlock;
-    // Locals, the generators too: a store to the cells' counts or labels
+    // Locals, the generators too: a store to the cells' labels or moves
     // could otherwise change them, and each word would reload them.
     const uint32_t* const wA = A.words;
     const uint32_t* const wB = B.words;

@@ -24,7 +24,8 @@ struct Tables {
     float* inv = nullptr;    // Kp cached 1 / (n_k + V beta); 0 in padding lanes
     float* dec = nullptr;    // Kp cached 1 / (n_k - 1 + V beta)
     float* inc = nullptr;    // Kp cached 1 / (n_k + 1 + V beta)
-    // Kp x Kp at a fixed K of at most 32 (a worker's tables), else null: row
+    // Kp x Kp in a worker's tables where the frozen register kernels run at a
+    // known K (16 or 32, no growth: ModelCore::leftTables), else null: row
     // a is inv with lane a replaced by dec[a], the reciprocals a word at topic
     // a draws with when it leaves a in the frozen counts. Filled as a worker
     // starts its part of a frozen round (kernel::fillLeft), read by the

@@ -110,9 +110,10 @@ inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
     return vcombine_s32(s, s);
 }
 inline int32_t firsti(I a) noexcept { return vgetq_lane_s32(a, 0); }
-#if defined(__aarch64__)
+#if defined(__aarch64__) && (defined(__clang__) || __GNUC__ > 10 || (__GNUC__ == 10 && __GNUC_MINOR__ >= 3))
 // Four blocks (64 bytes) in one instruction (ld1 of four registers), where
-// block by block GCC emits three.
+// block by block GCC emits three. (GCC has the x4 loads for aarch64 from
+// 10.3; older compilers take the block loads.)
 #define ROST_V4_LOAD4 1
 inline void load4(const int32_t* p, I* x) noexcept {
     const int32x4x4_t v = vld1q_s32_x4(p);

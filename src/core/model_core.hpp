@@ -232,8 +232,9 @@ private:
     void takePendingMoves() noexcept;
     void runLiveRound(uint32_t task) noexcept;
     void syncWorkerTables(bool copy) noexcept;
-    // Whether the workers' tables have kernel::Tables::left (a fixed K of at most 32).
-    bool leftTables() const noexcept { return !cfg_.grow && Kp_ <= 32; }
+    // Whether the workers' tables have kernel::Tables::left: where the frozen
+    // register kernels run at a known K (selectKernels: 16 or 32, no growth).
+    bool leftTables() const noexcept { return !cfg_.fixed && !cfg_.grow && (Kp_ == 16 || Kp_ == 32); }
     bool workerCopiesAgree(std::string* why) const;
     void finishRound() noexcept;
     void countStarted(RefineCount& rc) noexcept;

@@ -159,7 +159,7 @@ struct ModelCore::Windows {
     AlignedBuffer<kernel::Tables> worker_tables;
     AlignedBuffer<int32_t> replicas;
     AlignedBuffer<int32_t> dnk;  // a round's change to n_k, one part per worker (its tasks' moves)
-    // Per worker, at a fixed K of at most 32: kernel::Tables::left, Kp x Kp,
+    // Per worker, at K 16 or 32 without growth: kernel::Tables::left, Kp x Kp,
     // filled by the worker itself as it starts its part of a frozen round, so
     // the lines stay in its core's cache (one table written by the caller
     // every round moved 4 KiB at K = 32 from core to core each round).
