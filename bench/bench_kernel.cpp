@@ -6,6 +6,11 @@
 // count against it (contention for caches and the core's other hyperthread
 // still does).
 //
+// BM_Refine/K:k/scalar:s refines one step at a time with the live kernel (the
+// realtime refiner's Model::refineStep); BM_Refine/K:k/scalar:s/W:256 runs
+// batch sweeps in windows of 256 picks (refine.window's default, what `rost
+// refine` runs) with the frozen kernels, two cells at once where K <= 16.
+//
 //   build/bench/bench_kernel --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 
 #include <benchmark/benchmark.h>
@@ -44,9 +49,10 @@ struct Stream {
     }
 };
 
-rost::Config benchConfig(int K) {
+rost::Config benchConfig(int K, int window = 1) {
     rost::Config c;
     c.K = K;
+    c.refine_window = window;
     c.V = kV;
     c.ring_steps = kFrames;
     c.cell_capacity = 64;
@@ -67,6 +73,24 @@ void BM_Refine(benchmark::State& state) {
         m.refineStep(t);
         t = (t + 1) % kFrames;
     }
+    state.SetItemsProcessed(static_cast<int64_t>(m.tokensRefined() - before));
+    state.counters["words_per_cell"] = static_cast<double>(kWordsPerFrame) / m.cellsPerStep();
+}
+
+// Batch refinement in windows (refine.window W > 1, the default of `rost
+// refine`): one sweep of the ring a benchmark iteration, in rounds of cells
+// refined by the frozen kernels against n_k^v as it stood when the round began
+// (include/rost/model.hpp, refine). One thread.
+void BM_RefineWindows(benchmark::State& state) {
+    const int K = static_cast<int>(state.range(0));
+    const int window = static_cast<int>(state.range(2));
+    static const Stream stream(42);
+    rost::Model m(benchConfig(K, window));
+    if (state.range(1) != 0) m.setKernelPath(rost::kernel::Path::Scalar);
+    for (int f = 0; f < kFrames; ++f) m.addObservation(stream.words[f], stream.pos[f]);
+    m.refineAll(5);  // past the random start
+    const uint64_t before = m.tokensRefined();
+    for (auto _ : state) m.refineAll(1);
     state.SetItemsProcessed(static_cast<int64_t>(m.tokensRefined() - before));
     state.counters["words_per_cell"] = static_cast<double>(kWordsPerFrame) / m.cellsPerStep();
 }
@@ -286,6 +310,7 @@ BENCHMARK(BM_RefineGrow)->ArgNames({"K", "gamma10"})->ArgsProduct({{100}, {3, 4,
 BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{8}, {0}});
 BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{16, 32, 64, 100}, {0}});
 BENCHMARK(BM_Refine)->ArgNames({"K", "scalar"})->ArgsProduct({{16, 64}, {1}});
+BENCHMARK(BM_RefineWindows)->Name("BM_Refine")->ArgNames({"K", "scalar", "W"})->ArgsProduct({{16, 32, 64}, {0}, {256}});
 BENCHMARK(BM_RefineNaive)->ArgNames({"K"})->Arg(16)->Arg(64);
 
 int main(int argc, char** argv) {

@@ -325,6 +325,47 @@ TEST(ParallelRefine, WindowOfOneIsTheSerialSampler) {
     EXPECT_TRUE(outcomeOf(a) == outcomeOf(b));
 }
 
+// A window's tasks are ordered by colour and, within a colour, by their
+// cell's words (so that the two a worker refines at once are about as long;
+// the order changes no result). Cells of every length, also of more words
+// than the order has keys for (63), are refined once a sweep, each in its own
+// colour's round: every word counted once, every step's labels drawn anew.
+// (Without pairs, K = 8 here, the order is by colour alone.)
+TEST(ParallelRefine, ASweepRefinesEveryCellOnceWhateverItsLength) {
+    for (const int K : {8, 16})
+        for (const int threads : {1, 2})
+            for (const int window : {16, 256}) {
+                Config c = streamConfig(threads, window);
+                c.K = K;  // 16: a worker refines two tasks at once (on the vector path)
+                Model m(c);
+                Rng r(11);
+                for (int t = 0; t < 30; ++t) {
+                    const auto n = static_cast<std::size_t>(20 + (t * 37) % 150);  // 20 to 169 words
+                    std::vector<uint32_t> w(n);
+                    for (auto& v : w) v = r.below(static_cast<uint32_t>(m.V()));
+                    ASSERT_TRUE(m.addObservation(w, std::vector<Position>(n, Position{0, 0})).ok());
+                }
+                uint64_t words = 0;
+                std::vector<std::vector<uint16_t>> before(m.observations());
+                for (uint64_t f = 0; f < m.observations(); ++f) {
+                    if (!m.observationInWindow(f)) continue;
+                    before[f].resize(m.observationSize(f));
+                    m.observationLabels(f, before[f]);
+                    words += before[f].size();
+                }
+                EXPECT_EQ(m.refineAll(1), words) << "K " << K << ", " << threads << " threads, window " << window;
+                for (uint64_t f = 0; f < m.observations(); ++f) {
+                    if (!m.observationInWindow(f)) continue;
+                    std::vector<uint16_t> after(m.observationSize(f));
+                    m.observationLabels(f, after);
+                    EXPECT_NE(after, before[f]) << "step " << f << " (" << after.size() << " words) not refined, "
+                                                << "K " << K << ", " << threads << " threads, window " << window;
+                }
+                std::string why;
+                EXPECT_TRUE(m.checkInvariants(&why)) << why;
+            }
+}
+
 TEST(ParallelRefine, NoTwoCellsOfAColourAreNeighbours) {
     for (int gs = 0; gs <= 3; ++gs)
         for (int gt = 0; gt <= 3; ++gt) {

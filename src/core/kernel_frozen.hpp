@@ -167,6 +167,18 @@ ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, IV iv, const in
     v4::F total = carry;
     if constexpr (KP == kGrow) total = v4::add(carry, v4::set(freshWeight<KP>(t)));
     const v4::F uu = v4::mul(v4::set(u01), total);
+#if defined(ROST_V4_PREFIX)
+    if constexpr (kByLabel && (KP == 16 || KP == 32)) {
+        // cum is nondecreasing, so the lanes <= uu are a prefix: its length
+        // from one movemask a 16 lanes (x86), not a sum across lanes.
+        constexpr int kNb = KP / kBlock;
+        v4::I le[kNb];
+        for (int b = 0; b < kNb; ++b) le[b] = v4::le(cum[b], uu);
+        const int k = v4::prefixLength<kNb>(le);
+        for (int b = 0; b < kNb; ++b) g[b] = v4::sub(g[b], topicMask<KP>(k, b));
+        return k;
+    }
+#endif
     v4::I count = v4::le(cum[0], uu);
     for (int b = 1; b < nbL; ++b) count = v4::add(count, v4::le(cum[b], uu));
     if constexpr (kByLabel) {

@@ -49,11 +49,15 @@ void ModelCore::selectKernels() noexcept {
 }
 
 void ModelCore::stepSlots(int64_t step, StepSlots& out) const noexcept {
-    out.self = slotOf(step);
+    // One division: a step in the window is less than ring_ steps from this
+    // one, so its slot is this one's moved by dt and wrapped once.
+    const std::size_t self = slotOf(step), ring = static_cast<std::size_t>(ring_);
+    out.self = self;
     out.count = 0;
     for (int dt = 1; dt <= cfg_.g_time; ++dt) {
-        if (inWindow(step - dt)) out.temporal[out.count++] = slotOf(step - dt);
-        if (inWindow(step + dt)) out.temporal[out.count++] = slotOf(step + dt);
+        const auto d = static_cast<std::size_t>(dt);
+        if (inWindow(step - dt)) out.temporal[out.count++] = self >= d ? self - d : self + ring - d;
+        if (inWindow(step + dt)) out.temporal[out.count++] = self + d < ring ? self + d : self + d - ring;
     }
 }
 

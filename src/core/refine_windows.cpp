@@ -251,6 +251,7 @@ void ModelCore::groupWindow(Windows::Plan& P) noexcept {
             P.task_head[t] = P.task_tail[t] = p;
             P.task_mult[t] = 1;
             P.task_colour[t] = static_cast<uint32_t>(colourOf(P.pick_step[p], P.pick_cell[p]));
+            P.task_words[t] = cellWordCount(P.pick_step[p], P.pick_cell[p]);
         } else {
             const uint32_t t = w.hash_task[h];
             P.pick_next[P.task_tail[t]] = p;
@@ -258,14 +259,18 @@ void ModelCore::groupWindow(Windows::Plan& P) noexcept {
             ++P.task_mult[t];
         }
     }
-    // Counting sort of the tasks by colour (stable: first-pick order within a colour).
-    uint32_t* begin = P.colour_begin.data();
-    std::fill_n(begin, colours_ + 1, 0u);
-    for (uint32_t t = 0; t < P.tasks; ++t) ++begin[P.task_colour[t] + 1];
-    for (int c = 0; c < colours_; ++c) begin[c + 1] += begin[c];
-    for (uint32_t t = 0; t < P.tasks; ++t) P.order[begin[P.task_colour[t]]++] = t;
-    for (int c = colours_; c > 0; --c) begin[c] = begin[c - 1];
-    begin[0] = 0;
+    // Counting sort of the tasks by colour and, where a worker refines two at once,
+    // length (stable; first-pick order keeps neighbouring cells close in the caches).
+    const bool pairs = pair_kernel_[path_ == kernel::Path::Simd ? 1 : 0] != nullptr;
+    const uint32_t L = pairs ? Windows::Plan::kLengthKeys : 1;
+    const auto keyOf = [&](uint32_t t) { return P.task_colour[t] * L + std::min(P.task_words[t], L - 1); };
+    const std::size_t keys = static_cast<std::size_t>(colours_) * L;
+    uint32_t* begin = P.key_begin.data();
+    std::fill_n(begin, keys + 1, 0u);
+    for (uint32_t t = 0; t < P.tasks; ++t) ++begin[keyOf(t) + 1];
+    for (std::size_t k = 0; k < keys; ++k) begin[k + 1] += begin[k];
+    for (int c = 0; c <= colours_; ++c) P.colour_begin[c] = begin[static_cast<std::size_t>(c) * L];
+    for (uint32_t t = 0; t < P.tasks; ++t) P.order[begin[keyOf(t)]++] = t;
 }
 
 // Lays the window's rounds out: each task's offset in its round's labels
@@ -292,7 +297,7 @@ void ModelCore::layoutRounds(Windows::Plan& P) noexcept {
         std::size_t off = 0;
         for (uint32_t i = b; i < e; ++i) {
             const uint32_t t = P.order[i];
-            const uint32_t words = cellWordCount(P.task_step[t], P.task_cell[t]);
+            const uint32_t words = P.task_words[t];
             P.task_z0[t] = off;
             off += words;
             tokens += static_cast<uint64_t>(words) * P.task_mult[t];

@@ -46,10 +46,16 @@ struct ModelCore::WindowPlan {
     AlignedBuffer<uint32_t> task_tail;   // last pick
     AlignedBuffer<uint32_t> task_mult;   // picks
     AlignedBuffer<uint32_t> task_colour;
+    AlignedBuffer<uint32_t> task_words;  // its cell's words
     AlignedBuffer<std::size_t> task_z0;  // offset of its labels at the round's start
-    // Tasks ordered by colour; round c is order[colour_begin[c], colour_begin[c + 1]).
+    // Tasks ordered by colour, and within a colour by their cell's words
+    // (kLengthKeys keys: 0..kLengthKeys - 2 words, then more), so that the two
+    // tasks a worker refines at once (kernel_pair.hpp) have cells about as
+    // long; round c is order[colour_begin[c], colour_begin[c + 1]).
+    static constexpr uint32_t kLengthKeys = 64;
     AlignedBuffer<uint32_t> order;
     AlignedBuffer<uint32_t> colour_begin;
+    AlignedBuffer<uint32_t> key_begin;  // the counting sort's, colours * kLengthKeys + 1
     // Laid out with the grouping (ModelCore::layoutRounds), so that whoever plans
     // the window does it, not the caller between rounds: each round's tokens
     // and, with workers, its tasks by owner (owned[owned_begin[c], ...)) and
@@ -75,9 +81,11 @@ struct ModelCore::WindowPlan {
         task_tail.reset(w);
         task_mult.reset(w);
         task_colour.reset(w);
+        task_words.reset(w);
         task_z0.reset(w);
         order.reset(w);
         colour_begin.reset(colours + 1);
+        key_begin.reset(colours * kLengthKeys + 1);
         round_tokens.reset(colours);
         owned.reset(w + 1);  // + the task that plans the next window
         owned_begin.reset(colours + 1);
@@ -85,7 +93,8 @@ struct ModelCore::WindowPlan {
     std::size_t bytes() const noexcept {
         return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
                task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
-               task_colour.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() + round_tokens.bytes() +
+               task_colour.bytes() + task_words.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() +
+               key_begin.bytes() + round_tokens.bytes() +
                owned.bytes() + owned_begin.bytes();
     }
 };
