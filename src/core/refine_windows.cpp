@@ -235,6 +235,10 @@ void ModelCore::groupWindow(Windows::Plan& P) noexcept {
         w.stamp = 1;
     }
     const std::size_t mask = w.hash_key.size() - 1;
+    // Tasks sorted by colour and, where a worker refines two at once, length (first-pick
+    // order within a key; without pairs it keeps neighbouring cells close in the caches).
+    const bool pairs = pair_kernel_[path_ == kernel::Path::Simd ? 1 : 0] != nullptr;
+    const uint32_t L = pairs ? Windows::Plan::kLengthKeys : 1;
     P.tasks = 0;
     for (uint32_t p = 0; p < P.picks; ++p) {
         const int64_t key = P.pick_step[p] * cells_ + P.pick_cell[p];
@@ -250,8 +254,9 @@ void ModelCore::groupWindow(Windows::Plan& P) noexcept {
             P.task_cell[t] = P.pick_cell[p];
             P.task_head[t] = P.task_tail[t] = p;
             P.task_mult[t] = 1;
-            P.task_colour[t] = static_cast<uint32_t>(colourOf(P.pick_step[p], P.pick_cell[p]));
             P.task_words[t] = cellWordCount(P.pick_step[p], P.pick_cell[p]);
+            P.task_key[t] = static_cast<uint32_t>(colourOf(P.pick_step[p], P.pick_cell[p])) * L +
+                            std::min(P.task_words[t], L - 1);
         } else {
             const uint32_t t = w.hash_task[h];
             P.pick_next[P.task_tail[t]] = p;
@@ -259,18 +264,13 @@ void ModelCore::groupWindow(Windows::Plan& P) noexcept {
             ++P.task_mult[t];
         }
     }
-    // Counting sort of the tasks by colour and, where a worker refines two at once,
-    // length (stable; first-pick order keeps neighbouring cells close in the caches).
-    const bool pairs = pair_kernel_[path_ == kernel::Path::Simd ? 1 : 0] != nullptr;
-    const uint32_t L = pairs ? Windows::Plan::kLengthKeys : 1;
-    const auto keyOf = [&](uint32_t t) { return P.task_colour[t] * L + std::min(P.task_words[t], L - 1); };
     const std::size_t keys = static_cast<std::size_t>(colours_) * L;
     uint32_t* begin = P.key_begin.data();
     std::fill_n(begin, keys + 1, 0u);
-    for (uint32_t t = 0; t < P.tasks; ++t) ++begin[keyOf(t) + 1];
+    for (uint32_t t = 0; t < P.tasks; ++t) ++begin[P.task_key[t] + 1];
     for (std::size_t k = 0; k < keys; ++k) begin[k + 1] += begin[k];
     for (int c = 0; c <= colours_; ++c) P.colour_begin[c] = begin[static_cast<std::size_t>(c) * L];
-    for (uint32_t t = 0; t < P.tasks; ++t) P.order[begin[keyOf(t)]++] = t;
+    for (uint32_t t = 0; t < P.tasks; ++t) P.order[begin[P.task_key[t]]++] = t;
 }
 
 // Lays the window's rounds out: each task's offset in its round's labels

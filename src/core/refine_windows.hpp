@@ -45,13 +45,14 @@ struct ModelCore::WindowPlan {
     AlignedBuffer<uint32_t> task_head;   // first pick
     AlignedBuffer<uint32_t> task_tail;   // last pick
     AlignedBuffer<uint32_t> task_mult;   // picks
-    AlignedBuffer<uint32_t> task_colour;
     AlignedBuffer<uint32_t> task_words;  // its cell's words
+    AlignedBuffer<uint32_t> task_key;    // colour * L + length key (order, below)
     AlignedBuffer<std::size_t> task_z0;  // offset of its labels at the round's start
-    // Tasks ordered by colour, and within a colour by their cell's words
-    // (kLengthKeys keys: 0..kLengthKeys - 2 words, then more), so that the two
-    // tasks a worker refines at once (kernel_pair.hpp) have cells about as
-    // long; round c is order[colour_begin[c], colour_begin[c + 1]).
+    // Tasks ordered by colour and, where a worker refines two tasks at once
+    // (kernel_pair.hpp), within a colour by their cell's words (L =
+    // kLengthKeys keys: 0..L - 2 words, then more; else L = 1), so that the
+    // two have cells about as long; round c is order[colour_begin[c],
+    // colour_begin[c + 1]).
     static constexpr uint32_t kLengthKeys = 64;
     AlignedBuffer<uint32_t> order;
     AlignedBuffer<uint32_t> colour_begin;
@@ -80,8 +81,8 @@ struct ModelCore::WindowPlan {
         task_head.reset(w);
         task_tail.reset(w);
         task_mult.reset(w);
-        task_colour.reset(w);
         task_words.reset(w);
+        task_key.reset(w);
         task_z0.reset(w);
         order.reset(w);
         colour_begin.reset(colours + 1);
@@ -93,7 +94,7 @@ struct ModelCore::WindowPlan {
     std::size_t bytes() const noexcept {
         return pick_step.bytes() + pick_cell.bytes() + pick_ord.bytes() + pick_next.bytes() + pick_done.bytes() +
                task_step.bytes() + task_cell.bytes() + task_head.bytes() + task_tail.bytes() + task_mult.bytes() +
-               task_colour.bytes() + task_words.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() +
+               task_words.bytes() + task_key.bytes() + task_z0.bytes() + order.bytes() + colour_begin.bytes() +
                key_begin.bytes() + round_tokens.bytes() +
                owned.bytes() + owned_begin.bytes();
     }
