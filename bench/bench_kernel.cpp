@@ -9,7 +9,7 @@
 // BM_Refine/K:k/scalar:s refines one step at a time with the live kernel (the
 // realtime refiner's Model::refineStep); BM_Refine/K:k/scalar:s/W:256 runs
 // batch sweeps in windows of 256 picks (refine.window's default, what `rost
-// refine` runs) with the frozen kernels, two cells at once where K <= 16.
+// refine` runs) with the frozen kernels, two cells at once at K = 13 to 16.
 //
 //   build/bench/bench_kernel --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 

@@ -264,6 +264,67 @@ void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
     }
 }
 
+// The frozen kernels' vector path draws what the scalar reference draws,
+// word by word, at K = 16 and 32 (all of a word's lanes counted against u).
+template <int KP>
+void frozenPathsAgree(uint64_t seed) {
+    constexpr int V = 61;
+    rost::Rng r(seed);
+    std::vector<int32_t> nkv(static_cast<std::size_t>(V) * KP), nk(KP, 0);
+    std::vector<float> inv(KP), dec(KP), inc(KP), left(KP * KP);
+    for (int v = 0; v < V; ++v)
+        for (int k = 0; k < KP; ++k) {
+            // Skewed: a word's few topics hold most of its counts.
+            const auto n = static_cast<int32_t>(r.below(4) == 0 ? 20 + r.below(200) : r.below(3));
+            nkv[static_cast<std::size_t>(v) * KP + k] = n + 1;
+            nk[k] += n + 1;
+        }
+    rost::kernel::Tables t;
+    t.nkv = nkv.data();
+    t.nk = nk.data();
+    t.inv = inv.data();
+    t.dec = dec.data();
+    t.inc = inc.data();
+    t.left = left.data();
+    t.K = t.Kp = t.active = t.hi = t.slot = KP;
+    t.alpha = 0.1f;
+    t.beta = 0.5f;
+    t.vbeta = V * 0.5f;
+    rost::kernel::refreshReciprocals(t);
+    rost::kernel::fillLeft(t);
+    constexpr uint32_t n = 200;
+    std::vector<uint32_t> words(n);
+    std::vector<uint16_t> z(n), z0(n);
+    std::vector<int32_t> g(KP, 0);
+    for (uint32_t i = 0; i < n; ++i) {
+        words[i] = r.below(V);
+        z[i] = z0[i] = static_cast<uint16_t>(r.below(KP));
+        ++g[z[i]];
+    }
+    auto zs = z, zv = z;
+    auto gs = g, gv = g;
+    std::vector<uint64_t> ms(n), mv(n);
+    for (uint64_t pick = 0; pick < 5; ++pick) {
+        rost::detail::CounterRng rs(seed, pick), rv(seed, pick);
+        const uint32_t a = rost::kernel::refineCellFrozen<KP, rost::kernel::Path::Scalar>(t, gs.data(), words.data(), zs.data(),
+                                                                            z0.data(), n, rs, ms.data());
+        const uint32_t b = rost::kernel::refineCellFrozen<KP, rost::kernel::Path::Simd>(t, gv.data(), words.data(), zv.data(),
+                                                                          z0.data(), n, rv, mv.data());
+        ASSERT_EQ(zv, zs) << "K " << KP << ", pick " << pick;
+        ASSERT_EQ(gv, gs) << "K " << KP << ", pick " << pick;
+        ASSERT_EQ(b, a) << "K " << KP << ", pick " << pick;
+    }
+    EXPECT_NE(zs, z0) << "the draws moved some labels";
+    EXPECT_GT(*std::max_element(zs.begin(), zs.end()), KP / 2) << "draws reach the upper lanes";
+}
+
+TEST(KernelPair, TheFrozenVectorPathDrawsWhatTheScalarReferenceDraws) {
+    for (const uint64_t seed : {3u, 4u, 5u}) {
+        frozenPathsAgree<16>(seed);
+        frozenPathsAgree<32>(seed);
+    }
+}
+
 TEST(KernelPair, TwoCellsOfARoundGetWhatEachGetsAlone) {
     using rost::kernel::Path;
     for (const auto& [nA, nB] : {std::pair{25u, 25u}, std::pair{40u, 9u}, std::pair{3u, 31u}, std::pair{1u, 1u}}) {
@@ -369,6 +430,52 @@ TEST(KernelScanRounding, TheRegisterKernelsNeverDrawAClosedTopic) {
         EXPECT_EQ(nk[3], 0) << "the closed topic stays closed";
         EXPECT_EQ(t.slot, 3);
     }
+}
+
+// A cell's cumulative sums can fall by an ulp from one lane to the next: the
+// scan adds (p1 + p2) + p0 for lane 2 and (p2 + p3) + (p0 + p1) for lane 3.
+// With weights (1, 2^-24, 0.75 2^-24, 2^-27) in topics 0-3, 1 in topic 4 and
+// 0 elsewhere, the sums are (1, 1, 1 + 2^-23, 1, 2, ...) and u = 1 (half the
+// total, 2) is at or above lanes 0, 1 and 3: the drawn topic is 3, the number
+// of lanes at or below u, on every path (not 2, the length of their prefix).
+template <int KP, Path P>
+int frozenDrawWithSumsThatFall() {
+    std::vector<int32_t> nkv(KP, 0), nk(KP, 100);
+    std::vector<float> inv(KP, 1.f), dec(KP, 1.f), inc(KP, 1.f), left(KP * KP);
+    nkv[0] = nkv[1] = nkv[3] = nkv[4] = 1;
+    nkv[2] = 3;
+    nkv[KP - 1] = 1;  // the word's own topic: n - 1 = 0 there
+    inv[1] = 0x1p-24f;
+    inv[2] = 0x1p-26f;
+    inv[3] = 0x1p-27f;
+    rost::kernel::Tables t;
+    t.nkv = nkv.data();
+    t.nk = nk.data();
+    t.inv = inv.data();
+    t.dec = dec.data();
+    t.inc = inc.data();
+    t.left = left.data();
+    t.K = t.Kp = t.active = t.hi = t.slot = KP;
+    t.alpha = 0.f;
+    t.beta = 0.f;
+    t.vbeta = 1.f;
+    rost::kernel::fillLeft(t);
+    std::vector<int32_t> g(KP, 0);
+    g[0] = g[1] = g[2] = g[3] = g[4] = 1;
+    g[KP - 1] = 1;  // the word itself, which leaves its topic
+    const uint32_t word = 0;
+    uint16_t z = KP - 1, z0 = KP - 1;
+    uint64_t move = 0;
+    FixedUniform u{0.5f};
+    rost::kernel::refineCellFrozen<KP, P>(t, g.data(), &word, &z, &z0, 1, u, &move);
+    return z;
+}
+
+TEST(KernelScanRounding, TheFrozenKernelsCountEveryLaneAtOrBelowU) {
+    EXPECT_EQ((frozenDrawWithSumsThatFall<16, Path::Scalar>()), 3);
+    EXPECT_EQ((frozenDrawWithSumsThatFall<16, Path::Simd>()), 3);
+    EXPECT_EQ((frozenDrawWithSumsThatFall<32, Path::Scalar>()), 3);
+    EXPECT_EQ((frozenDrawWithSumsThatFall<32, Path::Simd>()), 3);
 }
 
 } // namespace rost_kernel_rounding

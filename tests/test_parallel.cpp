@@ -325,42 +325,51 @@ TEST(ParallelRefine, WindowOfOneIsTheSerialSampler) {
     EXPECT_TRUE(outcomeOf(a) == outcomeOf(b));
 }
 
-// A window's tasks are ordered by colour and, within a colour, by their
-// cell's words (so that the two a worker refines at once are about as long;
-// the order changes no result). Cells of every length, also of more words
+// A window's tasks are ordered by colour and, where a worker refines two at
+// once (K = 16 on the vector path), within a colour by their cell's words;
+// the order changes no result. Cells of every length, also of more words
 // than the order has keys for (63), are refined once a sweep, each in its own
-// colour's round: every word counted once, every step's labels drawn anew.
-// (Without pairs, K = 8 here, the order is by colour alone.)
+// colour's round: every word counted once, every step's samples drawn anew,
+// and the samples the scalar path (no pairs, first-pick order) draws.
 TEST(ParallelRefine, ASweepRefinesEveryCellOnceWhateverItsLength) {
+    const auto samples = [](const Model& m) {
+        std::vector<std::vector<uint16_t>> s(m.observations());
+        for (uint64_t f = 0; f < m.observations(); ++f) {
+            if (!m.observationInWindow(f)) continue;
+            s[f].resize(m.observationSize(f));
+            m.observationSamples(f, s[f]);
+        }
+        return s;
+    };
     for (const int K : {8, 16})
         for (const int threads : {1, 2})
             for (const int window : {16, 256}) {
                 Config c = streamConfig(threads, window);
-                c.K = K;  // 16: a worker refines two tasks at once (on the vector path)
-                Model m(c);
+                c.K = K;
+                Model m(c), reference(c);
+                reference.setKernelPath(kernel::Path::Scalar);
                 Rng r(11);
                 for (int t = 0; t < 30; ++t) {
                     const auto n = static_cast<std::size_t>(20 + (t * 37) % 150);  // 20 to 169 words
                     std::vector<uint32_t> w(n);
                     for (auto& v : w) v = r.below(static_cast<uint32_t>(m.V()));
                     ASSERT_TRUE(m.addObservation(w, std::vector<Position>(n, Position{0, 0})).ok());
+                    ASSERT_TRUE(reference.addObservation(w, std::vector<Position>(n, Position{0, 0})).ok());
                 }
+                const auto before = samples(m);
                 uint64_t words = 0;
-                std::vector<std::vector<uint16_t>> before(m.observations());
-                for (uint64_t f = 0; f < m.observations(); ++f) {
-                    if (!m.observationInWindow(f)) continue;
-                    before[f].resize(m.observationSize(f));
-                    m.observationLabels(f, before[f]);
-                    words += before[f].size();
-                }
-                EXPECT_EQ(m.refineAll(1), words) << "K " << K << ", " << threads << " threads, window " << window;
-                for (uint64_t f = 0; f < m.observations(); ++f) {
-                    if (!m.observationInWindow(f)) continue;
-                    std::vector<uint16_t> after(m.observationSize(f));
-                    m.observationLabels(f, after);
-                    EXPECT_NE(after, before[f]) << "step " << f << " (" << after.size() << " words) not refined, "
-                                                << "K " << K << ", " << threads << " threads, window " << window;
-                }
+                for (const auto& s : before) words += s.size();
+                const std::string where =
+                    "K " + std::to_string(K) + ", " + std::to_string(threads) + " threads, window " + std::to_string(window);
+                EXPECT_EQ(m.refineAll(1), words) << where;
+                EXPECT_EQ(reference.refineAll(1), words) << where;
+                const auto after = samples(m);
+                for (uint64_t f = 0; f < after.size(); ++f)
+                    if (!after[f].empty()) {
+                        EXPECT_NE(after[f], before[f]) << "step " << f << " (" << after[f].size()
+                                                       << " words) not refined, " << where;
+                    }
+                EXPECT_TRUE(after == samples(reference)) << "the scalar path draws other samples, " << where;
                 std::string why;
                 EXPECT_TRUE(m.checkInvariants(&why)) << why;
             }

@@ -118,16 +118,16 @@ ROST_KERNEL_INLINE void loadRow(const T* p, V* x) noexcept {
 
 // One word of refineCellFrozenScanSimd: word (row) leaves topic a of the frozen
 // counts (reciprocal va) and topic z of the cell's sums g; returns the drawn
-// topic, which g has joined. iv: the frozen reciprocals.
+// topic, which g has joined, with the next draw of `draws`. iv: the frozen reciprocals.
 // kByLabel: g joins the topic by its label (its mask, as for a and z)
 // rather than by the count vector (a compare with the blocks' negated lane
 // numbers: one step shorter, four more constants).
 // iv: the frozen reciprocals, in registers (v4::F*) or read from t.inv (float*).
 inline v4::F ivBlock(const v4::F* iv, int b) noexcept { return iv[b]; }
 inline v4::F ivBlock(const float* iv, int b) noexcept { return v4::load(iv + kBlock * b); }
-template <int KP, bool kByLabel = false, typename IV>
+template <int KP, bool kByLabel = false, typename IV, typename R>
 ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, IV iv, const int32_t* row, int a, int z,
-                                      float u01, v4::F va, int nbL, v4::F beta, v4::F alpha) noexcept {
+                                      R& draws, v4::F va, int nbL, v4::F beta, v4::F alpha) noexcept {
     v4::F cum[KP > 0 ? KP / kBlock : kMaxBlocks];
     v4::F carry = v4::set(0.f);
     // (Whole rows at K = 16 only: at 32 the four rows are 32 registers beside
@@ -166,15 +166,17 @@ ROST_KERNEL_INLINE int frozenScanWord(const Tables& t, v4::I* g, IV iv, const in
     }
     v4::F total = carry;
     if constexpr (KP == kGrow) total = v4::add(carry, v4::set(freshWeight<KP>(t)));
-    const v4::F uu = v4::mul(v4::set(u01), total);
-#if defined(ROST_V4_PREFIX)
+    // The word's draw taken here, where it is used: its float holds a vector
+    // register only from here on (in a pair, beside the other cell's sums).
+    const v4::F uu = v4::mul(v4::set(draws.uniformFloat()), total);
+#if defined(ROST_V4_COUNT_SET)
     if constexpr (kByLabel && (KP == 16 || KP == 32)) {
-        // cum is nondecreasing, so the lanes <= uu are a prefix: its length
-        // from one movemask a 16 lanes (x86), not a sum across lanes.
+        // The lanes <= uu counted from one movemask a 16 lanes (x86), not
+        // summed across lanes: the same k.
         constexpr int kNb = KP / kBlock;
         v4::I le[kNb];
         for (int b = 0; b < kNb; ++b) le[b] = v4::le(cum[b], uu);
-        const int k = v4::prefixLength<kNb>(le);
+        const int k = v4::countSet<kNb>(le);
         for (int b = 0; b < kNb; ++b) g[b] = v4::sub(g[b], topicMask<KP>(k, b));
         return k;
     }
@@ -227,10 +229,9 @@ inline uint32_t refineCellFrozenScanSimd(const Tables& t, int32_t* nG, const uin
         const uint32_t v = words[i];
         const int32_t* row = t.nkv + static_cast<std::size_t>(v) * static_cast<std::size_t>(Kp);
         const int z = topics[i], a = kFirst ? z : z0[i];
-        const float u01 = draws.uniformFloat();
         const int nbL = liveLanes<KP>(t, Kp) / kBlock;
         if (nbL < 1) __builtin_unreachable();  // at least one topic is active
-        const int k = frozenScanWord<KP, (KP > 0)>(t, g, iv, row, a, z, u01, frozenLeft<KP>(t, a), nbL, beta, alpha);
+        const int k = frozenScanWord<KP, (KP > 0)>(t, g, iv, row, a, z, draws, frozenLeft<KP>(t, a), nbL, beta, alpha);
         topics[i] = static_cast<uint16_t>(k);
         m = logMove(moves, m, v, a, k);
     }

@@ -62,9 +62,9 @@ inline PairMoves refinePairFrozenScanSimd(const Tables& t, const FrozenCell& A, 
         const int32_t* rowB = t.nkv + static_cast<std::size_t>(vB) * KP;
         const int cA = zA[i], cB = zB[i];
         const int aA = kFirst ? cA : z0A[i], aB = kFirst ? cB : z0B[i];
-        const float uA = drawsA.uniformFloat(), uB = drawsB.uniformFloat();
-        const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, cA, uA, frozenLeft<KP>(t, aA), nb, beta, alpha);
-        const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, cB, uB, frozenLeft<KP>(t, aB), nb, beta, alpha);
+        // (Each word's draw taken where its sums are compared with it.)
+        const int kA = frozenScanWord<KP, true>(t, ga, iv, rowA, aA, cA, drawsA, frozenLeft<KP>(t, aA), nb, beta, alpha);
+        const int kB = frozenScanWord<KP, true>(t, gb, iv, rowB, aB, cB, drawsB, frozenLeft<KP>(t, aB), nb, beta, alpha);
         zA[i] = static_cast<uint16_t>(kA);
         zB[i] = static_cast<uint16_t>(kB);
         mA = logMove(movesA, mA, vA, aA, kA);

@@ -60,20 +60,24 @@ inline I hbroadcast(I a) noexcept {  // every lane = sum of the four
     return _mm_add_epi32(a, _mm_shuffle_epi32(a, _MM_SHUFFLE(2, 3, 0, 1)));
 }
 inline int32_t firsti(I a) noexcept { return _mm_cvtsi128_si32(a); }
-// The length n of a prefix of set lanes (lanes 0..n-1 set, as where
-// nondecreasing sums are <= u) in NB blocks of compare masks: the blocks
-// packed to bytes, a movemask per 16 lanes and the first clear bit. Fewer
-// instructions than adding the masks and summing across lanes.
-#define ROST_V4_PREFIX 1
+// The number of set lanes in NB blocks of compare masks (each lane all ones
+// or zero): the blocks packed to bytes and a movemask per 16 lanes. Where the
+// set lanes are a prefix (as where cumulative sums <= u nearly always are),
+// their number is the first clear bit; else (sums that round one ulp down in
+// a later lane) the bits are counted. Fewer operations than adding the masks
+// and summing across lanes, and the same count.
+#define ROST_V4_COUNT_SET 1
 template <int NB>
-inline int prefixLength(const I* m) noexcept {
+inline int countSet(const I* m) noexcept {
     static_assert(NB == 4 || NB == 8);
     unsigned bits = 0;
     for (int q = 0; q < NB; q += 4) {
         const I bytes = _mm_packs_epi16(_mm_packs_epi32(m[q], m[q + 1]), _mm_packs_epi32(m[q + 2], m[q + 3]));
         bits |= static_cast<unsigned>(_mm_movemask_epi8(bytes)) << (4 * q);
     }
-    return __builtin_ctz(~bits);
+    if ((bits & (bits + 1)) == 0) [[likely]]
+        return __builtin_ctz(~bits);
+    return __builtin_popcount(bits);
 }
 #elif defined(ROST_SIMD_NEON)
 using F = float32x4_t;
