@@ -155,6 +155,33 @@ TEST(KernelSimdMatchesScalar, WholeModelRunsGiveIdenticalLabels) {
     }
 }
 
+// A round's frozen tables at known K over word-topic counts nkv (V words x
+// KP topics): n_k from them, the reciprocals, and the worker's table of
+// reciprocals with a word's own topic left out (alpha 0.1, beta 0.5).
+template <int KP>
+struct FrozenTables {
+    std::vector<int32_t> nkv, nk;
+    std::vector<float> inv, dec, inc, left;
+    rost::kernel::Tables t;
+    FrozenTables(std::vector<int32_t> counts, int V)
+        : nkv(std::move(counts)), nk(KP, 0), inv(KP), dec(KP), inc(KP), left(KP * KP) {
+        for (std::size_t i = 0; i < nkv.size(); ++i) nk[i % KP] += nkv[i];
+        t.nkv = nkv.data();
+        t.nk = nk.data();
+        t.inv = inv.data();
+        t.dec = dec.data();
+        t.inc = inc.data();
+        t.left = left.data();
+        t.K = t.Kp = t.active = t.hi = t.slot = KP;
+        t.alpha = 0.1f;
+        t.beta = 0.5f;
+        t.vbeta = static_cast<float>(V) * 0.5f;
+        rost::kernel::refreshReciprocals(t);
+        rost::kernel::fillLeft(t);
+    }
+    FrozenTables(const FrozenTables&) = delete;  // t points into the vectors
+};
+
 // Two cells of a round refined as a pair (src/core/kernel_pair.hpp) get
 // exactly what refineCellFrozen gives each alone: labels, cell counts and
 // neighbourhood sums, for cells of equal and unequal word counts (the
@@ -164,26 +191,10 @@ template <int KP, rost::kernel::Path P>
 void pairCase(uint32_t nA, uint32_t nB, uint64_t seed) {
     constexpr int V = 97;
     rost::Rng r(seed);
-    std::vector<int32_t> nkv(static_cast<std::size_t>(V) * KP), nk(KP, 0);
-    std::vector<float> inv(KP), dec(KP), inc(KP), left(KP * KP);
-    for (int v = 0; v < V; ++v)
-        for (int k = 0; k < KP; ++k) {
-            nkv[static_cast<std::size_t>(v) * KP + k] = static_cast<int32_t>(r.below(6)) + 1;
-            nk[k] += nkv[static_cast<std::size_t>(v) * KP + k];
-        }
-    rost::kernel::Tables t;
-    t.nkv = nkv.data();
-    t.nk = nk.data();
-    t.inv = inv.data();
-    t.dec = dec.data();
-    t.inc = inc.data();
-    t.left = left.data();
-    t.K = t.Kp = t.active = t.hi = t.slot = KP;
-    t.alpha = 0.1f;
-    t.beta = 0.5f;
-    t.vbeta = V * 0.5f;
-    rost::kernel::refreshReciprocals(t);
-    rost::kernel::fillLeft(t);
+    std::vector<int32_t> counts(static_cast<std::size_t>(V) * KP);
+    for (auto& n : counts) n = static_cast<int32_t>(r.below(6)) + 1;
+    const FrozenTables<KP> frozen(std::move(counts), V);
+    const rost::kernel::Tables& t = frozen.t;
     struct Cell {
         std::vector<int32_t> g, nc;
         std::vector<uint32_t> words;
@@ -270,28 +281,11 @@ template <int KP>
 void frozenPathsAgree(uint64_t seed) {
     constexpr int V = 61;
     rost::Rng r(seed);
-    std::vector<int32_t> nkv(static_cast<std::size_t>(V) * KP), nk(KP, 0);
-    std::vector<float> inv(KP), dec(KP), inc(KP), left(KP * KP);
-    for (int v = 0; v < V; ++v)
-        for (int k = 0; k < KP; ++k) {
-            // Skewed: a word's few topics hold most of its counts.
-            const auto n = static_cast<int32_t>(r.below(4) == 0 ? 20 + r.below(200) : r.below(3));
-            nkv[static_cast<std::size_t>(v) * KP + k] = n + 1;
-            nk[k] += n + 1;
-        }
-    rost::kernel::Tables t;
-    t.nkv = nkv.data();
-    t.nk = nk.data();
-    t.inv = inv.data();
-    t.dec = dec.data();
-    t.inc = inc.data();
-    t.left = left.data();
-    t.K = t.Kp = t.active = t.hi = t.slot = KP;
-    t.alpha = 0.1f;
-    t.beta = 0.5f;
-    t.vbeta = V * 0.5f;
-    rost::kernel::refreshReciprocals(t);
-    rost::kernel::fillLeft(t);
+    std::vector<int32_t> counts(static_cast<std::size_t>(V) * KP);
+    // Skewed: a word's few topics hold most of its counts.
+    for (auto& n : counts) n = static_cast<int32_t>(r.below(4) == 0 ? 20 + r.below(200) : r.below(3)) + 1;
+    const FrozenTables<KP> frozen(std::move(counts), V);
+    const rost::kernel::Tables& t = frozen.t;
     constexpr uint32_t n = 200;
     std::vector<uint32_t> words(n);
     std::vector<uint16_t> z(n), z0(n);
