@@ -4,7 +4,11 @@
 # with --threads 1 and --threads 2, RUNS runs each, interleaved, the median
 # and the ratio; then whether the outputs are byte-identical. Give more
 # rost binaries (an older build) to measure them in the same interleaved
-# runs. bench/RESULTS.md, "Every core".
+# runs. Then, where taskset is at hand, the first binary's one-thread time on
+# each of CPUs 0 and 1 alone: where the two differ (a virtual machine whose
+# second core shares its caches with another guest), two threads cannot
+# beat the time both would take together, 1 / (1/T0 + 1/T1), and the script
+# says so. bench/RESULTS.md, "Every core".
 # Usage: scripts/threads-speedup.sh WORDS.csv POSITIONS.csv [RUNS] [ROST...]
 set -euo pipefail
 words=$1 positions=$2 runs=${3:-9}
@@ -40,3 +44,19 @@ for b in "${!tools[@]}"; do
   done
   echo "${tools[$b]}: outputs of --threads 1 and 2 byte-identical"
 done
+
+command -v taskset > /dev/null && [ "$(nproc)" -ge 2 ] || exit 0
+for i in $(seq 1 "$runs"); do
+  for c in 0 1; do
+    /usr/bin/time -f "%e" -o "$tmp/time" taskset -c "$c" "${tools[0]}" refine "$words" --positions "$positions" \
+      --out "$tmp/pinned" --threads 1 -q
+    cat "$tmp/time" >> "$tmp/cpu$c"
+  done
+done
+c0=$(median "$tmp/cpu0") c1=$(median "$tmp/cpu1") m2=$(median "$tmp/times0-2")
+echo "${tools[0]}: threads 1 on CPU 0 alone: median ${c0}s; on CPU 1 alone: median ${c1}s"
+awk -v a="$c0" -v b="$c1" -v t2="$m2" 'BEGIN {
+  ideal = 1 / (1 / a + 1 / b); fast = a < b ? a : b; slow = a < b ? b : a
+  printf "cores: the slower takes %.2fx the faster'"'"'s time; two threads at best %.3fs (both cores busy to the end, nothing serial):\n", slow / fast, ideal
+  printf "  at most %.2fx the faster core alone; measured %.2fx of it (%.0f %% of that best)\n", fast / ideal, fast / t2, 100 * ideal / t2
+}'

@@ -2,10 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <span>
 #include <string>
 #include <vector>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
 
 #include "aligned_buffer.hpp"
 #include "rost/model.hpp"
@@ -418,6 +424,18 @@ TEST(ModelState, CopiedStateResumesBitForBit) {
 
 } // namespace
 
+#if defined(__linux__)
+namespace {
+std::size_t pageBytes() { return static_cast<std::size_t>(::sysconf(_SC_PAGESIZE)); }
+// How many of the pages of [p, p + bytes) are in memory (p page-aligned).
+std::size_t residentPages(const void* p, std::size_t bytes) {
+    std::vector<unsigned char> in((bytes + pageBytes() - 1) / pageBytes());
+    if (::mincore(const_cast<void*>(p), bytes, in.data()) != 0) return SIZE_MAX;
+    return static_cast<std::size_t>(std::count_if(in.begin(), in.end(), [](unsigned char c) { return (c & 1) != 0; }));
+}
+} // namespace
+#endif
+
 // Set-up zeroing on several threads (the ring's tables): every byte, for
 // sizes that are and are not whole 2 MiB pages, whatever the thread count.
 TEST(AlignedBuffer, ZeroPagesClearsEveryByteOnAnyNumberOfThreads) {
@@ -473,16 +491,40 @@ TEST(AlignedBuffer, PageZeroerClearsEveryRangeAndNothingElse) {
             at += n + 64;
         }
     }
-    // Buffers registered with a zeroer are zero once it has run.
-    rost::PageZeroer z;
-    rost::AlignedBuffer<uint32_t> a, b;
-    a.reset((std::size_t{3} << 20) / 4 + 5, z);
-    b.reset(1000, z);
-    std::fill_n(a.data(), a.size(), 7u);  // whatever the allocator handed out
-    std::fill_n(b.data(), b.size(), 7u);
-    z.run(2);
-    EXPECT_EQ(std::count(a.data(), a.data() + a.size(), 0u), static_cast<std::ptrdiff_t>(a.size()));
-    EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));
+    // Buffers registered with a zeroer are zero once it has run: a small one
+    // from the heap is written (whatever the allocator handed out), a large
+    // one is a fresh mapping, zero already, whose pages the run faults in.
+    for (int threads : {1, 2}) {
+        rost::PageZeroer z;
+        rost::AlignedBuffer<uint32_t> a, b;
+        a.reset((std::size_t{5} << 20) / 4 + 5, z);
+        b.reset(1000, z);
+        std::fill_n(b.data(), b.size(), 7u);
+        EXPECT_FALSE(b.mapped());
+#if defined(__linux__)
+        EXPECT_TRUE(a.mapped());
+        EXPECT_EQ(residentPages(a.data(), a.bytes()), 0u) << "a fresh mapping has no page before the zeroer runs";
+#endif
+        z.run(threads);
+#if defined(__linux__)
+        // Every page in at set-up (checked before anything reads them), so
+        // none is faulted in later, on a realtime path.
+        const std::size_t pages = (a.bytes() + pageBytes() - 1) / pageBytes();
+        EXPECT_EQ(residentPages(a.data(), a.bytes()), pages) << threads << " threads";
+#endif
+        EXPECT_EQ(std::count(a.data(), a.data() + a.size(), 0u), static_cast<std::ptrdiff_t>(a.size()));
+        EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));
+#if defined(__linux__)
+        // A buffer reset is a fresh mapping again: zero whatever the old one held.
+        std::fill_n(a.data(), a.size(), 9u);
+        a.reset(a.size(), threads);
+        EXPECT_EQ(residentPages(a.data(), a.bytes()), pages);
+        EXPECT_EQ(std::count(a.data(), a.data() + a.size(), 0u), static_cast<std::ptrdiff_t>(a.size()));
+        rost::AlignedBuffer<uint32_t> moved(std::move(a));
+        EXPECT_TRUE(moved.mapped());
+        EXPECT_FALSE(a.mapped());  // NOLINT(bugprone-use-after-move): a moved-from buffer is empty
+#endif
+    }
 }
 
 // The Eigen adaptor (rost/model_eigen.hpp; model.hpp has no Eigen): each

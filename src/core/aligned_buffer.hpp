@@ -12,10 +12,6 @@
 
 #include "rost/cache_line.hpp"
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
 namespace rost {
 
 // Buffers of at least this size are aligned to it and, on Linux, asked for
@@ -30,12 +26,28 @@ inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 // MiB of a ring is most of a model's set-up time (src/core/memory.cpp).
 void zeroPages(void* p, std::size_t bytes, int threads);
 
+// Large buffers come straight from the kernel (an anonymous mapping, aligned
+// to kHugePage, asked for huge pages): their pages are zero before they are
+// touched, so setting them up is faulting them in, which one madvise call
+// (MADV_POPULATE_WRITE, Linux 5.14) does for a whole range, without the
+// fault taken per page by a memset and without writing the zeros twice.
+// `bytes` is a multiple of kHugePage; throws std::bad_alloc. Where there is
+// no such mapping (not Linux) it returns null and the caller allocates.
+void* mapZeroed(std::size_t bytes);
+void unmapZeroed(void* p, std::size_t bytes) noexcept;
+// Faults in [p, p + bytes) of such a mapping, writable (its pages stay
+// zero); false where the kernel cannot (older kernels), and then the caller
+// touches the pages itself.
+bool populateZeroed(void* p, std::size_t bytes) noexcept;
+
 // Buffers zeroed together at set-up (a model's ring tables): run() zeroes
 // every range added on `threads` threads, which claim 2 MiB pieces of all of
 // them in turn, so no thread waits while another faults its part in.
 class PageZeroer {
 public:
-    void add(void* p, std::size_t bytes);
+    // `mapped`: the range is (part of) a fresh mapZeroed() mapping, already
+    // zero: run() faults its pages in and writes nothing.
+    void add(void* p, std::size_t bytes, bool mapped = false);
     void run(int threads);  // then forgets the ranges
     std::size_t bytes() const noexcept { return total_; }
 
@@ -43,6 +55,7 @@ private:
     struct Range {
         unsigned char* p;
         std::size_t bytes;
+        bool mapped;
     };
     std::vector<Range> ranges_;
     std::size_t total_ = 0;
@@ -56,35 +69,42 @@ class AlignedBuffer {
 public:
     AlignedBuffer() = default;
     explicit AlignedBuffer(std::size_t n) { reset(n); }
-    ~AlignedBuffer() { std::free(data_); }
+    ~AlignedBuffer() { release(); }
     AlignedBuffer(const AlignedBuffer&) = delete;
     AlignedBuffer& operator=(const AlignedBuffer&) = delete;
-    AlignedBuffer(AlignedBuffer&& o) noexcept : data_(o.data_), size_(o.size_) {
+    AlignedBuffer(AlignedBuffer&& o) noexcept : data_(o.data_), size_(o.size_), mapped_(o.mapped_) {
         o.data_ = nullptr;
         o.size_ = 0;
+        o.mapped_ = 0;
     }
     AlignedBuffer& operator=(AlignedBuffer&& o) noexcept {
         if (this != &o) {
-            std::free(data_);
+            release();
             data_ = o.data_;
             size_ = o.size_;
+            mapped_ = o.mapped_;
             o.data_ = nullptr;
             o.size_ = 0;
+            o.mapped_ = 0;
         }
         return *this;
     }
 
     // `threads`: how many threads touch (zero) a large buffer at set-up.
     void reset(std::size_t n, int threads = 1) {
-        allocate(n);
-        zeroPages(data_, bytes(), threads);  // every page is touched now, at set-up
+        PageZeroer z;
+        reset(n, z);
+        z.run(threads);  // every page is touched now, at set-up
     }
     // Allocates and leaves the zeroing to `zeroer`: the buffer must not be
-    // used before zeroer.run(), which zeroes it with the others added.
+    // used before zeroer.run(), which zeroes it with the others added (a
+    // mapped buffer is zero already: run() only faults its pages in).
     void reset(std::size_t n, PageZeroer& zeroer) {
         allocate(n);
-        zeroer.add(data_, bytes());
+        zeroer.add(data_, bytes(), mapped_ != 0);
     }
+    // The buffer is a mapping of its own (mapZeroed), not heap memory.
+    bool mapped() const noexcept { return mapped_ != 0; }
 
     T* data() noexcept { return data_; }
     const T* data() const noexcept { return data_; }
@@ -97,24 +117,35 @@ public:
     }
 
 private:
-    void allocate(std::size_t n) {
-        std::free(data_);
+    void release() noexcept {
+        if (mapped_ != 0)
+            unmapZeroed(data_, mapped_);
+        else
+            std::free(data_);
         data_ = nullptr;
         size_ = 0;
+        mapped_ = 0;
+    }
+    void allocate(std::size_t n) {
+        release();
         if (n == 0) return;
         std::size_t bytes = (n * sizeof(T) + kCacheLine - 1) / kCacheLine * kCacheLine;
         const std::size_t align = bytes >= kHugePage ? kHugePage : kCacheLine;
-        void* p = std::aligned_alloc(align, (bytes + align - 1) / align * align);
-        if (p == nullptr) throw std::bad_alloc();
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-        if (align == kHugePage) (void)madvise(p, (bytes + align - 1) / align * align, MADV_HUGEPAGE);
-#endif
+        const std::size_t whole = (bytes + align - 1) / align * align;
+        void* p = align == kHugePage ? mapZeroed(whole) : nullptr;
+        if (p != nullptr) {
+            mapped_ = whole;
+        } else {
+            p = std::aligned_alloc(align, whole);
+            if (p == nullptr) throw std::bad_alloc();
+        }
         data_ = static_cast<T*>(p);
         size_ = n;
     }
 
     T* data_ = nullptr;
     std::size_t size_ = 0;
+    std::size_t mapped_ = 0;  // the mapping's length, 0 for heap memory
 };
 
 } // namespace rost

@@ -2,12 +2,17 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cstring>
 #include <system_error>
 #include <thread>
 #include <vector>
 
 #include "aligned_buffer.hpp"
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
 
 namespace rost {
 
@@ -16,15 +21,69 @@ namespace {
 constexpr std::size_t kParallelZeroBytes = std::size_t{4} << 20;
 } // namespace
 
-void PageZeroer::add(void* p, std::size_t bytes) {
+void* mapZeroed(std::size_t bytes) {
+#if defined(__linux__)
+    // Twice the alignment more than asked, then the ends cut off: the
+    // kernel aligns a mapping to its page, not to a huge page.
+    const std::size_t len = bytes + kHugePage;
+    void* m = ::mmap(nullptr, len, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (m == MAP_FAILED) throw std::bad_alloc();
+    auto* base = static_cast<unsigned char*>(m);
+    const auto at = reinterpret_cast<std::uintptr_t>(base);
+    unsigned char* p = base + ((kHugePage - at % kHugePage) % kHugePage);
+    if (p != base) ::munmap(base, static_cast<std::size_t>(p - base));
+    if (const std::size_t tail = static_cast<std::size_t>(base + len - (p + bytes)); tail != 0) ::munmap(p + bytes, tail);
+#if defined(MADV_HUGEPAGE)
+    (void)::madvise(p, bytes, MADV_HUGEPAGE);  // where huge pages are off, nothing changes
+#endif
+    return p;
+#else
+    (void)bytes;
+    return nullptr;
+#endif
+}
+
+void unmapZeroed(void* p, std::size_t bytes) noexcept {
+#if defined(__linux__)
+    if (p != nullptr) ::munmap(p, bytes);
+#else
+    (void)p;
+    (void)bytes;
+#endif
+}
+
+bool populateZeroed(void* p, std::size_t bytes) noexcept {
+#if defined(__linux__)
+#ifndef MADV_POPULATE_WRITE
+    constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14's value; older headers lack it
+#endif
+    return ::madvise(p, bytes, MADV_POPULATE_WRITE) == 0;
+#else
+    (void)p;
+    (void)bytes;
+    return false;
+#endif
+}
+
+void PageZeroer::add(void* p, std::size_t bytes, bool mapped) {
     if (bytes == 0) return;
-    ranges_.push_back({static_cast<unsigned char*>(p), bytes});
+    ranges_.push_back({static_cast<unsigned char*>(p), bytes, mapped});
     total_ += bytes;
 }
 
+namespace {
+// Zeroes n bytes at p or, in a fresh mapping, faults them in. A mapped
+// piece starts on a huge page (madvise wants a page-aligned start, and rounds
+// the length up to whole pages, inside the same mapping).
+void clearPiece(unsigned char* p, std::size_t n, bool mapped) {
+    if (mapped && populateZeroed(p, n)) return;
+    std::memset(p, 0, n);
+}
+} // namespace
+
 void PageZeroer::run(int threads) {
     if (threads <= 1 || total_ < kParallelZeroBytes) {
-        for (const Range& r : ranges_) std::memset(r.p, 0, r.bytes);
+        for (const Range& r : ranges_) clearPiece(r.p, r.bytes, r.mapped);
     } else {
         // The ranges are cut into pieces of one huge page (2 MiB-aligned
         // buffers: at page boundaries) and the threads claim the pieces in
@@ -43,7 +102,7 @@ void PageZeroer::run(int threads) {
                  k = next.fetch_add(1, std::memory_order_relaxed)) {
                 while (first[r + 1] <= k) ++r;  // pieces are claimed in increasing order
                 const std::size_t b = (k - first[r]) * kHugePage;
-                std::memset(ranges_[r].p + b, 0, std::min(kHugePage, ranges_[r].bytes - b));
+                clearPiece(ranges_[r].p + b, std::min(kHugePage, ranges_[r].bytes - b), ranges_[r].mapped);
             }
         };
         const auto n = std::min(static_cast<std::size_t>(threads), pieces);
