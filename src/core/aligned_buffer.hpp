@@ -36,8 +36,8 @@ void zeroPages(void* p, std::size_t bytes, int threads);
 void* mapZeroed(std::size_t bytes);
 void unmapZeroed(void* p, std::size_t bytes) noexcept;
 // Faults in [p, p + bytes) of such a mapping, writable (its pages stay
-// zero); false where the kernel cannot (older kernels), and then the caller
-// touches the pages itself.
+// zero); false where the kernel cannot (older kernels) or did not (an
+// emulator that ignores the advice), and then the caller touches the pages.
 bool populateZeroed(void* p, std::size_t bytes) noexcept;
 
 // Buffers zeroed together at set-up (a model's ring tables): run() zeroes

@@ -12,6 +12,7 @@
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <unistd.h>
 #endif
 
 namespace rost {
@@ -57,7 +58,14 @@ bool populateZeroed(void* p, std::size_t bytes) noexcept {
 #ifndef MADV_POPULATE_WRITE
     constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14's value; older headers lack it
 #endif
-    return ::madvise(p, bytes, MADV_POPULATE_WRITE) == 0;
+    if (bytes == 0) return true;
+    if (::madvise(p, bytes, MADV_POPULATE_WRITE) != 0) return false;
+    // An emulator (qemu-user) may take the advice and do nothing: the range's
+    // first and last pages say whether it was done.
+    const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+    auto* last = static_cast<unsigned char*>(p) + (bytes - 1) / page * page;
+    unsigned char in[2] = {0, 0};
+    return ::mincore(p, 1, &in[0]) == 0 && ::mincore(last, 1, &in[1]) == 0 && (in[0] & in[1] & 1) != 0;
 #else
     (void)p;
     (void)bytes;
