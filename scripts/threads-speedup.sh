@@ -8,7 +8,11 @@
 # each of CPUs 0 and 1 alone: where the two differ (a virtual machine whose
 # second core shares its caches with another guest), two threads cannot
 # beat the time both would take together, 1 / (1/T0 + 1/T1), and the script
-# says so. bench/RESULTS.md, "Every core".
+# says so. Last, where build/bench/bench_kernel is built, the one-thread time
+# on CPU 0 while the refinement kernel's benchmark runs on CPU 1: where that
+# load slows CPU 0 down, the two "cores" are one core's two hardware threads
+# (SMT), which share its caches and execution units, and two threads cannot
+# speed refinement up much. bench/RESULTS.md, "Every core".
 # Usage: scripts/threads-speedup.sh WORDS.csv POSITIONS.csv [RUNS] [ROST...]
 set -euo pipefail
 words=$1 positions=$2 runs=${3:-9}
@@ -59,4 +63,23 @@ awk -v a="$c0" -v b="$c1" -v t2="$m2" 'BEGIN {
   ideal = 1 / (1 / a + 1 / b); fast = a < b ? a : b; slow = a < b ? b : a
   printf "cores: the slower takes %.2fx the faster'"'"'s time; two threads at best %.3fs (both cores busy to the end, nothing serial):\n", slow / fast, ideal
   printf "  at most %.2fx the faster core alone; measured %.2fx of it (%.0f %% of that best)\n", fast / ideal, fast / t2, 100 * ideal / t2
+}'
+
+kernel=build/bench/bench_kernel
+[ -x "$kernel" ] || exit 0
+for i in $(seq 1 "$runs"); do
+  taskset -c 1 "$kernel" --benchmark_filter='^BM_Refine/K:16/scalar:0/W:256$' --benchmark_min_time=60 > /dev/null 2>&1 &
+  load=$!
+  sleep 0.5
+  /usr/bin/time -f "%e" -o "$tmp/time" taskset -c 0 "${tools[0]}" refine "$words" --positions "$positions" \
+    --out "$tmp/pinned" --threads 1 -q
+  kill "$load" 2> /dev/null || true
+  wait "$load" 2> /dev/null || true
+  cat "$tmp/time" >> "$tmp/loaded"
+done
+l0=$(median "$tmp/loaded")
+awk -v a="$c0" -v l="$l0" 'BEGIN {
+  printf "threads 1 on CPU 0 while the K = 16 kernel runs on CPU 1: median %.2fs, %.2fx its time alone", l, l / a
+  if (l / a > 1.3) printf ": CPUs 0 and 1 share one core (SMT siblings), so two threads cannot reach twice one"
+  printf "\n"
 }'
