@@ -99,9 +99,10 @@ void BM_ReadWordStream(benchmark::State& state) {
 }
 BENCHMARK(BM_ReadWordStream)->ArgNames({"threads"})->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
-// Each model's tables are fresh pages, as in a new process: glibc's mmap
-// threshold is pinned (main), so every large table is mapped anew and
-// faulted in when zeroed, not taken from memory the last model freed.
+// Each model's tables are fresh pages, as in a new process: tables of 2 MiB
+// and more are mappings of their own, and glibc's mmap threshold is pinned
+// (main), so the smaller large ones are mapped anew too and faulted in at
+// set-up, not taken from memory the last model freed.
 void BM_ModelSetUp(benchmark::State& state) {
     const rost::Config c = streamConfig(static_cast<int>(state.range(0)), 256);
     for (auto _ : state) {

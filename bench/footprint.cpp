@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "aligned_buffer.hpp"
 #include "rost/kernel_types.hpp"
 #include "rost/model.hpp"
 #if defined(ROST_FOOTPRINT_ENGINE)
@@ -53,7 +54,9 @@ rost::Config smallBoardConfig() {
 
 std::size_t heapInUse() {
     const struct mallinfo2 mi = mallinfo2();
-    return mi.uordblks + mi.hblkhd;  // arena bytes in use + mmap'd blocks
+    // arena bytes in use + malloc's mmap'd blocks + the tables of 2 MiB and
+    // more, which are mappings of their own (src/core/aligned_buffer.hpp)
+    return mi.uordblks + mi.hblkhd + rost::mappedBytes();
 }
 
 double mib(std::size_t b) { return static_cast<double>(b) / (1024.0 * 1024.0); }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <span>
 #include <string>
@@ -433,6 +434,18 @@ std::size_t residentPages(const void* p, std::size_t bytes) {
     if (::mincore(const_cast<void*>(p), bytes, in.data()) != 0) return SIZE_MAX;
     return static_cast<std::size_t>(std::count_if(in.begin(), in.end(), [](unsigned char c) { return (c & 1) != 0; }));
 }
+// The process's anonymous memory that is its own (written pages, not the
+// shared zero page a read maps), in bytes; 0 where the kernel does not say.
+std::size_t anonymousBytes() {
+    std::FILE* f = std::fopen("/proc/self/smaps_rollup", "r");
+    if (f == nullptr) return 0;
+    char line[256];
+    unsigned long kb = 0;
+    while (std::fgets(line, sizeof line, f) != nullptr)
+        if (std::sscanf(line, "Anonymous: %lu kB", &kb) == 1) break;
+    std::fclose(f);
+    return static_cast<std::size_t>(kb) * 1024;
+}
 } // namespace
 #endif
 
@@ -504,13 +517,18 @@ TEST(AlignedBuffer, PageZeroerClearsEveryRangeAndNothingElse) {
 #if defined(__linux__)
         EXPECT_TRUE(a.mapped());
         EXPECT_EQ(residentPages(a.data(), a.bytes()), 0u) << "a fresh mapping has no page before the zeroer runs";
+        const std::size_t anonymous = anonymousBytes();
 #endif
         z.run(threads);
 #if defined(__linux__)
-        // Every page in at set-up (checked before anything reads them), so
-        // none is faulted in later, on a realtime path.
+        // Every page in at set-up, and writable (checked before anything
+        // reads them: a read maps the shared zero page, and the first write
+        // would then fault on a realtime path).
         const std::size_t pages = (a.bytes() + pageBytes() - 1) / pageBytes();
         EXPECT_EQ(residentPages(a.data(), a.bytes()), pages) << threads << " threads";
+        if (anonymous != 0) {
+            EXPECT_GE(anonymousBytes(), anonymous + a.bytes() / 8 * 7) << threads << " threads";
+        }
 #endif
         EXPECT_EQ(std::count(a.data(), a.data() + a.size(), 0u), static_cast<std::ptrdiff_t>(a.size()));
         EXPECT_EQ(std::count(b.data(), b.data() + b.size(), 0u), static_cast<std::ptrdiff_t>(b.size()));

@@ -22,10 +22,16 @@ namespace {
 constexpr std::size_t kParallelZeroBytes = std::size_t{4} << 20;
 } // namespace
 
+namespace {
+std::atomic<std::size_t> g_mapped{0};  // bytes in mapZeroed() mappings (mappedBytes())
+} // namespace
+
+std::size_t mappedBytes() noexcept { return g_mapped.load(std::memory_order_relaxed); }
+
 void* mapZeroed(std::size_t bytes) {
 #if defined(__linux__)
-    // Twice the alignment more than asked, then the ends cut off: the
-    // kernel aligns a mapping to its page, not to a huge page.
+    // One alignment more than asked, then the ends cut off: the kernel
+    // aligns a mapping to its page, not to a huge page.
     const std::size_t len = bytes + kHugePage;
     void* m = ::mmap(nullptr, len, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (m == MAP_FAILED) throw std::bad_alloc();
@@ -37,6 +43,7 @@ void* mapZeroed(std::size_t bytes) {
 #if defined(MADV_HUGEPAGE)
     (void)::madvise(p, bytes, MADV_HUGEPAGE);  // where huge pages are off, nothing changes
 #endif
+    g_mapped.fetch_add(bytes, std::memory_order_relaxed);
     return p;
 #else
     (void)bytes;
@@ -46,7 +53,9 @@ void* mapZeroed(std::size_t bytes) {
 
 void unmapZeroed(void* p, std::size_t bytes) noexcept {
 #if defined(__linux__)
-    if (p != nullptr) ::munmap(p, bytes);
+    if (p == nullptr) return;
+    ::munmap(p, bytes);
+    g_mapped.fetch_sub(bytes, std::memory_order_relaxed);
 #else
     (void)p;
     (void)bytes;

@@ -89,7 +89,8 @@ def run():
         extra = ["_use_global_model:=true"] if v == "auv2" else []
         nodes[v] = procs.start([node_bin, "__ns:=/" + v, "__name:=rost", "image:=/%s/camera" % v,
                                 "lifting:=/rost_merge/lifting", "_K:=%d" % K, "_budget_refines:=2",
-                                "_model_period:=0.4"] + extra, v + ".log")
+                                # every image modelled however loaded the machine: queues longer than the bag
+                                "_image_queue:=64", "_queue_slots:=64", "_model_period:=0.4"] + extra, v + ".log")
     merger = procs.start([os.path.join(build, "rost_merge_node"), "__name:=rost_merge", "_period:=0.4",
                           "_models:=/auv1/rost/topic_model,/auv2/rost/topic_model"], "merge.log")
     players = [procs.start(["rosbag", "play", "--wait-for-subscribers", "-q", bags[v]], v + "-play.log")

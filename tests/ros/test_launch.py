@@ -85,7 +85,7 @@ def run():
         os.remove(ckpt)
     yaml = os.path.join(work, "params.yaml")
     with open(yaml, "w") as f:
-        f.write("budget_refines: 4\nqueue_slots: 64\n")
+        f.write("budget_refines: 4\nqueue_slots: 64\nimage_queue: 64\n")  # every image modelled, however loaded
     rosparam("set", "/rost/image_transport", "compressed")  # as an earlier run would leave it
     got, p = launch("launch1.log", ["image:=/cam/image", "K:=8", "checkpoint:=" + ckpt, "params:=" + yaml], stamps)
     check(p.poll() is None, "roslaunch runs rost_node")
@@ -102,7 +102,10 @@ def run():
         check(f.read(8) == b"ROSTCKPT", "stopping roslaunch leaves the final checkpoint " + ckpt)
 
     rosparam("set", "/rost/K", "16")  # a stale K: the launch file must neither keep it nor pass one
-    got, p = launch("launch2.log", ["image:=/cam/image", "resume:=" + ckpt], stamps)
+    queues = os.path.join(work, "queues.yaml")
+    with open(queues, "w") as f:
+        f.write("queue_slots: 64\nimage_queue: 64\n")  # every image modelled, however loaded
+    got, p = launch("launch2.log", ["image:=/cam/image", "resume:=" + ckpt, "params:=" + queues], stamps)
     check(p.poll() is None and len(got) == len(stamps),
           "resume:= through the launch file runs (%d of %d frames)" % (len(got), len(stamps)))
     stop_launch(p)
