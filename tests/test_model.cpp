@@ -521,9 +521,9 @@ TEST(AlignedBuffer, PageZeroerClearsEveryRangeAndNothingElse) {
 #endif
         z.run(threads);
 #if defined(__linux__)
-        // Every page in at set-up, and writable (checked before anything
-        // reads them: a read maps the shared zero page, and the first write
-        // would then fault on a realtime path).
+        // Every page in at set-up, and the process's own (checked before
+        // anything reads them: a read of a 4 KiB page maps the shared zero
+        // page, and the first write would then fault on a realtime path).
         const std::size_t pages = (a.bytes() + pageBytes() - 1) / pageBytes();
         EXPECT_EQ(residentPages(a.data(), a.bytes()), pages) << threads << " threads";
         if (anonymous != 0) {
