@@ -158,6 +158,19 @@ TEST(KernelSimdMatchesScalar, WholeModelRunsGiveIdenticalLabels) {
 // A round's frozen tables at known K over word-topic counts nkv (V words x
 // KP topics): n_k from them, the reciprocals, and the worker's table of
 // reciprocals with a word's own topic left out (alpha 0.1, beta 0.5).
+// Points t at the tables (K = Kp = KP, every topic active).
+template <int KP>
+void wireTables(rost::kernel::Tables& t, std::vector<int32_t>& nkv, std::vector<int32_t>& nk, std::vector<float>& inv,
+                std::vector<float>& dec, std::vector<float>& inc, std::vector<float>& left) {
+    t.nkv = nkv.data();
+    t.nk = nk.data();
+    t.inv = inv.data();
+    t.dec = dec.data();
+    t.inc = inc.data();
+    t.left = left.data();
+    t.K = t.Kp = t.active = t.hi = t.slot = KP;
+}
+
 template <int KP>
 struct FrozenTables {
     std::vector<int32_t> nkv, nk;
@@ -166,13 +179,7 @@ struct FrozenTables {
     FrozenTables(std::vector<int32_t> counts, int V)
         : nkv(std::move(counts)), nk(KP, 0), inv(KP), dec(KP), inc(KP), left(KP * KP) {
         for (std::size_t i = 0; i < nkv.size(); ++i) nk[i % KP] += nkv[i];
-        t.nkv = nkv.data();
-        t.nk = nk.data();
-        t.inv = inv.data();
-        t.dec = dec.data();
-        t.inc = inc.data();
-        t.left = left.data();
-        t.K = t.Kp = t.active = t.hi = t.slot = KP;
+        wireTables<KP>(t, nkv, nk, inv, dec, inc, left);
         t.alpha = 0.1f;
         t.beta = 0.5f;
         t.vbeta = static_cast<float>(V) * 0.5f;
@@ -443,13 +450,7 @@ int frozenDrawWithSumsThatFall() {
     inv[2] = 0x1p-26f;
     inv[3] = 0x1p-27f;
     rost::kernel::Tables t;
-    t.nkv = nkv.data();
-    t.nk = nk.data();
-    t.inv = inv.data();
-    t.dec = dec.data();
-    t.inc = inc.data();
-    t.left = left.data();
-    t.K = t.Kp = t.active = t.hi = t.slot = KP;
+    wireTables<KP>(t, nkv, nk, inv, dec, inc, left);
     t.alpha = 0.f;
     t.beta = 0.f;
     t.vbeta = 1.f;

@@ -451,18 +451,23 @@ std::size_t anonymousBytes() {
 
 // Set-up zeroing on several threads (the ring's tables): every byte, for
 // sizes that are and are not whole 2 MiB pages, whatever the thread count.
-TEST(AlignedBuffer, ZeroPagesClearsEveryByteOnAnyNumberOfThreads) {
+TEST(AlignedBuffer, ZeroerClearsEveryByteOnAnyNumberOfThreads) {
     for (const std::size_t bytes : {std::size_t{1} << 10, (std::size_t{9} << 20) + 4100, std::size_t{24} << 20}) {
         std::vector<unsigned char> buf(bytes, 0xA5);
         for (int threads : {1, 2, 3, 7}) {
             std::fill(buf.begin(), buf.end(), static_cast<unsigned char>(0xA5));
-            rost::zeroPages(buf.data(), bytes, threads);
+            rost::PageZeroer z;
+            z.add(buf.data(), bytes);
+            z.run(threads);
             EXPECT_EQ(std::count(buf.begin(), buf.end(), 0), static_cast<std::ptrdiff_t>(bytes))
                 << bytes << " bytes, " << threads << " threads";
         }
     }
-    rost::zeroPages(nullptr, 0, 1);  // an empty buffer's null data: nothing to touch
-    rost::zeroPages(nullptr, 0, 2);
+    for (int threads : {1, 2}) {  // an empty buffer's null data: nothing to touch
+        rost::PageZeroer z;
+        z.add(nullptr, 0);
+        z.run(threads);
+    }
     rost::AlignedBuffer<uint32_t> empty;
     empty.reset(0, 1);
     EXPECT_EQ(empty.data(), nullptr);

@@ -20,12 +20,6 @@ namespace rost {
 // them miss the TLB less. Where huge pages are off this changes nothing.
 inline constexpr std::size_t kHugePage = std::size_t{2} << 20;
 
-// Zeroes `bytes` at `p` (set-up code). With `threads` > 1 a large buffer is
-// cut at 2 MiB boundaries and zeroed by that many threads at once: the
-// first touch of a page makes the kernel clear it, which for the tens of
-// MiB of a ring is most of a model's set-up time (src/core/memory.cpp).
-void zeroPages(void* p, std::size_t bytes, int threads);
-
 // Large buffers come straight from the kernel (an anonymous mapping, aligned
 // to kHugePage, asked for huge pages): their pages are zero before they are
 // touched, so setting them up is faulting them in, which one madvise call

@@ -136,15 +136,4 @@ void PageZeroer::run(int threads) {
     total_ = 0;
 }
 
-void zeroPages(void* p, std::size_t bytes, int threads) {
-    if (bytes == 0) return;  // an empty buffer: p may be null
-    if (threads <= 1 || bytes < kParallelZeroBytes) {  // as run() would, without its list
-        std::memset(p, 0, bytes);
-        return;
-    }
-    PageZeroer z;
-    z.add(p, bytes);
-    z.run(threads);
-}
-
 } // namespace rost
