@@ -475,3 +475,44 @@ TEST(ToolWords, MaxWordsFollowsTheFrameSizeAndDroppedWordsAreReported) {
     EXPECT_EQ(r.err, "") << "--quiet: no notes";
     EXPECT_EQ(runTxtLine(t / "quiet", "words dropped:"), runTxtLine(t / "cell", "words dropped:"));
 }
+
+// `--threads 1` is one thread from start to end: no reader beside the words,
+// no zeroing helper, no worker, no thread drawing summary.png (the tool's
+// whole command, what a user pinning rost to one core of a board expects).
+// With two, the reader, the worker and the summary's thread are started, and
+// the files, summary.png included, are the same bytes.
+TEST(ToolCli, RefineOnOneThreadStartsNoThreadAndOnTwoGivesTheSameFiles) {
+#ifndef ROST_COUNT_THREADS
+    GTEST_SKIP() << "the thread counter is not built under a sanitizer";
+#else
+    TempDir t;
+    std::string words, positions;
+    for (int i = 0; i < 40; ++i) {
+        words += std::to_string(i);
+        positions += std::to_string(i);
+        for (int j = 0; j < 60; ++j) {
+            (words += ',') += std::to_string((i < 20 ? 0 : 30) + (i * 11 + j * 7) % 30);
+            (positions += ',') += std::to_string((j * 37) % 320) + ',' + std::to_string((j * 53) % 240);
+        }
+        words += "\n";
+        positions += "\n";
+    }
+    rost::testing::writeText(t / "w.csv", words);
+    rost::testing::writeText(t / "p.csv", positions);
+    const auto threadsStarted = [&](int threads, const std::string& out) {
+        const RunResult r = rost::testing::runShell("ROST_TEST_THREADS_FILE=" + (t / (out + ".threads")) +
+                                                    " LD_PRELOAD='" + ROST_COUNT_THREADS + "' " + tool() + " refine " +
+                                                    (t / "w.csv") + " --positions " + (t / "p.csv") + " -K 4 -q --threads " +
+                                                    std::to_string(threads) + " --out " + (t / out));
+        EXPECT_EQ(r.exit_code, 0) << r.err;
+        return std::stoi(rost::testing::readText(t / (out + ".threads")));
+    };
+    EXPECT_EQ(threadsStarted(1, "one"), 0);
+    EXPECT_GE(threadsStarted(2, "two"), 3) << "the positions' reader, the worker, summary.png";
+    for (const char* f : {"topics.csv", "perplexity.csv", "surprise.csv", "topicmodel.csv", "summary.png"}) {
+        const std::string one = rost::testing::readText(t / "one/" + f);
+        EXPECT_FALSE(one.empty()) << f;
+        EXPECT_EQ(rost::testing::readText(t / "two/" + f), one) << f;
+    }
+#endif
+}

@@ -31,6 +31,14 @@ rost_add_vision_test(test_vision
 if(TARGET rost)
   rost_add_vision_test(test_tool SOURCES test_tool_cli.cpp test_tool_end_to_end.cpp LIBS rost::vision)
   add_dependencies(test_tool rost)
+  # Counts the threads a tool process starts (LD_PRELOAD). A sanitizer's
+  # runtime must be the first library of a process, so not under one.
+  if(NOT CMAKE_CXX_FLAGS MATCHES "-fsanitize")
+    add_library(rost_test_count_threads MODULE count_threads_preload.cpp)
+    target_link_libraries(rost_test_count_threads PRIVATE ${CMAKE_DL_LIBS} rost_warnings)
+    target_compile_definitions(test_tool PRIVATE ROST_COUNT_THREADS="$<TARGET_FILE:rost_test_count_threads>")
+    add_dependencies(test_tool rost_test_count_threads)
+  endif()
 endif()
 # `rost --version`: the version and the commit the build was configured at.
 if(TARGET rost)

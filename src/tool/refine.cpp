@@ -53,28 +53,32 @@ Status writeRefineSummary(const OutputDir& out, const RefineOptions& o, const St
     return writePng(out.staged("summary.png"), drawSummary(si));
 }
 
-// The result files and summary.png, the summary drawn and compressed on a
-// second thread while the CSV files are formatted and written (the end of a
-// command is otherwise serial: docs/design.md, "The rest of a command"). No
-// thread to be had: one after the other.
+// The result files and summary.png. With two threads or more the summary is
+// drawn and compressed on a second thread while the CSV files are formatted
+// and written (the end of a command is otherwise serial: docs/design.md, "The
+// rest of a command"); with --threads 1, or no thread to be had, one after the
+// other: one thread means one, as for the reading and the set-up.
 Status writeRefineOutputs(OutputDir& out, const RefineOptions& o, const StreamStage& in, const Collector& c) {
     Status png;
-    std::thread summary;
-    if (o.summary) {
+    const auto summarise = [&]() noexcept {
         try {
-            summary = std::thread([&] {
-                try {
-                    png = writeRefineSummary(out, o, in, c);
-                } catch (const std::exception& e) {  // out of memory drawing it: an error, not a crash
-                    png = Status::error(out.staged("summary.png") + ": cannot draw the summary: " + e.what());
-                }
-            });
-        } catch (const std::system_error&) {
             png = writeRefineSummary(out, o, in, c);
+        } catch (const std::exception& e) {  // out of memory drawing it: an error, not a crash
+            png = Status::error(out.staged("summary.png") + ": cannot draw the summary: " + e.what());
+        }
+    };
+    std::thread summary;
+    if (o.summary && toolThreads(o.model, false) >= 2) {
+        try {
+            summary = std::thread(summarise);
+        } catch (const std::system_error&) {  // no thread to be had: drawn after the files
         }
     }
     Status st = writeResultFiles(out, c, *in.engine, {});
-    if (summary.joinable()) summary.join();
+    if (summary.joinable())
+        summary.join();
+    else if (o.summary)
+        summarise();
     if (st.ok()) st = png;
     if (st.ok() && o.summary) out.track("summary.png");
     return st;
