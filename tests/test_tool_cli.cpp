@@ -516,3 +516,33 @@ TEST(ToolCli, RefineOnOneThreadStartsNoThreadAndOnTwoGivesTheSameFiles) {
     }
 #endif
 }
+
+// summary.png's surprise curve is filled below it, within its plot: the
+// fill's colour (a light blue blended 0.55 over white) covers much of the
+// plot's box and nothing outside it (the box's place is the summary's layout:
+// 1,600 pixels wide, the perplexity plot above from y = 78, 230 high, a gap
+// of 38, the surprise plot 190 high, from x = 96 to 36 from the right edge).
+TEST(ToolCli, SummarysSurpriseFillLiesInItsPlot) {
+    TempDir t;
+    std::string words;
+    for (int i = 0; i < 60; ++i) {
+        words += std::to_string(i);
+        for (int j = 0; j < 40; ++j) (words += ',') += std::to_string((i < 30 ? 0 : 25) + (i * 13 + j * 7) % 25);
+        words += "\n";
+    }
+    rost::testing::writeText(t / "w.csv", words);
+    const RunResult r = runRost("refine " + (t / "w.csv") + " -K 4 -q --out " + (t / "o"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const cv::Mat img = cv::imread(t / "o/summary.png");
+    ASSERT_EQ(img.cols, 1600);
+    const cv::Rect box(96, 78 + 230 + 38, 1600 - 96 - 36, 190);
+    int inside = 0, outside = 0;
+    for (int y = 0; y < img.rows; ++y)
+        for (int x = 0; x < img.cols; ++x) {
+            const cv::Vec3b p = img.at<cv::Vec3b>(y, x);  // B, G, R: 0.55 * (190, 190, 240) + 0.45 * 255
+            if (std::abs(p[0] - 219) <= 1 && std::abs(p[1] - 219) <= 1 && std::abs(p[2] - 247) <= 1)
+                ++(box.contains({x, y}) ? inside : outside);
+        }
+    EXPECT_GT(inside, box.area() / 100) << "the fill below the surprise curve (its peak at the change of topics)";
+    EXPECT_EQ(outside, 0);
+}

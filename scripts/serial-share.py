@@ -1,0 +1,135 @@
+#!/usr/bin/python3
+"""How much of a `rost refine --threads N` run is serial: one thread working
+while the others wait (issue 32, item 1; bench/RESULTS.md, "The serial rest,
+measured").
+
+The command runs under `perf record` (every thread, a software clock, FREQ
+samples a second). A sample is *working* unless it is a worker waiting for
+the next job or the caller waiting for the last task (WorkerPool::waitChange,
+waitFor); a thread that sleeps takes no sample at all. A working sample with
+no working sample of another thread within 0.6 sample periods is serial time.
+The serial time is measured where it happens, one thread running alone, so a
+machine whose two CPUs are one core's hardware threads, which slows the
+parallel parts, still measures it; the parallel parts' time is not
+comparable across such machines.
+
+Prints the serial time, its share of the profiled run, the same share of an
+unprofiled one-thread run's time (the bar's "serial rest below 5 %"), and
+the functions it is spent in, phase by phase: before the pool's first worker
+starts (the process, reading, set-up), while the workers run (ingest,
+rounds' tails, measurements), and after the last stops (the files).
+
+Usage: scripts/serial-share.py WORDS.csv POSITIONS.csv [--threads N]
+       [--freq HZ] [--rost build/rost]
+Needs perf (linux-perf) and a kernel that lets this user profile.
+"""
+
+import argparse
+import bisect
+import collections
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+WAITING = ("WorkerPool::waitChange", "WorkerPool::waitFor")
+
+
+def run_timed(cmd):
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def samples(perf_data):
+    """(tid, time, symbol) of every sample, in time order."""
+    out = subprocess.run(["perf", "script", "-i", perf_data, "-F", "tid,time,ip,sym"],
+                         check=True, capture_output=True, text=True).stdout
+    demangled = subprocess.run(["c++filt"], input=out, check=True, capture_output=True, text=True).stdout
+    rows = []
+    for line in demangled.splitlines():
+        m = re.match(r"\s*(\d+)\s+([\d.]+):\s+[0-9a-f]+\s+(.*)", line)
+        if m:
+            rows.append((int(m.group(1)), float(m.group(2)), m.group(3).strip()))
+    rows.sort(key=lambda r: r[1])
+    return rows
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("words")
+    ap.add_argument("positions")
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--freq", type=int, default=2000)
+    ap.add_argument("--rost", default="build/rost")
+    a = ap.parse_args()
+
+    with tempfile.TemporaryDirectory() as tmp:
+        def command(threads, out):
+            return [a.rost, "refine", a.words, "--positions", a.positions, "--out", os.path.join(tmp, out),
+                    "--threads", str(threads), "-q"]
+        one = sorted(run_timed(command(1, "one")) for _ in range(3))[1]
+        wall = sorted(run_timed(command(a.threads, "n")) for _ in range(3))[1]
+        data = os.path.join(tmp, "perf.data")
+        subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", str(a.freq), "-o", data, "--"]
+                       + command(a.threads, "p"), check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        rows = samples(data)
+
+    main_tid = rows[0][0]
+    period = 1.0 / a.freq
+    window = 0.6 * period
+    working = [(tid, t, s) for tid, t, s in rows if not any(w in s for w in WAITING)]
+    by_thread = collections.defaultdict(list)
+    for tid, t, _ in working:
+        by_thread[tid].append(t)
+
+    def others_working(tid, t):
+        for other, times in by_thread.items():
+            if other == tid:
+                continue
+            i = bisect.bisect_left(times, t - window)
+            if i < len(times) and times[i] <= t + window:
+                return True
+        return False
+
+    # The phases: the calling thread before the first sample of a worker
+    # thread (a thread whose samples include the pool's waits), while one
+    # runs, after the last.
+    pool_threads = {tid for tid, _, s in rows if tid != main_tid and any(w in s for w in WAITING)}
+    pool_times = [t for tid, t, _ in rows if tid in pool_threads]
+    first_pool, last_pool = (min(pool_times), max(pool_times)) if pool_times else (float("inf"), float("-inf"))
+
+    def phase(t):
+        return "before the pool" if t < first_pool else ("after the pool" if t > last_pool else "with the pool")
+
+    serial = collections.Counter()
+    serial_phase = collections.Counter()
+    n_serial = 0
+    for tid, t, s in working:
+        if not others_working(tid, t):
+            n_serial += 1
+            who = "caller" if tid == main_tid else ("worker" if tid in pool_threads else "helper")
+            serial[(phase(t), who + ": " + s)] += 1
+            serial_phase[phase(t)] += 1
+    span = rows[-1][1] - rows[0][1]
+    serial_s = n_serial * period
+    share = serial_s / span
+    print(f"rost refine --threads {a.threads}: {wall:.3f} s (median of 3, not profiled); "
+          f"--threads 1: {one:.3f} s")
+    print(f"profiled at {a.freq} Hz: {span:.3f} s, {len(rows)} samples, {len(by_thread)} threads working")
+    print(f"serial (one thread working alone): {serial_s * 1000:.1f} ms profiled, {share * 100:.1f} % of the run;")
+    print(f"  scaled to the unprofiled run: {share * wall * 1000:.1f} ms, {share * wall / one * 100:.1f} % of "
+          f"the one-thread run's {one:.3f} s")
+    for p in ("before the pool", "with the pool", "after the pool"):
+        print(f"  {p}: {serial_phase[p] * period * 1000:.1f} ms profiled; where (samples of "
+              f"{period * 1000:.2f} ms; caller, a pool worker or a helper thread: reader, zeroer, summary):")
+        for (q, s), c in serial.most_common():
+            if q == p and c >= 2:
+                print(f"    {c:6d}  {s[:110]}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
