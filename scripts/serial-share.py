@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """How much of a `rost refine --threads N` run is serial: one thread working
-while the others wait (issue 32, item 1; bench/RESULTS.md, "The serial rest,
-measured").
+while the others wait (issue 32, item 1; bench/RESULTS.md, "Item 1, eleventh
+session").
 
 The command runs under `perf record` (every thread, a software clock, FREQ
 samples a second). A sample is *working* unless it is a worker waiting for
@@ -34,7 +34,13 @@ import sys
 import tempfile
 import time
 
-WAITING = ("WorkerPool::waitChange", "WorkerPool::waitFor")
+# A thread waiting: the pool's spins, and libstdc++'s atomic wait (its spin
+# and yield before the futex; a thread asleep on the futex takes no sample).
+# Only a sample's innermost function is read, so a wait inside the kernel
+# (a yield's system call) still counts as work: the serial time is an upper
+# bound.
+WAITING = ("WorkerPool::waitChange", "WorkerPool::waitFor", "std::__detail::__waiter", "std::__detail::__atomic_",
+           "__atomic_wait_address", "__thread_yield", "sched_yield")
 
 
 def run_timed(cmd):
@@ -59,11 +65,11 @@ def samples(perf_data):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("words")
-    ap.add_argument("positions")
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--freq", type=int, default=2000)
-    ap.add_argument("--rost", default="build/rost")
+    ap.add_argument("words", help="WORDS.csv of the stream")
+    ap.add_argument("positions", help="POSITIONS.csv of the same observations")
+    ap.add_argument("--threads", type=int, default=2, help="threads of the profiled run (default 2)")
+    ap.add_argument("--freq", type=int, default=2000, help="samples a second of each thread (default 2000)")
+    ap.add_argument("--rost", default="build/rost", help="the rost binary (default build/rost)")
     a = ap.parse_args()
 
     with tempfile.TemporaryDirectory() as tmp:
@@ -76,6 +82,9 @@ def main():
         subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", str(a.freq), "-o", data, "--"]
                        + command(a.threads, "p"), check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         rows = samples(data)
+    if len(rows) < 2:
+        print("serial-share: perf recorded no samples (is perf allowed here? see perf_event_paranoid)", file=sys.stderr)
+        return 1
 
     main_tid = rows[0][0]
     period = 1.0 / a.freq

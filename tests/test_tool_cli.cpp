@@ -505,7 +505,9 @@ TEST(ToolCli, RefineOnOneThreadStartsNoThreadAndOnTwoGivesTheSameFiles) {
                                                     (t / "w.csv") + " --positions " + (t / "p.csv") + " -K 4 -q --threads " +
                                                     std::to_string(threads) + " --out " + (t / out));
         EXPECT_EQ(r.exit_code, 0) << r.err;
-        return std::stoi(rost::testing::readText(t / (out + ".threads")));
+        const std::string counted = rost::testing::readText(t / (out + ".threads"));
+        EXPECT_FALSE(counted.empty()) << "the counter wrote nothing: was it loaded?";
+        return counted.empty() ? -1 : std::stoi(counted);
     };
     EXPECT_EQ(threadsStarted(1, "one"), 0);
     EXPECT_GE(threadsStarted(2, "two"), 3) << "the positions' reader, the worker, summary.png";
@@ -521,12 +523,13 @@ TEST(ToolCli, RefineOnOneThreadStartsNoThreadAndOnTwoGivesTheSameFiles) {
 // fill's colour (a light blue blended 0.55 over white) covers much of the
 // plot's box and nothing outside it (the box's place is the summary's layout:
 // 1,600 pixels wide, the perplexity plot above from y = 78, 230 high, a gap
-// of 38, the surprise plot 190 high, from x = 96 to 36 from the right edge).
+// of 38, the surprise plot 190 high, from x = 96 to 36 from the right edge),
+// a timestamp that goes back included (drawn at the plot's left edge).
 TEST(ToolCli, SummarysSurpriseFillLiesInItsPlot) {
     TempDir t;
     std::string words;
     for (int i = 0; i < 60; ++i) {
-        words += std::to_string(i);
+        words += std::to_string(i == 45 ? -500 : i);
         for (int j = 0; j < 40; ++j) (words += ',') += std::to_string((i < 30 ? 0 : 25) + (i * 13 + j * 7) % 25);
         words += "\n";
     }
@@ -536,13 +539,18 @@ TEST(ToolCli, SummarysSurpriseFillLiesInItsPlot) {
     const cv::Mat img = cv::imread(t / "o/summary.png");
     ASSERT_EQ(img.cols, 1600);
     const cv::Rect box(96, 78 + 230 + 38, 1600 - 96 - 36, 190);
-    int inside = 0, outside = 0;
+    int inside = 0, outside = 0, curveBeside = 0;
     for (int y = 0; y < img.rows; ++y)
         for (int x = 0; x < img.cols; ++x) {
             const cv::Vec3b p = img.at<cv::Vec3b>(y, x);  // B, G, R: 0.55 * (190, 190, 240) + 0.45 * 255
-            if (std::abs(p[0] - 219) <= 1 && std::abs(p[1] - 219) <= 1 && std::abs(p[2] - 247) <= 1)
-                ++(box.contains({x, y}) ? inside : outside);
+            if (p == cv::Vec3b(219, 219, 247)) ++(box.contains({x, y}) ? inside : outside);
+            // The curve's own colour left or right of the plot, in its rows (past
+            // the pixel its 2-pixel-thick line reaches beyond its first and last point).
+            if (p == cv::Vec3b(40, 39, 214) && y >= box.y && y < box.y + box.height &&
+                (x < box.x - 2 || x >= box.x + box.width + 2))
+                ++curveBeside;
         }
     EXPECT_GT(inside, box.area() / 100) << "the fill below the surprise curve (its peak at the change of topics)";
     EXPECT_EQ(outside, 0);
+    EXPECT_EQ(curveBeside, 0) << "the observation whose timestamp goes back is drawn at the plot's edge";
 }

@@ -170,7 +170,10 @@ std::string tickLabel(double v, double step) {
 struct Axes {
     cv::Rect box;
     double x0, x1, y0, y1;
-    int px(double x) const { return box.x + static_cast<int>(std::lround((x - x0) / (x1 - x0) * (box.width - 1))); }
+    // A time outside [x0, x1] (a stream whose timestamps go back) at the box's edge, not past it.
+    int px(double x) const {
+        return box.x + static_cast<int>(std::lround(std::clamp((x - x0) / (x1 - x0), 0.0, 1.0) * (box.width - 1)));
+    }
     int py(double y) const {
         return box.y + box.height - 1 - static_cast<int>(std::lround((y - y0) / (y1 - y0) * (box.height - 1)));
     }

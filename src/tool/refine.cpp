@@ -67,10 +67,10 @@ Status writeRefineOutputs(OutputDir& out, const RefineOptions& o, const StreamSt
             png = Status::error(out.staged("summary.png") + ": cannot draw the summary: " + e.what());
         }
     };
-    std::thread summary;
+    std::jthread summary;  // joined on every way out, an exception writing the files included
     if (o.summary && toolThreads(o.model, false) >= 2) {
         try {
-            summary = std::thread(summarise);
+            summary = std::jthread(summarise);
         } catch (const std::system_error&) {  // no thread to be had: drawn after the files
         }
     }
