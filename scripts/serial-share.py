@@ -29,6 +29,7 @@ import bisect
 import collections
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -71,6 +72,13 @@ def main():
     ap.add_argument("--freq", type=int, default=2000, help="samples a second of each thread (default 2000)")
     ap.add_argument("--rost", default="build/rost", help="the rost binary (default build/rost)")
     a = ap.parse_args()
+    for tool in ("perf", "c++filt"):
+        if shutil.which(tool) is None:
+            print(f"serial-share: {tool} not found (apt-get install -y linux-perf binutils)", file=sys.stderr)
+            return 1
+    if not os.access(a.rost, os.X_OK):
+        print(f"serial-share: {a.rost}: not an executable rost (build it, or give --rost)", file=sys.stderr)
+        return 1
 
     with tempfile.TemporaryDirectory() as tmp:
         def command(threads, out):

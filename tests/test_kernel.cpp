@@ -155,9 +155,6 @@ TEST(KernelSimdMatchesScalar, WholeModelRunsGiveIdenticalLabels) {
     }
 }
 
-// A round's frozen tables at known K over word-topic counts nkv (V words x
-// KP topics): n_k from them, the reciprocals, and the worker's table of
-// reciprocals with a word's own topic left out (alpha 0.1, beta 0.5).
 // Points t at the tables (K = Kp = KP, every topic active).
 template <int KP>
 void wireTables(rost::kernel::Tables& t, std::vector<int32_t>& nkv, std::vector<int32_t>& nk, std::vector<float>& inv,
@@ -171,6 +168,9 @@ void wireTables(rost::kernel::Tables& t, std::vector<int32_t>& nkv, std::vector<
     t.K = t.Kp = t.active = t.hi = t.slot = KP;
 }
 
+// A round's frozen tables at known K over word-topic counts nkv (V words x
+// KP topics): n_k from them, the reciprocals, and the worker's table of
+// reciprocals with a word's own topic left out (alpha 0.1, beta 0.5).
 template <int KP>
 struct FrozenTables {
     std::vector<int32_t> nkv, nk;

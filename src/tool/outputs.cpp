@@ -268,9 +268,10 @@ void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows,
         std::vector<cv::Point> fill = poly;
         fill.emplace_back(poly.back().x, sur.py(lo));
         fill.emplace_back(poly.front().x, sur.py(lo));
-        // Blended in the plot's box (and the anti-aliased edge's pixel around
-        // it), not the whole image: a blend of a pixel with itself leaves it
-        // as it was, so the bytes are the same, for a quarter of the work.
+        // Blended in the plot's box (and two pixels around it for the
+        // anti-aliased edge), not the whole image: every point lies in the box
+        // (Axes clamps), a blend of a pixel with itself leaves it as it was,
+        // so the bytes are the same, for a quarter of the work.
         const cv::Rect around = (sur.box + cv::Size(4, 4) - cv::Point(2, 2)) & cv::Rect(0, 0, img.cols, img.rows);
         for (cv::Point& p : fill) p -= around.tl();
         cv::Mat under = img(around);
