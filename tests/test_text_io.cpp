@@ -17,11 +17,15 @@
 #include <iterator>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <unistd.h>
 
 #include "rost/text_io.hpp"
+
+#include "aligned_buffer.hpp"
+#include "file_bytes.hpp"
 
 namespace fs = std::filesystem;
 namespace text = rost::text;
@@ -241,6 +245,62 @@ TEST(TextFiles, ReadWriteAndADirectoryRefusedByName) {
     EXPECT_EQ(text::readFile(missing, got).message(), missing + ": cannot open: No such file or directory");
     EXPECT_NE(text::probeOutputFile(missing).message().find(missing + ": cannot write in "), std::string::npos);
     EXPECT_EQ(d.names(), Strings{"a.csv"});
+}
+
+// The word stream's reader: a large file lands whole in a mapping of its
+// own (huge pages where the kernel has them: no zeros written first, one
+// fault per 2 MiB), a small one on the heap; both read exactly what
+// readFile(std::string) reads, and fail with its messages.
+TEST(TextFiles, ALargeFileIsReadWholeIntoAMappingOfItsOwn) {
+    TempDir d;
+    std::string big(5'000'003, '\0');
+    for (std::size_t i = 0; i < big.size(); ++i) big[i] = static_cast<char>('0' + (i * 7919 + i / 4096) % 75);
+    const std::string path = (d.path / "words.csv").string(), small = (d.path / "small.csv").string();
+    ASSERT_TRUE(text::writeFileAtomic(path, big).ok());
+    ASSERT_TRUE(text::writeFileAtomic(small, "1,2\n").ok());
+    const std::size_t before = rost::mappedBytes();
+    {
+        text::FileBytes got;
+        ASSERT_TRUE(text::readFile(path, got).ok());
+        EXPECT_TRUE(got.view() == big) << "the bytes read differ from the file's";
+        EXPECT_GE(rost::mappedBytes(), before + big.size()) << "a 5 MB file was read into heap memory";
+        std::string asString;
+        ASSERT_TRUE(text::readFile(path, asString).ok());
+        EXPECT_TRUE(asString == got.view());
+        ASSERT_TRUE(text::readFile(small, got).ok());  // the buffer is reused: only the new bytes count
+        EXPECT_EQ(got.view(), "1,2\n");
+    }
+    EXPECT_EQ(rost::mappedBytes(), before) << "the mapping outlived its FileBytes";
+    text::FileBytes got;
+    EXPECT_EQ(text::readFile(d.path.string(), got).message(), d.path.string() + ": is a directory, not a file");
+    const std::string missing = (d.path / "no" / "b.csv").string();
+    EXPECT_EQ(text::readFile(missing, got).message(), missing + ": cannot open: No such file or directory");
+    EXPECT_TRUE(got.empty());
+}
+
+// A pipe has no length: the buffer grows as it is read, from the heap into
+// a mapping past 2 MiB, and keeps every byte read before each growth.
+TEST(TextFiles, APipeIsReadWholeAsTheBufferGrows) {
+    TempDir d;
+    const std::string fifo = (d.path / "pipe").string();
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    std::string sent(3'500'000, '\0');
+    for (std::size_t i = 0; i < sent.size(); ++i) sent[i] = static_cast<char>('a' + (i * 31 + i / 65536) % 26);
+    std::jthread writer([&] {
+        const int fd = ::open(fifo.c_str(), O_WRONLY);
+        if (fd < 0) return;
+        for (std::size_t at = 0; at < sent.size();) {
+            const ssize_t n = ::write(fd, sent.data() + at, std::min<std::size_t>(sent.size() - at, 100'000));
+            if (n <= 0) break;
+            at += static_cast<std::size_t>(n);
+        }
+        ::close(fd);
+    });
+    text::FileBytes got;
+    ASSERT_TRUE(text::readFile(fifo, got).ok());
+    writer.join();
+    ASSERT_EQ(got.view().size(), sent.size());
+    EXPECT_TRUE(got.view() == sent) << "bytes read before the buffer grew were lost";
 }
 
 TEST(TextFiles, AFailedRenameLeavesTheOldContentAndNoTemporary) {

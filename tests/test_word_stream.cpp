@@ -61,6 +61,39 @@ TEST(WordStreamCsv, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(parseError("1,2\n2,3\n", "1,0,0\n"), "positions.csv: 1 observations, but words.csv has 2");
 }
 
+// Plain lines (digits and single commas, as the extractors write them) take
+// a fast path; every other spelling the general one. Both give the same
+// values, and an error on a plain line still names its column.
+TEST(WordStreamCsv, PlainLinesAndOtherSpellingsParseAlike) {
+    rost::WordStream plain, spelled;
+    ASSERT_TRUE(rost::parseWordStream("5,1,2,3\n123456789012345678,7\n", "5,0,0,1,1,2,2\n123456789012345678,9,8\n",
+                                      limits(), plain)
+                    .ok());
+    ASSERT_TRUE(rost::parseWordStream(" 5 , 1,\t2 ,003,\n0123456789012345678,7\n", "5,0, 0,1,1,2,02\n123456789012345678,9,8,\n",
+                                      limits(), spelled)
+                    .ok());
+    ASSERT_EQ(plain.observations.size(), 2u);
+    ASSERT_EQ(spelled.observations.size(), 2u);
+    for (std::size_t o = 0; o < 2; ++o) {
+        EXPECT_EQ(plain.observations[o].timestamp, spelled.observations[o].timestamp);
+        EXPECT_EQ(plain.observations[o].words, spelled.observations[o].words);
+        ASSERT_EQ(plain.observations[o].positions.size(), spelled.observations[o].positions.size());
+        for (std::size_t k = 0; k < plain.observations[o].positions.size(); ++k) {
+            EXPECT_EQ(plain.observations[o].positions[k].x, spelled.observations[o].positions[k].x);
+            EXPECT_EQ(plain.observations[o].positions[k].y, spelled.observations[o].positions[k].y);
+        }
+    }
+    EXPECT_EQ(plain.observations[1].timestamp, 123456789012345678);
+    EXPECT_EQ(plain.observations[0].words, (std::vector<uint32_t>{1, 2, 3}));
+    EXPECT_EQ(plain.observations[0].positions[2].y, 2);
+    // 19 digits: past the fast path, whether int64 holds them or not.
+    EXPECT_EQ(parseError("1234567890123456789,1\n"), "ok");
+    EXPECT_EQ(parseError("1,9999999999999999999\n"), "words.csv:1:3: number '9999999999999999999' out of range");
+    // Errors on plain lines: the field's column.
+    EXPECT_EQ(parseError("7,1,2,3,4,5,100\n"), "words.csv:1:13: word id 100 out of range [0, 100)");
+    EXPECT_EQ(parseError("1,2,3\n", "1,0,0,5,480\n"), "positions.csv:1:9: position (5, 480) outside the frame 640x480");
+}
+
 TEST(WordStreamCsv, EnormousObservationIsRejected) {
     rost::WordStreamLimits l = limits();
     l.max_words = 3;

@@ -2,6 +2,8 @@
 
 #include "rost/text_io.hpp"
 
+#include "file_bytes.hpp"
+
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -61,7 +63,10 @@ void splitFields(std::string_view line, std::string_view separator, std::vector<
     out.clear();
     std::size_t pos = 0;
     while (true) {
-        std::size_t end = separator.empty() ? std::string_view::npos : line.find(separator, pos);
+        // One character (a comma): a memchr, not a memcmp at every one found.
+        std::size_t end = separator.empty()       ? std::string_view::npos
+                          : separator.size() == 1 ? line.find(separator[0], pos)
+                                                  : line.find(separator, pos);
         if (end == std::string_view::npos) end = line.size();
         const std::string_view f = line.substr(pos, end - pos);
         std::size_t lead = 0;
@@ -210,7 +215,14 @@ TableWriter& TableWriter::end() {
 
 // ---- files --------------------------------------------------------------------------
 
-Status readFile(const std::string& path, std::string& out) {
+namespace {
+// Reads the whole file at `path` into a buffer that `grow(n, have)` makes
+// at least n bytes long, keeping its first `have` bytes, and returns the
+// bytes read in `have`. The buffer is sized once from the file's length
+// when it has one (a pipe grows it): read into place, not copied through a
+// buffer and a doubling string.
+template <typename Grow>
+Status readWhole(const std::string& path, Grow&& grow, std::size_t& have) {
     FILE* f = std::fopen(path.c_str(), "rb");
     if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
     struct stat st {};
@@ -218,26 +230,63 @@ Status readFile(const std::string& path, std::string& out) {
         std::fclose(f);
         return Status::error(path + ": is a directory, not a file");
     }
-    out.clear();
-    // Read into place: sized once from the file's length when it has one
-    // (a pipe grows it), not copied through a buffer and a doubling string.
-    std::size_t have = 0;
-    if (std::fseek(f, 0, SEEK_END) == 0) {
-        const long len = std::ftell(f);
-        if (len > 0) out.resize(static_cast<std::size_t>(len) + 1);
-        std::rewind(f);
+    have = 0;
+    std::size_t size = 0;
+    char* data = nullptr;
+    try {
+        if (std::fseek(f, 0, SEEK_END) == 0) {
+            const long len = std::ftell(f);
+            // One byte more than the file: a full buffer then means it grew.
+            if (len > 0) data = grow(size = static_cast<std::size_t>(len) + 1, have);
+            std::rewind(f);
+        }
+        for (;;) {
+            if (have == size) data = grow(size = std::max<std::size_t>(size * 2, std::size_t{1} << 16), have);
+            const std::size_t n = std::fread(data + have, 1, size - have, f);
+            have += n;
+            if (n == 0) break;
+        }
+    } catch (...) {  // out of memory
+        std::fclose(f);
+        throw;
     }
-    for (;;) {
-        if (have == out.size()) out.resize(std::max<std::size_t>(out.size() * 2, std::size_t{1} << 16));
-        const std::size_t n = std::fread(out.data() + have, 1, out.size() - have, f);
-        have += n;
-        if (n == 0) break;
-    }
-    out.resize(have);
     const bool failed = std::ferror(f) != 0;
     std::fclose(f);
     if (failed) return Status::error(path + ": read error");
     return {};
+}
+} // namespace
+
+Status readFile(const std::string& path, std::string& out) {
+    out.clear();
+    std::size_t have = 0;
+    const Status st = readWhole(
+        path,
+        [&](std::size_t n, std::size_t) {
+            out.resize(n);
+            return out.data();
+        },
+        have);
+    out.resize(have);
+    return st;
+}
+
+Status readFile(const std::string& path, FileBytes& out) {
+    out.size_ = 0;
+    std::size_t have = 0;
+    const Status st = readWhole(
+        path,
+        [&](std::size_t n, std::size_t keep) {
+            if (n > out.buf_.size()) {
+                AlignedBuffer<char> bigger(n);
+                if (keep != 0) std::memcpy(bigger.data(), out.buf_.data(), keep);
+                out.buf_ = std::move(bigger);
+            }
+            return out.buf_.data();
+        },
+        have);
+    out.size_ = have;
+    return st;
 }
 
 namespace {

@@ -1,5 +1,7 @@
 #include "rost/word_stream.hpp"
 
+#include "file_bytes.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <functional>
@@ -24,9 +26,35 @@ using text::LineReader;
 constexpr text::LineRules kStreamLines{.skip_empty = true, .blank_is_empty = true, .skip_comments = true};
 using text::where;
 
-// Splits a line at commas and parses each field as a signed 64-bit integer
-// (`fields` keeps each field's column for the format's own errors).
+// The common line, as the extractors and appendCsvLine write it: numbers of
+// at most 18 digits (below 2^63) joined by single commas, nothing else.
+// Fills `values` and returns true; false for any other line (spaces, a sign,
+// an empty field, a trailing comma, a longer number), which the general
+// path reads and, where it is wrong, words the error of. One pass, no field
+// list: the general path's splitting and from_chars took most of the
+// parsing of the diver stream (bench/RESULTS.md, "Item 1, twelfth session").
+bool plainIntegers(std::string_view text, std::vector<int64_t>& values) {
+    values.clear();
+    const char* p = text.data();
+    const char* const end = p + text.size();
+    for (;;) {
+        const char* const first = p;
+        uint64_t v = 0;
+        while (p != end && static_cast<unsigned>(*p - '0') < 10) v = v * 10 + static_cast<unsigned>(*p++ - '0');
+        const auto digits = static_cast<std::size_t>(p - first);
+        if (digits == 0 || digits > 18) return false;
+        values.push_back(static_cast<int64_t>(v));
+        if (p == end) return true;
+        if (*p != ',' || ++p == end) return false;
+    }
+}
+
+// Splits a line at commas and parses each field as a signed 64-bit integer.
+// A plain line (plainIntegers) leaves `fields` empty: fieldsOf() makes them
+// when an error needs a column.
 Status parseFields(const Line& line, std::string_view name, std::vector<Field>& fields, std::vector<int64_t>& values) {
+    fields.clear();
+    if (plainIntegers(line.text, values)) return {};
     text::splitFields(line.text, ",", fields);
     values.clear();
     for (const Field& f : fields) {
@@ -36,6 +64,12 @@ Status parseFields(const Line& line, std::string_view name, std::vector<Field>& 
         values.push_back(v);
     }
     return {};
+}
+
+// The fields of a line parseFields read (each value's column, for an error).
+const std::vector<Field>& fieldsOf(const Line& line, std::vector<Field>& fields) {
+    if (fields.empty()) text::splitFields(line.text, ",", fields);
+    return fields;
 }
 
 } // namespace
@@ -63,7 +97,7 @@ Status parseWords(std::string_view wordsText, const WordStreamLimits& limits, Wo
             const int64_t w = values[i];
             if (w < 0 || w > std::numeric_limits<uint32_t>::max() ||
                 (limits.vocabulary != 0 && w >= static_cast<int64_t>(limits.vocabulary)))
-                return Status::error(where(wordsName, number, fields[i].column) + "word id " + std::to_string(w) +
+                return Status::error(where(wordsName, number, fieldsOf(line, fields)[i].column) + "word id " + std::to_string(w) +
                                      " out of range [0, " +
                                      (limits.vocabulary ? std::to_string(limits.vocabulary) : std::string("2^32")) +
                                      ")");
@@ -105,7 +139,7 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
             const bool badX = x < 0 || x > std::numeric_limits<int32_t>::max() || (limits.width > 0 && x >= limits.width);
             const bool badY = y < 0 || y > std::numeric_limits<int32_t>::max() || (limits.height > 0 && y >= limits.height);
             if (badX || badY) {
-                const std::size_t col = fields[badX ? 1 + 2 * i : 2 + 2 * i].column;
+                const std::size_t col = fieldsOf(line, fields)[badX ? 1 + 2 * i : 2 + 2 * i].column;
                 std::string msg = where(positionsName, number, col);
                 msg += "position (";
                 msg += std::to_string(x);
@@ -243,7 +277,7 @@ struct PositionPieces {
 struct PositionsTail {
     const std::string* path = nullptr;
     Status read;
-    std::string text;
+    text::FileBytes text;
     PositionPieces pieces;
     std::latch readDone{1};  // `read`, `text` and the pieces' bounds are set
     bool readFailed = false;  // an exception while reading (out of memory): before readDone
@@ -252,14 +286,14 @@ struct PositionsTail {
     void operator()() noexcept {
         try {
             read = readFile(*path, text);
-            if (read.ok()) pieces.cut(text);
+            if (read.ok()) pieces.cut(text.view());
         } catch (...) {
             readFailed = true;
         }
         readDone.count_down();
         if (readFailed || !read.ok()) return;
         try {
-            pieces.parse(text, false);
+            pieces.parse(text.view(), false);
         } catch (...) {
             parseFailed = true;
         }
@@ -275,16 +309,16 @@ bool regularFiles(const std::string& a, const std::string& b) {
 
 Status readSerially(const std::string& wordsPath, const std::string& positionsPath, const WordStreamLimits& limits,
                     WordStream& out) {
-    std::string words, positions;
+    text::FileBytes words, positions;
     Status st = readFile(wordsPath, words);
     if (!st.ok()) return st;
     if (!positionsPath.empty()) {
         st = readFile(positionsPath, positions);
         if (!st.ok()) return st;
-        if (positions.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty())
+        if (positions.view().find_first_not_of(" \t\r\n") == std::string_view::npos && !words.empty())
             return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
     }
-    return parseWordStream(words, positions, limits, out, wordsPath, positionsPath);
+    return parseWordStream(words.view(), positions.view(), limits, out, wordsPath, positionsPath);
 }
 
 } // namespace
@@ -307,18 +341,18 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     } catch (const std::system_error&) {  // no thread to be had
         return readSerially(wordsPath, positionsPath, limits, out);
     }
-    std::string words;
+    text::FileBytes words;
     Status st = readFile(wordsPath, words);
     if (!st.ok()) return st;
     // Parsed before the positions are known, aside: `out` and the errors are
     // then as the serial path leaves and reports them (its read and
     // emptiness errors before the words' error, `out` untouched by them).
     WordStream parsed;
-    const Status wordsParsed = parseWords(words, limits, parsed, wordsPath);
+    const Status wordsParsed = parseWords(words.view(), limits, parsed, wordsPath);
     tail.readDone.wait();
     if (tail.readFailed) throw std::bad_alloc();
     if (!tail.read.ok()) return tail.read;
-    const std::string_view text = tail.text;
+    const std::string_view text = tail.text.view();
     if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty()) {
         tail.pieces.abandon();
         return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");

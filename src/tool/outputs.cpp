@@ -275,9 +275,10 @@ void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows,
         const cv::Rect around = (sur.box + cv::Size(4, 4) - cv::Point(2, 2)) & cv::Rect(0, 0, img.cols, img.rows);
         for (cv::Point& p : fill) p -= around.tl();
         cv::Mat under = img(around);
-        cv::Mat layer = under.clone();
-        cv::fillPoly(layer, std::vector<std::vector<cv::Point>>{fill}, cv::Scalar(190, 190, 240), cv::LINE_AA);
-        cv::addWeighted(layer, 0.55, under, 0.45, 0, under);
+        Picture layer = makePicture(under.rows, under.cols);
+        under.copyTo(layer.image);
+        cv::fillPoly(layer.image, std::vector<std::vector<cv::Point>>{fill}, cv::Scalar(190, 190, 240), cv::LINE_AA);
+        cv::addWeighted(layer.image, 0.55, under, 0.45, 0, under);
         drawFrame(img, sur, "surprise", true);
         cv::polylines(img, poly, false, kSurprise, 2, cv::LINE_AA);
     }
@@ -363,7 +364,14 @@ void drawThumbs(cv::Mat& img, const SummaryInput& in, const Strip& st, const Axe
 
 } // namespace
 
-cv::Mat drawSummary(const SummaryInput& in) {
+Picture makePicture(int rows, int cols) {
+    Picture p;
+    p.pixels.reset(static_cast<std::size_t>(rows) * static_cast<std::size_t>(cols) * 3);
+    p.image = cv::Mat(rows, cols, CV_8UC3, p.pixels.data());
+    return p;
+}
+
+Picture drawSummary(const SummaryInput& in) {
     const std::span<const FrameRow> rows = in.rows;
     const int W = 1600, left = 96, right = 36;
     const int plotW = W - left - right;
@@ -379,7 +387,9 @@ cv::Mat drawSummary(const SummaryInput& in) {
     }
     const int stripTop = titleH + pplH + gap + surH + 22 + topH + 26;
     const int H = stripTop + (thumbs ? 36 + th + 34 : 20);
-    cv::Mat img(H, W, CV_8UC3, kWhite);
+    Picture picture = makePicture(H, W);
+    cv::Mat& img = picture.image;
+    img.setTo(kWhite);
 
     std::string title = in.title;
     while (title.size() > 8 && textWidth(title, 0.8, 2) > plotW) title = title.substr(0, title.size() - 4) + "...";
@@ -418,7 +428,7 @@ cv::Mat drawSummary(const SummaryInput& in) {
 
     // Thumbnails, each tied to its frame on the time axis.
     if (thumbs) drawThumbs(img, in, Strip{left, stripTop, topY, topH, nThumbs, tw, th}, sur, rows, peaks);
-    return img;
+    return picture;
 }
 
 } // namespace rost::tool

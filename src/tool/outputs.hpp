@@ -14,6 +14,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "aligned_buffer.hpp"
+
 #include "rost/mission_records.hpp"
 #include "rost/model.hpp"
 #include "rost/status.hpp"
@@ -61,6 +63,18 @@ using FrameRow = MissionRow;
 // Colour of topic k (BGR), a fixed palette of well-separated hues.
 cv::Scalar topicColour(int k);
 
+// An 8-bit BGR image whose pixels, from 2 MiB up, lie in a mapping of
+// their own asked for huge pages (AlignedBuffer): summary.png's canvas is
+// drawn once and written, and its 3 MB, from malloc, were faulted in a 4 KiB
+// page at a time, 15 ms of the summary's 33 ms on the project's VM
+// (bench/RESULTS.md, "Item 1, twelfth session"). Movable, not copyable;
+// `image` views `pixels`.
+struct Picture {
+    AlignedBuffer<unsigned char> pixels;
+    cv::Mat image;
+};
+Picture makePicture(int rows, int cols);
+
 // Draws summary.png: perplexity and surprise over the frames, the topic mix
 // over time, and a strip of thumbnails (may be empty).
 struct SummaryInput {
@@ -74,7 +88,7 @@ struct SummaryInput {
     // A resumed run: the first rows meet a trained model, not an empty one.
     bool resumed = false;
 };
-cv::Mat drawSummary(const SummaryInput& in);
+Picture drawSummary(const SummaryInput& in);
 
 // Rows where the surprise jumps to at least twice the median of the 10 rows
 // before it (after the first frames), strongest jump first, at least

@@ -50,7 +50,7 @@ Status writeRefineSummary(const OutputDir& out, const RefineOptions& o, const St
     si.K = in.ec.model.K;
     si.rows = c.rows();
     si.resumed = in.resuming;
-    return writePng(out.staged("summary.png"), drawSummary(si));
+    return writePng(out.staged("summary.png"), drawSummary(si).image);
 }
 
 // The result files and summary.png. With two threads or more the summary is

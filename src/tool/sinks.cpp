@@ -325,7 +325,7 @@ Status writeRunSummary(OutputDir& out, const RunOptions& o, const WordsStage& w,
     si.thumbs = strip;
     si.thumb_frames = stripFrames;
     si.resumed = e.resuming;
-    if (Status st = writePng(out.staged("summary.png"), drawSummary(si)); !st.ok()) return st;
+    if (Status st = writePng(out.staged("summary.png"), drawSummary(si).image); !st.ok()) return st;
     out.track("summary.png");
     return {};
 }
