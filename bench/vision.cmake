@@ -13,3 +13,7 @@ if(TARGET rost_vision AND COMMAND rost_add_bench)
   rost_add_bench(bench_vision SOURCES bench_vision.cpp LIBS rost::vision)
   target_compile_definitions(bench_vision PRIVATE ROST_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 endif()
+# bench_summary: drawing and writing summary.png (the end of `rost refine`).
+if(TARGET rost_tool_words AND COMMAND rost_add_bench)
+  rost_add_bench(bench_summary SOURCES bench_summary.cpp LIBS rost_tool_words)
+endif()
