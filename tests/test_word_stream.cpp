@@ -91,6 +91,9 @@ TEST(WordStreamCsv, PlainLinesAndOtherSpellingsParseAlike) {
     EXPECT_EQ(parseError("1,9999999999999999999\n"), "words.csv:1:3: number '9999999999999999999' out of range");
     // Errors on plain lines: the field's column.
     EXPECT_EQ(parseError("7,1,2,3,4,5,100\n"), "words.csv:1:13: word id 100 out of range [0, 100)");
+    // A spelled line before a plain one: the plain line's columns are its own, not the line before's.
+    EXPECT_EQ(parseError("1, 2, 3\n2,4,100\n"), "words.csv:2:5: word id 100 out of range [0, 100)");
+    EXPECT_EQ(parseError("1,2\n2,3\n", "1, 0, 0\n2,640,0\n"), "positions.csv:2:3: position (640, 0) outside the frame 640x480");
     EXPECT_EQ(parseError("1,2,3\n", "1,0,0,5,480\n"), "positions.csv:1:9: position (5, 480) outside the frame 640x480");
 }
 

@@ -275,10 +275,9 @@ void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows,
         const cv::Rect around = (sur.box + cv::Size(4, 4) - cv::Point(2, 2)) & cv::Rect(0, 0, img.cols, img.rows);
         for (cv::Point& p : fill) p -= around.tl();
         cv::Mat under = img(around);
-        Picture layer = makePicture(under.rows, under.cols);
-        under.copyTo(layer.image);
-        cv::fillPoly(layer.image, std::vector<std::vector<cv::Point>>{fill}, cv::Scalar(190, 190, 240), cv::LINE_AA);
-        cv::addWeighted(layer.image, 0.55, under, 0.45, 0, under);
+        cv::Mat layer = under.clone();
+        cv::fillPoly(layer, std::vector<std::vector<cv::Point>>{fill}, cv::Scalar(190, 190, 240), cv::LINE_AA);
+        cv::addWeighted(layer, 0.55, under, 0.45, 0, under);
         drawFrame(img, sur, "surprise", true);
         cv::polylines(img, poly, false, kSurprise, 2, cv::LINE_AA);
     }

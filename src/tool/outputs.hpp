@@ -68,7 +68,8 @@ cv::Scalar topicColour(int k);
 // drawn once and written, and its 3 MB, from malloc, were faulted in a 4 KiB
 // page at a time, 15 ms of the summary's 33 ms on the project's VM
 // (bench/RESULTS.md, "Item 1, twelfth session"). Movable, not copyable;
-// `image` views `pixels`.
+// `image` views `pixels`, so a copy of `image` (a cv::Mat header) is valid
+// only while its Picture lives: clone() it to keep the pixels longer.
 struct Picture {
     AlignedBuffer<unsigned char> pixels;
     cv::Mat image;
