@@ -15,8 +15,8 @@ namespace rost::text {
 // asked for huge pages (AlignedBuffer): the read faults in one page per
 // 2 MiB instead of per 4 KiB and writes no zeros first. A std::string sized
 // to the file (readFile's) is zero-filled, page by page, before the read
-// copies over it; on the diver stream's 8 MB positions file that was 40-47 ms
-// against 2-3 ms on the project's VM, where a fault is dear (bench/RESULTS.md,
+// copies over it; on the diver stream's 8 MB positions file that was 39-47 ms
+// against 2-3 ms (in five runs of six) on the project's VM, where a fault is dear (bench/RESULTS.md,
 // "Item 1, twelfth session").
 class FileBytes {
 public:
