@@ -14,7 +14,12 @@ parallel parts, still measures it; the parallel parts' time is not
 comparable across such machines.
 
 Prints the serial time, its share of the profiled run, the same share of an
-unprofiled one-thread run's time (the bar's "serial rest below 5 %"), and
+unprofiled one-thread run's time (the bar's "serial rest below 5 %"), the
+part of it during which another thread was seen waiting (spinning in the
+pool: the others truly waited for this one; the rest ran beside threads that
+took no sample, which on a guest whose host takes a CPU away at times
+need not be serial; before the pool starts no thread spins, so that phase
+is serial whatever the column says), and
 the functions it is spent in, phase by phase: before the pool's first worker
 starts (the process, reading, set-up), while the workers run (ingest,
 rounds' tails, measurements), and after the last stops (the files).
@@ -102,14 +107,20 @@ def main():
     for tid, t, _ in working:
         by_thread[tid].append(t)
 
+    waiting_by_thread = collections.defaultdict(list)
+    for tid, t, s in rows:
+        if any(w in s for w in WAITING):
+            waiting_by_thread[tid].append(t)
+
+    def near(times, t):
+        i = bisect.bisect_left(times, t - window)
+        return i < len(times) and times[i] <= t + window
+
     def others_working(tid, t):
-        for other, times in by_thread.items():
-            if other == tid:
-                continue
-            i = bisect.bisect_left(times, t - window)
-            if i < len(times) and times[i] <= t + window:
-                return True
-        return False
+        return any(near(times, t) for other, times in by_thread.items() if other != tid)
+
+    def others_waiting(tid, t):
+        return any(near(times, t) for other, times in waiting_by_thread.items() if other != tid)
 
     # The phases: the calling thread before the first sample of a worker
     # thread (a thread whose samples include the pool's waits), while one
@@ -124,9 +135,16 @@ def main():
     serial = collections.Counter()
     serial_phase = collections.Counter()
     n_serial = 0
+    waited_phase = collections.Counter()
+    waited = collections.Counter()
+    n_waited = 0  # serial samples while another thread was seen waiting for this one
     for tid, t, s in working:
         if not others_working(tid, t):
             n_serial += 1
+            if others_waiting(tid, t):
+                n_waited += 1
+                waited_phase[phase(t)] += 1
+                waited[(phase(t), ("caller" if tid == main_tid else "worker") + ": " + s)] += 1
             who = "caller" if tid == main_tid else ("worker" if tid in pool_threads else "helper")
             serial[(phase(t), who + ": " + s)] += 1
             serial_phase[phase(t)] += 1
@@ -139,12 +157,17 @@ def main():
     print(f"serial (one thread working alone): {serial_s * 1000:.1f} ms profiled, {share * 100:.1f} % of the run;")
     print(f"  scaled to the unprofiled run: {share * wall * 1000:.1f} ms, {share * wall / one * 100:.1f} % of "
           f"the one-thread run's {one:.3f} s")
+    waited_s = n_waited * period
+    print(f"  of it, another thread seen waiting: {waited_s * 1000:.1f} ms profiled "
+          f"({waited_s / span * wall / one * 100:.1f} % of the one-thread run); the rest ran beside a thread that "
+          f"took no sample (asleep, not started yet, or its CPU taken by the host)")
     for p in ("before the pool", "with the pool", "after the pool"):
-        print(f"  {p}: {serial_phase[p] * period * 1000:.1f} ms profiled; where (samples of "
-              f"{period * 1000:.2f} ms; caller, a pool worker or a helper thread: reader, zeroer, summary):")
+        print(f"  {p}: {serial_phase[p] * period * 1000:.1f} ms profiled, {waited_phase[p] * period * 1000:.1f} ms "
+              f"of it with another thread seen waiting; where (samples of "
+              f"{period * 1000:.2f} ms; caller, a pool worker or a helper thread: reader, zeroer, summary; the second column: samples with another thread seen waiting):")
         for (q, s), c in serial.most_common():
             if q == p and c >= 2:
-                print(f"    {c:6d}  {s[:110]}")
+                print(f"    {c:6d} {waited[(q, s)]:6d}  {s[:110]}")
     return 0
 
 
