@@ -206,6 +206,51 @@ TEST(ToolTrust, FrameSourceFailingMidStreamStopsCleanlySaysWhyAndKeepsWhatWasLea
     EXPECT_EQ(info.last_timestamp, 3);
 }
 
+// Ctrl-C or SIGTERM while `rost refine` works (here in final sweeps that
+// would take minutes): the sweeps end at once, exit 130 with one line, and
+// the output directory is as it was: an earlier run's file kept, nothing
+// staged left behind. (The shell's `wait` gives 130 for a process killed by
+// SIGINT too: the line says the tool took it; a kill by SIGTERM gives 143.)
+TEST(ToolTrust, ASignalAbandonsARefineRunWithExitCode130AndKeepsWhatWasThere) {
+    TempDir t;
+    std::string words, positions;
+    rost::Rng r(11);
+    for (int f = 0; f < 200; ++f) {  // 12,000 words: a final sweep takes about half a millisecond
+        words += std::to_string(f);
+        positions += std::to_string(f);
+        for (int i = 0; i < 60; ++i) {
+            words += ',';
+            words += std::to_string(r.below(40));
+            positions += ',';
+            positions += std::to_string(r.below(64));
+            positions += ',';
+            positions += std::to_string(r.below(64));
+        }
+        words += "\n";
+        positions += "\n";
+    }
+    rost::testing::writeText(t / "words.csv", words);
+    rost::testing::writeText(t / "positions.csv", positions);
+    for (const char* sig : {"INT", "TERM"}) {
+        SCOPED_TRACE(sig);
+        std::filesystem::remove_all(t / "out");
+        std::filesystem::create_directories(t / "out");
+        rost::testing::writeText(t / "out/topics.csv", "an earlier run's\n");
+        // The signal comes half a second after the run has staged its files;
+        // `timeout` passes it on, and kills a run still going 30 s later (137).
+        const std::string script = "{ timeout -s KILL 30 " + tool() + " " + refine(t, "out", "--final.sweeps 1000000") +
+                                   " & pid=$!; i=0; while ! ls -A '" + (t / "out") +
+                                   "' | grep -q rost-partial && [ $i -lt 600 ]; do i=$((i+1)); sleep 0.05; done; "
+                                   "sleep 0.5; kill -" + sig + " $pid; wait $pid; }";
+        const RunResult res = rost::testing::runShell(script);
+        EXPECT_EQ(res.exit_code, 130) << "137: the final sweeps went on after the signal; " << res.err;
+        EXPECT_EQ(res.err, "rost: interrupted; no outputs written\n");
+        EXPECT_EQ(rost::testing::readText(t / "out/topics.csv"), "an earlier run's\n");
+        for (const auto& e : std::filesystem::directory_iterator(t / "out"))
+            if (e.path().filename() != "topics.csv") ADD_FAILURE() << "left behind: " << e.path();
+    }
+}
+
 TEST(ToolTrust, ResumedRefineContinuesBitForBitAsIfNeverStopped) {
     TempDir t;
     writeStream(t);

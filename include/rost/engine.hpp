@@ -309,6 +309,9 @@ public:
     uint64_t refineExtra(const Budget& budget) noexcept;
     // Final pass: `sweeps` batch Gibbs sweeps over the whole window (Model::refineAll).
     uint64_t finalPass(int sweeps) noexcept;
+    // The same, ending early (between windows of refinement) once *stop
+    // reads true: a flag set by a signal handler, for instance.
+    uint64_t finalPass(int sweeps, const std::atomic<bool>* stop) noexcept;
     // Calls `visit` for every observation still in the window, oldest first
     // (e.g. to record final labels at the end of a stream).
     void visitWindow(const EvictionHook& visit) const;

@@ -105,8 +105,9 @@ public:
     void drain();
     // The end of the stream (engine stopped): the last step's instantaneous
     // perplexity, `sweeps` batch sweeps, then the final labels of everything
-    // still in the window.
-    void finish(int sweeps);
+    // still in the window. `stop`, when given: the sweeps end early once it
+    // reads true (an interrupted run, whose outputs are then discarded).
+    void finish(int sweeps, const std::atomic<bool>* stop = nullptr);
 
     // Records the engine could not publish because the reader fell behind.
     uint64_t lost() const noexcept { return engine_.resultsLost(); }

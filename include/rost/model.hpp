@@ -6,6 +6,7 @@
 // The implementation (the ring store, refinement, measurements) is the
 // library's own: src/core/model_core.hpp.
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -96,6 +97,11 @@ struct RefineLimits {
     uint64_t steps = UINT64_MAX;   // step picks drawn at most
     uint64_t tokens = UINT64_MAX;  // no round starts once this many tokens are refined
     RefineControl* control = nullptr;
+    // When set, no further window starts once it reads true (an interruption,
+    // e.g. Ctrl-C during a final pass; what was refined stays). Unlike a
+    // control it leaves the rounds as they are without one: the results of
+    // a run it does not stop are the same bits.
+    const std::atomic<bool>* stop = nullptr;
 };
 
 struct RefineCount {
@@ -193,6 +199,8 @@ public:
     // Batch Gibbs (paper Algorithm 1): `sweeps` passes over every cell of the
     // window, in windows of refine.window cell refinements (below).
     uint64_t refineAll(int sweeps = 1) noexcept;
+    // The same, ending early (between windows) once *stop reads true.
+    uint64_t refineAll(int sweeps, const std::atomic<bool>* stop) noexcept;
 
     // Refines the steps `picker` draws until a limit is reached. The steps'
     // non-empty cells, in index order, form a sequence of cell picks that is

@@ -812,9 +812,11 @@ uint64_t Engine::refineExtra(const Budget& budget) noexcept {
     return spend(budget, deadline, false, nullptr);
 }
 
-uint64_t Engine::finalPass(int sweeps) noexcept {
+uint64_t Engine::finalPass(int sweeps) noexcept { return finalPass(sweeps, nullptr); }
+
+uint64_t Engine::finalPass(int sweeps, const std::atomic<bool>* stop) noexcept {
     if (running()) return 0;
-    const uint64_t t = model_->refineAll(sweeps);
+    const uint64_t t = model_->refineAll(sweeps, stop);
     bump(refiner_->tokens, t);
     return t;
 }

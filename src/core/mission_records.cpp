@@ -116,7 +116,7 @@ void MissionRecords::drain() {
     while (engine_.readFinal(final_)) takeFinal(final_);
 }
 
-void MissionRecords::finish(int sweeps) {
+void MissionRecords::finish(int sweeps, const std::atomic<bool>* stop) {
     drain();
     Model& m = engine_.model();
     if (m.steps() > 0) {
@@ -129,7 +129,8 @@ void MissionRecords::finish(int sweeps) {
             it->plugin = plugin;
         }
     }
-    if (sweeps > 0) engine_.finalPass(sweeps);
+    if (sweeps > 0) engine_.finalPass(sweeps, stop);
+    if (stop && stop->load(std::memory_order_relaxed)) return;  // interrupted: no final records
     // The window's observations in batches of consecutive ones: a batch's
     // perplexities and labels in one go (on the workers, a task an
     // observation), then its records, in order.

@@ -67,6 +67,7 @@ bool Model::observationInWindow(uint64_t frame) const noexcept { return core_->o
 uint32_t Model::refineCell(int64_t step, int cell) noexcept { return core_->refineCell(step, cell); }
 uint32_t Model::refineStep(int64_t step) noexcept { return core_->refineStep(step); }
 uint64_t Model::refineAll(int sweeps) noexcept { return core_->refineAll(sweeps); }
+uint64_t Model::refineAll(int sweeps, const std::atomic<bool>* stop) noexcept { return core_->refineAll(sweeps, stop); }
 RefineCount Model::refine(StepPicker& picker, const RefineLimits& limits) noexcept { return core_->refine(picker, limits); }
 int Model::threads() const noexcept { return core_->threads(); }
 void Model::setThreads(int n) { core_->setThreads(n); }

@@ -99,7 +99,7 @@ public:
     // ---- refinement -------------------------------------------------------
     uint32_t refineCell(int64_t step, int cell) noexcept;
     uint32_t refineStep(int64_t step) noexcept;
-    uint64_t refineAll(int sweeps = 1) noexcept;
+    uint64_t refineAll(int sweeps = 1, const std::atomic<bool>* stop = nullptr) noexcept;
 
     RefineCount refine(StepPicker& picker, const RefineLimits& limits) noexcept;
 

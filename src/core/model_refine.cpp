@@ -137,18 +137,19 @@ RefineCount ModelCore::refine(StepPicker& picker, const RefineLimits& limits) no
 }
 
 // Whole sweeps of the window; with growth, the moves follow every sweep.
-uint64_t ModelCore::refineAll(int sweeps) noexcept {
+uint64_t ModelCore::refineAll(int sweeps, const std::atomic<bool>* stop) noexcept {
     if (sweeps <= 0 || steps_ == 0) return 0;
     const uint64_t stepsPerSweep = static_cast<uint64_t>(steps_ - oldestStep());
     SweepPicker picker(oldestStep(), steps_);
     RefineLimits limits;
+    limits.stop = stop;
     if (!cfg_.grow || cfg_.fixed) {
         limits.steps = static_cast<uint64_t>(sweeps) * stepsPerSweep;
         return refineWindows(picker, limits).tokens;
     }
     uint64_t tokens = 0;
     limits.steps = stepsPerSweep;
-    for (int i = 0; i < sweeps; ++i) {
+    for (int i = 0; i < sweeps && !(stop && stop->load(std::memory_order_relaxed)); ++i) {
         tokens += refineWindows(picker, limits).tokens;
         growthMoves();
     }

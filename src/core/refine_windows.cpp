@@ -571,7 +571,7 @@ RefineCount ModelCore::refineWindows(StepPicker& picker, const RefineLimits& lim
     w.defer = pool_ && w.W > 1 && !limits.control;
     w.pending = 0;
     bool more = fillWindow(w.plan(), picker, limits, rc);
-    while (more) {
+    while (more && !(limits.stop && limits.stop->load(std::memory_order_relaxed))) {
         const bool go = w.W == 1 ? refineSerialWindow(limits, rc) : refineParallelWindow(limits, rc);
         if (!go) break;
         if (w.planned) {

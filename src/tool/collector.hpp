@@ -34,7 +34,7 @@ public:
     // Writer side: moves every published record into rows and CSV text.
     void drain() { records_.drain(); }
     // End of stream (engine stopped): MissionRecords::finish.
-    void finish(int sweeps) { records_.finish(sweeps); }
+    void finish(int sweeps, const std::atomic<bool>* stop = nullptr) { records_.finish(sweeps, stop); }
     // A resumed run: its first observation is number `n` (the checkpoint's
     // count); rows are made from there on, and observations before it that
     // leave the window still get their final labels in topics.csv.

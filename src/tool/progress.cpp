@@ -3,11 +3,30 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 
 namespace rost::tool {
 
 bool stderrIsTerminal() noexcept { return ::isatty(STDERR_FILENO) == 1; }
+
+namespace {
+std::atomic<bool> g_interrupted{false};
+extern "C" void onInterrupt(int) { g_interrupted.store(true, std::memory_order_relaxed); }
+} // namespace
+
+const std::atomic<bool>& interruptFlag() noexcept { return g_interrupted; }
+
+InterruptScope::InterruptScope() noexcept {
+    g_interrupted.store(false, std::memory_order_relaxed);  // an earlier command's (tests run several in one process)
+    old_int_ = std::signal(SIGINT, onInterrupt);
+    old_term_ = std::signal(SIGTERM, onInterrupt);
+}
+
+InterruptScope::~InterruptScope() {
+    std::signal(SIGINT, old_int_ == SIG_ERR ? SIG_DFL : old_int_);
+    std::signal(SIGTERM, old_term_ == SIG_ERR ? SIG_DFL : old_term_);
+}
 
 Progress::Progress(std::string label, int64_t total, bool quiet)
     : label_(std::move(label)), total_(total), enabled_(!quiet && stderrIsTerminal()) {

@@ -3,6 +3,7 @@
 // A one-line progress bar on stderr (frames, frames/s, ETA), drawn only when
 // stderr is a terminal and the user did not ask for quiet.
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <string>
@@ -33,5 +34,23 @@ private:
 
 // Whether stderr is a terminal.
 bool stderrIsTerminal() noexcept;
+
+// Ctrl-C (SIGINT) and SIGTERM while a file run works: from construction to
+// destruction they set interruptFlag() instead of killing the process, so
+// the command abandons its staging directory and exits 130 (a camera run
+// ends and writes its outputs). The handlers before it come back after.
+class InterruptScope {
+public:
+    InterruptScope() noexcept;
+    ~InterruptScope();
+    InterruptScope(const InterruptScope&) = delete;
+    InterruptScope& operator=(const InterruptScope&) = delete;
+
+private:
+    void (*old_int_)(int);
+    void (*old_term_)(int);
+};
+const std::atomic<bool>& interruptFlag() noexcept;
+inline bool interrupted() noexcept { return interruptFlag().load(std::memory_order_relaxed); }
 
 } // namespace rost::tool

@@ -25,6 +25,7 @@ Status play(const StreamStage& in, Collector& collector, bool quiet) {
     Progress progress("rost refine", static_cast<int64_t>(in.todo().size()), quiet);
     int64_t done = 0;
     for (const auto& ob : in.todo()) {
+        if (interrupted()) break;
         ObservationView v;
         v.timestamp = ob.timestamp;
         v.words = ob.words;
@@ -104,6 +105,7 @@ int refineCommand(const RefineOptions& o) {
     if (Status st = collector.streamTo(out, false); !st.ok()) return fail(st.message());
     std::unique_ptr<CheckpointWriter> checkpoints;
     if (Status st = attachCheckpoints(*in.engine, o.model, checkpoints); !st.ok()) return fail(st.message());
+    InterruptScope interrupts;  // Ctrl-C or SIGTERM from here: exit 130, nothing written
     if (Status st = play(in, collector, o.quiet); !st.ok()) return fail(st.message());
     if (checkpoints)  // the state after the last observation
         if (Status st = finishCheckpoints(*checkpoints); !st.ok()) return fail(st.message());
@@ -111,9 +113,12 @@ int refineCommand(const RefineOptions& o) {
     if (collector.lost() > 0)  // drained after each observation: a bug, never the input's fault
         return fail("internal error: " + std::to_string(collector.lost()) + " result records lost");
 
-    collector.finish(o.model.settings.final_sweeps);
+    if (interrupted()) return std::fputs("rost: interrupted; no outputs written\n", stderr), kExitInterrupted;
+    collector.finish(o.model.settings.final_sweeps, &interruptFlag());
+    if (interrupted()) return std::fputs("rost: interrupted; no outputs written\n", stderr), kExitInterrupted;
     Status st = collector.closeStreams();
     if (st.ok()) st = writeRefineOutputs(out, o, in, collector);
+    if (st.ok() && interrupted()) return std::fputs("rost: interrupted; no outputs written\n", stderr), kExitInterrupted;
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) {

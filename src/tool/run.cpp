@@ -15,7 +15,7 @@
 
 #include <atomic>
 #include <chrono>
-#include <csignal>
+#include <optional>
 #include <cstdio>
 #include <thread>
 
@@ -30,10 +30,6 @@
 namespace rost::tool {
 
 namespace {
-
-std::atomic<bool> g_interrupted{false};
-extern "C" void onInterrupt(int) { g_interrupted.store(true, std::memory_order_relaxed); }
-bool interrupted() { return g_interrupted.load(std::memory_order_relaxed); }
 
 // The sinks of a run, set up before any frame is read.
 struct RunSinks {
@@ -145,8 +141,9 @@ int runCommand(const RunOptions& o) {
 
     // frames -> words -> engine -> sinks
     Capture capture(words, engine, sinks.frameRing, o.max_frames);
-    std::signal(SIGINT, onInterrupt);
-    std::signal(SIGTERM, onInterrupt);
+    // A file run's Ctrl-C also ends its final sweeps (and the run, exit 130);
+    // a camera run's ends the capture, and a second one kills as by default.
+    std::optional<InterruptScope> interrupts(std::in_place);
     Progress progress(words.live ? "rost (Ctrl-C stops)" : "rost", engine.frames, o.quiet);
     if (!realtime) {
         playOffline(capture, *engine.engine, sinks, progress);
@@ -155,8 +152,7 @@ int runCommand(const RunOptions& o) {
     }
     sinks.drain();
     progress.finish();
-    std::signal(SIGINT, SIG_DFL);
-    std::signal(SIGTERM, SIG_DFL);
+    if (words.live) interrupts.reset();
     if (sinks.checkpoints && !sinks.collector.rows().empty())  // the state after the last observation (if any came)
         if (Status st = finishCheckpoints(*sinks.checkpoints); !st.ok()) return fail(st.message());
     if (!capture.readError().empty()) return fail(capture.readError());
@@ -164,7 +160,8 @@ int runCommand(const RunOptions& o) {
     if (const std::string why = runFailure(o, words, engine, capture, sinks.collector); !why.empty()) return fail(why);
 
     // End of stream: final sweeps and labels, then the files.
-    sinks.collector.finish(o.model.settings.final_sweeps);
+    sinks.collector.finish(o.model.settings.final_sweeps, words.live ? nullptr : &interruptFlag());
+    if (interrupted() && !words.live) return std::fprintf(stderr, "rost: interrupted; no outputs written\n"), kExitInterrupted;
     if (Status st = sinks.collector.closeStreams(); !st.ok()) return fail(st.message());
     sinks.frames.drainFrames();
     sinks.overlay.close();
@@ -179,6 +176,8 @@ int runCommand(const RunOptions& o) {
                                   {"run.txt", [&] { return report.text(); }}});
     if (st.ok() && o.summary)
         st = writeRunSummary(out, o, words, engine, sinks.frames, sinks.thumbs, sinks.collector.rows());
+    if (st.ok() && interrupted() && !words.live)
+        return std::fprintf(stderr, "rost: interrupted; no outputs written\n"), kExitInterrupted;
     if (st.ok()) st = sinks.bag.finish(sinks.collector.rows());
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
