@@ -111,6 +111,42 @@ TEST(VisionSources, VideoFileGivesItsFramesSizeAndRate) {
     EXPECT_LT(own, cv::norm(frames[4].image, patterned(64, 48, 5), cv::NORM_L1));
 }
 
+// A video cut short (a copy stopped half way, a card pulled while recording):
+// its container still gives every frame, the decoder runs out early. That is
+// an error naming the file and how many frames were decoded, not an end that
+// would pass half a mission off as all of it; the whole file ends cleanly.
+TEST(VisionSources, AVideoCutShortIsAnErrorNamingTheFramesDecoded) {
+    TempDir t;
+    cv::VideoWriter w(t / "clip.avi", cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 12.0, cv::Size(64, 48));
+    ASSERT_TRUE(w.isOpened());
+    for (int i = 0; i < 120; ++i) w.write(patterned(64, 48, i));
+    w.release();
+    const std::string whole = rost::testing::readText(t / "clip.avi");
+    rost::testing::writeText(t / "cut.avi", whole.substr(0, whole.size() / 2));
+    for (const char* name : {"clip.avi", "cut.avi"}) {
+        SCOPED_TRACE(name);
+        Status st;
+        auto src = openFrameSource(t / name, {}, st);
+        ASSERT_TRUE(src) << st.message();
+        ASSERT_EQ(src->info().frames, 120);
+        Frame f;
+        int64_t decoded = 0;
+        ReadStatus rs;
+        while ((rs = src->read(f)) == ReadStatus::Ok) ++decoded;
+        if (std::string(name) == "clip.avi") {
+            EXPECT_EQ(rs, ReadStatus::End) << src->error();
+            EXPECT_EQ(decoded, 120);
+            continue;
+        }
+        EXPECT_EQ(rs, ReadStatus::Error);
+        EXPECT_GT(decoded, 10);
+        EXPECT_LT(decoded, 110);
+        EXPECT_EQ(src->error(), (t / "cut.avi") + ": only " + std::to_string(decoded) +
+                                    " of the 120 frames its container gives could be decoded: truncated or damaged "
+                                    "(--max-frames " + std::to_string(decoded) + " models those)");
+    }
+}
+
 TEST(VisionSources, JoinedInputsPlayInOrderAtTheFirstSize) {
     TempDir a, b;
     for (int i = 0; i < 2; ++i) ASSERT_TRUE(cv::imwrite(a / ("f" + std::to_string(i) + ".png"), patterned(40, 30, i)));
@@ -139,6 +175,9 @@ TEST(VisionSources, UnreadableInputsGiveOneLineNamingTheInput) {
     EXPECT_NE(openError(t / "junk.png").find("junk.png: cannot decode image"), std::string::npos);
     EXPECT_NE(openError(t / "*.nothing").find("no files match"), std::string::npos);
     EXPECT_NE(openError("camera:x").find("camera:N"), std::string::npos);
+    // Numbers past an int, signs and spaces: refused, never wrapped to another camera's number.
+    for (const char* bad : {"camera:4294967296", "camera:2147483648", "camera:-1", "camera:+1", "camera: 1"})
+        EXPECT_EQ(openError(bad), std::string(bad) + ": expected camera:N with N a camera number from 0") << bad;
 }
 
 TEST(VisionSources, CameraIndexBeyondTheCamerasSaysNoCameraFoundAndWhatItSees) {

@@ -42,6 +42,21 @@ std::string joinArgs(int argc, char** argv) {
     return s;
 }
 
+// A count or size where 0 means "all" or "from the input": a negative one is
+// refused with the option's name (the settings schema checks its own keys;
+// these are the commands' own options). CLI11's NonNegativeNumber would print
+// a range up to DBL_MAX.
+const CLI::Validator& nonNegative() {
+    static const CLI::Validator v(
+        [](std::string& s) {
+            std::size_t at = 0;
+            while (at < s.size() && (s[at] == ' ' || s[at] == '\t')) ++at;
+            return at < s.size() && s[at] == '-' ? "expected 0 or more, found '" + s + "'" : std::string();
+        },
+        "");
+    return v;
+}
+
 // Whether an option was given on `cmd`'s command line.
 std::function<bool(const std::string&)> givenOn(const CLI::App* cmd) {
     return [cmd](const std::string& name) {
@@ -74,9 +89,11 @@ void addRun(CLI::App& app, RunCli& r) {
         ->type_name("FILE")
         ->group("Words");
     const char* f = "Frames";
-    runCmd->add_option("--max-frames", run.max_frames, "stop after this many frames (0: all)")->group(f);
-    runCmd->add_option("--width", run.width, "resize frames to this width (0: as the input)")->group(f);
-    runCmd->add_option("--height", run.height, "resize frames to this height (0: keep the aspect ratio)")->group(f);
+    runCmd->add_option("--max-frames", run.max_frames, "stop after this many frames (0: all)")->group(f)->check(nonNegative());
+    runCmd->add_option("--width", run.width, "resize frames to this width (0: as the input)")->group(f)->check(nonNegative());
+    runCmd->add_option("--height", run.height, "resize frames to this height (0: keep the aspect ratio)")
+        ->group(f)
+        ->check(nonNegative());
     runCmd->add_option("--camera.width", run.camera_width, "camera:N capture width")->group(f);
     runCmd->add_option("--camera.height", run.camera_height, "camera:N capture height")->group(f);
     runCmd->add_option("--camera.format", run.camera_format,
@@ -132,8 +149,8 @@ void addRefine(CLI::App& app, RefineCli& r) {
                        "POSITIONS.csv: timestamp,x1,y1,x2,y2,... for the same observations; without it every word "
                        "is at (0,0): one cell per time step");
     refCmd->add_option("--out,-o", ref.out, "output directory")->required();
-    refCmd->add_option("--width", ref.width, "frame width positions lie in (0: the largest x + 1)");
-    refCmd->add_option("--height", ref.height, "frame height positions lie in (0: the largest y + 1)");
+    refCmd->add_option("--width", ref.width, "frame width positions lie in (0: the largest x + 1)")->check(nonNegative());
+    refCmd->add_option("--height", ref.height, "frame height positions lie in (0: the largest y + 1)")->check(nonNegative());
     r.settings = std::make_unique<SettingsOptions>(*refCmd, ref.model, SettingsOptions::Command::Refine);
     refCmd->add_flag("--no-summary", r.noSummary, "do not draw summary.png");
     refCmd->add_flag("--quiet,-q", ref.quiet, "no progress bar and no notes on stderr");
@@ -150,13 +167,13 @@ CLI::App* addVocab(CLI::App& app, VocabOptions& voc) {
     vocCmd->add_option("--words", voc.words, "vocabulary size (paper: 5000)");
     vocCmd->add_option("--features", voc.features, "ORB keypoints per frame used for training");
     vocCmd->add_option("--every", voc.every, "use every N-th frame");
-    vocCmd->add_option("--max-frames", voc.max_frames, "frames read per input at most (0: all)");
+    vocCmd->add_option("--max-frames", voc.max_frames, "frames read per input at most (0: all)")->check(nonNegative());
     vocCmd->add_option("--max-descriptors", voc.max_descriptors,
                        "descriptors clustered at most (a seeded uniform sample beyond)");
     vocCmd->add_option("--iterations", voc.iterations, "k-majority iterations at most");
     vocCmd->add_option("--seed", voc.seed, "random seed (initial centres, sampling)");
     vocCmd->add_option("--threads", voc.threads, "threads for the assignment step (the result does not depend on it)");
-    vocCmd->add_option("--width", voc.width, "resize frames to this width first (0: as the input)");
+    vocCmd->add_option("--width", voc.width, "resize frames to this width first (0: as the input)")->check(nonNegative());
     vocCmd->add_flag("--quiet,-q", voc.quiet, "no progress on stderr");
     return vocCmd;
 }

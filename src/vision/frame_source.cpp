@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -185,7 +186,7 @@ public:
     ReadStatus read(Frame& out) override {
         cv::Mat img;
         if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
-        else if (!cap_.read(raw_) || raw_.empty()) return ReadStatus::End;
+        else if (!cap_.read(raw_) || raw_.empty()) return endOrCut();
         else img = raw_;
         if (!normalise(img, info_.width, info_.height, out.image)) {
             error_ = path_ + ": cannot decode frame " + std::to_string(next_);
@@ -198,6 +199,19 @@ public:
     }
 
 private:
+    // The decoder gave no more frames. Short of the count the container
+    // gives (beyond the slack of a count estimated from the duration), the
+    // file was cut or damaged: an error naming where, not an end that would
+    // pass a part of the video off as the whole.
+    ReadStatus endOrCut() {
+        const int64_t n = info_.frames;
+        if (n <= 0 || next_ + std::max<int64_t>(2, n / 100) >= n) return ReadStatus::End;
+        error_ = path_ + ": only " + std::to_string(next_) + " of the " + std::to_string(n) +
+                 " frames its container gives could be decoded: truncated or damaged (--max-frames " +
+                 std::to_string(next_) + " models those)";
+        return ReadStatus::Error;
+    }
+
     std::string path_;
     cv::VideoCapture cap_;
     cv::Mat pending_, raw_;
@@ -283,7 +297,8 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const Sou
         char* end = nullptr;
         errno = 0;
         const long idx = std::strtol(n.c_str(), &end, 10);
-        if (n.empty() || *end != '\0' || idx < 0 || errno) {
+        // Digits only, and an int: camera:4294967296 must not wrap to camera:0.
+        if (n.empty() || n[0] < '0' || n[0] > '9' || *end != '\0' || errno || idx > std::numeric_limits<int>::max()) {
             status = Status::error(input + ": expected camera:N with N a camera number from 0");
             return nullptr;
         }
