@@ -159,7 +159,8 @@ public:
     // map[k] = the number of open topics below k, so open topics are numbered
     // 0..A-1 in label order (0xFFFF for a closed one). Without growth the
     // identity. observationLabels and observationSamples are numbered this
-    // way; cellHistogram, topicWordCount and topicCount take labels. map.size() >= K.
+    // way; cellHistogram, topicWordCount and topicCount are indexed by topic
+    // slot k (0..K-1, open or not): map[k] is slot k's label. map.size() >= K.
     void outputNumbering(std::span<uint16_t> map) const noexcept;
     int V() const noexcept;
     int cellsPerStep() const noexcept;

@@ -230,12 +230,28 @@ double perplexity(PyModel& m, std::optional<int64_t> t) {
     });
 }
 
+// The model's topic slots in label order: row i of topic_model() and
+// topic_weights() (and of set_topic_model's counts) is slot slots[i]. With
+// growth the labels number the open topics 0..A-1 (Model::outputNumbering),
+// so rows 0..A-1 are those topics, label by label, as in topicmodel.csv, and
+// rows A..K-1 the closed slots (no word: zero rows); without growth the identity.
+std::vector<int> slotsInLabelOrder(const Model& model) {
+    std::vector<int> slots;
+    slots.reserve(static_cast<std::size_t>(model.K()));
+    for (int k = 0; k < model.K(); ++k)
+        if (model.topicOpen(k)) slots.push_back(k);
+    for (int k = 0; k < model.K(); ++k)
+        if (!model.topicOpen(k)) slots.push_back(k);
+    return slots;
+}
+
 py::array_t<int32_t> topicModel(PyModel& m) {
     return reading(m, [&](const Model& model) {
         py::array_t<int32_t> a({static_cast<py::ssize_t>(model.K()), static_cast<py::ssize_t>(model.V())});
         auto r = a.mutable_unchecked<2>();
-        for (int k = 0; k < model.K(); ++k)
-            for (int v = 0; v < model.V(); ++v) r(k, v) = model.topicWordCount(k, v);
+        const std::vector<int> slots = slotsInLabelOrder(model);
+        for (int i = 0; i < model.K(); ++i)
+            for (int v = 0; v < model.V(); ++v) r(i, v) = model.topicWordCount(slots[static_cast<std::size_t>(i)], v);
         return a;
     });
 }
@@ -247,8 +263,10 @@ std::vector<int32_t> topicCounts(const Model& model, const py::array& a) {
     auto c = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(a);
     auto r = c.template unchecked<2>();
     std::vector<int32_t> flat(static_cast<std::size_t>(model.K()) * static_cast<std::size_t>(model.V()));
+    const std::vector<int> slots = slotsInLabelOrder(model);  // row k: this slot (as topic_model() gives them)
     for (int k = 0; k < model.K(); ++k) {
-        int64_t total = model.topicCount(k);
+        const int slot = slots[static_cast<std::size_t>(k)];
+        int64_t total = model.topicCount(slot);
         for (int v = 0; v < model.V(); ++v) {
             const T x = r(k, v);
             const auto cell = [&] {
@@ -262,7 +280,7 @@ std::vector<int32_t> topicCounts(const Model& model, const py::array& a) {
             if (total > INT32_MAX)
                 throw py::value_error("counts: topic " + std::to_string(k) +
                                       " would hold more than 2^31 - 1 words (n_k is 32-bit)");
-            flat[static_cast<std::size_t>(k) * model.V() + v] = static_cast<int32_t>(x);
+            flat[static_cast<std::size_t>(slot) * model.V() + v] = static_cast<int32_t>(x);
         }
     }
     return flat;
@@ -316,14 +334,18 @@ void bindModelOutputs(py::class_<PyModel>& c) {
                      return toGrid(model.cellSurprise(m.stepOf(t)), cfg.gridHeight(), cfg.gridWidth());
                  });
              }, py::arg("t"), "Surprise per cell of observation t's step, shape (grid rows, grid columns).")
-        .def("topic_model", &topicModel, "n_k^v: K x V word counts per topic (int32).")
+        .def("topic_model", &topicModel,
+             "n_k^v: K x V word counts per topic (int32), row i for label i (with growth the A open topics "
+             "first, as in topicmodel.csv; closed ones are zero rows after them).")
         .def("topic_weights", [](PyModel& m) {
                  return reading(m, [&](const Model& model) {
                      std::vector<int32_t> w(static_cast<std::size_t>(model.K()));
-                     for (int k = 0; k < model.K(); ++k) w[static_cast<std::size_t>(k)] = model.topicCount(k);
+                     const std::vector<int> slots = slotsInLabelOrder(model);
+                     for (int i = 0; i < model.K(); ++i)
+                         w[static_cast<std::size_t>(i)] = model.topicCount(slots[static_cast<std::size_t>(i)]);
                      return toArray(std::span<const int32_t>(w));
                  });
-             }, "n_k: words per topic (int32).")
+             }, "n_k: words per topic (int32), in label order as topic_model()'s rows.")
         .def("set_topic_model", &setTopicModel, py::arg("counts"),
              "Adds K x V counts learned elsewhere to n_k^v (a prior refinement never removes).");
 }

@@ -327,3 +327,28 @@ def test_sampled_labels_are_numbered_as_the_ml_labels_when_a_closed_topic_lies_b
     assert ml.max() < A and sampled.max() < A, (A, sampled.max())
     assert (ml == 1).all(), "words of raw topic 2 are output topic 1"
     assert (sampled == ml).mean() > 0.9
+
+
+def test_topic_model_rows_follow_the_labels_when_topics_grow():
+    """With growth the labels number the open topics 0..A-1; topic_model()'s row i and
+    topic_weights()[i] are label i's, as topicmodel.csv's rows are, with the closed slots' zero
+    rows after them. Here raw topics 0 and 2 are open (1 and 3 closed), so label 1 is raw topic 2."""
+    model = rost.Model(small_config(K=4, V=10, topics_grow=True, gamma=1e-6, g_space=0, g_time=0, cell_space=64))
+    counts = np.zeros((4, 10), dtype=np.int32)
+    counts[0, :5] = 5000
+    counts[2, 5:] = 5000
+    model.set_topic_model(counts)
+    words = np.arange(5, 10, dtype=np.int32).repeat(20)
+    model.add_observation(0, words, np.zeros((len(words), 2), np.int32))
+    model.refine(sweeps=5)
+    assert model.active_topics == 2 and (model.ml_topics(0) == 1).all()
+    tm, nk = model.topic_model(), model.topic_weights()
+    assert (tm[0, :5] >= 5000).all() and (tm[0, 5:] == 0).all(), tm
+    assert (tm[1, 5:] >= 5000).all() and (tm[1, :5] == 0).all(), tm
+    assert (tm[1, 5:] > 5000).any(), "label 1's row holds the observation's words"
+    assert (tm[2:] == 0).all() and (nk[2:] == 0).all()
+    assert (nk == tm.sum(axis=1)).all()
+    # The rows go back in as they came out: a fresh model given them holds the same topic model.
+    again = rost.Model(small_config(K=4, V=10, topics_grow=True, gamma=1e-6, g_space=0, g_time=0, cell_space=64))
+    again.set_topic_model(tm)
+    assert (again.topic_model() == tm).all()
