@@ -342,6 +342,39 @@ TEST(TextFiles, ADeviceOrFifoIsWrittenInPlaceNotReplaced) {
     EXPECT_EQ(d.names(), Strings{"pipe"});  // no temporary file left
 }
 
+// A run's outputs are written all or none: a write that fails (a full disk:
+// here a child limited to 1 KiB files) on the second of three leaves all
+// three as an earlier run left them, no file of the new run among them.
+TEST(TextFiles, FilesWrittenTogetherAreAllOrNone) {
+    TempDir d;
+    const std::string a = (d.path / "a.csv").string(), b = (d.path / "b.csv").string(), c = (d.path / "c.csv").string();
+    for (const std::string& p : {a, b, c}) ASSERT_TRUE(text::writeFileAtomic(p, "old\n").ok());
+    const std::string big(1 << 16, 'x');
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        std::signal(SIGXFSZ, SIG_IGN);
+        const rlimit lim{1024, 1024};
+        ::setrlimit(RLIMIT_FSIZE, &lim);
+        const text::FileToWrite files[] = {{a, "new\n"}, {b, big}, {c, "new\n"}};
+        const rost::Status st = text::writeFilesAtomic(files);
+        ::_exit(!st.ok() && st.message().rfind(b + ": write failed: ", 0) == 0 ? 0 : 1);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    for (const std::string& p : {a, b, c}) EXPECT_EQ(slurp(p), "old\n") << p;
+    EXPECT_EQ(d.names(), (Strings{"a.csv", "b.csv", "c.csv"}));
+    // Written whole when nothing fails, a device in place among them.
+    const text::FileToWrite files[] = {{a, "new a\n"}, {"/dev/null", "x"}, {c, "new c\n"}};
+    ASSERT_TRUE(text::writeFilesAtomic(files).ok());
+    EXPECT_EQ(slurp(a), "new a\n");
+    EXPECT_EQ(slurp(b), "old\n");
+    EXPECT_EQ(slurp(c), "new c\n");
+    EXPECT_EQ(d.names(), (Strings{"a.csv", "b.csv", "c.csv"}));
+}
+
 TEST(TextFiles, AFailedWriteLeavesTheOldFile) {
     TempDir d;
     const fs::path path = d.path / "words.csv";

@@ -224,4 +224,18 @@ Status probeOutputFile(const std::string& path);
 // replace the device node with a regular file.
 Status writeFileAtomic(const std::string& path, std::string_view content);
 
+// Several files that belong together (a run's outputs): each is written to
+// its temporary file first, and only when every one is written and flushed
+// are they renamed into place. A failure while writing (a full disk) leaves
+// every path as it was, the old files of an earlier run included, so a
+// directory never mixes two runs' files. (A rename that fails after others
+// succeeded, which needs the directory to change under the run, cannot be
+// undone; its error names the path.) Devices and FIFOs are written in place
+// after the renames.
+struct FileToWrite {
+    std::string path;
+    std::string_view content;
+};
+Status writeFilesAtomic(std::span<const FileToWrite> files);
+
 } // namespace rost::text

@@ -356,9 +356,11 @@ Status probeOutputFile(const std::string& path) {
     return {};
 }
 
-Status writeFileAtomic(const std::string& path, std::string_view content) {
-    if (isDeviceOrFifo(path)) return writeInPlace(path, content);
-    std::string dir, tmp;
+namespace {
+
+// `content` in a new temporary file beside `path` (its name in `tmp`, its
+// directory in `dir`), flushed; on failure nothing is left behind.
+Status writeTemporary(const std::string& path, std::string_view content, std::string& dir, std::string& tmp) {
     const int fd = makeTemporary(path, dir, tmp);
     if (fd < 0) return Status::error(path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
     if (!writeAll(fd, content)) {
@@ -373,18 +375,66 @@ Status writeFileAtomic(const std::string& path, std::string_view content) {
         ::unlink(tmp.c_str());
         return Status::error(path + ": flush failed: " + why);
     }
+    return {};
+}
+
+// The temporary file renamed over `path`, and the rename made durable.
+Status renameInto(const std::string& tmp, const std::string& path, const std::string& dir) {
     if (::rename(tmp.c_str(), path.c_str()) != 0) {
         const std::string why = std::strerror(errno);
         ::unlink(tmp.c_str());
         return Status::error(path + ": rename failed: " + why);
     }
-    // Make the rename itself durable.
     const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
     if (dfd >= 0) {
         ::fsync(dfd);
         ::close(dfd);
     }
     return {};
+}
+
+} // namespace
+
+Status writeFileAtomic(const std::string& path, std::string_view content) {
+    if (isDeviceOrFifo(path)) return writeInPlace(path, content);
+    std::string dir, tmp;
+    if (Status st = writeTemporary(path, content, dir, tmp); !st.ok()) return st;
+    return renameInto(tmp, path, dir);
+}
+
+Status writeFilesAtomic(std::span<const FileToWrite> files) {
+    struct Staged {
+        const FileToWrite* file;
+        std::string dir, tmp;  // tmp empty: a device or FIFO, written in place at the end
+    };
+    std::vector<Staged> staged;
+    staged.reserve(files.size());
+    const auto dropTemporaries = [&] {
+        for (const Staged& s : staged)
+            if (!s.tmp.empty()) ::unlink(s.tmp.c_str());
+    };
+    for (const FileToWrite& f : files) {
+        Staged s{&f, {}, {}};
+        if (!isDeviceOrFifo(f.path)) {
+            if (Status st = writeTemporary(f.path, f.content, s.dir, s.tmp); !st.ok()) {
+                dropTemporaries();
+                return st;
+            }
+        }
+        staged.push_back(std::move(s));
+    }
+    Status result;
+    for (Staged& s : staged) {
+        if (s.tmp.empty()) continue;
+        Status st = result.ok() ? renameInto(s.tmp, s.file->path, s.dir) : Status{};
+        if (!result.ok()) ::unlink(s.tmp.c_str());  // after a failed rename: the rest stay as they were
+        if (!st.ok()) result = st;
+        s.tmp.clear();
+    }
+    for (const Staged& s : staged)
+        if (result.ok() && s.dir.empty())
+            if (Status st = writeInPlace(s.file->path, s.file->content); !st.ok()) result = st;
+    return result;
 }
 
 } // namespace rost::text

@@ -209,13 +209,14 @@ Status probeOutputs(const RunOptions& o) {
     return {};
 }
 
-// Writes each non-empty path (temporary file, then rename); the log last.
+// Writes each non-empty path, all or none: every temporary file is written
+// before the first is renamed, so a full disk leaves an earlier run's files
+// as they were (text::writeFilesAtomic); the log last.
 Status writeOutputs(const RunOptions& o, const Outputs& out, const std::string& model) {
-    for (const FileOut& f : outputFiles(o, out, model)) {
-        if (f.path == nullptr || f.path->empty()) continue;
-        if (Status st = text::writeFileAtomic(*f.path, *f.text); !st.ok()) return st;
-    }
-    return {};
+    std::vector<text::FileToWrite> files;
+    for (const FileOut& f : outputFiles(o, out, model))
+        if (f.path != nullptr && !f.path->empty()) files.push_back({*f.path, *f.text});
+    return text::writeFilesAtomic(files);
 }
 
 Status readCorpus(const RunOptions& o, const Settings& s, Corpus& c) {
