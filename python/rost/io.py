@@ -130,18 +130,44 @@ def read_topicmodel(path):
     return np.asarray(rows, dtype=np.int64)
 
 
+def _int64s(values, what):
+    """`values` as int64, each exactly: whole-number floats are taken, a fraction, a NaN or a value
+    past int64 (a uint64 2^64 - 1 is not -1) is refused naming its index."""
+    a = np.asarray(values)
+    if a.size == 0:
+        return a.astype(np.int64)
+    if a.dtype.kind == "f":
+        bad = np.flatnonzero(~(np.isfinite(a) & (a == np.floor(a)) & (np.abs(a) < 2.0**63)))
+        if bad.size:
+            raise ValueError(f"{what}[{bad[0]}] = {a.reshape(-1)[bad[0]]!r} is not a whole number in int64's range")
+        return a.astype(np.int64)
+    if a.dtype.kind not in "iu":
+        raise TypeError(f"{what}: expected integers, found dtype {a.dtype}")
+    if a.dtype.kind == "u":
+        bad = np.flatnonzero(a.reshape(-1) > np.iinfo(np.int64).max)
+        if bad.size:
+            raise ValueError(f"{what}[{bad[0]}] = {a.reshape(-1)[bad[0]]} exceeds 2^63 - 1")
+    return a.astype(np.int64)
+
+
 def _write_rows(path, timestamps, rows, width):
     if len(timestamps) != len(rows):
         raise ValueError(f"{len(timestamps)} timestamps for {len(rows)} rows")
+    stamps = np.asarray(timestamps)
+    if stamps.ndim != 1:
+        raise ValueError(f"timestamps: expected a 1-D sequence, found shape {stamps.shape}")
+    stamps = _int64s(stamps, "timestamps")
     flat = []
-    for r in rows:
+    for i, r in enumerate(rows):
         a = np.asarray(r)
-        if a.dtype.kind not in "iu":
-            raise TypeError(f"expected integer arrays, found dtype {a.dtype}")
+        if a.size and a.dtype.kind not in "iu":
+            raise TypeError(f"row {i}: expected integer arrays, found dtype {a.dtype}")
         if width == 2 and (a.ndim != 2 or a.shape[1] != 2):
             raise ValueError(f"positions: expected shape (N, 2), found {a.shape}")
-        flat.append(a.reshape(-1).astype(np.int64))
-    _text.write_rows(os.fspath(path), np.asarray(timestamps, dtype=np.int64).reshape(-1), flat)
+        if width == 1 and a.ndim != 1:
+            raise ValueError(f"row {i}: expected a 1-D array, found shape {a.shape}")
+        flat.append(_int64s(a, f"row {i}").reshape(-1))
+    _text.write_rows(os.fspath(path), stamps, flat)
 
 
 def write_words(path, timestamps, words):
@@ -164,9 +190,10 @@ def write_topicmodel(path, counts):
     a = np.asarray(counts)
     if a.ndim != 2 or a.dtype.kind not in "iu":
         raise ValueError(f"counts: expected a K x V integer array, found {a.dtype} of shape {a.shape}")
+    a = _int64s(a, "counts")
     if a.size and a.min() < 0:
         raise ValueError("counts: a count is negative")
-    _text.write_matrix(os.fspath(path), a.astype(np.int64))
+    _text.write_matrix(os.fspath(path), a)
 
 
 def write_perplexity(path, results):

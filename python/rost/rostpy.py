@@ -276,11 +276,28 @@ class _ROST:
         n = self._topic_model().astype(np.float64)
         return (n + self.beta) / (n.sum(axis=1, keepdims=True) + self.V * self.beta)
 
-    def _word_probabilities(self, words, nZ):
+    def _word_ids(self, words, what):
+        """`words` as int64 ids, each in [0, V): a negative id must not index phi from its end."""
+        w = _ints(words, what)
+        bad = np.flatnonzero((w < 0) | (w >= self.V))
+        if len(bad):
+            raise ValueError(f"rost.rostpy.{what}[{bad[0]}] = {w[bad[0]]} out of range [0, {self.V})")
+        return w
+
+    def _topic_counts(self, counts, what):
+        """Topic counts (K of them, or none: zeros) as float64; another length is refused, not cut or broadcast."""
+        if counts is None or len(counts) == 0:
+            return np.zeros(self.K)
+        c = np.asarray(counts, dtype=np.float64)
+        if c.shape != (self.K,):
+            raise ValueError(f"rost.rostpy.{what}: expected K = {self.K} topic counts, found shape {c.shape}")
+        return c
+
+    def _word_probabilities(self, words, nZ, what="words"):
         """p(w) = sum_k theta_k p(w | k) for each word, theta from the topic counts nZ and alpha."""
-        nz = np.zeros(self.K) if nZ is None or len(nZ) == 0 else np.asarray(nZ, dtype=np.float64)[: self.K]
+        nz = self._topic_counts(nZ, "nZ")
         theta = (nz + self.alpha) / (nz.sum() + self.K * self.alpha)
-        return theta @ self._phi()[:, _ints(words, "words")]
+        return theta @ self._phi()[:, self._word_ids(words, what)]
 
     def _pose_words(self, pose, name):
         key = self._key(self._pose(pose, name))
@@ -302,7 +319,7 @@ class _ROST:
 
     def cell_perplexity_word(self, words, nZ):
         """exp(-mean log p(w)) of `words` under the topic model and the topic counts nZ."""
-        p = self._word_probabilities(words, nZ)
+        p = self._word_probabilities(words, nZ, "cell_perplexity_word: words")
         return float(math.exp(-np.log(p).mean())) if len(p) else float("nan")
 
     def time_perplexity(self, t, recompute=False):
@@ -330,9 +347,9 @@ class _ROST:
     def refine_ext(self, words, n_iter=10, nZg=()):
         """Gibbs-samples topics for `words` against the topic model without adding them (n_iter sweeps;
         nZg: topic counts of a neighbourhood added to the words' own). Seeded: the model's seed and call."""
-        w = _ints(words, "refine_ext: words")
+        w = self._word_ids(words, "refine_ext: words")
         phi = self._phi()
-        prior = np.zeros(self.K) if len(nZg) == 0 else np.asarray(nZg, dtype=np.float64)[: self.K]
+        prior = self._topic_counts(nZg, "refine_ext: nZg")
         rng = np.random.default_rng([int(self._settings.get("seed", 1)), self._word_refines, len(w)])
         z = rng.integers(0, self.K, size=len(w))
         nz = np.bincount(z, minlength=self.K).astype(np.float64)

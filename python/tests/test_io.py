@@ -48,6 +48,23 @@ def test_errors_name_file_and_line(tmp_path):
         rost.io.write_positions(tmp_path / "p.csv", [0], [np.zeros(3, np.int32)])
 
 
+def test_writers_write_every_value_exactly_or_refuse_it(tmp_path):
+    """A value the file cannot hold as given is refused naming it, never rounded, wrapped or flattened."""
+    f = tmp_path / "w.csv"
+    with pytest.raises(ValueError, match=r"^timestamps\[1\] = 1\.7 is not a whole number in int64's range$"):
+        rost.io.write_words(f, [0.0, 1.7], [[1, 2], [3]])
+    with pytest.raises(ValueError, match=r"^row 0\[0\] = 18446744073709551615 exceeds 2\^63 - 1$"):
+        rost.io.write_words(f, [0], [np.array([2**64 - 1], np.uint64)])
+    with pytest.raises(ValueError, match=r"^counts\[0\] = 18446744073709551615 exceeds 2\^63 - 1$"):
+        rost.io.write_topicmodel(f, np.array([[2**64 - 1, 1]], np.uint64))
+    with pytest.raises(ValueError, match=r"^row 0: expected a 1-D array, found shape \(2, 2\)$"):
+        rost.io.write_words(f, [0], [np.ones((2, 2), np.int32)])
+    assert not f.exists()
+    # Whole-number floats and uint64 values within int64 are written as the integers they are.
+    rost.io.write_words(f, np.array([0.0, 2.0]), [np.array([7, 2**40], np.uint64), np.array([], np.int32)])
+    assert f.read_text() == "0,7,1099511627776\n2\n"
+
+
 def test_topic_model_round_trip_into_a_model(tmp_path):
     rng = np.random.default_rng(1)
     model = rost.Model(small_config())

@@ -183,6 +183,16 @@ def test_perplexities_and_refine_ext():
     assert z == [0, 0, 0] and ll < 0
     assert m.refine_ext([2, 5, 8, 11, 1], 5) == [2, 2, 2, 2, 1]
     assert m.refine_ext([2, 5], 5) == m.refine_ext([2, 5], 5)
+    # A word outside [0, V) or topic counts of another length than K are refused by name, never
+    # read from the topic model's end (-1 as word V - 1) or cut and broadcast to K.
+    with pytest.raises(ValueError, match=r"^rost\.rostpy\.cell_perplexity_word: words\[1\] = -1 out of range \[0, 12\)$"):
+        m.cell_perplexity_word([3, -1], [1, 1, 1])
+    with pytest.raises(ValueError, match=r"^rost\.rostpy\.refine_ext: words\[0\] = 12 out of range \[0, 12\)$"):
+        m.refine_ext([12])
+    with pytest.raises(ValueError, match=r"^rost\.rostpy\.nZ: expected K = 3 topic counts, found shape \(2,\)$"):
+        m.cell_perplexity_word([3], [1, 1])
+    with pytest.raises(ValueError, match=r"^rost\.rostpy\.refine_ext: nZg: expected K = 3 topic counts, found shape \(1,\)$"):
+        m.refine_ext([3], 2, nZg=[5])
 
 
 def test_the_type_stubs_name_every_public_member():
