@@ -383,6 +383,19 @@ TEST(ToolCli, ASettingsValueOnTheCommandLineIsCheckedByTheSchema) {
     // A combination names every option involved.
     expectError(runRost("config --g.time 9 --ring.steps 4"),
                 "rost: error: --g.time = 9, allowed [0, 3]; below --ring.steps = 4");
+    // `refine` and `run` check the combinations against the input's values, not the library's
+    // defaults: a 3-observation stream of 1-pixel cells is a 3-step ring, not a 256-step one
+    // too large for a 640 x 480 frame; a frame the positions make 4000 x 4000 is named as such.
+    rost::testing::writeText(t / "w.csv", "0,1,2\n1,2,3\n2,3,1\n");
+    rost::testing::writeText(t / "p.csv", "0,9,9,0,0\n1,1,1,2,2\n2,3,3,4,4\n");
+    const RunResult ok = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") +
+                                 " --cell.space 1 -q --no-summary --out " + (t / "o"));
+    EXPECT_EQ(ok.exit_code, 0) << ok.err;
+    rost::testing::writeText(t / "p.csv", "0,3999,3999,0,0\n1,1,1,2,2\n2,3,3,4,4\n");
+    expectError(runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " --cell.space 1 --out " + (t / "o2")),
+                "rost: error: --cell.space = 1, allowed at least 4 for the input's frame.width = 4000 by the input's "
+                "frame.height = 4000; 16000000 cells a step, at most 1048576",
+                t / "o2");
 }
 
 // ---- words an observation holds ----------------------------------------------------

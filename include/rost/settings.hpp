@@ -77,6 +77,11 @@ struct Settings {
 // the combinations (g.time below ring.steps, the cells of a step, the ring's
 // memory), each blamed on the setting to change. nullopt when all are allowed.
 std::optional<SettingProblem> checkSettings(const Settings& s);
+// Every number's range and every choice only, not the combinations: for a
+// face that checks its command line before the input has given the values
+// that come from it (the frame size, ring.steps, max.words, V), and whose
+// mission checks the combinations once they are known (rost/mission.hpp).
+std::optional<SettingProblem> checkSettingRanges(const Settings& s);
 // The same for one part, as its own validate() uses it: the model's fields
 // and combinations; the strategy's fields; everything of an EngineConfig.
 std::optional<SettingProblem> checkModelSettings(const Config& c);

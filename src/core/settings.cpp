@@ -503,6 +503,8 @@ std::optional<SettingProblem> checkSettings(const Settings& s) {
     return modelCombinations(s.engine.model);
 }
 
+std::optional<SettingProblem> checkSettingRanges(const Settings& s) { return checkPart(s, ""); }
+
 std::optional<SettingProblem> checkModelSettings(const Config& c) {
     Settings s;
     s.engine.model = c;

@@ -157,7 +157,10 @@ Status SettingsOptions::apply(RunOptions* run, RefineOptions* ref) {
         if (auto p = setSettingText(s, *e.spec, value)) return Status::error(settingProblemText(m, *p));
         m.given.emplace_back(e.spec->key);
     }
-    if (auto p = checkSettings(s)) return Status::error(settingProblemText(m, *p));
+    // `rost config` (no input): everything now. `run` and `refine`: ranges
+    // now, the combinations once the mission knows the input's frame size,
+    // length and words (planNew: a 3-line stream is not a 256-step ring).
+    if (auto p = run || ref ? checkSettingRanges(s) : checkSettings(s)) return Status::error(settingProblemText(m, *p));
     m.settings = s;
     return {};
 }
