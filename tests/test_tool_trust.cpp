@@ -251,6 +251,22 @@ TEST(ToolTrust, ASignalAbandonsARefineRunWithExitCode130AndKeepsWhatWasThere) {
     }
 }
 
+// A checkpoint (or a bag) written over an input of the same run would replace
+// it: refused by name, however the path is spelled, before anything is read.
+TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {
+    TempDir t;
+    writeStream(t);
+    const std::string words = rost::testing::readText(t / "words.csv");
+    expectError(runRost(refine(t, "o", "--checkpoint " + (t / "words.csv"))),
+                "rost: error: --checkpoint: " + (t / "words.csv") + " is an input of this run: writing there would replace it",
+                t / "o");
+    expectError(runRost(refine(t, "o", "--checkpoint " + t.path() + "/../" +
+                                           std::filesystem::path(t.path()).filename().string() + "/positions.csv")),
+                "is the same file as the input " + (t / "positions.csv") + ": writing there would replace it", t / "o");
+    EXPECT_EQ(rost::testing::readText(t / "words.csv"), words);
+    ASSERT_EQ(runRost(refine(t, "o", "--checkpoint " + (t / "m.ckpt"))).exit_code, 0);
+}
+
 TEST(ToolTrust, ResumedRefineContinuesBitForBitAsIfNeverStopped) {
     TempDir t;
     writeStream(t);

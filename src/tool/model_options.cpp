@@ -14,6 +14,8 @@
 
 namespace rost::tool {
 
+namespace fs = std::filesystem;
+
 namespace {
 
 // What the tool asks the engine to compute: it reads perplexities from the
@@ -90,11 +92,36 @@ std::string settingProblemText(const ModelOptions& m, const SettingProblem& p) {
     return p.describe(optionNames);
 }
 
-Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag) {
-    if (!m.checkpoint.empty())
-        if (Status st = probeOutputFile(m.checkpoint); !st.ok()) return Status::error("--checkpoint: " + st.message());
-    if (!outBag.empty())
-        if (Status st = probeOutputFile(outBag); !st.ok()) return Status::error("--out.bag: " + st.message());
+namespace {
+
+// Whether two paths name one file: the same file where both exist (another
+// spelling, a link), else the same path once made absolute and normal.
+bool sameFile(const std::string& a, const std::string& b) {
+    std::error_code ec;
+    if (fs::equivalent(a, b, ec) && !ec) return true;
+    const fs::path pa = fs::weakly_canonical(a, ec);
+    if (ec) return false;
+    const fs::path pb = fs::weakly_canonical(b, ec);
+    return !ec && pa == pb;
+}
+
+} // namespace
+
+Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs) {
+    std::vector<std::string> read = inputs;
+    for (const std::string* p : {&m.in_topicmodel, &m.config})
+        if (!p->empty()) read.push_back(*p);
+    const std::pair<const char*, const std::string*> outputs[] = {{"--checkpoint", &m.checkpoint}, {"--out.bag", &outBag}};
+    for (const auto& [option, path] : outputs) {
+        if (path->empty()) continue;
+        if (Status st = probeOutputFile(*path); !st.ok()) return Status::error(std::string(option) + ": " + st.message());
+        // (--resume FILE --checkpoint FILE is a mission carried on in place: the resumed file is not an input here.)
+        for (const std::string& in : read)
+            if (!in.empty() && sameFile(*path, in))
+                return Status::error(std::string(option) + ": " + *path +
+                                     (*path == in ? " is an input of this run" : " is the same file as the input " + in) +
+                                     ": writing there would replace it");
+    }
     return {};
 }
 

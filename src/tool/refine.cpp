@@ -90,7 +90,7 @@ Status writeRefineOutputs(OutputDir& out, const RefineOptions& o, const StreamSt
 int refineCommand(const RefineOptions& o) {
     const auto started = std::chrono::steady_clock::now();
     // Outputs first: an unwritable one fails before the input is read (nothing written).
-    if (Status st = probeMissionOutputs(o.model, {}); !st.ok()) return fail(st.message());
+    if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}); !st.ok()) return fail(st.message());
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
     if (Status st = out.probe({"topics.csv", "perplexity.csv", "surprise.csv", "surprise_cells.csv", "topicmodel.csv",

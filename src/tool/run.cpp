@@ -124,7 +124,9 @@ int runCommand(const RunOptions& o) {
         for (const auto& in : o.inputs) live = live || vision::isCameraInput(in);
         return live;
     }();
-    if (Status st = probeMissionOutputs(o.model, o.out_bag); !st.ok()) return fail(st.message());
+    std::vector<std::string> inputs = o.inputs;
+    if (!o.vocabulary.empty()) inputs.push_back(o.vocabulary);
+    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs); !st.ok()) return fail(st.message());
     if (Status st = words.open(o); !st.ok()) return fail(st.message());
     words.printNotes();
     if (Status st = engine.open(o, words, realtime); !st.ok()) return fail(st.message());

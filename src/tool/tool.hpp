@@ -72,8 +72,9 @@ MissionInput missionInput(const ModelOptions& m, bool realtime);
 
 // Every output file of a mission besides the output directory (--checkpoint,
 // --out.bag), probed before any work: an unwritable one fails at once and
-// nothing is written. Errors start with the option.
-Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag);
+// nothing is written; none may be one of `inputs` (or the --in.topicmodel or
+// --config file), which it would replace. Errors start with the option.
+Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs);
 
 // --checkpoint FILE: a writer the engine captures into every checkpoint_every
 // observations (Engine::captureCheckpoints: a copy on the refining thread at
