@@ -118,9 +118,14 @@ class _ROST:
             raise ValueError(f"rost.rostpy.add_observation: words[{bad[0]}] = {w[bad[0]]} is outside [0, V = {self.V})")
         self._mode(bool(update_model), "add_observation")
         step = self._open_step(pose)
-        cell = self._cell(pose)
-        if self._model is not None:
-            self._check_fits(step, cell, len(w))
+        try:
+            cell = self._cell(pose)
+            if self._model is not None:
+                self._check_fits(step, cell, len(w))
+        except ValueError:
+            if not step.words and step is self._steps[-1]:
+                self._steps.pop()  # a refused add leaves no empty time step behind (it would shift the neighbours)
+            raise
         indices = step.add(w, cell)
         key = self._key(pose)
         if key not in self._where:

@@ -208,3 +208,18 @@ def test_the_type_stubs_name_every_public_member():
     for cls in (rostpy.ROST_t, rostpy.ROST_txy, rostpy.ROST_xy):
         public = {n for n in dir(cls(V=4, K=2, alpha=0.1, beta=0.5, gamma=0)) if not n.startswith("_")}
         assert public == members, (cls.__name__, sorted(public ^ members))
+
+
+def test_a_refused_add_leaves_no_empty_time_step():
+    """An observation refused once the model is made (a pose off its grid) adds nothing: no empty
+    time step is handed to the model, which would stand between its neighbours in time."""
+    x = rostpy.ROST_txy(V=20, K=3, alpha=0.1, beta=0.5, gamma=0)
+    x.add_observation([0, 0, 0], [1, 2])
+    rostpy.parallel_refine(x, 1)
+    for t in (1, 2):
+        with pytest.raises(ValueError, match="lies outside the grid"):
+            x.add_observation([t, 100, 0], [1])
+    x.add_observation([3, 0, 0], [5])
+    rostpy.parallel_refine(x, 1)
+    assert list(x.model.timestamps()) == [0, 1], "two time steps: t = 0 and t = 3, nothing between"
+    assert list(x.model.words(1)) == [5]
