@@ -225,4 +225,21 @@ TEST_F(RostCliOnline, ABadLineIsNamedByItsLine) {
     EXPECT_FALSE(fs::exists(dir + "/topics.csv"));
 }
 
+// From a file, read in one go: the documents before the bad line are taken
+// up and get their online lines all the same, then the error.
+TEST_F(RostCliOnline, ABadLineInAFileComesAfterTheDocumentsBeforeIt) {
+    std::ofstream(dir + "/ob.csv") << "0,1,2,3\n1,2,3,4\n2,x\n3,1\n";
+    const std::string cmd = "cd '" + dir + "' && '" + ROSTCLI_REFINE_T +
+                            "' -i ob.csv -V 10 -K 4 --online --online.mint 5 2>err.txt";
+    const int rc = std::system(cmd.c_str());
+    EXPECT_EQ(WEXITSTATUS(rc), 2);
+    EXPECT_EQ(readText(dir + "/err.txt"), "topics.refine.t: ob.csv:3:3: expected word id (a non-negative integer), found 'x'\n");
+    const auto topics = lines(dir + "/topics.online.csv"), ppx = lines(dir + "/perplexity.online.csv");
+    ASSERT_EQ(topics.size(), 2u) << readText(dir + "/topics.online.csv");
+    ASSERT_EQ(ppx.size(), 2u);
+    EXPECT_EQ(topics[0].rfind("0,", 0), 0u);
+    EXPECT_EQ(topics[1].rfind("1,", 0), 0u);
+    EXPECT_FALSE(fs::exists(dir + "/topics.csv"));
+}
+
 } // namespace

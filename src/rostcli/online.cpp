@@ -142,6 +142,10 @@ public:
         if (own_) ::close(fd_);
     }
     bool ended() const { return ended_; }
+    // A bad line ends the input: the documents before it (in `ready` already,
+    // however many one read brought) are taken up first, and then this is
+    // the run's error.
+    const Status& failure() const { return failure_; }
     // Waits up to `ms` for input; every complete line read becomes a document in `ready`.
     Status poll(int ms, std::vector<Document>& ready) {
         pollfd p{fd_, POLLIN, 0};
@@ -155,16 +159,23 @@ public:
         pending_.append(buf, static_cast<std::size_t>(got));
         std::size_t start = 0;
         for (std::size_t nl; (nl = pending_.find('\n', start)) != std::string::npos; start = nl + 1)
-            if (Status st = take(std::string_view(pending_).substr(start, nl - start), ready); !st.ok()) return st;
+            if (Status st = take(std::string_view(pending_).substr(start, nl - start), ready); !st.ok()) return fail(st);
         pending_.erase(0, start);
         if (ended_ && !pending_.empty()) {  // a last line without '\n'
-            if (Status st = take(pending_, ready); !st.ok()) return st;
+            if (Status st = take(pending_, ready); !st.ok()) return fail(st);
             pending_.clear();
         }
         return {};
     }
 
 private:
+    Status fail(Status st) {
+        failure_ = std::move(st);
+        ended_ = true;
+        pending_.clear();
+        return {};
+    }
+
     Status take(std::string_view line, std::vector<Document>& ready) {
         ++line_;
         Document d;
@@ -188,6 +199,7 @@ private:
     bool own_ = false, ended_ = false;
     std::string pending_;
     int line_ = 0;
+    Status failure_;
 };
 
 // An online file, appended to and flushed line by line.
@@ -284,7 +296,8 @@ Status stream(OnlineState& st, LineSource* src) {
         if (Status s = st.drain(); !s.ok()) return s;
         if (st.push()) continue;
         if (st.next < st.ready.size() || !src || src->ended()) {
-            if (st.next == st.ready.size() && st.written == st.c.docs.size()) break;  // all in and done
+            if (st.next == st.ready.size() && st.written == st.c.docs.size())  // all in and done
+                return src ? src->failure() : Status{};
             std::this_thread::sleep_for(std::chrono::milliseconds(1));
             continue;
         }
