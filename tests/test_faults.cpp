@@ -300,7 +300,7 @@ TEST(FaultsInput, HostileWordStreamsAreRefusedWithLineAndColumnOrRunSafely) {
     lim.width = 256;
     lim.height = 192;
     WordStream s;
-    EXPECT_EQ(parseWordStream("1,2,3\n2,1,\x01\n", {}, lim, s).message(), "words.csv:2:5: expected an integer, found '\x01'");
+    EXPECT_EQ(parseWordStream("1,2,3\n2,1,\x01\n", {}, lim, s).message(), "words.csv:2:5: expected an integer, found '\\x01'");  // a control byte quoted as \xNN
     EXPECT_EQ(parseWordStream("1,2\n", "1,99999999999,0\n", lim, s).message(),
               "positions.csv:1:3: position (99999999999, 0) outside the frame 256x192");
     EXPECT_EQ(parseWordStream("1,2\n", "1,-1,-1\n", lim, s).message(),

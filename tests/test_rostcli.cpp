@@ -567,6 +567,10 @@ TEST_F(RostCli, PerplexityIterHoldsTheCorpusPerplexityEveryPpxRateSweeps) {
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 2 -n 5 --out.ppx.iter ''");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir + "/perplexity.iter.csv"));
+    // A rate below 1 is named with its value, not with a range up to DBL_MAX's 309 digits.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 2 -n 5 --ppx.rate 0");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: --ppx.rate: expected 1 or more, found '0' (see --help)\n");
 }
 
 // Positions with fractions (rostpy's, a spectrogram's) are placed at their

@@ -136,6 +136,12 @@ TEST(TextNumbers, ErrorsNameFileLineAndColumn) {
     const text::Field lf{longText, 3, 3};
     EXPECT_EQ(text::expected("n", 1, lf, "a count").message(), "n:1:3: expected a count, found '" + std::string(32, 'z') + "'");
     EXPECT_EQ(text::expected("n", 1, lf, "a count", 5).message(), "n:1:3: expected a count, found 'zzzzz'");
+    // Control bytes are written \xNN (a NUL would cut the line where it is printed, an escape
+    // drive the terminal) and a byte-order mark \ufeff (it would look like nothing at all).
+    const std::string odd = std::string("1\0", 2) + "\x1b[2J\x7f\xEF\xBB\xBF" + "0";
+    const text::Field of{odd, 1, 1};
+    EXPECT_EQ(text::expected("n", 2, of, "an integer").message(),
+              "n:2:1: expected an integer, found '1\\x00\\x1b[2J\\x7f\\ufeff0'");
 }
 
 TEST(TextNumbers, RangesAreHalfOpenAndNamed) {

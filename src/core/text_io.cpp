@@ -96,7 +96,29 @@ NumberError parseWhole(std::string_view text, T& out) noexcept {
     return NumberError::None;
 }
 
-std::string cutText(std::string_view s, std::size_t cut) { return std::string(s.substr(0, cut)); }
+// A field as an error quotes it: at most `cut` bytes, control bytes written
+// \xNN (a NUL would end the line on a terminal, an escape would drive it) and
+// a byte-order mark \ufeff (it would look like nothing: '0' that is not 0).
+std::string cutText(std::string_view s, std::size_t cut) {
+    s = s.substr(0, cut);
+    std::string out;
+    out.reserve(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        const auto c = static_cast<unsigned char>(s[i]);
+        if (c == 0xEF && s.substr(i, 3) == "\xEF\xBB\xBF") {
+            out += "\\ufeff";
+            i += 2;
+        } else if (c < 0x20 || c == 0x7F) {
+            static constexpr char kHex[] = "0123456789abcdef";
+            out += "\\x";
+            out += kHex[c >> 4];
+            out += kHex[c & 15];
+        } else {
+            out += static_cast<char>(c);
+        }
+    }
+    return out;
+}
 } // namespace
 
 NumberError toInteger(std::string_view text, int64_t& out) noexcept { return parseWhole(text, out); }

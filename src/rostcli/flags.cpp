@@ -8,6 +8,7 @@
 #include <sched.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <deque>
 #include <thread>
@@ -19,6 +20,20 @@
 namespace rost::cli {
 
 namespace {
+
+// A count of 1 or more (CLI11's PositiveNumber prints its range up to DBL_MAX).
+const CLI::Validator& atLeastOne() {
+    static const CLI::Validator v(
+        [](std::string& s) {
+            long long n = 0;
+            const char* end = s.data() + s.size();
+            const auto r = std::from_chars(s.data(), end, n);
+            return r.ec == std::errc() && r.ptr == end && n < 1 ? "expected 1 or more, found '" + s + "'" : std::string();
+        },
+        "");
+    return v;
+}
+
 
 // A flag that is a rost setting: the schema row's `rostcli` column (flag
 // names, and rost-cli's default where it differs from the schema's).
@@ -128,7 +143,7 @@ void addFileFlags(CLI::App& app, Parsed& p) {
     app.add_option("--logfile", o.logfile, "the run's log: settings, perplexity every --ppx.rate sweeps, speed")->capture_default_str();
     app.add_option("--out.ppx.iter", o.out_ppx_iter, "the corpus perplexity every --ppx.rate sweeps, a number a line (batch)")
         ->capture_default_str();
-    app.add_option("--ppx.rate", o.ppx_rate, "sweeps between two perplexity lines of the log and perplexity.iter.csv")->capture_default_str()->check(CLI::PositiveNumber);
+    app.add_option("--ppx.rate", o.ppx_rate, "sweeps between two perplexity lines of the log and perplexity.iter.csv")->capture_default_str()->check(atLeastOne());
     app.add_flag("--online", o.online, "online: each document is refined for --online.mint ms as it arrives (not reproducible)");
     app.add_option("--out.topics.online", o.out_topics_online, "online: each document's ML labels when its time was up")->capture_default_str();
     app.add_option("--out.ppx.online", o.out_ppx_online, "online: each document's perplexity when its time was up")->capture_default_str();
