@@ -188,6 +188,8 @@ read-only property (config.K, config.cell_space) documented by help(rost.Config)
                  return settingObject(c.settings, *spec);
              })
         .def("__eq__", [](const PyConfig& a, const PyConfig& b) { return toDict(a.settings).equal(toDict(b.settings)); })
+        // Anything else: NotImplemented, so `config == None` is False and `config in [1, config]` works.
+        .def("__eq__", [](const PyConfig&, const py::object&) { return py::reinterpret_borrow<py::object>(Py_NotImplemented); })
         .def("__repr__", [](const PyConfig& c) { return repr(c.settings); })
         .def(py::pickle([](const PyConfig& c) { return toDict(c.settings); },
                         [](const py::dict& d) {

@@ -94,3 +94,10 @@ def test_numpy_scalars_are_numbers():
 def test_unknown_attribute():
     with pytest.raises(AttributeError, match="no setting 'colour'"):
         rost.Config().colour
+
+
+def test_equality_with_another_type_is_false_not_an_error():
+    cfg = rost.Config(K=8)
+    assert cfg == rost.Config(K=8) and cfg != rost.Config(K=9)
+    assert not (cfg == None) and cfg != 3  # noqa: E711 (the comparison itself is what is tested)
+    assert cfg in [1, "K", cfg] and None not in [cfg]
