@@ -89,6 +89,9 @@ Status writeRefineOutputs(OutputDir& out, const RefineOptions& o, const StreamSt
 
 int refineCommand(const RefineOptions& o) {
     const auto started = std::chrono::steady_clock::now();
+    // Ctrl-C or SIGTERM from here on: exit 130, the staging directory removed
+    // (the reading and set-up run to their end first; they take moments).
+    InterruptScope interrupts;
     // Outputs first: an unwritable one fails before the input is read (nothing written).
     if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}); !st.ok()) return fail(st.message());
     OutputDir out;
@@ -105,7 +108,6 @@ int refineCommand(const RefineOptions& o) {
     if (Status st = collector.streamTo(out, false); !st.ok()) return fail(st.message());
     std::unique_ptr<CheckpointWriter> checkpoints;
     if (Status st = attachCheckpoints(*in.engine, o.model, checkpoints); !st.ok()) return fail(st.message());
-    InterruptScope interrupts;  // Ctrl-C or SIGTERM from here: exit 130, nothing written
     if (Status st = play(in, collector, o.quiet); !st.ok()) return fail(st.message());
     if (checkpoints)  // the state after the last observation
         if (Status st = finishCheckpoints(*checkpoints); !st.ok()) return fail(st.message());

@@ -116,6 +116,10 @@ int runCommand(const RunOptions& o) {
     using Clock = std::chrono::steady_clock;
     const auto started = Clock::now();
 
+    // A file run's Ctrl-C (or SIGTERM) abandons it, its final sweeps included
+    // (exit 130, the staging directory removed); a camera run's ends the
+    // capture and writes the outputs, and a second one kills as by default.
+    std::optional<InterruptScope> interrupts(std::in_place);
     // Set-up: everything that can fail on bad input fails here, before any output.
     WordsStage words;
     RunEngine engine;
@@ -143,9 +147,6 @@ int runCommand(const RunOptions& o) {
 
     // frames -> words -> engine -> sinks
     Capture capture(words, engine, sinks.frameRing, o.max_frames);
-    // A file run's Ctrl-C also ends its final sweeps (and the run, exit 130);
-    // a camera run's ends the capture, and a second one kills as by default.
-    std::optional<InterruptScope> interrupts(std::in_place);
     Progress progress(words.live ? "rost (Ctrl-C stops)" : "rost", engine.frames, o.quiet);
     if (!realtime) {
         playOffline(capture, *engine.engine, sinks, progress);
