@@ -62,6 +62,9 @@ struct MissionOptions {
     std::vector<std::string> given;  // keys the user set; the others the input may decide
     std::string resume;              // a checkpoint to carry on ("": a new mission)
     std::string in_topicmodel;       // a topicmodel.csv to start from ("": none)
+    // The other files the face reads (the stream and its positions, a
+    // settings file, a vocabulary): no output of the mission may be one.
+    std::vector<std::string> inputs;
     MissionNames names;
 
     bool isGiven(std::string_view key) const;
@@ -117,6 +120,15 @@ Status planMission(const MissionOptions& m, const MissionInput& input, MissionPl
 // The engine of a plan: made, the checkpoint's state loaded, the starting
 // topic model added. nullptr and `status` on failure, naming the option.
 std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& plan, Status& status);
+
+// An output of the mission besides its results (a checkpoint, a bag),
+// checked before any input is read, by every face: an unwritable path fails
+// at once; one that is an input (in_topicmodel or one of `inputs`, however
+// spelled, a link to it included) is refused, since writing there would
+// replace it. The checkpoint being resumed may be written again (a mission
+// carried on in place). Errors start with `name`, the face's name for the
+// output ("--checkpoint", "~checkpoint", "rost.Mission.save").
+Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path);
 
 // ---- a word stream's mission (`rost refine`, Python's rost.Mission) ----------------
 

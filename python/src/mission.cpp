@@ -36,7 +36,9 @@ public:
             st = openStreamMission(m, in, mission_);
         }
         if (!st.ok()) throw py::value_error("rost.Mission: " + st.message());
-        settings_ = m.settings;
+        m.inputs = {in.words, in.positions};
+        options_ = std::move(m);
+        settings_ = options_.settings;
         settings_.engine = mission_.plan.config;
         final_sweeps_ = settings_.final_sweeps;
     }
@@ -75,7 +77,9 @@ public:
 
     void save(const std::string& path) {
         BusyGuard guard(busy_, "rost.Mission");
-        Status st;
+        // The stream, its positions or the starting topic model would be replaced: refused.
+        Status st = checkMissionOutput(options_, "rost.Mission.save", path);
+        if (!st.ok()) throw std::runtime_error(st.message());
         {
             py::gil_scoped_release nogil;
             st = saveCheckpoint(*mission_.engine, path);
@@ -85,6 +89,7 @@ public:
 
 private:
     StreamMission mission_;
+    MissionOptions options_;
     Settings settings_;
     int final_sweeps_ = 0;
     bool played_ = false;
@@ -209,7 +214,8 @@ maximum-likelihood topics, as topics.csv). save(path) writes a checkpoint.)doc")
         .def("run", &PyMission::run, "Plays the observations still to play; returns their results (dict).")
         .def("save", [](PyMission& s, const py::object& path) { s.save(pathArgument(path, "rost.Mission.save: path")); },
              py::arg("path"),
-             "Writes the mission's checkpoint (rost run/refine --resume and rost.Model.load read it).")
+             "Writes the mission's checkpoint (rost run/refine --resume and rost.Model.load read it); "
+             "the mission's own input files are refused (RuntimeError).")
         .def("__len__", &PyMission::size, "Observations still to play.")
         .def_property_readonly("resuming", &PyMission::resuming)
         .def_property_readonly("skipped", &PyMission::skipped, "The checkpoint's observations skipped in the stream.")

@@ -176,3 +176,10 @@ def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
         rost.Mission(words, positions=positions, frame_width=20, frame_height=20)
     with pytest.raises(RuntimeError, match=r"rost\.Mission\.save: .*nodir"):
         m.save(tmp_path / "nodir" / "m.ckpt")
+    # The mission's own inputs would be replaced: refused by name, the file kept.
+    before = open(positions, "rb").read()
+    with pytest.raises(RuntimeError, match=r"rost\.Mission\.save: .*positions\.csv is an input of this run"):
+        m.save(positions)
+    with pytest.raises(RuntimeError, match=r"is the same file as the input .*words\.csv"):
+        m.save(os.path.join(os.path.dirname(words), "..", os.path.basename(os.path.dirname(words)), "words.csv"))
+    assert open(positions, "rb").read() == before

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "rost/config_file.hpp"
+#include "rost/text_io.hpp"
 #include "rost/topic_model_csv.hpp"
 
 namespace rost {
@@ -106,7 +107,31 @@ Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& pla
     return {};
 }
 
+// Whether two paths name one file: the same file where both exist (another
+// spelling, a link), else the same path once made absolute and normal.
+bool sameFile(const std::string& a, const std::string& b) {
+    std::error_code ec;
+    if (std::filesystem::equivalent(a, b, ec) && !ec) return true;
+    const std::filesystem::path pa = std::filesystem::weakly_canonical(a, ec);
+    if (ec) return false;
+    const std::filesystem::path pb = std::filesystem::weakly_canonical(b, ec);
+    return !ec && pa == pb;
+}
+
 } // namespace
+
+Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path) {
+    if (path.empty()) return {};
+    if (Status st = probeOutputFile(path); !st.ok()) return Status::error(name + ": " + st.message());
+    std::vector<std::string> read = m.inputs;
+    read.push_back(m.in_topicmodel);
+    for (const std::string& in : read)
+        if (!in.empty() && sameFile(path, in))
+            return Status::error(name + ": " + path +
+                                 (path == in ? " is an input of this run" : " is the same file as the input " + in) +
+                                 ": writing there would replace it");
+    return {};
+}
 
 bool MissionOptions::isGiven(std::string_view key) const {
     return std::find(given.begin(), given.end(), key) != given.end();

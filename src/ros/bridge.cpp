@@ -121,6 +121,7 @@ MissionOptions Pipeline::Impl::missionOptions() const {
     m.settings = settings;
     m.given = givenSettings.impl().given;
     m.resume = options.resume;
+    m.inputs = {options.vocabulary};
     m.names.setting = spelled;
     m.names.given = [](const SettingSpec& s, const std::string& v) { return spelled(s) + " = " + v; };
     m.names.leave = spelled;
@@ -181,6 +182,9 @@ std::unique_ptr<Pipeline> Pipeline::create(const NodeSettings& settings, const O
     if (const std::string bad = settings.validate(); !bad.empty()) return error = bad, nullptr;
     // ~resume: what the checkpoint fixes against the parameters, at start-up (not at the first image).
     if (Status st = checkMission(impl->missionOptions(), impl->plan); !st.ok()) return error = st.message(), nullptr;
+    // ~checkpoint: writable, and not the vocabulary it would replace (~resume's own file may be carried on).
+    if (Status st = checkMissionOutput(impl->missionOptions(), "~checkpoint", options.checkpoint); !st.ok())
+        return error = st.message(), nullptr;
     if (error = impl->makeExtractor(); !error.empty()) return nullptr;
     return std::unique_ptr<Pipeline>(new Pipeline(std::move(impl)));
 }

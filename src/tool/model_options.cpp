@@ -1,5 +1,4 @@
 #include <algorithm>
-#include <filesystem>
 #include <cstdio>
 #include <optional>
 #include <sstream>
@@ -14,7 +13,6 @@
 
 namespace rost::tool {
 
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -92,37 +90,13 @@ std::string settingProblemText(const ModelOptions& m, const SettingProblem& p) {
     return p.describe(optionNames);
 }
 
-namespace {
-
-// Whether two paths name one file: the same file where both exist (another
-// spelling, a link), else the same path once made absolute and normal.
-bool sameFile(const std::string& a, const std::string& b) {
-    std::error_code ec;
-    if (fs::equivalent(a, b, ec) && !ec) return true;
-    const fs::path pa = fs::weakly_canonical(a, ec);
-    if (ec) return false;
-    const fs::path pb = fs::weakly_canonical(b, ec);
-    return !ec && pa == pb;
-}
-
-} // namespace
-
 Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs) {
-    std::vector<std::string> read = inputs;
-    for (const std::string* p : {&m.in_topicmodel, &m.config})
-        if (!p->empty()) read.push_back(*p);
-    const std::pair<const char*, const std::string*> outputs[] = {{"--checkpoint", &m.checkpoint}, {"--out.bag", &outBag}};
-    for (const auto& [option, path] : outputs) {
-        if (path->empty()) continue;
-        if (Status st = probeOutputFile(*path); !st.ok()) return Status::error(std::string(option) + ": " + st.message());
-        // (--resume FILE --checkpoint FILE is a mission carried on in place: the resumed file is not an input here.)
-        for (const std::string& in : read)
-            if (!in.empty() && sameFile(*path, in))
-                return Status::error(std::string(option) + ": " + *path +
-                                     (*path == in ? " is an input of this run" : " is the same file as the input " + in) +
-                                     ": writing there would replace it");
-    }
-    return {};
+    MissionOptions mo;
+    mo.in_topicmodel = m.in_topicmodel;
+    mo.inputs = inputs;
+    mo.inputs.push_back(m.config);
+    if (Status st = checkMissionOutput(mo, "--checkpoint", m.checkpoint); !st.ok()) return st;
+    return checkMissionOutput(mo, "--out.bag", outBag);
 }
 
 MissionOptions missionOptions(const ModelOptions& m) {

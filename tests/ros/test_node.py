@@ -207,6 +207,14 @@ def run():
     out = trunc.stdout.decode(errors="replace")
     check(trunc.returncode == 2 and "~resume: " + short in out and "listening" not in out,
           "~resume of a truncated checkpoint: exit %d at start-up, naming it" % trunc.returncode)
+    # ~checkpoint naming the node's own input (its vocabulary) would replace it: refused at start-up.
+    over = subprocess.run([os.path.join(build, "rost_node"), "__name:=rost5", "_vocabulary:=" + short,
+                           "_checkpoint:=" + short], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                          env=os.environ, timeout=60)
+    out = over.stdout.decode(errors="replace")
+    check(over.returncode == 2 and "~checkpoint: " + short + " is an input of this run" in out and
+          os.path.getsize(short) == 4096,
+          "~checkpoint over ~vocabulary: exit %d at start-up, naming it, the file kept" % over.returncode)
 
     listed = subprocess.run([os.path.join(build, "rost_node"), "--params"], stdout=subprocess.PIPE,
                             check=True).stdout.decode()
