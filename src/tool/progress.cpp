@@ -6,6 +6,8 @@
 #include <csignal>
 #include <cstdio>
 
+#include "tool.hpp"
+
 namespace rost::tool {
 
 bool stderrIsTerminal() noexcept { return ::isatty(STDERR_FILENO) == 1; }
@@ -16,6 +18,11 @@ extern "C" void onInterrupt(int) { g_interrupted.store(true, std::memory_order_r
 } // namespace
 
 const std::atomic<bool>& interruptFlag() noexcept { return g_interrupted; }
+
+int abandonedRun() {
+    std::fputs("rost: interrupted; no outputs written\n", stderr);
+    return kExitInterrupted;
+}
 
 InterruptScope::InterruptScope() noexcept {
     g_interrupted.store(false, std::memory_order_relaxed);  // an earlier command's (tests run several in one process)

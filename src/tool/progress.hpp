@@ -52,5 +52,9 @@ private:
 };
 const std::atomic<bool>& interruptFlag() noexcept;
 inline bool interrupted() noexcept { return interruptFlag().load(std::memory_order_relaxed); }
+// A file run abandoned by a signal: says so on stderr ("rost: interrupted;
+// no outputs written") and returns the exit code, 130 (kExitInterrupted).
+// The staging directory goes with the command's OutputDir.
+int abandonedRun();
 
 } // namespace rost::tool

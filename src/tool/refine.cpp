@@ -115,12 +115,12 @@ int refineCommand(const RefineOptions& o) {
     if (collector.lost() > 0)  // drained after each observation: a bug, never the input's fault
         return fail("internal error: " + std::to_string(collector.lost()) + " result records lost");
 
-    if (interrupted()) return std::fputs("rost: interrupted; no outputs written\n", stderr), kExitInterrupted;
+    if (interrupted()) return abandonedRun();
     collector.finish(o.model.settings.final_sweeps, &interruptFlag());
-    if (interrupted()) return std::fputs("rost: interrupted; no outputs written\n", stderr), kExitInterrupted;
+    if (interrupted()) return abandonedRun();
     Status st = collector.closeStreams();
     if (st.ok()) st = writeRefineOutputs(out, o, in, collector);
-    if (st.ok() && interrupted()) return std::fputs("rost: interrupted; no outputs written\n", stderr), kExitInterrupted;
+    if (st.ok() && interrupted()) return abandonedRun();
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) {

@@ -159,12 +159,12 @@ int runCommand(const RunOptions& o) {
     if (sinks.checkpoints && !sinks.collector.rows().empty())  // the state after the last observation (if any came)
         if (Status st = finishCheckpoints(*sinks.checkpoints); !st.ok()) return fail(st.message());
     if (!capture.readError().empty()) return fail(capture.readError());
-    if (interrupted() && !words.live) return std::fprintf(stderr, "rost: interrupted; no outputs written\n"), kExitInterrupted;
+    if (interrupted() && !words.live) return abandonedRun();
     if (const std::string why = runFailure(o, words, engine, capture, sinks.collector); !why.empty()) return fail(why);
 
     // End of stream: final sweeps and labels, then the files.
     sinks.collector.finish(o.model.settings.final_sweeps, words.live ? nullptr : &interruptFlag());
-    if (interrupted() && !words.live) return std::fprintf(stderr, "rost: interrupted; no outputs written\n"), kExitInterrupted;
+    if (interrupted() && !words.live) return abandonedRun();
     if (Status st = sinks.collector.closeStreams(); !st.ok()) return fail(st.message());
     sinks.frames.drainFrames();
     sinks.overlay.close();
@@ -179,8 +179,7 @@ int runCommand(const RunOptions& o) {
                                   {"run.txt", [&] { return report.text(); }}});
     if (st.ok() && o.summary)
         st = writeRunSummary(out, o, words, engine, sinks.frames, sinks.thumbs, sinks.collector.rows());
-    if (st.ok() && interrupted() && !words.live)
-        return std::fprintf(stderr, "rost: interrupted; no outputs written\n"), kExitInterrupted;
+    if (st.ok() && interrupted() && !words.live) return abandonedRun();
     if (st.ok()) st = sinks.bag.finish(sinks.collector.rows());
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
