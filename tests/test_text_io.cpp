@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <limits>
 #include <string>
@@ -348,6 +349,42 @@ TEST(TextFiles, ADeviceOrFifoIsWrittenInPlaceNotReplaced) {
     EXPECT_EQ(d.names(), Strings{"pipe"});  // no temporary file left
 }
 
+// What `write` returns when run in a forked child whose files may not grow
+// past 1 KiB (a full disk, as the process sees it): the child passes the
+// status back through a pipe. An ok status when the child died otherwise is
+// never returned: that is a test failure here.
+namespace {
+
+rost::Status underFileSizeLimit(const std::function<rost::Status()>& write) {
+    int fds[2];
+    if (::pipe(fds) != 0) return rost::Status::error("pipe failed");
+    const pid_t pid = ::fork();
+    if (pid < 0) return rost::Status::error("fork failed");
+    if (pid == 0) {
+        ::close(fds[0]);
+        std::signal(SIGXFSZ, SIG_IGN);
+        const rlimit lim{1024, 1024};
+        ::setrlimit(RLIMIT_FSIZE, &lim);
+        const rost::Status st = write();
+        const std::string text = st.ok() ? std::string("ok") : "error:" + st.message();
+        const bool sent = ::write(fds[1], text.data(), text.size()) == static_cast<ssize_t>(text.size());
+        ::_exit(sent ? 0 : 1);
+    }
+    ::close(fds[1]);
+    std::string text;
+    char buf[512];
+    for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0;) text.append(buf, static_cast<std::size_t>(n));
+    ::close(fds[0]);
+    int status = 0;
+    const bool exited = ::waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    EXPECT_TRUE(exited) << "the child under the file size limit did not finish";
+    EXPECT_NE(text, "ok") << "a write past the file size limit succeeded";
+    if (text.rfind("error:", 0) == 0) return rost::Status::error(text.substr(6));
+    return rost::Status::error("no status from the child (" + text + ")");
+}
+
+} // namespace
+
 // A run's outputs are written all or none: a write that fails (a full disk:
 // here a child limited to 1 KiB files) on the second of three leaves all
 // three as an earlier run left them, no file of the new run among them.
@@ -356,20 +393,11 @@ TEST(TextFiles, FilesWrittenTogetherAreAllOrNone) {
     const std::string a = (d.path / "a.csv").string(), b = (d.path / "b.csv").string(), c = (d.path / "c.csv").string();
     for (const std::string& p : {a, b, c}) ASSERT_TRUE(text::writeFileAtomic(p, "old\n").ok());
     const std::string big(1 << 16, 'x');
-    const pid_t pid = ::fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) {
-        std::signal(SIGXFSZ, SIG_IGN);
-        const rlimit lim{1024, 1024};
-        ::setrlimit(RLIMIT_FSIZE, &lim);
+    const rost::Status st = underFileSizeLimit([&] {
         const text::FileToWrite files[] = {{a, "new\n"}, {b, big}, {c, "new\n"}};
-        const rost::Status st = text::writeFilesAtomic(files);
-        ::_exit(!st.ok() && st.message().rfind(b + ": write failed: ", 0) == 0 ? 0 : 1);
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-    ASSERT_TRUE(WIFEXITED(status));
-    EXPECT_EQ(WEXITSTATUS(status), 0);
+        return text::writeFilesAtomic(files);
+    });
+    EXPECT_EQ(st.message().rfind(b + ": write failed: ", 0), 0u) << st.message();
     for (const std::string& p : {a, b, c}) EXPECT_EQ(slurp(p), "old\n") << p;
     EXPECT_EQ(d.names(), (Strings{"a.csv", "b.csv", "c.csv"}));
     // Written whole when nothing fails, a device in place among them.
@@ -386,19 +414,9 @@ TEST(TextFiles, AFailedWriteLeavesTheOldFile) {
     const fs::path path = d.path / "words.csv";
     ASSERT_TRUE(text::writeFileAtomic(path.string(), "old\n").ok());
     // In a child limited to 1 KiB files, a 64 KiB write fails part-way.
-    const pid_t pid = ::fork();
-    ASSERT_GE(pid, 0);
-    if (pid == 0) {
-        std::signal(SIGXFSZ, SIG_IGN);
-        const rlimit lim{1024, 1024};
-        ::setrlimit(RLIMIT_FSIZE, &lim);
-        const rost::Status st = text::writeFileAtomic(path.string(), std::string(1 << 16, 'x'));
-        ::_exit(!st.ok() && st.message().find("words.csv: write failed: ") != std::string::npos ? 0 : 1);
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-    ASSERT_TRUE(WIFEXITED(status));
-    EXPECT_EQ(WEXITSTATUS(status), 0);
+    const rost::Status st =
+        underFileSizeLimit([&] { return text::writeFileAtomic(path.string(), std::string(1 << 16, 'x')); });
+    EXPECT_NE(st.message().find("words.csv: write failed: "), std::string::npos) << st.message();
     EXPECT_EQ(slurp(path), "old\n");
     EXPECT_EQ(d.names(), Strings{"words.csv"});
 }
