@@ -44,6 +44,15 @@ std::string openError(const std::string& input) {
     return st.message();
 }
 
+// An MJPG clip of `frames` 64 x 48 patterned frames (patterned(64, 48, i)) at 12 fps.
+bool writeClip(const std::string& path, int frames) {
+    cv::VideoWriter w(path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 12.0, cv::Size(64, 48));
+    if (!w.isOpened()) return false;
+    for (int i = 0; i < frames; ++i) w.write(patterned(64, 48, i));
+    w.release();
+    return true;
+}
+
 } // namespace
 
 TEST(VisionSources, ImageDirectoryIsReadInNameOrderAtTheFirstImagesSize) {
@@ -92,10 +101,7 @@ TEST(VisionSources, GlobSelectsMatchingFilesAndOptionsResize) {
 
 TEST(VisionSources, VideoFileGivesItsFramesSizeAndRate) {
     TempDir t;
-    cv::VideoWriter w(t / "clip.avi", cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 12.0, cv::Size(64, 48));
-    ASSERT_TRUE(w.isOpened());
-    for (int i = 0; i < 9; ++i) w.write(patterned(64, 48, i));
-    w.release();
+    ASSERT_TRUE(writeClip(t / "clip.avi", 9));
     Status st;
     auto src = openFrameSource(t / "clip.avi", {}, st);
     ASSERT_TRUE(src) << st.message();
@@ -117,10 +123,7 @@ TEST(VisionSources, VideoFileGivesItsFramesSizeAndRate) {
 // would pass half a mission off as all of it; the whole file ends cleanly.
 TEST(VisionSources, AVideoCutShortIsAnErrorNamingTheFramesDecoded) {
     TempDir t;
-    cv::VideoWriter w(t / "clip.avi", cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 12.0, cv::Size(64, 48));
-    ASSERT_TRUE(w.isOpened());
-    for (int i = 0; i < 120; ++i) w.write(patterned(64, 48, i));
-    w.release();
+    ASSERT_TRUE(writeClip(t / "clip.avi", 120));
     const std::string whole = rost::testing::readText(t / "clip.avi");
     rost::testing::writeText(t / "cut.avi", whole.substr(0, whole.size() / 2));
     for (const char* name : {"clip.avi", "cut.avi"}) {
