@@ -419,6 +419,17 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i big.csv -V 40 -K 4");
     EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err, "topics.refine.t: big.csv:2:5: word id 40 out of range [0, 40)\n");
+    // V not given: a word beyond the most V may be is named where it is, and so is a
+    // position beyond the largest frame.
+    writeText(dir + "/huge.csv", "0,1,2\n1,3,4294967295\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i huge.csv -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: huge.csv:2:5: word id 4294967295 out of range [0, 16777216)\n");
+    writeText(dir + "/far.csv", "0,1,1,2,2\n1,2147483646,0,1,1\n");
+    writeText(dir + "/w2.csv", "0,1,2\n1,3,4\n");
+    r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w2.csv --in.position far.csv -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.txy: far.csv:2:3: x 2147483646 out of range [0, 65536)\n");
     writeText(dir + "/p.csv", "0,1,2\n1,3,40,5\n");
     writeText(dir + "/w.csv", "0,1\n1,3,4\n");
     r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position p.csv -V 40 -K 4");

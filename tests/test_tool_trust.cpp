@@ -505,6 +505,12 @@ TEST(ToolTrust, HostileWordStreamsAndVideosGetOneLineErrorsWithExitCode2) {
                 (t / "p.csv") + ":1:7: position (99999999999, 5) outside the frame", t / "o");
     expectError(refineIt(words, "0,0,0,5000,5\n1,0,0,1,1\n", "--width 640 --height 480"),
                 (t / "p.csv") + ":1:7: position (5000, 5) outside the frame 640x480", t / "o");
+    // Beyond the largest frame and V the schema allows, with neither given: the
+    // data's place named, not a setting out of range (and no int overflow).
+    expectError(refineIt(words, "0,0,0,1,1\n1,2147483647,3,1,1\n", ""),
+                (t / "p.csv") + ":2:3: position (2147483647, 3) outside the frame 65536x65536", t / "o");
+    expectError(refineIt("0,1,2\n1,16777216,4\n", "", ""),
+                (t / "w.csv") + ":2:3: word id 16777216 out of range [0, 16777216)", t / "o");
     std::string enormous = "0";
     for (int i = 0; i < 5000; ++i) enormous += ",1";
     // max.words given: a longer observation is an error naming the line; not given, it is the

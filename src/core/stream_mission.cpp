@@ -15,9 +15,15 @@ Status readStream(const MissionOptions& m, const StreamMissionInput& in, StreamM
     const Config& given = m.settings.engine.model;
     const Config& fixed = out.plan.config.model;
     const bool resuming = out.plan.resuming;
-    limits.vocabulary = resuming ? static_cast<uint32_t>(fixed.V) : m.isGiven("V") ? static_cast<uint32_t>(given.V) : 0;
-    limits.width = resuming ? fixed.frame_width : in.width;
-    limits.height = resuming ? fixed.frame_height : in.height;
+    // V and the frame: the checkpoint's or the user's, else the most the
+    // schema allows (the data decide within it: a word id or a position
+    // beyond it is an error naming file:line:col, not a setting out of range).
+    const auto mostV = static_cast<int32_t>(settingSpec("V").hi);
+    const auto mostWidth = static_cast<int32_t>(settingSpec("frame.width").hi);
+    const auto mostHeight = static_cast<int32_t>(settingSpec("frame.height").hi);
+    limits.vocabulary = static_cast<uint32_t>(resuming ? fixed.V : m.isGiven("V") ? given.V : mostV);
+    limits.width = resuming ? fixed.frame_width : in.width > 0 ? in.width : mostWidth;
+    limits.height = resuming ? fixed.frame_height : in.height > 0 ? in.height : mostHeight;
     // max.words (the checkpoint's, or set): longer observations are an error
     // here; otherwise max.words is the longest observation's size (planFromData).
     if (resuming || m.isGiven("max.words"))

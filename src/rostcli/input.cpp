@@ -100,7 +100,9 @@ Status takeDocument(const std::vector<Field>& fields, std::string_view name, int
     return {};
 }
 
-int64_t wordLimit(uint32_t V) { return V == 0 ? int64_t{std::numeric_limits<uint32_t>::max()} : int64_t{V}; }
+// V given, or else the most the schema allows: a word id beyond it is an
+// error naming its line and column, not a V out of range naming none.
+int64_t wordLimit(uint32_t V) { return V == 0 ? settingSpec("V").hi : int64_t{V}; }
 
 } // namespace
 
@@ -201,15 +203,17 @@ Status parseInitialTopics(std::string_view text, std::string_view name, std::str
 }
 
 Status parsePositions(std::string_view text, std::string_view name, std::string_view delim, Corpus& corpus) {
-    const int64_t hi = std::numeric_limits<int32_t>::max();
+    // The frame the positions make is at most the schema's (a position beyond
+    // it is an error naming its line and column).
+    const int64_t hiX = settingSpec("frame.width").hi, hiY = settingSpec("frame.height").hi;
     return readSideFile(text, name, delim, "position", 2, "coordinates", "x,y per word", corpus,
                         [&](const std::vector<Field>& fields, int number, Document& d) -> Status {
                             d.positions.resize(d.words.size());
                             for (std::size_t i = 0; i < d.words.size(); ++i) {
                                 int64_t x = 0, y = 0;
-                                if (Status st = parseCoordinate(fields[1 + 2 * i], name, number, "x", hi, x); !st.ok())
+                                if (Status st = parseCoordinate(fields[1 + 2 * i], name, number, "x", hiX, x); !st.ok())
                                     return st;
-                                if (Status st = parseCoordinate(fields[2 + 2 * i], name, number, "y", hi, y); !st.ok())
+                                if (Status st = parseCoordinate(fields[2 + 2 * i], name, number, "y", hiY, y); !st.ok())
                                     return st;
                                 d.positions[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
                                 corpus.max_x = std::max(corpus.max_x, static_cast<int32_t>(x));
