@@ -208,6 +208,14 @@ TEST(ToolCli, RefineRunsAWordStreamWithoutPositionsAndWritesItsOutputs) {
     EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/topicmodel.csv")).size(), 4u);
     EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/perplexity.csv")).size(), 31u);
     EXPECT_TRUE(std::filesystem::exists(t / "o/summary.png"));
+    // Run again into the same directory without a summary: the earlier run's
+    // summary.png goes (it would pass for this run's), the user's own file stays.
+    rost::testing::writeText(t / "o/notes.txt", "mine\n");
+    const RunResult again = runRost("refine " + (t / "words.csv") + " --out " + (t / "o") + " -K 3 -q --no-summary");
+    ASSERT_EQ(again.exit_code, 0) << again.err;
+    EXPECT_FALSE(std::filesystem::exists(t / "o/summary.png")) << "an earlier run's summary left beside this run's files";
+    EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/topicmodel.csv")).size(), 3u);
+    EXPECT_EQ(rost::testing::readText(t / "o/notes.txt"), "mine\n");
 }
 
 TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {

@@ -44,8 +44,9 @@ Status OutputDir::open(const std::string& dir) {
     return {};
 }
 
-Status OutputDir::probe(std::initializer_list<std::string_view> names) const {
+Status OutputDir::probe(std::initializer_list<std::string_view> names) {
     for (std::string_view name : names) {
+        names_.emplace_back(name);
         const std::string path = final(std::string(name));
         std::error_code ec;
         if (fs::is_directory(path, ec)) return Status::error(path + ": is a directory, not a file that can be written");
@@ -73,6 +74,9 @@ Status OutputDir::commit() {
     std::error_code ec;
     fs::remove_all(staging_, ec);
     committed_ = true;
+    for (const auto& name : names_)  // an earlier run's file this run does not write
+        if (std::find(files_.begin(), files_.end(), name) == files_.end() && fs::is_regular_file(final(name), ec))
+            fs::remove(final(name), ec);
     return {};
 }
 

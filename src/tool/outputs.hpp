@@ -36,12 +36,15 @@ public:
     // Path of a file in the staging directory.
     std::string staged(const std::string& name) const { return staging_ + "/" + name; }
     std::string final(const std::string& name) const { return dir_ + "/" + name; }
-    // Before any work: the files this run will move into place there, none
+    // Before any work: the files this command may move into place there, none
     // taken by a directory (the move would fail after the work).
-    Status probe(std::initializer_list<std::string_view> names) const;
+    Status probe(std::initializer_list<std::string_view> names);
     // Writes a whole file into staging.
     Status write(const std::string& name, const std::string& content);
-    // Renames every staged file into the output directory; removes staging.
+    // Renames every staged file into the output directory; removes staging,
+    // and the files of probe()'s names this run did not write (an earlier
+    // run's summary.png beside a --no-summary run's files): the directory
+    // holds one run's outputs.
     Status commit();
     // Removes the staging directory and everything in it.
     void abandon() noexcept;
@@ -52,6 +55,7 @@ public:
 private:
     std::string dir_, staging_;
     std::vector<std::string> files_;
+    std::vector<std::string> names_;    // probe()'s: every file this command may write
     std::vector<std::string> created_;  // directories open() made, outermost first
     bool committed_ = false;
 };
