@@ -77,6 +77,12 @@ public:
         const Config& c = model().config();
         const ObservationArrays obs = viewObservation(words, positions, static_cast<uint32_t>(c.V), c.frame_width,
                                                       c.frame_height);
+        // topics(t) and ml_topics(t) find an observation by its time stamp:
+        // a second one in the window would hide the first.
+        if (const auto it = by_time_.find(t); it != by_time_.end() && model().observationInWindow(it->second))
+            throw py::value_error("rost.Model.add_observation: time stamp " + std::to_string(t) +
+                                  " is already an observation's in the window (topics(t) looks it up by its time "
+                                  "stamp: give each observation its own)");
         last_input_ = obs.words.data();
         last_positions_ = obs.positions.data();
         ObservationResult r;

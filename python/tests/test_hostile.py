@@ -251,6 +251,20 @@ def test_unwritable_vocabulary_fails_before_the_training(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["in", "taken"]
 
 
+def test_a_repeated_time_stamp_in_the_window_is_refused_and_changes_nothing():
+    m = rost.Model(rost.Config(K=4, V=10, frame_width=1, frame_height=1, ring_steps=4))
+    m.add_observation(0, np.array([1, 2, 3], np.int32))
+    m.add_observation(1, np.array([4, 5], np.int32))
+    with pytest.raises(ValueError, match=r"time stamp 0 is already an observation's in the window"):
+        m.add_observation(0, np.array([6], np.int32))
+    assert m.observations == 2 and list(m.timestamps()) == [0, 1]
+    assert len(m.topics(0)) == 3, "the first observation at 0 is still the one topics(0) finds"
+    for t in range(2, 8):  # 0 leaves the 4-step window: its time stamp may come again
+        m.add_observation(t, np.array([7], np.int32))
+    m.add_observation(0, np.array([8, 9], np.int32))
+    assert len(m.topics(0)) == 2
+
+
 def test_unwritable_output_python_raises(tmp_path):
     m = rost.Model(rost.Config(V=10, frame_width=64, frame_height=64))
     m.add_observation(0, np.arange(10, dtype=np.int32), np.zeros((10, 2), np.int32))
