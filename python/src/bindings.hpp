@@ -8,7 +8,9 @@
 #include <atomic>
 #include <cstdint>
 #include <span>
+#include <initializer_list>
 #include <string>
+#include <utility>
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -40,6 +42,12 @@ void check(const Status& st);
 
 // A path argument as text: str or os.PathLike (TypeError naming the argument otherwise).
 std::string pathArgument(const py::handle& value, const char* what);
+
+// Raises FileNotFoundError ("WHAT: no such file: 'PATH'") for the first of
+// `files` (pairs of what names it and its path; an empty path is skipped)
+// that does not exist: every face's missing input file is the one Python
+// exception, as open() raises it.
+void filesMustExist(const char* what, std::initializer_list<std::pair<const char*, std::string>> files);
 
 // An object that cannot be pickled or copied: pickle.dumps and copy.deepcopy
 // raise TypeError with `message` (which says what to do instead).

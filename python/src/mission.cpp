@@ -6,6 +6,7 @@
 // labels and perplexities as rost refine's topics.csv and perplexity.csv.
 
 #include <atomic>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,6 +28,8 @@ public:
         StreamMissionInput in;
         in.words = pathArgument(words, "rost.Mission: words");
         if (!positions.is_none()) in.positions = pathArgument(positions, "rost.Mission: positions");
+        filesMustExist("rost.Mission", {{"resume", m.resume}, {"words", in.words}, {"positions", in.positions},
+                                        {"topicmodel", m.in_topicmodel}});
         in.width = width;  // frame_width/frame_height given as settings: the library's rule
         in.height = height;
         in.base.threads = m.settings.engine.model.threads;
@@ -108,6 +111,16 @@ std::string pathArgument(const py::handle& value, const char* what) {
     }
     throw py::type_error(std::string(what) + ": expected a path (str or os.PathLike), found " +
                          std::string(py::str(py::type::handle_of(value).attr("__name__"))));
+}
+
+void filesMustExist(const char* what, std::initializer_list<std::pair<const char*, std::string>> files) {
+    for (const auto& [name, path] : files) {
+        std::error_code ec;
+        if (path.empty() || std::filesystem::exists(path, ec)) continue;
+        PyErr_SetString(PyExc_FileNotFoundError,
+                        (std::string(what) + ": " + name + ": no such file: '" + path + "'").c_str());
+        throw py::error_already_set();
+    }
 }
 
 bool keepRunning() {

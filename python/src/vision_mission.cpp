@@ -47,6 +47,11 @@ public:
         const std::vector<std::string> paths = inputList(inputs);
         const std::string vocabularyPath =
             vocabulary.is_none() ? std::string() : pathArgument(vocabulary, "rost.vision.Mission: vocabulary");
+        filesMustExist("rost.vision.Mission", {{"resume", m.resume}, {"topicmodel", m.in_topicmodel},
+                                               {"vocabulary", vocabularyPath}});
+        for (const std::string& p : paths)  // a file or directory (not a camera or a glob) that is not there
+            if (!vision::isCameraInput(p) && p.find_first_of("*?[") == std::string::npos)
+                filesMustExist("rost.vision.Mission", {{"inputs", p}});
         Status st;
         {
             py::gil_scoped_release nogil;  // opening a video and the vocabulary take a while

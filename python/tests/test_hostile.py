@@ -20,6 +20,8 @@ import numpy as np
 import pytest
 
 import rost
+import rost.io
+import rost.vision
 
 TOOL = os.environ.get("ROST_TOOL")
 CLI_DIR = os.environ.get("ROST_CLI_DIR")
@@ -249,6 +251,28 @@ def test_unwritable_vocabulary_fails_before_the_training(tmp_path):
         code, err = tool(tmp_path, "vocab", d, "--out", target, "--words", "100", "-q")
         refused(code, err, why)  # before any frame is read
     assert sorted(os.listdir(tmp_path)) == ["in", "taken"]
+
+
+def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
+    """The one Python exception for a missing input, named, whichever face reads it."""
+    words = tmp_path / "w.csv"
+    words.write_text("0,1,2\n1,3\n")
+    nope = str(tmp_path / "nope")
+    cases = [
+        (lambda: rost.Mission(nope), "rost.Mission: words: no such file"),
+        (lambda: rost.Mission(words, positions=nope), "rost.Mission: positions: no such file"),
+        (lambda: rost.Mission(words, resume=nope), "rost.Mission: resume: no such file"),
+        (lambda: rost.Mission(words, topicmodel=nope), "rost.Mission: topicmodel: no such file"),
+        (lambda: rost.vision.Mission(nope + ".mov"), "rost.vision.Mission: inputs: no such file"),
+        (lambda: rost.vision.Mission(str(tmp_path), vocabulary=nope), "rost.vision.Mission: vocabulary: no such file"),
+        (lambda: rost.Model.load(nope), "no such file"),
+        (lambda: rost.io.read_words(nope), "cannot open"),
+        (lambda: rost.vision.Vocabulary.load(nope), "no such file"),
+    ]
+    for make, message in cases:
+        with pytest.raises(FileNotFoundError, match=message) as e:
+            make()
+        assert "nope" in str(e.value), str(e.value)
 
 
 def test_a_repeated_time_stamp_in_the_window_is_refused_and_changes_nothing():

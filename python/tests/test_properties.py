@@ -1,5 +1,7 @@
 """Property tests (hypothesis): bad arrays and settings raise TypeError or ValueError, never crash."""
 
+import itertools
+
 import numpy as np
 from hypothesis import example, given, settings, strategies as st
 from hypothesis.extra import numpy as hnp
@@ -15,6 +17,7 @@ ARRAYS = DTYPES.flatmap(lambda d: hnp.arrays(d, SHAPES, elements=None if d != np
 ANYTHING = st.one_of(st.none(), ARRAYS, st.integers(), st.text(max_size=3), st.lists(st.integers(), max_size=4))
 
 MODEL = rost.Model(small_config(ring_steps=8))
+STAMPS = itertools.count()
 ENGINE = rost.Engine(small_config(queue_slots=4))
 TOPICS = rost.Model(small_config())
 
@@ -38,7 +41,7 @@ def accepted(words, positions):
 def test_add_observation_raises_or_adds(words, positions):
     before = MODEL.observations
     try:
-        MODEL.add_observation(1, words, positions)
+        MODEL.add_observation(next(STAMPS), words, positions)  # each its own: a time stamp in the window is refused
         ok = True
     except (TypeError, ValueError):
         ok = False
