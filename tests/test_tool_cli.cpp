@@ -209,13 +209,20 @@ TEST(ToolCli, RefineRunsAWordStreamWithoutPositionsAndWritesItsOutputs) {
     EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/perplexity.csv")).size(), 31u);
     EXPECT_TRUE(std::filesystem::exists(t / "o/summary.png"));
     // Run again into the same directory without a summary: the earlier run's
-    // summary.png goes (it would pass for this run's), the user's own file stays.
-    rost::testing::writeText(t / "o/notes.txt", "mine\n");
-    const RunResult again = runRost("refine " + (t / "words.csv") + " --out " + (t / "o") + " -K 3 -q --no-summary");
+    // summary.png could pass for this run's, so it is named; it is kept (whose
+    // it is is not known: it may be the user's), as is any other file there.
+    const std::string summary = rost::testing::readText(t / "o/summary.png");
+    const RunResult again = runRost("refine " + (t / "words.csv") + " --out " + (t / "o") + " -K 3 --no-summary");
     ASSERT_EQ(again.exit_code, 0) << again.err;
-    EXPECT_FALSE(std::filesystem::exists(t / "o/summary.png")) << "an earlier run's summary left beside this run's files";
+    EXPECT_NE(again.err.find("rost: note: not written by this run, kept from before in " + (t / "o") + ": summary.png\n"),
+              std::string::npos)
+        << again.err;
+    EXPECT_EQ(rost::testing::readText(t / "o/summary.png"), summary);
     EXPECT_EQ(rost::testing::lines(rost::testing::readText(t / "o/topicmodel.csv")).size(), 3u);
-    EXPECT_EQ(rost::testing::readText(t / "o/notes.txt"), "mine\n");
+    // Every file written: no note.
+    const RunResult whole = runRost("refine " + (t / "words.csv") + " --out " + (t / "o") + " -K 3");
+    ASSERT_EQ(whole.exit_code, 0) << whole.err;
+    EXPECT_EQ(whole.err.find("not written by this run"), std::string::npos) << whole.err;
 }
 
 TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {

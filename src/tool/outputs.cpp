@@ -74,10 +74,20 @@ Status OutputDir::commit() {
     std::error_code ec;
     fs::remove_all(staging_, ec);
     committed_ = true;
-    for (const auto& name : names_)  // an earlier run's file this run does not write
-        if (std::find(files_.begin(), files_.end(), name) == files_.end() && fs::is_regular_file(final(name), ec))
-            fs::remove(final(name), ec);
     return {};
+}
+
+std::string OutputDir::earlierFilesNote() const {
+    std::string names;
+    for (const auto& name : names_) {
+        std::error_code ec;
+        if (std::find(files_.begin(), files_.end(), name) != files_.end() || !fs::is_regular_file(final(name), ec))
+            continue;
+        names += names.empty() ? " " : ", ";
+        names += name;
+    }
+    if (names.empty()) return {};
+    return "rost: note: not written by this run, kept from before in " + dir_ + ":" + names + "\n";
 }
 
 void OutputDir::abandon() noexcept {

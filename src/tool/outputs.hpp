@@ -41,11 +41,13 @@ public:
     Status probe(std::initializer_list<std::string_view> names);
     // Writes a whole file into staging.
     Status write(const std::string& name, const std::string& content);
-    // Renames every staged file into the output directory; removes staging,
-    // and the files of probe()'s names this run did not write (an earlier
-    // run's summary.png beside a --no-summary run's files): the directory
-    // holds one run's outputs.
+    // Renames every staged file into the output directory; removes staging.
     Status commit();
+    // After commit(): a note naming the files of probe()'s names there that
+    // this run did not write (an earlier run's summary.png beside a
+    // --no-summary run's files), which could pass for this run's; "" when
+    // none. They are kept: whose they are is not known here.
+    std::string earlierFilesNote() const;
     // Removes the staging directory and everything in it.
     void abandon() noexcept;
     const std::string& dir() const noexcept { return dir_; }

@@ -127,6 +127,7 @@ int refineCommand(const RefineOptions& o) {
         uint64_t offered = 0;
         for (const auto& ob : in.todo()) offered += ob.words.size();
         std::fputs(WordDrops::of(offered, collector).note(in.ec.model).c_str(), stderr);
+        std::fputs(out.earlierFilesNote().c_str(), stderr);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         std::fprintf(stderr, "rost: %zu observations in %.1f s; outputs in %s\n", in.todo().size(), s, o.out.c_str());
     }

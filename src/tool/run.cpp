@@ -183,7 +183,7 @@ int runCommand(const RunOptions& o) {
     if (st.ok()) st = sinks.bag.finish(sinks.collector.rows());
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
-    if (!o.quiet) std::fputs(drops.note(engine.ec.model).c_str(), stderr);
+    if (!o.quiet) std::fputs((drops.note(engine.ec.model) + out.earlierFilesNote()).c_str(), stderr);
     if (!o.quiet)
         std::fprintf(stderr, "rost: %zu frames in %.1f s (%.1f frames/s); outputs in %s\n", sinks.frames.rows().size(),
                      seconds, static_cast<double>(sinks.frames.rows().size()) / std::max(1e-9, seconds), o.out.c_str());
