@@ -302,3 +302,46 @@ TEST(Mission, AStreamsFrameIsTheFacesOptionThenTheSettingThenTheData) {
     EXPECT_EQ(frameOf(set, 0, 0), "80x70") << "given as settings, they are the frame";
     EXPECT_EQ(frameOf(set, 40, 0), "40x70") << "the face's own option wins";
 }
+
+// An output of the mission (a checkpoint, a bag) that would replace or change
+// one of its inputs is refused, however it is spelled; only the checkpoint
+// may be the one resumed (a mission carried on in place).
+TEST(Mission, AnOutputThatWouldChangeAnInputIsRefusedNamingIt) {
+    TempDir t;
+    const std::string dir = t.path;
+    std::filesystem::create_directories(dir + "/frames");
+    for (const char* f : {"/w.csv", "/frames/0001.png", "/m.ckpt", "/tm.csv"}) {
+        std::FILE* fp = std::fopen((dir + f).c_str(), "w");
+        ASSERT_NE(fp, nullptr) << f;
+        std::fclose(fp);
+    }
+    MissionOptions m;
+    m.inputs = {dir + "/w.csv", dir + "/frames", dir + "/frames/*.jpg"};
+    m.resume = dir + "/m.ckpt";
+    m.in_topicmodel = dir + "/tm.csv";
+    const auto why = [&](const std::string& path, MissionOutput kind = MissionOutput::Checkpoint) {
+        const Status st = checkMissionOutput(m, "--checkpoint", path, kind);
+        return st.ok() ? std::string("ok") : st.message();
+    };
+    EXPECT_EQ(why(dir + "/w.csv"), "--checkpoint: " + dir + "/w.csv is an input of this run: writing there would replace it");
+    EXPECT_EQ(why(dir + "/frames/../w.csv"), "--checkpoint: " + dir + "/frames/../w.csv is the same file as the input " + dir +
+                                                 "/w.csv: writing there would replace it");
+    EXPECT_NE(why(dir + "/./tm.csv").find("is the same file as the input " + dir + "/tm.csv"), std::string::npos);
+    EXPECT_EQ(why(dir + "/frames/new.ckpt"), "--checkpoint: " + dir + "/frames/new.ckpt is inside the input directory " + dir +
+                                                 "/frames: writing there would change the input");
+    EXPECT_NE(why(dir + "/frames/0001.png").find("is inside the input directory"), std::string::npos);
+    // The glob's directory is the frames directory here; a glob elsewhere matches by its pattern.
+    m.inputs = {dir + "/w.csv", dir + "/*.jpg"};
+    EXPECT_EQ(why(dir + "/x.jpg"), "--checkpoint: " + dir + "/x.jpg matches the input " + dir +
+                                       "/*.jpg: writing there would change the input");
+    EXPECT_EQ(why(dir + "/x.ckpt"), "ok") << "beside the glob's files, not one of them";
+    // The resumed checkpoint: the checkpoint may carry it on; another output may not replace it.
+    EXPECT_EQ(why(dir + "/m.ckpt"), "ok");
+    EXPECT_EQ(why(dir + "/m.ckpt", MissionOutput::Other),
+              "--checkpoint: " + dir + "/m.ckpt is an input of this run: writing there would replace it");
+    // The same text is the same file, even where the file cannot be compared (a pipe).
+    m.inputs = {"/dev/stdin"};
+    EXPECT_NE(why("/dev/stdin").find("is an input of this run"), std::string::npos) << why("/dev/stdin");
+    EXPECT_NE(why(dir + "/no/such/dir/m.ckpt").find("--checkpoint: "), std::string::npos);
+    EXPECT_NE(why(dir + "/no/such/dir/m.ckpt"), "ok");
+}

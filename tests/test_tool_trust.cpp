@@ -264,6 +264,23 @@ TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {
                                            std::filesystem::path(t.path()).filename().string() + "/positions.csv")),
                 "is the same file as the input " + (t / "positions.csv") + ": writing there would replace it", t / "o");
     EXPECT_EQ(rost::testing::readText(t / "words.csv"), words);
+    // Nor one of the run's own outputs, nor the bag's file: one would replace the other.
+    expectError(runRost(refine(t, "o", "--checkpoint " + (t / "o/topicmodel.csv"))),
+                "rost: error: --checkpoint: " + (t / "o/topicmodel.csv") + " is one of the run's outputs (" +
+                    (t / "o/topicmodel.csv") + "): one would replace the other",
+                t / "o");
+    expectError(runRost("run " + (t / "clip.avi") + " --out " + (t / "v") + " --checkpoint " + (t / "x.bag") +
+                        " --out.bag " + (t / "x.bag")),
+                "rost: error: --out.bag: " + (t / "x.bag") + " is the --checkpoint file too: one would replace the other",
+                t / "v");
+    // An image directory's frames: a checkpoint among them would change the input.
+    std::filesystem::create_directories(t / "frames");
+    rost::testing::writeText(t / "frames/0001.png", "not read: the outputs are checked first");
+    expectError(runRost("run " + (t / "frames") + " --out " + (t / "v") + " --checkpoint " + (t / "frames/0002.png")),
+                "rost: error: --checkpoint: " + (t / "frames/0002.png") + " is inside the input directory " +
+                    (t / "frames") + ": writing there would change the input",
+                t / "v");
+    EXPECT_FALSE(std::filesystem::exists(t / "frames/0002.png"));
     ASSERT_EQ(runRost(refine(t, "o", "--checkpoint " + (t / "m.ckpt"))).exit_code, 0);
 }
 

@@ -123,12 +123,22 @@ std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& 
 
 // An output of the mission besides its results (a checkpoint, a bag),
 // checked before any input is read, by every face: an unwritable path fails
-// at once; one that is an input (in_topicmodel or one of `inputs`, however
-// spelled, a link to it included) is refused, since writing there would
-// replace it. The checkpoint being resumed may be written again (a mission
-// carried on in place). Errors start with `name`, the face's name for the
-// output ("--checkpoint", "~checkpoint", "rost.Mission.save").
-Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path);
+// at once; one that is an input is refused, since writing there would
+// replace or change it: the file of in_topicmodel, resume or one of
+// `inputs`, however spelled (a link to it included), a file inside an input
+// directory (image frames), a file an input glob matches. Only the mission's
+// checkpoint may be the one resumed (a mission carried on in place). Errors
+// start with `name`, the face's name for the output ("--checkpoint",
+// "~checkpoint", "rost.Mission.save"). Relative paths are the current
+// directory's.
+enum class MissionOutput { Checkpoint, Other };
+Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path,
+                          MissionOutput kind = MissionOutput::Checkpoint);
+
+// Whether two paths name one file: the same text, the same file where both
+// exist (another spelling, a link), else the same path once made absolute
+// and normal.
+bool sameFile(const std::string& a, const std::string& b);
 
 // ---- a word stream's mission (`rost refine`, Python's rost.Mission) ----------------
 

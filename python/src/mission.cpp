@@ -39,9 +39,8 @@ public:
             st = openStreamMission(m, in, mission_);
         }
         if (!st.ok()) throw py::value_error("rost.Mission: " + st.message());
-        m.inputs = {in.words, in.positions};
-        options_ = std::move(m);
-        settings_ = options_.settings;
+        inputs_ = missionInputs(m, {in.words, in.positions});
+        settings_ = m.settings;
         settings_.engine = mission_.plan.config;
         final_sweeps_ = settings_.final_sweeps;
     }
@@ -80,9 +79,8 @@ public:
 
     void save(const std::string& path) {
         BusyGuard guard(busy_, "rost.Mission");
-        // The stream, its positions or the starting topic model would be replaced: refused.
-        Status st = checkMissionOutput(options_, "rost.Mission.save", path);
-        if (!st.ok()) throw std::runtime_error(st.message());
+        checkSavePath(inputs_, "rost.Mission.save", path);
+        Status st;
         {
             py::gil_scoped_release nogil;
             st = saveCheckpoint(*mission_.engine, path);
@@ -92,7 +90,7 @@ public:
 
 private:
     StreamMission mission_;
-    MissionOptions options_;
+    MissionOptions inputs_;  // its files, absolute (missionInputs)
     Settings settings_;
     int final_sweeps_ = 0;
     bool played_ = false;
@@ -115,12 +113,37 @@ std::string pathArgument(const py::handle& value, const char* what) {
 
 void filesMustExist(const char* what, std::initializer_list<std::pair<const char*, std::string>> files) {
     for (const auto& [name, path] : files) {
+        if (path.empty()) continue;
         std::error_code ec;
-        if (path.empty() || std::filesystem::exists(path, ec)) continue;
-        PyErr_SetString(PyExc_FileNotFoundError,
-                        (std::string(what) + ": " + name + ": no such file: '" + path + "'").c_str());
+        const auto type = std::filesystem::status(path, ec).type();
+        // As open() raises them: missing, or a directory on the way not searchable.
+        PyObject* kind = type == std::filesystem::file_type::not_found           ? PyExc_FileNotFoundError
+                         : ec == std::make_error_code(std::errc::permission_denied) ? PyExc_PermissionError
+                                                                                    : nullptr;
+        if (!kind) continue;
+        const char* why = kind == PyExc_FileNotFoundError ? ": no such file: '" : ": permission denied: '";
+        PyErr_SetString(kind, (std::string(what) + ": " + name + why + path + "'").c_str());
         throw py::error_already_set();
     }
+}
+
+MissionOptions missionInputs(const MissionOptions& m, const std::vector<std::string>& inputs) {
+    const auto absolute = [](const std::string& p) {
+        std::error_code ec;
+        const std::filesystem::path a = p.empty() ? std::filesystem::path() : std::filesystem::absolute(p, ec);
+        return ec ? p : a.string();
+    };
+    MissionOptions out;
+    out.resume = absolute(m.resume);
+    out.in_topicmodel = absolute(m.in_topicmodel);
+    for (const std::string& in : inputs) out.inputs.push_back(absolute(in));
+    return out;
+}
+
+void checkSavePath(const MissionOptions& inputs, const char* what, const std::string& path) {
+    if (path.empty()) throw py::value_error(std::string(what) + ": the path is empty");
+    // The stream, its positions, frames or vocabulary, or the starting topic model would be replaced: refused.
+    if (Status st = checkMissionOutput(inputs, what, path); !st.ok()) throw std::runtime_error(st.message());
 }
 
 bool keepRunning() {

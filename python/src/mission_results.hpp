@@ -16,6 +16,14 @@
 
 namespace rost::python {
 
+// A mission's input files (`m`'s resume and topicmodel, and `inputs`) made
+// absolute, so that its save(path) can be checked against them whatever the
+// current directory is by then.
+MissionOptions missionInputs(const MissionOptions& m, const std::vector<std::string>& inputs);
+// save(path)'s check (checkMissionOutput): an empty path raises ValueError,
+// one of the mission's inputs RuntimeError, both starting with `what`.
+void checkSavePath(const MissionOptions& inputs, const char* what, const std::string& path);
+
 // A mission's options from Python keywords (rost.Config's; ValueError naming
 // one that is unknown or out of range), every setting and option spelled as
 // a keyword in messages ("K=8 differs from m.ckpt's K = 4 (...; leave K out)").

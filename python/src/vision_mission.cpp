@@ -58,6 +58,9 @@ public:
             st = open(m, paths, so, vocabularyPath);
         }
         if (!st.ok()) throw py::value_error("rost.vision.Mission: " + st.message());
+        std::vector<std::string> files = paths;
+        files.push_back(vocabularyPath);
+        inputs_ = missionInputs(m, files);
         settings_ = m.settings;
         settings_.engine = mission_.plan.config;
     }
@@ -83,6 +86,7 @@ public:
 
     void save(const std::string& path) {
         BusyGuard guard(busy_, "rost.vision.Mission");
+        checkSavePath(inputs_, "rost.vision.Mission.save", path);
         Status st;
         {
             py::gil_scoped_release nogil;
@@ -146,6 +150,7 @@ private:
     vision::SourceInfo info_;
     vision::MissionWords words_;
     vision::FrameMission mission_;
+    MissionOptions inputs_;  // its files, absolute (missionInputs)
     Settings settings_;
     std::vector<std::string> notes_;
     int64_t max_frames_ = 0;

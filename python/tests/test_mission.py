@@ -183,3 +183,18 @@ def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
     with pytest.raises(RuntimeError, match=r"is the same file as the input .*words\.csv"):
         m.save(os.path.join(os.path.dirname(words), "..", os.path.basename(os.path.dirname(words)), "words.csv"))
     assert open(positions, "rb").read() == before
+    # Whatever the current directory is by then: the inputs are the files the mission read.
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "words.csv").write_text("not the mission's\n")
+    here = os.getcwd()
+    try:
+        os.chdir(elsewhere)
+        with pytest.raises(RuntimeError, match=r"is the same file as the input"):
+            m.save(os.path.relpath(words))
+        m.save("words.csv")  # another file of that name: not an input
+    finally:
+        os.chdir(here)
+    assert open(positions, "rb").read() == before
+    with pytest.raises(ValueError, match=r"rost\.Mission\.save: the path is empty"):
+        m.save("")

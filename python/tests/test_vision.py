@@ -1,6 +1,8 @@
 """rost.vision: words of cv2 frames, vocabularies; on real footage (diver.mov)."""
 
+import filecmp
 import os
+import shutil
 import subprocess
 
 import numpy as np
@@ -144,6 +146,15 @@ def test_a_frame_mission_gives_rost_runs_results_and_resumes(tmp_path):
     first = rost.vision.Mission(diver, max_frames=5, K=8, seed=5)
     first.run()
     first.save(tmp_path / "m.ckpt")
+    # Its own input is refused (as rost.Mission's and the tool's --checkpoint): a copy, so a
+    # failure here cannot touch the footage.
+    clip = tmp_path / "clip.mov"
+    shutil.copyfile(diver, clip)
+    small = rost.vision.Mission(clip, max_frames=2, K=8)
+    small.run()
+    with pytest.raises(RuntimeError, match=r"rost\.vision\.Mission\.save: .*clip\.mov is an input of this run"):
+        small.save(clip)
+    assert filecmp.cmp(clip, diver, shallow=False)
     resumed = rost.vision.Mission(diver, resume=tmp_path / "m.ckpt", max_frames=8)
     assert resumed.resuming and resumed.frames == 3
     assert resumed.run()["timestamp"].tolist() == [5, 6, 7]

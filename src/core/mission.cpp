@@ -1,5 +1,7 @@
 #include "rost/mission.hpp"
 
+#include <fnmatch.h>
+
 #include <algorithm>
 #include <cstdint>
 #include <filesystem>
@@ -107,9 +109,35 @@ Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& pla
     return {};
 }
 
-// Whether two paths name one file: the same file where both exist (another
-// spelling, a link), else the same path once made absolute and normal.
+// Why writing `out` would change the input `in` ("" when it would not).
+std::string inputOverlap(const std::string& out, const std::string& in) {
+    namespace fs = std::filesystem;
+    if (sameFile(out, in))
+        return out == in ? " is an input of this run: writing there would replace it"
+                         : " is the same file as the input " + in + ": writing there would replace it";
+    std::error_code ec;
+    if (fs::is_directory(in, ec)) {  // image frames: a file written among them changes the input
+        const fs::path dir = fs::weakly_canonical(in, ec);
+        fs::path p = ec ? fs::path() : fs::weakly_canonical(out, ec);
+        for (p = p.parent_path(); !ec && !p.empty() && p != p.root_path(); p = p.parent_path())
+            if (p == dir) return " is inside the input directory " + in + ": writing there would change the input";
+        return {};
+    }
+    const fs::path pattern(in);
+    const std::string glob = pattern.filename().string();
+    if (glob.find_first_of("*?[") == std::string::npos) return {};
+    const fs::path target(out);
+    const std::string outDir = target.has_parent_path() ? target.parent_path().string() : ".";
+    const std::string inDir = pattern.has_parent_path() ? pattern.parent_path().string() : ".";
+    if (sameFile(outDir, inDir) && ::fnmatch(glob.c_str(), target.filename().c_str(), 0) == 0)
+        return " matches the input " + in + ": writing there would change the input";
+    return {};
+}
+
+} // namespace
+
 bool sameFile(const std::string& a, const std::string& b) {
+    if (a == b) return true;  // a FIFO or /dev/stdin, which equivalent() cannot compare
     std::error_code ec;
     if (std::filesystem::equivalent(a, b, ec) && !ec) return true;
     const std::filesystem::path pa = std::filesystem::weakly_canonical(a, ec);
@@ -118,18 +146,16 @@ bool sameFile(const std::string& a, const std::string& b) {
     return !ec && pa == pb;
 }
 
-} // namespace
-
-Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path) {
+Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path,
+                          MissionOutput kind) {
     if (path.empty()) return {};
     if (Status st = probeOutputFile(path); !st.ok()) return Status::error(name + ": " + st.message());
     std::vector<std::string> read = m.inputs;
     read.push_back(m.in_topicmodel);
+    if (kind != MissionOutput::Checkpoint) read.push_back(m.resume);
     for (const std::string& in : read)
-        if (!in.empty() && sameFile(path, in))
-            return Status::error(name + ": " + path +
-                                 (path == in ? " is an input of this run" : " is the same file as the input " + in) +
-                                 ": writing there would replace it");
+        if (const std::string why = in.empty() ? std::string() : inputOverlap(path, in); !why.empty())
+            return Status::error(name + ": " + path + why);
     return {};
 }
 

@@ -90,13 +90,23 @@ std::string settingProblemText(const ModelOptions& m, const SettingProblem& p) {
     return p.describe(optionNames);
 }
 
-Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs) {
+Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs,
+                           const std::vector<std::string>& results) {
     MissionOptions mo;
     mo.in_topicmodel = m.in_topicmodel;
+    mo.resume = m.resume;
     mo.inputs = inputs;
     mo.inputs.push_back(m.config);
     if (Status st = checkMissionOutput(mo, "--checkpoint", m.checkpoint); !st.ok()) return st;
-    return checkMissionOutput(mo, "--out.bag", outBag);
+    if (Status st = checkMissionOutput(mo, "--out.bag", outBag, MissionOutput::Other); !st.ok()) return st;
+    if (!m.checkpoint.empty() && !outBag.empty() && sameFile(m.checkpoint, outBag))
+        return Status::error("--out.bag: " + outBag + " is the --checkpoint file too: one would replace the other");
+    for (const auto& [option, path] : {std::pair{"--checkpoint", &m.checkpoint}, std::pair{"--out.bag", &outBag}})
+        for (const std::string& result : results)
+            if (!path->empty() && sameFile(*path, result))
+                return Status::error(std::string(option) + ": " + *path + " is one of the run's outputs (" + result +
+                                     "): one would replace the other");
+    return {};
 }
 
 MissionOptions missionOptions(const ModelOptions& m) {

@@ -77,6 +77,12 @@ Status OutputDir::commit() {
     return {};
 }
 
+std::vector<std::string> OutputDir::paths() const {
+    std::vector<std::string> out;
+    for (const auto& name : names_) out.push_back(final(name));
+    return out;
+}
+
 std::string OutputDir::earlierFilesNote() const {
     std::string names;
     for (const auto& name : names_) {

@@ -51,6 +51,8 @@ public:
     // Removes the staging directory and everything in it.
     void abandon() noexcept;
     const std::string& dir() const noexcept { return dir_; }
+    // Where probe()'s files go: final(name) for each.
+    std::vector<std::string> paths() const;
     const std::vector<std::string>& files() const noexcept { return files_; }
     void track(const std::string& name) { files_.push_back(name); }
 

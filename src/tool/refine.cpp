@@ -93,12 +93,13 @@ int refineCommand(const RefineOptions& o) {
     // (the reading and set-up run to their end first; they take moments).
     InterruptScope interrupts;
     // Outputs first: an unwritable one fails before the input is read (nothing written).
-    if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}); !st.ok()) return fail(st.message());
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
     if (Status st = out.probe({"topics.csv", "perplexity.csv", "surprise.csv", "surprise_cells.csv", "topicmodel.csv",
                                "summary.png"});
         !st.ok())
+        return fail(st.message());
+    if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}, out.paths()); !st.ok())
         return fail(st.message());
     // word stream -> engine -> sinks
     StreamStage in;

@@ -130,10 +130,6 @@ int runCommand(const RunOptions& o) {
     }();
     std::vector<std::string> inputs = o.inputs;
     if (!o.vocabulary.empty()) inputs.push_back(o.vocabulary);
-    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs); !st.ok()) return fail(st.message());
-    if (Status st = words.open(o); !st.ok()) return fail(st.message());
-    words.printNotes();
-    if (Status st = engine.open(o, words, realtime); !st.ok()) return fail(st.message());
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
     if (Status st = out.probe({"frames.csv", "run.txt", "words.csv", "positions.csv", "topics.csv", "perplexity.csv",
@@ -141,6 +137,10 @@ int runCommand(const RunOptions& o) {
                                "overlay.avi"});
         !st.ok())
         return fail(st.message());
+    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs, out.paths()); !st.ok()) return fail(st.message());
+    if (Status st = words.open(o); !st.ok()) return fail(st.message());
+    words.printNotes();
+    if (Status st = engine.open(o, words, realtime); !st.ok()) return fail(st.message());
     RunSinks sinks(o, words, engine, realtime);
     if (Status st = sinks.open(o, words, engine, out); !st.ok()) return fail(st.message());
     if (!o.quiet) engine.describe(o, words, realtime);

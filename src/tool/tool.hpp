@@ -71,10 +71,14 @@ MissionOptions missionOptions(const ModelOptions& m);
 MissionInput missionInput(const ModelOptions& m, bool realtime);
 
 // Every output file of a mission besides the output directory (--checkpoint,
-// --out.bag), probed before any work: an unwritable one fails at once and
-// nothing is written; none may be one of `inputs` (or the --in.topicmodel or
-// --config file), which it would replace. Errors start with the option.
-Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs);
+// --out.bag), probed before any work by the library's check
+// (checkMissionOutput): an unwritable one fails at once and nothing is
+// written; none may be one of `inputs` (or the --in.topicmodel, --config or,
+// for the bag, --resume file), which it would replace or change; nor may
+// they be one file, or one of `results` (the files the run writes in --out).
+// Errors start with the option.
+Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs,
+                           const std::vector<std::string>& results);
 
 // --checkpoint FILE: a writer the engine captures into every checkpoint_every
 // observations (Engine::captureCheckpoints: a copy on the refining thread at
