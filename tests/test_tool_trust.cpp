@@ -516,16 +516,19 @@ TEST(ToolTrust, HostileWordStreamsAndVideosGetOneLineErrorsWithExitCode2) {
         return runRost(cmd + " --out " + (t / "o") + " -q --no-summary " + extra);
     };
     const std::string words = "0,1,2\n1,3,4\n";
-    expectError(refineIt(words, "0,0,0,-1,5\n1,0,0,1,1\n", ""), (t / "p.csv") + ":1:7: position (-1, 5) outside the frame",
-                t / "o");
+    expectError(refineIt(words, "0,0,0,-1,5\n1,0,0,1,1\n", ""),
+                (t / "p.csv") + ":1:7: position (-1, 5) outside the largest frame a model can hold, 65536x65536", t / "o");
     expectError(refineIt(words, "0,0,0,99999999999,5\n1,0,0,1,1\n", ""),
-                (t / "p.csv") + ":1:7: position (99999999999, 5) outside the frame", t / "o");
+                (t / "p.csv") + ":1:7: position (99999999999, 5) outside the largest frame", t / "o");
+    expectError(refineIt(words, "0,0,0,5,70000\n1,0,0,1,1\n", "--width 640"),
+                (t / "p.csv") + ":1:9: position (5, 70000) outside the frame 640 wide and at most 65536 high", t / "o");
     expectError(refineIt(words, "0,0,0,5000,5\n1,0,0,1,1\n", "--width 640 --height 480"),
                 (t / "p.csv") + ":1:7: position (5000, 5) outside the frame 640x480", t / "o");
     // Beyond the largest frame and V the schema allows, with neither given: the
     // data's place named, not a setting out of range (and no int overflow).
     expectError(refineIt(words, "0,0,0,1,1\n1,2147483647,3,1,1\n", ""),
-                (t / "p.csv") + ":2:3: position (2147483647, 3) outside the frame 65536x65536", t / "o");
+                (t / "p.csv") + ":2:3: position (2147483647, 3) outside the largest frame a model can hold, 65536x65536",
+                t / "o");
     expectError(refineIt("0,1,2\n1,16777216,4\n", "", ""),
                 (t / "w.csv") + ":2:3: word id 16777216 out of range [0, 16777216)", t / "o");
     std::string enormous = "0";

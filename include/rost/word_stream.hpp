@@ -34,6 +34,9 @@ struct WordStream {
 struct WordStreamLimits {
     uint32_t vocabulary = 0;        // V: word ids must be < V (0: no check)
     int32_t width = 0, height = 0;  // positions must lie in [0, width) x [0, height) (0: no check)
+    // The side is the largest the schema allows, not one the user or a
+    // checkpoint set (the data decide the frame within it): errors say so.
+    bool width_largest = false, height_largest = false;
     uint32_t max_words = 1u << 22;  // per observation
     // readWordStream: with 2 or more, a second thread parses part of the
     // positions file while this one parses the words (same result, same errors).

@@ -24,6 +24,8 @@ Status readStream(const MissionOptions& m, const StreamMissionInput& in, StreamM
     limits.vocabulary = static_cast<uint32_t>(resuming ? fixed.V : m.isGiven("V") ? given.V : mostV);
     limits.width = resuming ? fixed.frame_width : in.width > 0 ? in.width : mostWidth;
     limits.height = resuming ? fixed.frame_height : in.height > 0 ? in.height : mostHeight;
+    limits.width_largest = !resuming && in.width <= 0;
+    limits.height_largest = !resuming && in.height <= 0;
     // max.words (the checkpoint's, or set): longer observations are an error
     // here; otherwise max.words is the longest observation's size (planFromData).
     if (resuming || m.isGiven("max.words"))

@@ -17,6 +17,23 @@
 namespace rost {
 namespace {
 
+// The frame a position must lie in, as a position error names it: "frame
+// 640x480"; "largest frame a model can hold, 65536x65536" when nothing set
+// it; "frame 640 wide and at most 65536 high" when one side was set;
+// "frame (x in [0, 640))" when only one side is checked.
+std::string frameText(const WordStreamLimits& limits) {
+    const std::string w = std::to_string(limits.width), h = std::to_string(limits.height);
+    if (limits.width > 0 && limits.height > 0) {
+        if (limits.width_largest && limits.height_largest) return "largest frame a model can hold, " + w + "x" + h;
+        if (limits.width_largest) return "frame " + h + " high and at most " + w + " wide";
+        if (limits.height_largest) return "frame " + w + " wide and at most " + h + " high";
+        return "frame " + w + "x" + h;
+    }
+    if (limits.width > 0) return "frame (x in [0, " + w + "))";
+    if (limits.height > 0) return "frame (y in [0, " + h + "))";
+    return "frame";
+}
+
 using text::Field;
 using text::Line;
 using text::LineReader;
@@ -145,17 +162,8 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
                 msg += std::to_string(x);
                 msg += ", ";
                 msg += std::to_string(y);
-                msg += ") outside the frame";
-                if (limits.width > 0 && limits.height > 0) {
-                    msg += ' ';
-                    msg += std::to_string(limits.width);
-                    msg += 'x';
-                    msg += std::to_string(limits.height);
-                } else if (limits.width > 0 || limits.height > 0) {  // one side given: name only it
-                    msg += limits.width > 0 ? " (x in [0, " : " (y in [0, ";
-                    msg += std::to_string(limits.width > 0 ? limits.width : limits.height);
-                    msg += "))";
-                }
+                msg += ") outside the ";
+                msg += frameText(limits);
                 return Status::error(msg);
             }
             obs.positions[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
