@@ -143,6 +143,13 @@ TEST(TextNumbers, ErrorsNameFileLineAndColumn) {
     const text::Field of{odd, 1, 1};
     EXPECT_EQ(text::expected("n", 2, of, "an integer").message(),
               "n:2:1: expected an integer, found '1\\x00\\x1b[2J\\x7f\\ufeff0'");
+    // UTF-8 characters stay; a byte of none (stray, cut short, overlong, a surrogate) is \xNN, so
+    // the message is text a terminal and Python can show.
+    const std::string utf = "\xC3\xA9\xE2\x82\xAC\xF0\x9F\x8C\x8A|\xFF|\xC3|\xC0\xAF|\xED\xA0\x80|\xE2\x82";
+    const text::Field uf{utf, 1, 1};
+    EXPECT_EQ(text::expected("n", 2, uf, "an integer").message(),
+              "n:2:1: expected an integer, found '\xC3\xA9\xE2\x82\xAC\xF0\x9F\x8C\x8A|\\xff|\\xc3|\\xc0\\xaf|"
+              "\\xed\\xa0\\x80|\\xe2\\x82'");
 }
 
 TEST(TextNumbers, RangesAreHalfOpenAndNamed) {

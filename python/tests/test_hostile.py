@@ -275,6 +275,14 @@ def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
         assert "nope" in str(e.value), str(e.value)
 
 
+def test_an_error_quoting_bytes_of_no_character_is_still_a_message(tmp_path):
+    words = tmp_path / "w.csv"
+    words.write_bytes(b"0,1,2\n1,3,\xff4\n")
+    with pytest.raises(ValueError) as e:
+        rost.Mission(words)
+    assert str(e.value).endswith("w.csv:2:5: expected an integer, found '\\xff4'"), repr(str(e.value))
+
+
 def test_a_repeated_time_stamp_in_the_window_is_refused_and_changes_nothing():
     m = rost.Model(rost.Config(K=4, V=10, frame_width=1, frame_height=1, ring_steps=4))
     m.add_observation(0, np.array([1, 2, 3], np.int32))

@@ -96,19 +96,41 @@ NumberError parseWhole(std::string_view text, T& out) noexcept {
     return NumberError::None;
 }
 
+// The length of the well-formed UTF-8 sequence at s[i] (lead byte >= 0x80),
+// or 0: a stray byte, a sequence cut short, an overlong form, a surrogate.
+std::size_t utf8Sequence(std::string_view s, std::size_t i) {
+    const auto at = [&](std::size_t k) { return static_cast<unsigned char>(s[i + k]); };
+    const unsigned char c = at(0);
+    const std::size_t n = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    if (n == 0 || i + n > s.size()) return 0;
+    for (std::size_t k = 1; k < n; ++k)
+        if ((at(k) & 0xC0) != 0x80) return 0;
+    // The second byte's range where the first allows less (Unicode's table 3-7).
+    if ((c == 0xE0 && at(1) < 0xA0) || (c == 0xED && at(1) > 0x9F) || (c == 0xF0 && at(1) < 0x90) ||
+        (c == 0xF4 && at(1) > 0x8F))
+        return 0;
+    return n;
+}
+
 // A field as an error quotes it: at most `cut` bytes, control bytes written
 // \xNN (a NUL would end the line on a terminal, an escape would drive it) and
-// a byte-order mark \ufeff (it would look like nothing: '0' that is not 0).
+// a byte-order mark \ufeff (it would look like nothing: '0' that is not 0);
+// a byte of no UTF-8 character \xNN too (Python could not make it text,
+// and a terminal would show it as a box).
 std::string cutText(std::string_view s, std::size_t cut) {
     s = s.substr(0, cut);
     std::string out;
     out.reserve(s.size());
     for (std::size_t i = 0; i < s.size(); ++i) {
         const auto c = static_cast<unsigned char>(s[i]);
+        const std::size_t seq = c >= 0x80 ? utf8Sequence(s, i) : 1;
         if (c == 0xEF && s.substr(i, 3) == "\xEF\xBB\xBF") {
             out += "\\ufeff";
             i += 2;
-        } else if (c < 0x20 || c == 0x7F) {
+        } else if (seq > 1) {  // a character, whole
+            out.append(s.substr(i, seq));
+            i += seq - 1;
+        } else if (c < 0x20 || c == 0x7F || seq == 0) {  // a control byte, or a byte of no character: \xNN
             static constexpr char kHex[] = "0123456789abcdef";
             out += "\\x";
             out += kHex[c >> 4];
