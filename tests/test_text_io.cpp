@@ -150,6 +150,17 @@ TEST(TextNumbers, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(text::expected("n", 2, uf, "an integer").message(),
               "n:2:1: expected an integer, found '\xC3\xA9\xE2\x82\xAC\xF0\x9F\x8C\x8A|\\xff|\\xc3|\\xc0\\xaf|"
               "\\xed\\xa0\\x80|\\xe2\\x82'");
+    // The cut falls between two characters, not inside one (which would read as a broken file).
+    const std::string accent = std::string(31, 'a') + "\xC3\xA9z";
+    EXPECT_EQ(text::expected("n", 1, text::Field{accent, 1, 1}, "x").message(),
+              "n:1:1: expected x, found '" + std::string(31, 'a') + "'");
+    const std::string wave = std::string(30, 'a') + "\xF0\x9F\x8C\x8A";
+    EXPECT_EQ(text::printable(wave, 32), std::string(30, 'a'));
+    // A number out of range is quoted the same way.
+    const std::string big = std::string(25, '9') + "\xFF\x1b";
+    int64_t bigValue = 0;
+    EXPECT_EQ(text::integerField("n", 3, text::Field{big, 4, 4}, "a count", bigValue).message(),
+              "n:3:4: number '" + std::string(25, '9') + "\\xff\\x1b' out of range");
 }
 
 TEST(TextNumbers, RangesAreHalfOpenAndNamed) {

@@ -277,10 +277,17 @@ TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {
     std::filesystem::create_directories(t / "frames");
     rost::testing::writeText(t / "frames/0001.png", "not read: the outputs are checked first");
     expectError(runRost("run " + (t / "frames") + " --out " + (t / "v") + " --checkpoint " + (t / "frames/0002.png")),
-                "rost: error: --checkpoint: " + (t / "frames/0002.png") + " is inside the input directory " +
-                    (t / "frames") + ": writing there would change the input",
+                "rost: error: --checkpoint: " + (t / "frames/0002.png") + " would be read by the input " +
+                    (t / "frames") + ": writing there would change it",
                 t / "v");
     EXPECT_FALSE(std::filesystem::exists(t / "frames/0002.png"));
+    // A words file the run's own results would replace.
+    std::filesystem::create_directories(t / "o2");
+    std::filesystem::copy_file(t / "words.csv", t / "o2/perplexity.csv");
+    expectError(runRost("refine " + (t / "o2/perplexity.csv") + " --out " + (t / "o2") + " -q --no-summary"),
+                "rost: error: --out: " + (t / "o2/perplexity.csv") + " is an input of this run: writing there would replace it",
+                t / "o2/none");
+    EXPECT_EQ(rost::testing::readText(t / "o2/perplexity.csv"), words);
     ASSERT_EQ(runRost(refine(t, "o", "--checkpoint " + (t / "m.ckpt"))).exit_code, 0);
 }
 

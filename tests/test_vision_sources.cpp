@@ -271,3 +271,33 @@ TEST(VisionFrameSize, AHugeFirstImageIsScaledWithANote) {
     EXPECT_EQ(src->info().width, 4000);
     EXPECT_TRUE(src->takeNotes().empty());
 }
+
+// What an input reads besides being its one file, so that a mission's
+// checkpoint is never written among its frames: an image directory's image
+// files (directly in it), a glob's files now and those its pattern would
+// match once written, wildcards in the directory part included, as glob(3)
+// reads them (no hidden file matched by a wildcard).
+TEST(VisionSources, AnInputReadsItsDirectorysImagesAndItsGlobsFiles) {
+    TempDir t;
+    std::filesystem::create_directories(t / "frames/sub");
+    std::filesystem::create_directories(t / "run1");
+    ASSERT_TRUE(cv::imwrite(t / "frames/0001.png", patterned(20, 20, 1)));
+    ASSERT_TRUE(cv::imwrite(t / "run1/f0.png", patterned(20, 20, 2)));
+    const std::string frames = t / "frames";
+    EXPECT_TRUE(inputWouldRead(frames, t / "frames/0002.png"));
+    EXPECT_TRUE(inputWouldRead(frames, t / "frames/sub/../0003.JPG"));
+    EXPECT_FALSE(inputWouldRead(frames, t / "frames/model.ckpt")) << "not an image: the directory's listing skips it";
+    EXPECT_FALSE(inputWouldRead(frames, t / "frames/sub/x.png")) << "not directly in it";
+    EXPECT_FALSE(inputWouldRead(frames, t / "frames.png"));
+    const std::string glob = t / "frames/*.png";
+    EXPECT_TRUE(inputWouldRead(glob, t / "frames/0001.png"));
+    EXPECT_TRUE(inputWouldRead(glob, t / "frames/new.png"));
+    EXPECT_FALSE(inputWouldRead(glob, t / "frames/.hidden.png"));
+    EXPECT_FALSE(inputWouldRead(glob, t / "frames/m.ckpt"));
+    const std::string inDirectory = t / "ru?1/f0.png";
+    EXPECT_TRUE(inputWouldRead(inDirectory, t / "run1/f0.png"));
+    EXPECT_TRUE(inputWouldRead(t / "run*/*.png", t / "run1/../run1/ck.png"));
+    EXPECT_FALSE(inputWouldRead(t / "run*/*.png", t / "other/ck.png"));
+    EXPECT_FALSE(inputWouldRead("camera:0", t / "frames/0002.png"));
+    EXPECT_FALSE(inputWouldRead(t / "run1/f0.png", t / "run1/f1.png")) << "a file input is its one file";
+}

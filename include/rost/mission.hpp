@@ -63,8 +63,13 @@ struct MissionOptions {
     std::string resume;              // a checkpoint to carry on ("": a new mission)
     std::string in_topicmodel;       // a topicmodel.csv to start from ("": none)
     // The other files the face reads (the stream and its positions, a
-    // settings file, a vocabulary): no output of the mission may be one.
+    // settings file, a vocabulary, a video): no output of the mission may be one.
     std::vector<std::string> inputs;
+    // Whether the input `input` (one of `inputs`) would read the file `path`
+    // besides being it: a file among an image directory's frames, one an
+    // input glob matches (the face's own rule: vision::inputWouldRead).
+    // Unset: an input is its one file.
+    std::function<bool(const std::string& input, const std::string& path)> would_read;
     MissionNames names;
 
     bool isGiven(std::string_view key) const;
@@ -125,12 +130,12 @@ std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& 
 // checked before any input is read, by every face: an unwritable path fails
 // at once; one that is an input is refused, since writing there would
 // replace or change it: the file of in_topicmodel, resume or one of
-// `inputs`, however spelled (a link to it included), a file inside an input
-// directory (image frames), a file an input glob matches. Only the mission's
-// checkpoint may be the one resumed (a mission carried on in place). Errors
-// start with `name`, the face's name for the output ("--checkpoint",
-// "~checkpoint", "rost.Mission.save"). Relative paths are the current
-// directory's.
+// `inputs`, however spelled (a link to it included), or a file one of them
+// would read (`would_read`: an image directory's frame, a file an input glob
+// matches). Only the mission's checkpoint may be the one resumed (a mission
+// carried on in place). Errors start with `name`, the face's name for the
+// output ("--checkpoint", "~checkpoint", "rost.Mission.save"). Relative
+// paths are the current directory's.
 enum class MissionOutput { Checkpoint, Other };
 Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path,
                           MissionOutput kind = MissionOutput::Checkpoint);

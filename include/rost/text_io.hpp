@@ -123,8 +123,13 @@ NumberError toUnsigned(std::string_view text, uint64_t& out) noexcept;
 // as a subnormal or zero (as strtod and Python's float() read them).
 NumberError toDouble(std::string_view text, double& out) noexcept;
 
+// Text as an error quotes it: at most `cut` bytes (cut between two
+// characters), control bytes and bytes of no UTF-8 character written \xNN, a
+// byte-order mark \ufeff: a message that a terminal and Python show as it is.
+std::string printable(std::string_view text, std::size_t cut);
+
 // "NAME:LINE:COL: expected WHAT, found 'TEXT'" at the field's column, the
-// field's text cut after `cut` characters.
+// field's text cut after `cut` characters (printable).
 Status expected(std::string_view name, int line, const Field& f, std::string_view what, std::size_t cut = 32);
 
 // A field as an integer of any size that fits int64. Errors:

@@ -5,7 +5,10 @@
 // `rost refine` plays it: the same seed, stream and settings give the same
 // labels and perplexities as rost refine's topics.csv and perplexity.csv.
 
+#include <unistd.h>
+
 #include <atomic>
+#include <cerrno>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -117,9 +120,12 @@ void filesMustExist(const char* what, std::initializer_list<std::pair<const char
         std::error_code ec;
         const auto type = std::filesystem::status(path, ec).type();
         // As open() raises them: missing, or a directory on the way not searchable.
-        PyObject* kind = type == std::filesystem::file_type::not_found           ? PyExc_FileNotFoundError
-                         : ec == std::make_error_code(std::errc::permission_denied) ? PyExc_PermissionError
-                                                                                    : nullptr;
+        const bool denied = ec == std::make_error_code(std::errc::permission_denied) ||
+                            (type == std::filesystem::file_type::regular && ::access(path.c_str(), R_OK) != 0 &&
+                             errno == EACCES);
+        PyObject* kind = type == std::filesystem::file_type::not_found ? PyExc_FileNotFoundError
+                         : denied                                      ? PyExc_PermissionError
+                                                                       : nullptr;
         if (!kind) continue;
         const char* why = kind == PyExc_FileNotFoundError ? ": no such file: '" : ": permission denied: '";
         PyErr_SetString(kind, (std::string(what) + ": " + name + why + path + "'").c_str());

@@ -61,6 +61,7 @@ public:
         std::vector<std::string> files = paths;
         files.push_back(vocabularyPath);
         inputs_ = missionInputs(m, files);
+        inputs_.would_read = vision::inputWouldRead;  // an image directory's frames, a glob's files
         settings_ = m.settings;
         settings_.engine = mission_.plan.config;
     }

@@ -1,7 +1,5 @@
 #include "rost/mission.hpp"
 
-#include <fnmatch.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <filesystem>
@@ -110,27 +108,11 @@ Status planNew(const MissionOptions& m, const MissionInput& in, MissionPlan& pla
 }
 
 // Why writing `out` would change the input `in` ("" when it would not).
-std::string inputOverlap(const std::string& out, const std::string& in) {
-    namespace fs = std::filesystem;
+std::string inputOverlap(const MissionOptions& m, const std::string& out, const std::string& in) {
     if (sameFile(out, in))
         return out == in ? " is an input of this run: writing there would replace it"
                          : " is the same file as the input " + in + ": writing there would replace it";
-    std::error_code ec;
-    if (fs::is_directory(in, ec)) {  // image frames: a file written among them changes the input
-        const fs::path dir = fs::weakly_canonical(in, ec);
-        fs::path p = ec ? fs::path() : fs::weakly_canonical(out, ec);
-        for (p = p.parent_path(); !ec && !p.empty() && p != p.root_path(); p = p.parent_path())
-            if (p == dir) return " is inside the input directory " + in + ": writing there would change the input";
-        return {};
-    }
-    const fs::path pattern(in);
-    const std::string glob = pattern.filename().string();
-    if (glob.find_first_of("*?[") == std::string::npos) return {};
-    const fs::path target(out);
-    const std::string outDir = target.has_parent_path() ? target.parent_path().string() : ".";
-    const std::string inDir = pattern.has_parent_path() ? pattern.parent_path().string() : ".";
-    if (sameFile(outDir, inDir) && ::fnmatch(glob.c_str(), target.filename().c_str(), 0) == 0)
-        return " matches the input " + in + ": writing there would change the input";
+    if (m.would_read && m.would_read(in, out)) return " would be read by the input " + in + ": writing there would change it";
     return {};
 }
 
@@ -154,7 +136,7 @@ Status checkMissionOutput(const MissionOptions& m, const std::string& name, cons
     read.push_back(m.in_topicmodel);
     if (kind != MissionOutput::Checkpoint) read.push_back(m.resume);
     for (const std::string& in : read)
-        if (const std::string why = in.empty() ? std::string() : inputOverlap(path, in); !why.empty())
+        if (const std::string why = in.empty() ? std::string() : inputOverlap(m, path, in); !why.empty())
             return Status::error(name + ": " + path + why);
     return {};
 }

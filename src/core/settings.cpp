@@ -17,7 +17,7 @@ namespace settings_detail {
 std::string quoted(std::string_view s) {
     constexpr std::size_t kMax = 40;
     std::string out = "'";
-    out += s.substr(0, kMax);
+    out += text::printable(s, kMax);
     if (s.size() > kMax) out += "...";
     out += "'";
     return out;

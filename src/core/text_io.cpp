@@ -118,6 +118,9 @@ std::size_t utf8Sequence(std::string_view s, std::size_t i) {
 // a byte of no UTF-8 character \xNN too (Python could not make it text,
 // and a terminal would show it as a box).
 std::string cutText(std::string_view s, std::size_t cut) {
+    // Between two characters: not inside a multi-byte one (at most 3 bytes back).
+    for (std::size_t back = 0; cut < s.size() && back < 3 && (static_cast<unsigned char>(s[cut]) & 0xC0) == 0x80; ++back)
+        --cut;
     s = s.substr(0, cut);
     std::string out;
     out.reserve(s.size());
@@ -142,6 +145,8 @@ std::string cutText(std::string_view s, std::size_t cut) {
     return out;
 }
 } // namespace
+
+std::string printable(std::string_view text, std::size_t cut) { return cutText(text, cut); }
 
 NumberError toInteger(std::string_view text, int64_t& out) noexcept { return parseWhole(text, out); }
 NumberError toUnsigned(std::string_view text, uint64_t& out) noexcept { return parseWhole(text, out); }
@@ -177,7 +182,7 @@ Status integerField(std::string_view name, int line, const Field& f, std::string
     if (e == NumberError::Overflow) {
         std::string msg = where(name, line, f.column);
         msg += "number '";
-        msg += f.text;
+        msg += cutText(f.text, 32);
         msg += "' out of range";
         return Status::error(std::move(msg));
     }

@@ -137,7 +137,8 @@ int runCommand(const RunOptions& o) {
                                "overlay.avi"});
         !st.ok())
         return fail(st.message());
-    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs, out.paths()); !st.ok()) return fail(st.message());
+    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs, out.paths(), vision::inputWouldRead); !st.ok())
+        return fail(st.message());
     if (Status st = words.open(o); !st.ok()) return fail(st.message());
     words.printNotes();
     if (Status st = engine.open(o, words, realtime); !st.ok()) return fail(st.message());

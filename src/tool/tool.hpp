@@ -77,8 +77,13 @@ MissionInput missionInput(const ModelOptions& m, bool realtime);
 // for the bag, --resume file), which it would replace or change; nor may
 // they be one file, or one of `results` (the files the run writes in --out).
 // Errors start with the option.
+// `wouldRead`: which files the inputs read besides being them
+// (MissionOptions::would_read; `rost run`'s vision::inputWouldRead). Nor may
+// the run's results replace one of its inputs (a words file in --out named
+// perplexity.csv): "--out: ..." names it.
 Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs,
-                           const std::vector<std::string>& results);
+                           const std::vector<std::string>& results,
+                           std::function<bool(const std::string&, const std::string&)> wouldRead = {});
 
 // --checkpoint FILE: a writer the engine captures into every checkpoint_every
 // observations (Engine::captureCheckpoints: a copy on the refining thread at

@@ -1,5 +1,6 @@
 #include "rost/vision/frame_source.hpp"
 
+#include <fnmatch.h>
 #include <glob.h>
 #include <unistd.h>
 
@@ -16,6 +17,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "camera_source.hpp"
+#include "rost/mission.hpp"
 
 namespace fs = std::filesystem;
 
@@ -283,6 +285,25 @@ std::unique_ptr<FrameSource> openFiles(std::vector<std::string> files, const std
 }
 
 } // namespace
+
+bool inputWouldRead(const std::string& input, const std::string& path) {
+    if (isCameraInput(input)) return false;
+    std::error_code ec;
+    if (input.find_first_of("*?[") != std::string::npos) {
+        glob_t g{};  // the files it reads now, under another spelling
+        bool read = false;
+        if (::glob(input.c_str(), 0, nullptr, &g) == 0)
+            for (std::size_t i = 0; i < g.gl_pathc && !read; ++i) read = sameFile(g.gl_pathv[i], path);
+        globfree(&g);
+        if (read) return true;
+        const std::string pattern = fs::absolute(input, ec).lexically_normal().string();
+        const std::string file = fs::absolute(path, ec).lexically_normal().string();
+        return !ec && ::fnmatch(pattern.c_str(), file.c_str(), FNM_PATHNAME | FNM_PERIOD) == 0;
+    }
+    if (!fs::is_directory(input, ec)) return false;
+    const fs::path file(path);  // a frame: an image file directly in the directory
+    return isImageFile(file) && sameFile(file.has_parent_path() ? file.parent_path().string() : ".", input);
+}
 
 bool isCameraInput(const std::string& input) noexcept { return input.rfind("camera:", 0) == 0; }
 

@@ -140,6 +140,14 @@ std::unique_ptr<FrameSource> openFrameSources(const std::vector<std::string>& in
 // True when INPUT names a camera ("camera:N").
 bool isCameraInput(const std::string& input) noexcept;
 
+// Whether the input `input` would read the file `path` besides being it (a
+// mission's outputs may not: MissionOptions::would_read): one of an image
+// directory's frames (an image file directly in it), a file an input glob
+// matches now or would match once written (its pattern, as glob(3) reads it:
+// no leading dot matched by a wildcard). Relative paths are the current
+// directory's.
+bool inputWouldRead(const std::string& input, const std::string& path);
+
 // Cameras libcamera can see, one line each ("0: <id> (<model>)"); empty
 // when none or when built without libcamera.
 std::vector<std::string> listCameras();
