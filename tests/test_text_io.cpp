@@ -30,6 +30,8 @@
 
 namespace fs = std::filesystem;
 namespace text = rost::text;
+using rost::Status;
+using rost::StatusKind;
 
 namespace {
 
@@ -270,6 +272,34 @@ TEST(TextFiles, ReadWriteAndADirectoryRefusedByName) {
     EXPECT_EQ(text::readFile(missing, got).message(), missing + ": cannot open: No such file or directory");
     EXPECT_NE(text::probeOutputFile(missing).message().find(missing + ": cannot write in "), std::string::npos);
     EXPECT_EQ(d.names(), Strings{"a.csv"});
+}
+
+// What a failed open is about travels with its message (StatusKind), through
+// a caller's prefix, so that a face says it in its own terms (Python's
+// FileNotFoundError) without looking at the file again.
+TEST(TextFiles, AFailedOpenSaysWhatItIsAboutThroughEveryPrefix) {
+    TempDir d;
+    const std::string path = (d.path / "a.csv").string(), missing = (d.path / "no" / "b.csv").string();
+    ASSERT_TRUE(text::writeFileAtomic(path, "1,2\n").ok());
+    std::string got;
+    const Status gone = text::readFile(missing, got);
+    EXPECT_EQ(gone.kind(), StatusKind::NotFound);
+    const Status named = gone.prefixed("--resume: ");
+    EXPECT_EQ(named.kind(), StatusKind::NotFound);
+    EXPECT_EQ(named.message(), "--resume: " + missing + ": cannot open: No such file or directory");
+    EXPECT_TRUE(Status().prefixed("--resume: ").ok()) << "an ok Status prefixed became an error";
+    EXPECT_EQ(text::readFile(d.path.string(), got).kind(), StatusKind::IsADirectory);
+    EXPECT_EQ(text::probeOutputFile(d.path.string()).kind(), StatusKind::IsADirectory);
+    EXPECT_EQ(text::probeOutputFile(missing).kind(), StatusKind::NotFound);
+    EXPECT_EQ(text::writeFileAtomic(missing, "x").kind(), StatusKind::NotFound);
+    EXPECT_EQ(text::readFile(path + "/x", got).kind(), StatusKind::NotFound) << "ENOTDIR: a file on the way";
+    EXPECT_EQ(Status::fromErrno(EACCES, "x").kind(), StatusKind::PermissionDenied);
+    EXPECT_EQ(Status::fromErrno(EIO, "x").kind(), StatusKind::Invalid);
+    EXPECT_EQ(Status::error("bad").kind(), StatusKind::Invalid);
+    if (::geteuid() != 0) {  // root reads a mode-000 file
+        ASSERT_EQ(::chmod(path.c_str(), 0), 0);
+        EXPECT_EQ(text::readFile(path, got).kind(), StatusKind::PermissionDenied);
+    }
 }
 
 // The word stream's reader: a large file lands whole in a mapping of its

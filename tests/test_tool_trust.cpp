@@ -288,6 +288,16 @@ TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {
                 "rost: error: --out: " + (t / "o2/perplexity.csv") + " is an input of this run: writing there would replace it",
                 t / "o2/none");
     EXPECT_EQ(rost::testing::readText(t / "o2/perplexity.csv"), words);
+    // Only the files the run writes count: no summary.png under --no-summary.
+    std::filesystem::create_directories(t / "o3");
+    std::filesystem::copy_file(t / "words.csv", t / "o3/summary.png");
+    expectError(runRost("refine " + (t / "o3/summary.png") + " --out " + (t / "o3") + " -q"),
+                "rost: error: --out: " + (t / "o3/summary.png") + " is an input of this run: writing there would replace it",
+                t / "o3/none");
+    const RunResult kept = runRost("refine " + (t / "o3/summary.png") + " --out " + (t / "o3") + " -q --no-summary");
+    EXPECT_EQ(kept.exit_code, 0) << kept.err;
+    EXPECT_EQ(rost::testing::readText(t / "o3/summary.png"), words);
+    EXPECT_TRUE(std::filesystem::exists(t / "o3/topics.csv"));
     ASSERT_EQ(runRost(refine(t, "o", "--checkpoint " + (t / "m.ckpt"))).exit_code, 0);
 }
 

@@ -140,6 +140,12 @@ enum class MissionOutput { Checkpoint, Other };
 Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path,
                           MissionOutput kind = MissionOutput::Checkpoint);
 
+// checkMissionOutput without the probe: only whether writing `path` would
+// replace or change an input. For outputs whose writability a face checks
+// otherwise (the tool's results, probed with their --out directory).
+Status checkMissionOutputOverlap(const MissionOptions& m, const std::string& name, const std::string& path,
+                                 MissionOutput kind = MissionOutput::Other);
+
 // Whether two paths name one file: the same text, the same file where both
 // exist (another spelling, a link), else the same path once made absolute
 // and normal.

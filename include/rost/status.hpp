@@ -1,9 +1,23 @@
 #pragma once
 
+#include <cerrno>
+#include <cstdint>
 #include <string>
+#include <string_view>
 #include <utility>
 
 namespace rost {
+
+// What a failed set-up call's error is about, so that a face can say it in
+// its own terms (Python: FileNotFoundError, PermissionError,
+// IsADirectoryError) without looking at the file again itself. Most errors
+// are Invalid: input or settings the library refuses.
+enum class StatusKind : uint8_t {
+    Invalid,           // anything else: bad content, a setting out of range, ...
+    NotFound,          // a file or directory to read is not there
+    PermissionDenied,  // it is there and may not be read (or written)
+    IsADirectory,      // a directory where a file was expected
+};
 
 // Result of a set-up call (configuration, loading, opening a source). Empty
 // message means success. Set-up code may allocate; realtime calls return
@@ -12,14 +26,34 @@ namespace rost {
 class [[nodiscard]] Status {
 public:
     Status() = default;
-    static Status error(std::string message) { return Status(std::move(message)); }
+    static Status error(std::string message) { return Status(StatusKind::Invalid, std::move(message)); }
+    static Status error(StatusKind kind, std::string message) { return Status(kind, std::move(message)); }
+    // A failed open(2)/fopen(3)'s errno as a kind: ENOENT (and ENOTDIR, a
+    // file on the way) NotFound, EACCES and EPERM PermissionDenied, EISDIR
+    // IsADirectory, anything else Invalid.
+    static Status fromErrno(int err, std::string message) {
+        const StatusKind kind = err == ENOENT || err == ENOTDIR ? StatusKind::NotFound
+                                : err == EACCES || err == EPERM ? StatusKind::PermissionDenied
+                                : err == EISDIR                 ? StatusKind::IsADirectory
+                                                                : StatusKind::Invalid;
+        return Status(kind, std::move(message));
+    }
 
     [[nodiscard]] bool ok() const noexcept { return message_.empty(); }
     [[nodiscard]] const std::string& message() const noexcept { return message_; }
+    [[nodiscard]] StatusKind kind() const noexcept { return kind_; }
+
+    // The same error with `prefix` before its message (a caller naming what
+    // it was doing: "--resume: "), its kind kept. An ok Status stays ok.
+    [[nodiscard]] Status prefixed(std::string_view prefix) const {
+        if (ok()) return {};
+        return Status(kind_, std::string(prefix) + message_);
+    }
 
 private:
-    explicit Status(std::string message) : message_(std::move(message)) {}
+    Status(StatusKind kind, std::string message) : message_(std::move(message)), kind_(kind) {}
     std::string message_;
+    StatusKind kind_ = StatusKind::Invalid;
 };
 
 } // namespace rost

@@ -44,11 +44,12 @@ void check(const Status& st);
 // A path argument as text: str or os.PathLike (TypeError naming the argument otherwise).
 std::string pathArgument(const py::handle& value, const char* what);
 
-// Raises FileNotFoundError ("WHAT: no such file: 'PATH'") for the first of
-// `files` (pairs of what names it and its path; an empty path is skipped)
-// that does not exist: every face's missing input file is the one Python
-// exception, as open() raises it.
-void filesMustExist(const char* what, std::initializer_list<std::pair<const char*, std::string>> files);
+// Raises a failed Status as the Python exception its kind is, as open()
+// raises them: FileNotFoundError (StatusKind::NotFound), PermissionError,
+// IsADirectoryError, and `otherwise` (ValueError unless given) for the rest;
+// the message is `prefix` and the library's. The library decides what is
+// missing or unreadable where it opens the file: no face looks again.
+[[noreturn]] void raiseStatus(const Status& st, const std::string& prefix = {}, PyObject* otherwise = PyExc_ValueError);
 
 // An object that cannot be pickled or copied: pickle.dumps and copy.deepcopy
 // raise TypeError with `message` (which says what to do instead).

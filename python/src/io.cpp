@@ -4,9 +4,6 @@
 // the writers and the atomic write are the core's; rost.io keeps the
 // formats' own checks and messages.
 
-#include <sys/stat.h>
-
-#include <cerrno>
 #include <memory>
 #include <string>
 #include <vector>
@@ -18,22 +15,10 @@ namespace rost::python {
 
 namespace {
 
-// The Python exception a file's failed read or write is: FileNotFoundError
-// when the path (or, writing, its directory) is missing, IsADirectoryError
-// when it is a directory, OSError otherwise; the message is the core's.
-[[noreturn]] void raiseFileError(const std::string& path, const Status& st, bool writing) {
-    PyObject* type = PyExc_OSError;
-    struct stat s {};
-    if (::stat(path.c_str(), &s) == 0) {
-        if (S_ISDIR(s.st_mode)) type = PyExc_IsADirectoryError;
-    } else if (errno == ENOENT) {
-        const std::size_t slash = path.find_last_of('/');
-        const std::string dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
-        if (!writing || ::stat(dir.c_str(), &s) != 0) type = PyExc_FileNotFoundError;
-    }
-    PyErr_SetString(type, st.message().c_str());
-    throw py::error_already_set();
-}
+// The Python exception a file's failed read or write is: the library's kind
+// (FileNotFoundError when the path, or, writing, its directory, is missing;
+// PermissionError; IsADirectoryError), OSError otherwise; the message is the core's.
+[[noreturn]] void raiseFileError(const Status& st) { raiseStatus(st, {}, PyExc_OSError); }
 
 void checkContent(const Status& st) {
     if (!st.ok()) throw py::value_error(st.message());
@@ -47,7 +32,7 @@ constexpr text::LineRules kRules{.skip_empty = true, .blank_is_empty = true, .sk
 class TextFile {
 public:
     explicit TextFile(std::string path) : path_(std::move(path)) {
-        if (Status st = text::readFile(path_, content_); !st.ok()) raiseFileError(path_, st, false);
+        if (Status st = text::readFile(path_, content_); !st.ok()) raiseFileError(st);
         lines_ = std::make_unique<text::LineReader>(content_, path_, kRules);
     }
 
@@ -117,7 +102,7 @@ private:
 
 void writeText(const py::object& pathObject, const std::string& content) {
     const std::string path = pathArgument(pathObject, "path");
-    if (Status st = text::writeFileAtomic(path, content); !st.ok()) raiseFileError(path, st, true);
+    if (Status st = text::writeFileAtomic(path, content); !st.ok()) raiseFileError(st);
 }
 
 using Int64s = py::array_t<int64_t, py::array::c_style | py::array::forcecast>;

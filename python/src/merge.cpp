@@ -1,7 +1,6 @@
 // rost.merge_topic_models: the library's merge of topic models into one
 // global set (rost/merge.hpp; docs/fleet.md), for rost.fleet and scripts.
 
-#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -17,12 +16,7 @@ TopicCounts topicCounts(const py::handle& model, std::size_t index) {
     if (py::isinstance<py::str>(model) || py::hasattr(model, "__fspath__")) {
         TopicCounts c;
         const std::string path = pathArgument(model, "models");
-        if (Status st = readTopicCounts(path, c); !st.ok()) {
-            std::error_code ec;
-            PyErr_SetString(std::filesystem::exists(path, ec) ? PyExc_ValueError : PyExc_FileNotFoundError,
-                            st.message().c_str());
-            throw py::error_already_set();
-        }
+        if (Status st = readTopicCounts(path, c); !st.ok()) raiseStatus(st);
         return c;
     }
     const py::array a = py::array::ensure(model);

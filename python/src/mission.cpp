@@ -5,10 +5,7 @@
 // `rost refine` plays it: the same seed, stream and settings give the same
 // labels and perplexities as rost refine's topics.csv and perplexity.csv.
 
-#include <unistd.h>
-
 #include <atomic>
-#include <cerrno>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -31,8 +28,6 @@ public:
         StreamMissionInput in;
         in.words = pathArgument(words, "rost.Mission: words");
         if (!positions.is_none()) in.positions = pathArgument(positions, "rost.Mission: positions");
-        filesMustExist("rost.Mission", {{"resume", m.resume}, {"words", in.words}, {"positions", in.positions},
-                                        {"topicmodel", m.in_topicmodel}});
         in.width = width;  // frame_width/frame_height given as settings: the library's rule
         in.height = height;
         in.base.threads = m.settings.engine.model.threads;
@@ -41,7 +36,7 @@ public:
             py::gil_scoped_release nogil;
             st = openStreamMission(m, in, mission_);
         }
-        if (!st.ok()) throw py::value_error("rost.Mission: " + st.message());
+        if (!st.ok()) raiseStatus(st, "rost.Mission: ");
         inputs_ = missionInputs(m, {in.words, in.positions});
         settings_ = m.settings;
         settings_.engine = mission_.plan.config;
@@ -114,23 +109,16 @@ std::string pathArgument(const py::handle& value, const char* what) {
                          std::string(py::str(py::type::handle_of(value).attr("__name__"))));
 }
 
-void filesMustExist(const char* what, std::initializer_list<std::pair<const char*, std::string>> files) {
-    for (const auto& [name, path] : files) {
-        if (path.empty()) continue;
-        std::error_code ec;
-        const auto type = std::filesystem::status(path, ec).type();
-        // As open() raises them: missing, or a directory on the way not searchable.
-        const bool denied = ec == std::make_error_code(std::errc::permission_denied) ||
-                            (type == std::filesystem::file_type::regular && ::access(path.c_str(), R_OK) != 0 &&
-                             errno == EACCES);
-        PyObject* kind = type == std::filesystem::file_type::not_found ? PyExc_FileNotFoundError
-                         : denied                                      ? PyExc_PermissionError
-                                                                       : nullptr;
-        if (!kind) continue;
-        const char* why = kind == PyExc_FileNotFoundError ? ": no such file: '" : ": permission denied: '";
-        PyErr_SetString(kind, (std::string(what) + ": " + name + why + path + "'").c_str());
-        throw py::error_already_set();
+void raiseStatus(const Status& st, const std::string& prefix, PyObject* otherwise) {
+    PyObject* type = otherwise;
+    switch (st.kind()) {
+    case StatusKind::NotFound: type = PyExc_FileNotFoundError; break;
+    case StatusKind::PermissionDenied: type = PyExc_PermissionError; break;
+    case StatusKind::IsADirectory: type = PyExc_IsADirectoryError; break;
+    case StatusKind::Invalid: break;
     }
+    PyErr_SetString(type, (prefix + st.message()).c_str());
+    throw py::error_already_set();
 }
 
 MissionOptions missionInputs(const MissionOptions& m, const std::vector<std::string>& inputs) {

@@ -5,7 +5,6 @@
 
 #include <climits>
 #include <cstring>
-#include <filesystem>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -49,14 +48,6 @@ Status copyState(Engine& from, Engine& to) {
         std::memcpy(b[i].data, a[i].data, a[i].bytes);
     }
     return to.applyState();
-}
-
-void fileMustExist(const std::string& path) {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) {
-        PyErr_SetString(PyExc_FileNotFoundError, ("no such file: '" + path + "'").c_str());
-        throw py::error_already_set();
-    }
 }
 
 } // namespace
@@ -159,11 +150,10 @@ public:
     // refinement settings given replace the checkpoint's.
     static std::unique_ptr<PyModel> load(const py::object& pathObject, const py::kwargs& settings) {
         const std::string path = pathArgument(pathObject, "rost.Model.load: path");
-        fileMustExist(path);
         MissionOptions mission = missionOptions(settings, "rost.Model.load", py::str(path), py::none());
         mission.names.resume = "rost.Model.load";
         MissionPlan plan;
-        if (Status st = checkMission(mission, plan); !st.ok()) throw py::value_error(st.message());
+        if (Status st = checkMission(mission, plan); !st.ok()) raiseStatus(st);
         MissionInput in;
         in.threads = plan.checkpoint.config.model.threads;  // the checkpoint's unless `threads` is given
         if (Status st = planMission(mission, in, plan); !st.ok()) throw py::value_error(st.message());

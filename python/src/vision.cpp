@@ -1,7 +1,6 @@
 // rost.vision: visual words of frames cv2 reads (numpy H x W x 3 uint8 BGR,
 // viewed in place), and ORB vocabularies.
 
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,13 +52,8 @@ cv::Mat viewFrame(const py::handle& h, py::array& keep) {
 }
 
 PyVocabulary loadVocabulary(const std::string& path) {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) {
-        PyErr_SetString(PyExc_FileNotFoundError, ("no such file: '" + path + "'").c_str());
-        throw py::error_already_set();
-    }
     Vocabulary v;
-    if (Status st = Vocabulary::load(path, v); !st.ok()) throw py::value_error(st.message());
+    if (Status st = Vocabulary::load(path, v); !st.ok()) raiseStatus(st);
     return {std::make_shared<const Vocabulary>(std::move(v))};
 }
 

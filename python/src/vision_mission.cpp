@@ -47,17 +47,12 @@ public:
         const std::vector<std::string> paths = inputList(inputs);
         const std::string vocabularyPath =
             vocabulary.is_none() ? std::string() : pathArgument(vocabulary, "rost.vision.Mission: vocabulary");
-        filesMustExist("rost.vision.Mission", {{"resume", m.resume}, {"topicmodel", m.in_topicmodel},
-                                               {"vocabulary", vocabularyPath}});
-        for (const std::string& p : paths)  // a file or directory (not a camera or a glob) that is not there
-            if (!vision::isCameraInput(p) && p.find_first_of("*?[") == std::string::npos)
-                filesMustExist("rost.vision.Mission", {{"inputs", p}});
         Status st;
         {
             py::gil_scoped_release nogil;  // opening a video and the vocabulary take a while
             st = open(m, paths, so, vocabularyPath);
         }
-        if (!st.ok()) throw py::value_error("rost.vision.Mission: " + st.message());
+        if (!st.ok()) raiseStatus(st, "rost.vision.Mission: ");
         std::vector<std::string> files = paths;
         files.push_back(vocabularyPath);
         inputs_ = missionInputs(m, files);

@@ -118,7 +118,7 @@ def test_bad_streams_and_settings_are_refused_naming_them(tmp_path):
         rost.Mission(tmp_path / "bad.csv")
     with pytest.raises(ValueError, match=r"eta"):
         rost.Mission(tmp_path / "bad.csv", eta=2)
-    with pytest.raises(ValueError, match=r"is a directory"):
+    with pytest.raises(IsADirectoryError, match=r"is a directory, not a file"):
         rost.Mission(tmp_path)
 
 

@@ -699,7 +699,7 @@ std::unique_ptr<Engine> resumeEngine(const std::string& path, Status& status, Ch
     }
     auto engine = Engine::create(p.config, status);
     if (!engine) {
-        status = Status::error(path + ": " + status.message());
+        status = status.prefixed(path + ": ");
         return nullptr;
     }
     status = loadCheckpoint(bytes, path, *engine, {}, info);

@@ -63,7 +63,7 @@ Status fromTopicModel(const MissionOptions& m, const MissionInput& in, Config& c
         return {};
     }
     TopicModelShape shape;
-    if (Status st = readTopicModelShape(m.in_topicmodel, shape); !st.ok()) return Status::error(name + ": " + st.message());
+    if (Status st = readTopicModelShape(m.in_topicmodel, shape); !st.ok()) return st.prefixed(name + ": ");
     if (shape.rows == 0) return {};  // loadTopicModelCsv names the empty file
     if (!m.isGiven("V")) c.V = std::max(in.V, shape.columns);
     if (!c.fixed) return {};
@@ -131,7 +131,13 @@ bool sameFile(const std::string& a, const std::string& b) {
 Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path,
                           MissionOutput kind) {
     if (path.empty()) return {};
-    if (Status st = probeOutputFile(path); !st.ok()) return Status::error(name + ": " + st.message());
+    if (Status st = probeOutputFile(path); !st.ok()) return st.prefixed(name + ": ");
+    return checkMissionOutputOverlap(m, name, path, kind);
+}
+
+Status checkMissionOutputOverlap(const MissionOptions& m, const std::string& name, const std::string& path,
+                                 MissionOutput kind) {
+    if (path.empty()) return {};
     std::vector<std::string> read = m.inputs;
     read.push_back(m.in_topicmodel);
     if (kind != MissionOutput::Checkpoint) read.push_back(m.resume);
@@ -159,8 +165,8 @@ Status checkMission(const MissionOptions& m, MissionPlan& plan) {
     const std::string& name = m.names.resume;
     std::error_code ec;
     if (std::filesystem::is_directory(m.resume, ec))
-        return Status::error(name + ": " + m.resume + " is a directory, not a checkpoint file");
-    if (Status st = readCheckpointInfo(m.resume, plan.checkpoint); !st.ok()) return Status::error(name + ": " + st.message());
+        return Status::error(StatusKind::IsADirectory, name + ": " + m.resume + " is a directory, not a checkpoint file");
+    if (Status st = readCheckpointInfo(m.resume, plan.checkpoint); !st.ok()) return st.prefixed(name + ": ");
     if (!m.in_topicmodel.empty())
         return Status::error(m.names.topicmodel + " cannot be used with " + name +
                              ": the checkpoint holds the mission's topic model");
@@ -197,13 +203,13 @@ std::unique_ptr<Engine> openMission(const MissionOptions& m, const MissionPlan& 
         CheckpointLoadOptions lo;
         lo.allow_refinement_change = plan.refinement_changed;
         if (Status st = loadCheckpoint(m.resume, *engine, lo); !st.ok()) {
-            status = Status::error(m.names.resume + ": " + st.message());
+            status = st.prefixed(m.names.resume + ": ");
             return nullptr;
         }
     }
     if (!m.in_topicmodel.empty())
         if (Status st = loadTopicModelCsv(m.in_topicmodel, engine->model()); !st.ok()) {
-            status = Status::error(m.names.topicmodel + ": " + st.message());
+            status = st.prefixed(m.names.topicmodel + ": ");
             return nullptr;
         }
     status = {};

@@ -273,11 +273,14 @@ namespace {
 template <typename Grow>
 Status readWhole(const std::string& path, Grow&& grow, std::size_t& have) {
     FILE* f = std::fopen(path.c_str(), "rb");
-    if (f == nullptr) return Status::error(path + ": cannot open: " + std::strerror(errno));
+    if (f == nullptr) {
+        const int err = errno;
+        return Status::fromErrno(err, path + ": cannot open: " + std::strerror(err));
+    }
     struct stat st {};
     if (::fstat(::fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {  // fopen opens a directory; reading it fails oddly
         std::fclose(f);
-        return Status::error(path + ": is a directory, not a file");
+        return Status::error(StatusKind::IsADirectory, path + ": is a directory, not a file");
     }
     have = 0;
     std::size_t size = 0;
@@ -378,7 +381,10 @@ bool isDeviceOrFifo(const std::string& path) {
 
 Status writeInPlace(const std::string& path, std::string_view content) {
     const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
-    if (fd < 0) return Status::error(path + ": cannot open for writing: " + std::strerror(errno));
+    if (fd < 0) {
+        const int err = errno;
+        return Status::fromErrno(err, path + ": cannot open for writing: " + std::strerror(err));
+    }
     const bool ok = writeAll(fd, content);
     const std::string why = std::strerror(errno);
     ::close(fd);
@@ -392,14 +398,20 @@ Status probeOutputFile(const std::string& path) {
     if (path.empty()) return Status::error("an output path is empty");
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
-        return Status::error(path + ": is a directory, not a file that can be written");
+        return Status::error(StatusKind::IsADirectory, path + ": is a directory, not a file that can be written");
     if (isDeviceOrFifo(path)) {
-        if (::access(path.c_str(), W_OK) != 0) return Status::error(path + ": cannot write: " + std::strerror(errno));
+        if (::access(path.c_str(), W_OK) != 0) {
+            const int err = errno;
+            return Status::fromErrno(err, path + ": cannot write: " + std::strerror(err));
+        }
         return {};
     }
     std::string dir, tmp;
     const int fd = makeTemporary(path, dir, tmp);
-    if (fd < 0) return Status::error(path + ": cannot write in " + dir + ": " + std::strerror(errno));
+    if (fd < 0) {
+        const int err = errno;
+        return Status::fromErrno(err, path + ": cannot write in " + dir + ": " + std::strerror(err));
+    }
     ::close(fd);
     ::unlink(tmp.c_str());
     return {};
@@ -411,7 +423,10 @@ namespace {
 // directory in `dir`), flushed; on failure nothing is left behind.
 Status writeTemporary(const std::string& path, std::string_view content, std::string& dir, std::string& tmp) {
     const int fd = makeTemporary(path, dir, tmp);
-    if (fd < 0) return Status::error(path + ": cannot create a temporary file in " + dir + ": " + std::strerror(errno));
+    if (fd < 0) {
+        const int err = errno;
+        return Status::fromErrno(err, path + ": cannot create a temporary file in " + dir + ": " + std::strerror(err));
+    }
     if (!writeAll(fd, content)) {
         const std::string why = std::strerror(errno);
         ::close(fd);
@@ -430,9 +445,9 @@ Status writeTemporary(const std::string& path, std::string_view content, std::st
 // The temporary file renamed over `path`, and the rename made durable.
 Status renameInto(const std::string& tmp, const std::string& path, const std::string& dir) {
     if (::rename(tmp.c_str(), path.c_str()) != 0) {
-        const std::string why = std::strerror(errno);
+        const int err = errno;
         ::unlink(tmp.c_str());
-        return Status::error(path + ": rename failed: " + why);
+        return Status::fromErrno(err, path + ": rename failed: " + std::strerror(err));
     }
     const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
     if (dfd >= 0) {

@@ -93,14 +93,12 @@ std::string settingProblemText(const ModelOptions& m, const SettingProblem& p) {
 Status probeMissionOutputs(const ModelOptions& m, const std::string& outBag, const std::vector<std::string>& inputs,
                            const std::vector<std::string>& results,
                            std::function<bool(const std::string&, const std::string&)> wouldRead) {
-    MissionOptions mo;
-    mo.in_topicmodel = m.in_topicmodel;
-    mo.resume = m.resume;
+    MissionOptions mo = missionOptions(m);
     mo.inputs = inputs;
     mo.inputs.push_back(m.config);
     mo.would_read = std::move(wouldRead);
-    for (const std::string& result : results)  // the run's own files over one of its inputs
-        if (Status st = checkMissionOutput(mo, "--out", result, MissionOutput::Other); !st.ok()) return st;
+    for (const std::string& result : results)  // the run's own files over one of its inputs (--out probes them)
+        if (Status st = checkMissionOutputOverlap(mo, "--out", result); !st.ok()) return st;
     if (Status st = checkMissionOutput(mo, "--checkpoint", m.checkpoint); !st.ok()) return st;
     if (Status st = checkMissionOutput(mo, "--out.bag", outBag, MissionOutput::Other); !st.ok()) return st;
     if (!m.checkpoint.empty() && !outBag.empty() && sameFile(m.checkpoint, outBag))

@@ -77,9 +77,10 @@ Status OutputDir::commit() {
     return {};
 }
 
-std::vector<std::string> OutputDir::paths() const {
+std::vector<std::string> OutputDir::paths(const std::vector<std::string_view>& skip) const {
     std::vector<std::string> out;
-    for (const auto& name : names_) out.push_back(final(name));
+    for (const auto& name : names_)
+        if (std::find(skip.begin(), skip.end(), name) == skip.end()) out.push_back(final(name));
     return out;
 }
 

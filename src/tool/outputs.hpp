@@ -51,8 +51,9 @@ public:
     // Removes the staging directory and everything in it.
     void abandon() noexcept;
     const std::string& dir() const noexcept { return dir_; }
-    // Where probe()'s files go: final(name) for each.
-    std::vector<std::string> paths() const;
+    // Where probe()'s files go: final(name) for each, but those named in
+    // `skip` (the files this run will not write: no summary.png under --no-summary).
+    std::vector<std::string> paths(const std::vector<std::string_view>& skip = {}) const;
     const std::vector<std::string>& files() const noexcept { return files_; }
     void track(const std::string& name) { files_.push_back(name); }
 

@@ -99,7 +99,9 @@ int refineCommand(const RefineOptions& o) {
                                "summary.png"});
         !st.ok())
         return fail(st.message());
-    if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}, out.paths()); !st.ok())
+    // The files this run writes (the probe names those it may: an earlier run's are noted).
+    const std::vector<std::string> results = out.paths(o.summary ? std::vector<std::string_view>{} : std::vector<std::string_view>{"summary.png"});
+    if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}, results); !st.ok())
         return fail(st.message());
     // word stream -> engine -> sinks
     StreamStage in;

@@ -137,7 +137,11 @@ int runCommand(const RunOptions& o) {
                                "overlay.avi"});
         !st.ok())
         return fail(st.message());
-    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs, out.paths(), vision::inputWouldRead); !st.ok())
+    // The files this run writes (the probe names those it may: an earlier run's are noted).
+    std::vector<std::string_view> skip;
+    if (!o.summary) skip.push_back("summary.png");
+    if (!o.overlay) skip.insert(skip.end(), {"overlay.mp4", "overlay.avi"});
+    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs, out.paths(skip), vision::inputWouldRead); !st.ok())
         return fail(st.message());
     if (Status st = words.open(o); !st.ok()) return fail(st.message());
     words.printNotes();

@@ -61,7 +61,7 @@ std::string shortName(const std::string& input) {
     if (vision::isCameraInput(input)) return input;
     std::filesystem::path p(input);
     while (!p.empty() && p.filename().empty()) p = p.parent_path();  // "dir/" -> "dir"
-    if (input.find_first_of("*?[") != std::string::npos && p.has_parent_path())
+    if (vision::isGlobInput(input) && p.has_parent_path())
         return (p.parent_path().filename() / p.filename()).string();
     return p.filename().string();
 }

@@ -30,6 +30,19 @@ std::string lower(std::string s) {
     return s;
 }
 
+// The regular files a glob pattern matches now, sorted: what a glob input
+// reads, and what its outputs may not replace (inputWouldRead).
+std::vector<std::string> globFiles(const std::string& pattern) {
+    glob_t g{};
+    std::vector<std::string> files;
+    if (::glob(pattern.c_str(), 0, nullptr, &g) == 0)
+        for (std::size_t i = 0; i < g.gl_pathc; ++i)
+            if (fs::is_regular_file(g.gl_pathv[i])) files.emplace_back(g.gl_pathv[i]);
+    globfree(&g);
+    std::sort(files.begin(), files.end());
+    return files;
+}
+
 bool isImageFile(const fs::path& p) {
     static const char* kExt[] = {".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pnm", ".pbm",
                                  ".bmp", ".tif", ".tiff", ".webp"};
@@ -65,9 +78,16 @@ bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
 Status checkReadable(const std::string& path) {
     std::error_code ec;
     const auto st = fs::status(path, ec);
-    if (ec || !fs::exists(st)) return Status::error(path + ": no such file or directory");
+    if (ec || !fs::exists(st)) {  // a directory on the way not searchable: as open(2) says it
+        const bool denied = ec == std::make_error_code(std::errc::permission_denied);
+        return denied ? Status::error(StatusKind::PermissionDenied, path + ": cannot read: " + ec.message())
+                      : Status::error(StatusKind::NotFound, path + ": no such file or directory");
+    }
     if (!fs::is_regular_file(st) && !fs::is_directory(st)) return Status::error(path + ": not a regular file");
-    if (::access(path.c_str(), R_OK) != 0) return Status::error(path + ": cannot read: " + std::strerror(errno));
+    if (::access(path.c_str(), R_OK) != 0) {
+        const int err = errno;
+        return Status::fromErrno(err, path + ": cannot read: " + std::strerror(err));
+    }
     return {};
 }
 
@@ -289,13 +309,9 @@ std::unique_ptr<FrameSource> openFiles(std::vector<std::string> files, const std
 bool inputWouldRead(const std::string& input, const std::string& path) {
     if (isCameraInput(input)) return false;
     std::error_code ec;
-    if (input.find_first_of("*?[") != std::string::npos) {
-        glob_t g{};  // the files it reads now, under another spelling
-        bool read = false;
-        if (::glob(input.c_str(), 0, nullptr, &g) == 0)
-            for (std::size_t i = 0; i < g.gl_pathc && !read; ++i) read = sameFile(g.gl_pathv[i], path);
-        globfree(&g);
-        if (read) return true;
+    if (isGlobInput(input)) {
+        for (const std::string& f : globFiles(input))  // the files it reads now, under another spelling
+            if (sameFile(f, path)) return true;
         const std::string pattern = fs::absolute(input, ec).lexically_normal().string();
         const std::string file = fs::absolute(path, ec).lexically_normal().string();
         return !ec && ::fnmatch(pattern.c_str(), file.c_str(), FNM_PATHNAME | FNM_PERIOD) == 0;
@@ -306,6 +322,8 @@ bool inputWouldRead(const std::string& input, const std::string& path) {
 }
 
 bool isCameraInput(const std::string& input) noexcept { return input.rfind("camera:", 0) == 0; }
+
+bool isGlobInput(const std::string& input) noexcept { return input.find_first_of("*?[") != std::string::npos; }
 
 std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const SourceOptions& o, Status& status) {
     status = {};
@@ -325,22 +343,16 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const Sou
         }
         return openCamera(static_cast<int>(idx), o, status);
     }
-    if (input.find_first_of("*?[") != std::string::npos) {
-        glob_t g{};
-        const int rc = ::glob(input.c_str(), 0, nullptr, &g);
-        std::vector<std::string> files;
-        if (rc == 0)
-            for (std::size_t i = 0; i < g.gl_pathc; ++i)
-                if (fs::is_regular_file(g.gl_pathv[i])) files.emplace_back(g.gl_pathv[i]);
-        globfree(&g);
+    if (isGlobInput(input)) {
+        std::vector<std::string> files = globFiles(input);
         if (files.empty()) {
             status = Status::error(input + ": no files match");
             return nullptr;
         }
-        std::sort(files.begin(), files.end());
         for (const auto& f : files)
             if (::access(f.c_str(), R_OK) != 0) {
-                status = Status::error(f + ": cannot read: " + std::strerror(errno));
+                const int err = errno;
+                status = Status::fromErrno(err, f + ": cannot read: " + std::strerror(err));
                 return nullptr;
             }
         return openFiles(std::move(files), "images " + input, o, status);

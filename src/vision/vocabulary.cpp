@@ -287,16 +287,21 @@ Status Vocabulary::save(const std::string& path) const {
     // Through a temporary file renamed into place; a device or a FIFO is written in place.
     const Status st =
         text::writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
-    if (!st.ok()) return Status::error("vocabulary " + st.message());
+    if (!st.ok()) return st.prefixed("vocabulary ");
     return {};
 }
 
 Status Vocabulary::load(const std::string& path, Vocabulary& out) {
     std::error_code ec;
-    if (!std::filesystem::exists(path, ec)) return Status::error("vocabulary " + path + ": no such file");
-    if (std::filesystem::is_directory(path, ec)) return Status::error("vocabulary " + path + ": is a directory");
+    if (!std::filesystem::exists(path, ec))
+        return Status::error(StatusKind::NotFound, "vocabulary " + path + ": no such file");
+    if (std::filesystem::is_directory(path, ec))
+        return Status::error(StatusKind::IsADirectory, "vocabulary " + path + ": is a directory");
     std::ifstream f(path, std::ios::binary);
-    if (!f) return Status::error("vocabulary " + path + ": cannot open: " + std::strerror(errno));
+    if (!f) {
+        const int err = errno;
+        return Status::fromErrno(err, "vocabulary " + path + ": cannot open: " + std::strerror(err));
+    }
     std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     if (f.bad()) return Status::error("vocabulary " + path + ": read error: " + std::strerror(errno));
     return parse(bytes, path, out);

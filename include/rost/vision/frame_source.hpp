@@ -140,6 +140,9 @@ std::unique_ptr<FrameSource> openFrameSources(const std::vector<std::string>& in
 // True when INPUT names a camera ("camera:N").
 bool isCameraInput(const std::string& input) noexcept;
 
+// True when INPUT is a glob(3) pattern of image files ('*', '?' or '[' in it).
+bool isGlobInput(const std::string& input) noexcept;
+
 // Whether the input `input` would read the file `path` besides being it (a
 // mission's outputs may not: MissionOptions::would_read): one of an image
 // directory's frames (an image file directly in it), a file an input glob
