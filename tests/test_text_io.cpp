@@ -292,9 +292,12 @@ TEST(TextFiles, AFailedOpenSaysWhatItIsAboutThroughEveryPrefix) {
     EXPECT_EQ(text::probeOutputFile(d.path.string()).kind(), StatusKind::IsADirectory);
     EXPECT_EQ(text::probeOutputFile(missing).kind(), StatusKind::NotFound);
     EXPECT_EQ(text::writeFileAtomic(missing, "x").kind(), StatusKind::NotFound);
-    EXPECT_EQ(text::readFile(path + "/x", got).kind(), StatusKind::NotFound) << "ENOTDIR: a file on the way";
+    EXPECT_EQ(text::readFile(path + "/x", got).kind(), StatusKind::NotADirectory) << "ENOTDIR: a file on the way";
+    const std::string loop = (d.path / "loop").string();
+    ASSERT_EQ(::symlink(loop.c_str(), loop.c_str()), 0);
+    EXPECT_EQ(text::readFile(loop, got).kind(), StatusKind::OsError) << "ELOOP: refused by the system otherwise";
     EXPECT_EQ(Status::fromErrno(EACCES, "x").kind(), StatusKind::PermissionDenied);
-    EXPECT_EQ(Status::fromErrno(EIO, "x").kind(), StatusKind::Invalid);
+    EXPECT_EQ(Status::fromErrno(EPERM, "x").kind(), StatusKind::PermissionDenied);
     EXPECT_EQ(Status::error("bad").kind(), StatusKind::Invalid);
     if (::geteuid() != 0) {  // root reads a mode-000 file
         ASSERT_EQ(::chmod(path.c_str(), 0), 0);

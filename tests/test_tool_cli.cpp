@@ -113,7 +113,7 @@ TEST(ToolCli, InvalidOptionValuesAreNamed) {
     expectError(runRost("run " + in + " --eta 2"), "eta", t / "o");
     expectError(runRost("run " + in + " --budget.refines 3 --budget.ms 10"), "excludes", t / "o");
     expectError(runRost("run " + in + " -V 100"), "-V 100 is smaller than the 5436 words", t / "o");
-    expectError(runRost("run " + in + " --vocabulary " + (t / "none.rostvoc")), "none.rostvoc: no such file", t / "o");
+    expectError(runRost("run " + in + " --vocabulary " + (t / "none.rostvoc")), "none.rostvoc: cannot open: No such file or directory", t / "o");
     // The commands' own sizes and counts, where 0 means "all" or "from the input": never below it.
     for (const char* opt : {"--width", "--height", "--max-frames"})
         expectError(runRost("run " + in + " " + opt + " -5"), std::string(opt) + ": expected 0 or more, found '-5'", t / "o");

@@ -298,6 +298,11 @@ TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {
     EXPECT_EQ(kept.exit_code, 0) << kept.err;
     EXPECT_EQ(rost::testing::readText(t / "o3/summary.png"), words);
     EXPECT_TRUE(std::filesystem::exists(t / "o3/topics.csv"));
+    std::filesystem::create_directories(t / "o4/summary.png");  // nor is a directory in its place refused
+    expectError(runRost("refine " + (t / "words.csv") + " --out " + (t / "o4") + " -q"),
+                "rost: error: " + (t / "o4/summary.png") + ": is a directory, not a file that can be written", t / "o4/none");
+    const RunResult noSummary = runRost("refine " + (t / "words.csv") + " --out " + (t / "o4") + " -q --no-summary");
+    EXPECT_EQ(noSummary.exit_code, 0) << noSummary.err;
     ASSERT_EQ(runRost(refine(t, "o", "--checkpoint " + (t / "m.ckpt"))).exit_code, 0);
 }
 
@@ -516,6 +521,14 @@ TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {
                     "'s K = 16 (a resumed mission keeps its model; leave the key out)",
                 t / "o");
     expectError(runRost(refine(t, "o", "--resume ''")), "--resume: no file given", t / "o");
+    // Every path option: an empty value (a script's unset variable) is refused, not read as "none".
+    for (const char* option : {"--checkpoint", "--config", "--in.topicmodel"})
+        expectError(runRost(refine(t, "o", std::string(option) + " ''")), std::string(option) + ": no file given", t / "o");
+    expectError(runRost("refine " + (t / "words.csv") + " --out " + (t / "o") + " --positions ''"),
+                "--positions: no file given", t / "o");
+    expectError(runRost("refine " + (t / "words.csv") + " --out ''"), "--out: no directory given", t / "o");
+    expectError(runRost("run " + (t / "clip.avi") + " --out " + (t / "v") + " --out.bag ''"), "--out.bag: no file given",
+                t / "v");
     std::filesystem::create_directory(t / "dir.ckpt");
     expectError(runRost(refine(t, "o", "--resume " + (t / "dir.ckpt"))),
                 "--resume: " + (t / "dir.ckpt") + " is a directory, not a checkpoint file", t / "o");

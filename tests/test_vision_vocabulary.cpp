@@ -211,9 +211,11 @@ TEST_F(VocabularyFileErrors, TrailingBytesAreRefused) {
 TEST_F(VocabularyFileErrors, MissingFileAndDirectoryAreNamed) {
     Vocabulary v;
     Status st = Vocabulary::load(t_ / "nope.rostvoc", v);
-    EXPECT_NE(st.message().find("no such file"), std::string::npos) << st.message();
+    EXPECT_EQ(st.message(), "vocabulary " + (t_ / "nope.rostvoc") + ": cannot open: No such file or directory");
+    EXPECT_EQ(st.kind(), StatusKind::NotFound);
     st = Vocabulary::load(t_.path(), v);
-    EXPECT_NE(st.message().find("is a directory"), std::string::npos) << st.message();
+    EXPECT_EQ(st.message(), "vocabulary " + t_.path() + ": is a directory, not a file");
+    EXPECT_EQ(st.kind(), StatusKind::IsADirectory);
 }
 
 TEST(VisionKMajority, RecoversPlantedClustersDeterministicallyForAnyThreadCount) {

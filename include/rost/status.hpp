@@ -9,14 +9,16 @@
 namespace rost {
 
 // What a failed set-up call's error is about, so that a face can say it in
-// its own terms (Python: FileNotFoundError, PermissionError,
-// IsADirectoryError) without looking at the file again itself. Most errors
-// are Invalid: input or settings the library refuses.
+// its own terms (Python: FileNotFoundError, PermissionError, ...: as open()
+// raises them) without looking at the file again itself. Most errors are
+// Invalid: input or settings the library refuses.
 enum class StatusKind : uint8_t {
-    Invalid,           // anything else: bad content, a setting out of range, ...
-    NotFound,          // a file or directory to read is not there
+    Invalid,           // bad content, a setting out of range, ...: not the system's refusal
+    NotFound,          // a file or directory to read (or to write into) is not there
     PermissionDenied,  // it is there and may not be read (or written)
     IsADirectory,      // a directory where a file was expected
+    NotADirectory,     // a file where a directory was expected: "words.csv/x"
+    OsError,           // another refusal of the system: a loop of links, a name too long, an I/O error
 };
 
 // Result of a set-up call (configuration, loading, opening a source). Empty
@@ -28,14 +30,15 @@ public:
     Status() = default;
     static Status error(std::string message) { return Status(StatusKind::Invalid, std::move(message)); }
     static Status error(StatusKind kind, std::string message) { return Status(kind, std::move(message)); }
-    // A failed open(2)/fopen(3)'s errno as a kind: ENOENT (and ENOTDIR, a
-    // file on the way) NotFound, EACCES and EPERM PermissionDenied, EISDIR
-    // IsADirectory, anything else Invalid.
+    // A failed system call's errno as a kind: ENOENT NotFound, EACCES and
+    // EPERM PermissionDenied, EISDIR IsADirectory, ENOTDIR NotADirectory,
+    // any other OsError.
     static Status fromErrno(int err, std::string message) {
-        const StatusKind kind = err == ENOENT || err == ENOTDIR ? StatusKind::NotFound
+        const StatusKind kind = err == ENOENT                   ? StatusKind::NotFound
                                 : err == EACCES || err == EPERM ? StatusKind::PermissionDenied
                                 : err == EISDIR                 ? StatusKind::IsADirectory
-                                                                : StatusKind::Invalid;
+                                : err == ENOTDIR                ? StatusKind::NotADirectory
+                                                                : StatusKind::OsError;
         return Status(kind, std::move(message));
     }
 

@@ -116,7 +116,7 @@ BusyGuard::BusyGuard(std::atomic<bool>& flag, const char* what) : flag_(flag) {
 }
 
 void check(const Status& st) {
-    if (!st.ok()) throw std::runtime_error(st.message());
+    if (!st.ok()) raiseStatus(st, {}, PyExc_RuntimeError);
 }
 
 } // namespace rost::python

@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <exception>
 #include <span>
 #include <initializer_list>
 #include <string>
@@ -46,10 +47,27 @@ std::string pathArgument(const py::handle& value, const char* what);
 
 // Raises a failed Status as the Python exception its kind is, as open()
 // raises them: FileNotFoundError (StatusKind::NotFound), PermissionError,
-// IsADirectoryError, and `otherwise` (ValueError unless given) for the rest;
+// IsADirectoryError, NotADirectoryError, OSError (another refusal of the
+// system), and `otherwise` (ValueError unless given) for the rest;
 // the message is `prefix` and the library's. The library decides what is
 // missing or unreadable where it opens the file: no face looks again.
+// It throws a StatusError, which touches no Python object: it may be called
+// where the GIL is released; the module's translator raises it.
 [[noreturn]] void raiseStatus(const Status& st, const std::string& prefix = {}, PyObject* otherwise = PyExc_ValueError);
+
+class StatusError : public std::exception {
+public:
+    StatusError(PyObject* type, std::string message) : type_(type), message_(std::move(message)) {}
+    const char* what() const noexcept override { return message_.c_str(); }
+    PyObject* type() const noexcept { return type_; }
+
+private:
+    PyObject* type_;
+    std::string message_;
+};
+
+// Registers the translator that raises a StatusError as its Python exception (module init).
+void registerStatusErrors();
 
 // An object that cannot be pickled or copied: pickle.dumps and copy.deepcopy
 // raise TypeError with `message` (which says what to do instead).

@@ -83,7 +83,7 @@ public:
             py::gil_scoped_release nogil;
             st = saveCheckpoint(*mission_.engine, path);
         }
-        if (!st.ok()) throw std::runtime_error("rost.Mission.save: " + st.message());
+        if (!st.ok()) raiseStatus(st, "rost.Mission.save: ", PyExc_RuntimeError);
     }
 
 private:
@@ -115,10 +115,21 @@ void raiseStatus(const Status& st, const std::string& prefix, PyObject* otherwis
     case StatusKind::NotFound: type = PyExc_FileNotFoundError; break;
     case StatusKind::PermissionDenied: type = PyExc_PermissionError; break;
     case StatusKind::IsADirectory: type = PyExc_IsADirectoryError; break;
+    case StatusKind::NotADirectory: type = PyExc_NotADirectoryError; break;
+    case StatusKind::OsError: type = PyExc_OSError; break;
     case StatusKind::Invalid: break;
     }
-    PyErr_SetString(type, (prefix + st.message()).c_str());
-    throw py::error_already_set();
+    throw StatusError(type, prefix + st.message());
+}
+
+void registerStatusErrors() {
+    py::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        } catch (const StatusError& e) {
+            PyErr_SetString(e.type(), e.what());
+        }
+    });
 }
 
 MissionOptions missionInputs(const MissionOptions& m, const std::vector<std::string>& inputs) {
@@ -137,7 +148,7 @@ MissionOptions missionInputs(const MissionOptions& m, const std::vector<std::str
 void checkSavePath(const MissionOptions& inputs, const char* what, const std::string& path) {
     if (path.empty()) throw py::value_error(std::string(what) + ": the path is empty");
     // The stream, its positions, frames or vocabulary, or the starting topic model would be replaced: refused.
-    if (Status st = checkMissionOutput(inputs, what, path); !st.ok()) throw std::runtime_error(st.message());
+    if (Status st = checkMissionOutput(inputs, what, path); !st.ok()) raiseStatus(st, {}, PyExc_RuntimeError);
 }
 
 bool keepRunning() {

@@ -162,7 +162,7 @@ public:
         auto m = std::make_unique<PyModel>(s);
         CheckpointLoadOptions options;
         options.allow_refinement_change = true;  // the internal budget is 0
-        if (Status st = loadCheckpoint(path, *m->engine_, options); !st.ok()) throw py::value_error(st.message());
+        if (Status st = loadCheckpoint(path, *m->engine_, options); !st.ok()) raiseStatus(st);
         m->reindex();
         return m;
     }

@@ -8,6 +8,7 @@ PYBIND11_MODULE(_rost, m) {
     m.doc() = "rost: realtime online spatiotemporal topic models (docs/python.md)";
     m.attr("__version__") = rost::version();
     m.attr("version_string") = rost::versionString();
+    rp::registerStatusErrors();
     rp::bindConfig(m);
     rp::bindModel(m);
     rp::bindEngine(m);

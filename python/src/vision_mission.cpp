@@ -88,7 +88,7 @@ public:
             py::gil_scoped_release nogil;
             st = saveCheckpoint(*mission_.engine, path);
         }
-        if (!st.ok()) throw std::runtime_error("rost.vision.Mission.save: " + st.message());
+        if (!st.ok()) raiseStatus(st, "rost.vision.Mission.save: ", PyExc_RuntimeError);
     }
 
     const Settings& settings() const { return settings_; }

@@ -270,10 +270,10 @@ def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
         (lambda: rost.vision.Mission(nope + ".mov"),
          "rost.vision.Mission: " + nope + ".mov: no such file or directory"),
         (lambda: rost.vision.Mission(tmp_path / "frames", vocabulary=nope),
-         "rost.vision.Mission: vocabulary " + nope + ": no such file"),
+         "rost.vision.Mission: vocabulary " + gone),
         (lambda: rost.Model.load(nope), "rost.Model.load: " + gone),
         (lambda: rost.io.read_words(nope), gone),
-        (lambda: rost.vision.Vocabulary.load(nope), "vocabulary " + nope + ": no such file"),
+        (lambda: rost.vision.Vocabulary.load(nope), "vocabulary " + gone),
         (lambda: rost.merge_topic_models([nope]), gone),
     ]
     for make, message in cases:
@@ -285,6 +285,36 @@ def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
         rost.Mission(words, resume=tmp_path)
     with pytest.raises(ValueError, match=r"rost\.Mission: resume: .*w\.csv"):
         rost.Mission(words, resume=words)
+    # A file where a directory belongs is NotADirectoryError, another refusal of the system OSError.
+    through = str(words) + "/x"
+    for make in (lambda: rost.Mission(through), lambda: rost.Model.load(through), lambda: rost.io.read_words(through),
+                 lambda: rost.vision.Vocabulary.load(through), lambda: rost.vision.Mission(through)):
+        with pytest.raises(NotADirectoryError, match="Not a directory"):
+            make()
+    os.symlink(tmp_path / "loop", tmp_path / "loop")
+    for make in (lambda: rost.Mission(tmp_path / "loop"), lambda: rost.merge_topic_models([tmp_path / "loop"]),
+                 lambda: rost.vision.Vocabulary.load(tmp_path / "loop"), lambda: rost.vision.Mission(tmp_path / "loop")):
+        with pytest.raises(OSError, match="Too many levels of symbolic links") as e:
+            make()
+        assert type(e.value) is OSError
+    # A vocabulary nothing would use is named, not ignored.
+    with pytest.raises(ValueError, match=r"vocabulary .*nope: given, but words\.orb is false"):
+        rost.vision.Mission(tmp_path / "frames", vocabulary=nope, words_orb=False)
+
+
+def test_a_save_into_a_missing_directory_is_file_not_found_error_on_every_face(tmp_path):
+    words = tmp_path / "w.csv"
+    words.write_text("0,1,2\n1,3\n")
+    to = tmp_path / "nodir" / "x"
+    mission = rost.Mission(words)
+    model = rost.Model(rost.Config(V=4))
+    vocabulary = rost.vision.Vocabulary.default()
+    for save, prefix in ((mission.save, "rost.Mission.save: "), (model.save, ""), (vocabulary.save, "vocabulary "),
+                         (lambda p: rost.io.write_words(p, [0], [np.array([1], np.int32)]), "")):
+        with pytest.raises(FileNotFoundError) as e:
+            save(to)
+        assert str(e.value).startswith(prefix + str(to) + ": cannot "), str(e.value)
+    assert not (tmp_path / "nodir").exists()
 
 
 def test_an_error_quoting_bytes_of_no_character_is_still_a_message(tmp_path):
@@ -312,7 +342,7 @@ def test_a_repeated_time_stamp_in_the_window_is_refused_and_changes_nothing():
 def test_unwritable_output_python_raises(tmp_path):
     m = rost.Model(rost.Config(V=10, frame_width=64, frame_height=64))
     m.add_observation(0, np.arange(10, dtype=np.int32), np.zeros((10, 2), np.int32))
-    with pytest.raises(RuntimeError) as e:
+    with pytest.raises(FileNotFoundError) as e:  # as open() raises it, on every face's save
         m.save(str(tmp_path / "no/such/dir/m.ckpt"))
     assert str(tmp_path / "no/such/dir/m.ckpt") + ": cannot create a temporary file" in str(e.value)
 

@@ -174,7 +174,7 @@ def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
     assert (m.config.frame_width, m.config.frame_height) == (80, 70), "frame_width/frame_height are the frame"
     with pytest.raises(ValueError, match=r"positions\.csv:1:\d+: .*outside"):
         rost.Mission(words, positions=positions, frame_width=20, frame_height=20)
-    with pytest.raises(RuntimeError, match=r"rost\.Mission\.save: .*nodir"):
+    with pytest.raises(FileNotFoundError, match=r"rost\.Mission\.save: .*nodir"):  # as open() raises it
         m.save(tmp_path / "nodir" / "m.ckpt")
     # The mission's own inputs would be replaced: refused by name, the file kept.
     before = open(positions, "rb").read()

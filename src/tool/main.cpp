@@ -9,7 +9,6 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <functional>
 #include <memory>
 #include <string>
 
@@ -57,14 +56,6 @@ const CLI::Validator& nonNegative() {
     return v;
 }
 
-// Whether an option was given on `cmd`'s command line.
-std::function<bool(const std::string&)> givenOn(const CLI::App* cmd) {
-    return [cmd](const std::string& name) {
-        const CLI::Option* o = cmd->get_option_no_throw(name);
-        return o != nullptr && o->count() > 0;
-    };
-}
-
 // `rost run`'s options.
 struct RunCli {
     RunOptions o;
@@ -82,11 +73,12 @@ void addRun(CLI::App& app, RunCli& r) {
                        "bag (FILE.bag with --topic). "
                        "Several inputs play one after the other at the first one's size")
         ->required();
-    runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required();
+    runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required()->check(givenPath("directory"));
     r.settings = std::make_unique<SettingsOptions>(*runCmd, run.model, SettingsOptions::Command::Run);
     runCmd->add_option("--vocabulary", run.vocabulary,
                        "ORB vocabulary file from `rost vocab`; default: the built-in one (share/rost/README.md)")
         ->type_name("FILE")
+        ->check(givenPath())
         ->group("Words");
     const char* f = "Frames";
     runCmd->add_option("--max-frames", run.max_frames, "stop after this many frames (0: all)")->group(f)->check(nonNegative());
@@ -110,6 +102,7 @@ void addRun(CLI::App& app, RunCli& r) {
                        "also write each frame's results as rost_msgs/FrameTopics on /rost/frame into this bag, "
                        "stamped like the images")
         ->type_name("FILE")
+        ->check(givenPath())
         ->group(bags);
     const std::string rt(rost::settingGroupNames(rost::SettingGroup::Runtime).title);  // with the Runtime settings
     runCmd->add_flag("--realtime", run.realtime,
@@ -147,8 +140,9 @@ void addRefine(CLI::App& app, RefineCli& r) {
     refCmd->add_option("words", ref.words, "WORDS.csv: timestamp,w1,w2,... per observation")->required();
     refCmd->add_option("--positions", ref.positions,
                        "POSITIONS.csv: timestamp,x1,y1,x2,y2,... for the same observations; without it every word "
-                       "is at (0,0): one cell per time step");
-    refCmd->add_option("--out,-o", ref.out, "output directory")->required();
+                       "is at (0,0): one cell per time step")
+        ->check(givenPath());
+    refCmd->add_option("--out,-o", ref.out, "output directory")->required()->check(givenPath("directory"));
     refCmd->add_option("--width", ref.width, "frame width positions lie in (0: the largest x + 1)")->check(nonNegative());
     refCmd->add_option("--height", ref.height, "frame height positions lie in (0: the largest y + 1)")->check(nonNegative());
     r.settings = std::make_unique<SettingsOptions>(*refCmd, ref.model, SettingsOptions::Command::Refine);
@@ -163,7 +157,9 @@ CLI::App* addVocab(CLI::App& app, VocabOptions& voc) {
     CLI::App* vocCmd = app.add_subcommand("vocab", "train an ORB vocabulary from footage (k-majority clustering in "
                                                    "Hamming space)");
     vocCmd->add_option("input", voc.inputs, "INPUT...: videos, image directories or globs")->required();
-    vocCmd->add_option("--out,-o", voc.out, "vocabulary file to write (format: docs/vision.md)")->required();
+    vocCmd->add_option("--out,-o", voc.out, "vocabulary file to write (format: docs/vision.md)")
+        ->required()
+        ->check(givenPath());
     vocCmd->add_option("--words", voc.words, "vocabulary size (paper: 5000)");
     vocCmd->add_option("--features", voc.features, "ORB keypoints per frame used for training");
     vocCmd->add_option("--every", voc.every, "use every N-th frame");
@@ -248,7 +244,8 @@ int main(int argc, char** argv) {
         ->required();
     mergeCmd->add_option("--out,-o", merge.out, "directory for topicmodel.csv (the global model) and lifting.csv "
                                                 "(model,local,global)")
-        ->required();
+        ->required()
+        ->check(givenPath("directory"));
     mergeCmd->add_option("--threshold", merge.threshold, "Hellinger distance in [0, 1] up to which a topic joins a "
                                                          "global topic (0: only identical ones)");
     mergeCmd->add_option("--beta", merge.beta, "smoothing of the topic-word distributions compared");
@@ -267,9 +264,6 @@ int main(int argc, char** argv) {
 #if ROST_TOOL_LIGHT
     if (run.cmd->parsed() || vocCmd->parsed() || camCmd->parsed()) return runVisionProgram(argv);
 #endif
-    if ((run.cmd->parsed() && givenOn(run.cmd)("--resume") && run.o.model.resume.empty()) ||
-        (ref.cmd->parsed() && givenOn(ref.cmd)("--resume") && ref.o.model.resume.empty()))
-        return fail("--resume: no file given");
 #if !ROST_TOOL_LIGHT
     if (run.cmd->parsed()) {
         if (const rost::Status st = run.settings->apply(&run.o, nullptr); !st.ok()) return fail(st.message());

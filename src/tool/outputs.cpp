@@ -44,9 +44,11 @@ Status OutputDir::open(const std::string& dir) {
     return {};
 }
 
-Status OutputDir::probe(std::initializer_list<std::string_view> names) {
+Status OutputDir::probe(std::initializer_list<std::string_view> names, const std::vector<std::string_view>& skip) {
     for (std::string_view name : names) {
         names_.emplace_back(name);
+        if (std::find(skip.begin(), skip.end(), name) != skip.end()) continue;
+        writes_.emplace_back(name);
         const std::string path = final(std::string(name));
         std::error_code ec;
         if (fs::is_directory(path, ec)) return Status::error(path + ": is a directory, not a file that can be written");
@@ -77,10 +79,9 @@ Status OutputDir::commit() {
     return {};
 }
 
-std::vector<std::string> OutputDir::paths(const std::vector<std::string_view>& skip) const {
+std::vector<std::string> OutputDir::paths() const {
     std::vector<std::string> out;
-    for (const auto& name : names_)
-        if (std::find(skip.begin(), skip.end(), name) == skip.end()) out.push_back(final(name));
+    for (const auto& name : writes_) out.push_back(final(name));
     return out;
 }
 

@@ -36,9 +36,10 @@ public:
     // Path of a file in the staging directory.
     std::string staged(const std::string& name) const { return staging_ + "/" + name; }
     std::string final(const std::string& name) const { return dir_ + "/" + name; }
-    // Before any work: the files this command may move into place there, none
-    // taken by a directory (the move would fail after the work).
-    Status probe(std::initializer_list<std::string_view> names);
+    // Before any work: the files this command may move into place there
+    // (`names`), those this run will (all but `skip`: no summary.png under
+    // --no-summary) none taken by a directory (the move would fail after the work).
+    Status probe(std::initializer_list<std::string_view> names, const std::vector<std::string_view>& skip = {});
     // Writes a whole file into staging.
     Status write(const std::string& name, const std::string& content);
     // Renames every staged file into the output directory; removes staging.
@@ -51,9 +52,8 @@ public:
     // Removes the staging directory and everything in it.
     void abandon() noexcept;
     const std::string& dir() const noexcept { return dir_; }
-    // Where probe()'s files go: final(name) for each, but those named in
-    // `skip` (the files this run will not write: no summary.png under --no-summary).
-    std::vector<std::string> paths(const std::vector<std::string_view>& skip = {}) const;
+    // Where the files this run writes go: final(name) for probe()'s names but its `skip`.
+    std::vector<std::string> paths() const;
     const std::vector<std::string>& files() const noexcept { return files_; }
     void track(const std::string& name) { files_.push_back(name); }
 
@@ -61,6 +61,7 @@ private:
     std::string dir_, staging_;
     std::vector<std::string> files_;
     std::vector<std::string> names_;    // probe()'s: every file this command may write
+    std::vector<std::string> writes_;   // of them, those this run writes
     std::vector<std::string> created_;  // directories open() made, outermost first
     bool committed_ = false;
 };

@@ -95,13 +95,14 @@ int refineCommand(const RefineOptions& o) {
     // Outputs first: an unwritable one fails before the input is read (nothing written).
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
+    // Every file the command may write (an earlier run's are noted), but only those this run writes probed.
+    const std::vector<std::string_view> skip = o.summary ? std::vector<std::string_view>{} : std::vector<std::string_view>{"summary.png"};
     if (Status st = out.probe({"topics.csv", "perplexity.csv", "surprise.csv", "surprise_cells.csv", "topicmodel.csv",
-                               "summary.png"});
+                               "summary.png"},
+                              skip);
         !st.ok())
         return fail(st.message());
-    // The files this run writes (the probe names those it may: an earlier run's are noted).
-    const std::vector<std::string> results = out.paths(o.summary ? std::vector<std::string_view>{} : std::vector<std::string_view>{"summary.png"});
-    if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}, results); !st.ok())
+    if (Status st = probeMissionOutputs(o.model, {}, {o.words, o.positions}, out.paths()); !st.ok())
         return fail(st.message());
     // word stream -> engine -> sinks
     StreamStage in;

@@ -132,16 +132,17 @@ int runCommand(const RunOptions& o) {
     if (!o.vocabulary.empty()) inputs.push_back(o.vocabulary);
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
-    if (Status st = out.probe({"frames.csv", "run.txt", "words.csv", "positions.csv", "topics.csv", "perplexity.csv",
-                               "surprise.csv", "surprise_cells.csv", "topicmodel.csv", "summary.png", "overlay.mp4",
-                               "overlay.avi"});
-        !st.ok())
-        return fail(st.message());
-    // The files this run writes (the probe names those it may: an earlier run's are noted).
+    // Every file the command may write (an earlier run's are noted), but only those this run writes probed.
     std::vector<std::string_view> skip;
     if (!o.summary) skip.push_back("summary.png");
     if (!o.overlay) skip.insert(skip.end(), {"overlay.mp4", "overlay.avi"});
-    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs, out.paths(skip), vision::inputWouldRead); !st.ok())
+    if (Status st = out.probe({"frames.csv", "run.txt", "words.csv", "positions.csv", "topics.csv", "perplexity.csv",
+                               "surprise.csv", "surprise_cells.csv", "topicmodel.csv", "summary.png", "overlay.mp4",
+                               "overlay.avi"},
+                              skip);
+        !st.ok())
+        return fail(st.message());
+    if (Status st = probeMissionOutputs(o.model, o.out_bag, inputs, out.paths(), vision::inputWouldRead); !st.ok())
         return fail(st.message());
     if (Status st = words.open(o); !st.ok()) return fail(st.message());
     words.printNotes();

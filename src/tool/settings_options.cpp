@@ -96,26 +96,37 @@ SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : 
                    "settings file: `key = value` lines with the keys of these options (`rost config` prints them "
                    "all); options given on the command line win")
         ->type_name("FILE")
+        ->check(givenPath())
         ->group(groupTitle(SettingGroup::Mission));
     if (cmd == Command::Config) return;
     app.add_option("--in.topicmodel", m.in_topicmodel,
                    "start from a topic model: a topicmodel.csv of an earlier run (K rows of V counts)")
         ->type_name("FILE")
+        ->check(givenPath())
         ->group(groupTitle(SettingGroup::Model));
     app.add_option("--checkpoint", m.checkpoint,
                    "save the engine's whole state to FILE every --checkpoint.every observations and at the end "
                    "(atomically: a crash leaves the previous checkpoint)")
         ->type_name("FILE")
+        ->check(givenPath())
         ->group(groupTitle(SettingGroup::Mission));
     app.add_option("--resume", m.resume,
                    "carry on the mission FILE (a --checkpoint) holds: its model, window and random state; input "
                    "frames or observations it already has (time stamp up to its last) are skipped, a camera's "
                    "frames are numbered after them. Model options may be repeated but not changed")
         ->type_name("FILE")
+        ->check(givenPath())
         ->group(groupTitle(SettingGroup::Mission));
 }
 
 SettingsOptions::~SettingsOptions() = default;
+
+const CLI::Validator& givenPath(const char* what) {
+    static const CLI::Validator file([](std::string& s) { return s.empty() ? std::string("no file given") : std::string(); }, "");
+    static const CLI::Validator dir(
+        [](std::string& s) { return s.empty() ? std::string("no directory given") : std::string(); }, "");
+    return std::string_view(what) == "directory" ? dir : file;
+}
 
 // --config FILE: its keys onto `s`, except where the command line gives the
 // same setting (the command line wins).

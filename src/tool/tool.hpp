@@ -22,6 +22,7 @@
 
 namespace CLI {
 class App;
+class Validator;
 }
 
 namespace rost::tool {
@@ -161,6 +162,11 @@ private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
+
+// A path option's value may not be empty: `--checkpoint "$CKPT"` with CKPT
+// unset is refused ("--checkpoint: no file given"), not read as no
+// checkpoint. `what` is "file" or "directory".
+const CLI::Validator& givenPath(const char* what = "file");
 
 // `rost config`: prints every setting as a configuration file.
 int configCommand(const ModelOptions& m);

@@ -78,11 +78,9 @@ bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
 Status checkReadable(const std::string& path) {
     std::error_code ec;
     const auto st = fs::status(path, ec);
-    if (ec || !fs::exists(st)) {  // a directory on the way not searchable: as open(2) says it
-        const bool denied = ec == std::make_error_code(std::errc::permission_denied);
-        return denied ? Status::error(StatusKind::PermissionDenied, path + ": cannot read: " + ec.message())
-                      : Status::error(StatusKind::NotFound, path + ": no such file or directory");
-    }
+    if (!fs::exists(st) && (!ec || ec == std::errc::no_such_file_or_directory))
+        return Status::error(StatusKind::NotFound, path + ": no such file or directory");
+    if (ec) return Status::fromErrno(ec.value(), path + ": cannot read: " + ec.message());  // as open(2) says it
     if (!fs::is_regular_file(st) && !fs::is_directory(st)) return Status::error(path + ": not a regular file");
     if (::access(path.c_str(), R_OK) != 0) {
         const int err = errno;

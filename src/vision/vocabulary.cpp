@@ -2,12 +2,10 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <thread>
 
@@ -292,19 +290,9 @@ Status Vocabulary::save(const std::string& path) const {
 }
 
 Status Vocabulary::load(const std::string& path, Vocabulary& out) {
-    std::error_code ec;
-    if (!std::filesystem::exists(path, ec))
-        return Status::error(StatusKind::NotFound, "vocabulary " + path + ": no such file");
-    if (std::filesystem::is_directory(path, ec))
-        return Status::error(StatusKind::IsADirectory, "vocabulary " + path + ": is a directory");
-    std::ifstream f(path, std::ios::binary);
-    if (!f) {
-        const int err = errno;
-        return Status::fromErrno(err, "vocabulary " + path + ": cannot open: " + std::strerror(err));
-    }
-    std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (f.bad()) return Status::error("vocabulary " + path + ": read error: " + std::strerror(errno));
-    return parse(bytes, path, out);
+    std::string bytes;  // the library's reader: its errors say what failed and where (StatusKind)
+    if (Status st = text::readFile(path, bytes); !st.ok()) return st.prefixed("vocabulary ");
+    return parse(std::span(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()), path, out);
 }
 
 Status Vocabulary::parse(std::span<const uint8_t> b, const std::string& name, Vocabulary& out) {
