@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -97,6 +99,27 @@ TEST(VisionSources, GlobSelectsMatchingFilesAndOptionsResize) {
     const auto frames = readAll(*src);
     ASSERT_EQ(frames.size(), 3u);
     EXPECT_EQ(frames[0].image.size(), cv::Size(20, 15));
+}
+
+// A link that leads to itself among the frames is no frame: skipped in a
+// directory and a glob, never an exception (std::filesystem's throwing forms
+// ended the tool with terminate()); as an input it is the system's error.
+TEST(VisionSources, ALoopOfLinksAmongTheFramesIsSkippedNeverThrown) {
+    TempDir t;
+    std::filesystem::create_directory(t / "d");
+    ASSERT_TRUE(cv::imwrite(t / "d/a.png", patterned(40, 30, 1)));
+    ASSERT_EQ(::symlink((t / "d/loop.png").c_str(), (t / "d/loop.png").c_str()), 0);
+    for (const std::string& input : {t / "d", t / "d/*.png"}) {
+        Status st;
+        auto src = openFrameSource(input, {}, st);
+        ASSERT_TRUE(src) << input << ": " << st.message();
+        EXPECT_EQ(readAll(*src).size(), 1u) << input;
+    }
+    const std::string loop = t / "d/loop.png";
+    EXPECT_EQ(openError(loop), loop + ": cannot read: Too many levels of symbolic links");
+    Status st;
+    EXPECT_FALSE(openFrameSource(loop, {}, st));
+    EXPECT_EQ(st.kind(), StatusKind::OsError);
 }
 
 TEST(VisionSources, VideoFileGivesItsFramesSizeAndRate) {

@@ -39,10 +39,11 @@ void applySettings(Settings& s, const py::kwargs& kwargs, const char* what, bool
 // for a budget key not in force.
 py::object settingObject(const Settings& s, const SettingSpec& spec);
 
-// Raises RuntimeError with the status's message when it is an error.
+// Raises a failed Status (raiseStatus: RuntimeError unless it is about a file).
 void check(const Status& st);
 
-// A path argument as text: str or os.PathLike (TypeError naming the argument otherwise).
+// A path argument as text: str or os.PathLike (TypeError naming the argument
+// otherwise); an empty one is refused (ValueError: "WHAT: no file given").
 std::string pathArgument(const py::handle& value, const char* what);
 
 // Raises a failed Status as the Python exception its kind is, as open()

@@ -100,10 +100,15 @@ private:
 // ---- bindings.hpp and mission_results.hpp ----------------------------------------------
 
 std::string pathArgument(const py::handle& value, const char* what) {
-    if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+    // An empty one (a script's unset variable) is refused, as the tool refuses `--resume ''`: not read as "none".
+    const auto given = [what](std::string path) {
+        if (path.empty()) throw py::value_error(std::string(what) + ": no file given (an empty path)");
+        return path;
+    };
+    if (py::isinstance<py::str>(value)) return given(value.cast<std::string>());
     if (py::hasattr(value, "__fspath__")) {
         const py::object p = value.attr("__fspath__")();
-        if (py::isinstance<py::str>(p)) return p.cast<std::string>();
+        if (py::isinstance<py::str>(p)) return given(p.cast<std::string>());
     }
     throw py::type_error(std::string(what) + ": expected a path (str or os.PathLike), found " +
                          std::string(py::str(py::type::handle_of(value).attr("__name__"))));
@@ -146,7 +151,6 @@ MissionOptions missionInputs(const MissionOptions& m, const std::vector<std::str
 }
 
 void checkSavePath(const MissionOptions& inputs, const char* what, const std::string& path) {
-    if (path.empty()) throw py::value_error(std::string(what) + ": the path is empty");
     // The stream, its positions, frames or vocabulary, or the starting topic model would be replaced: refused.
     if (Status st = checkMissionOutput(inputs, what, path); !st.ok()) raiseStatus(st, {}, PyExc_RuntimeError);
 }
@@ -161,8 +165,8 @@ MissionOptions missionOptions(const py::kwargs& settings, const char* what, cons
     MissionOptions m;
     applySettings(m.settings, settings, what);
     for (const auto& [k, v] : settings) m.given.emplace_back(findSetting(py::str(k).cast<std::string>())->key);
-    if (!resume.is_none()) m.resume = pathArgument(resume, "resume");
-    if (!topicmodel.is_none()) m.in_topicmodel = pathArgument(topicmodel, "topicmodel");
+    if (!resume.is_none()) m.resume = pathArgument(resume, (std::string(what) + ": resume").c_str());
+    if (!topicmodel.is_none()) m.in_topicmodel = pathArgument(topicmodel, (std::string(what) + ": topicmodel").c_str());
     m.names.setting = [](const SettingSpec& s) { return paramName(s); };
     m.names.given = [](const SettingSpec& s, const std::string& v) { return paramName(s) + "=" + v; };
     m.names.leave = [](const SettingSpec& s) { return paramName(s); };

@@ -141,7 +141,7 @@ public:
         Engine out(settings_.engine);
         check(copyState(*engine_, out));
         py::gil_scoped_release nogil;
-        check(saveCheckpoint(out, path));
+        if (Status st = saveCheckpoint(out, path); !st.ok()) raiseStatus(st, "rost.Model.save: ", PyExc_RuntimeError);
     }
 
     // The library's mission session decides what the checkpoint fixes and what

@@ -114,6 +114,9 @@ public:
         const vision::ExtractorConfig cfg = vision::ExtractorConfig::from(s.words);
         if (Status st = cfg.validate(); !st.ok()) throw py::value_error("rost.vision.WordExtractor: " + st.message());
         std::shared_ptr<const Vocabulary> v;
+        if (!cfg.orb && !vocabulary.is_none())  // as a mission refuses it
+            throw py::value_error("rost.vision.WordExtractor: vocabulary given, but words.orb is false: no word would "
+                                  "come from it");
         if (vocabulary.is_none()) {
             if (cfg.orb) v = defaultVocabulary().vocabulary;
         } else if (py::isinstance<PyVocabulary>(vocabulary)) {

@@ -300,6 +300,17 @@ def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
     # A vocabulary nothing would use is named, not ignored.
     with pytest.raises(ValueError, match=r"vocabulary .*nope: given, but words\.orb is false"):
         rost.vision.Mission(tmp_path / "frames", vocabulary=nope, words_orb=False)
+    with pytest.raises(ValueError, match=r"rost\.vision\.WordExtractor: vocabulary given, but words\.orb is false"):
+        rost.vision.WordExtractor(rost.vision.Vocabulary.default(), words_orb=False)
+    # An empty path (a script's unset variable) is refused, as the tool refuses `--resume ''`, not read as "none".
+    for make, what in ((lambda: rost.Mission(words, resume=""), "rost.Mission: resume"),
+                       (lambda: rost.Mission(words, topicmodel=""), "rost.Mission: topicmodel"),
+                       (lambda: rost.Mission(words, positions=""), "rost.Mission: positions"),
+                       (lambda: rost.vision.Mission(tmp_path / "frames", vocabulary=""), "rost.vision.Mission: vocabulary"),
+                       (lambda: rost.Model.load(""), "rost.Model.load: path")):
+        with pytest.raises(ValueError) as e:
+            make()
+        assert str(e.value) == what + ": no file given (an empty path)"
 
 
 def test_a_save_into_a_missing_directory_is_file_not_found_error_on_every_face(tmp_path):
@@ -309,7 +320,7 @@ def test_a_save_into_a_missing_directory_is_file_not_found_error_on_every_face(t
     mission = rost.Mission(words)
     model = rost.Model(rost.Config(V=4))
     vocabulary = rost.vision.Vocabulary.default()
-    for save, prefix in ((mission.save, "rost.Mission.save: "), (model.save, ""), (vocabulary.save, "vocabulary "),
+    for save, prefix in ((mission.save, "rost.Mission.save: "), (model.save, "rost.Model.save: "), (vocabulary.save, "vocabulary "),
                          (lambda p: rost.io.write_words(p, [0], [np.array([1], np.int32)]), "")):
         with pytest.raises(FileNotFoundError) as e:
             save(to)

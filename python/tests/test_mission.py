@@ -196,5 +196,5 @@ def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
     finally:
         os.chdir(here)
     assert open(positions, "rb").read() == before
-    with pytest.raises(ValueError, match=r"rost\.Mission\.save: the path is empty"):
+    with pytest.raises(ValueError, match=r"rost\.Mission\.save: path: no file given \(an empty path\)"):
         m.save("")

@@ -729,8 +729,9 @@ std::unique_ptr<CheckpointWriter> CheckpointWriter::create(Engine& engine, std::
         namespace fs = std::filesystem;
         const fs::path target(w->path_);
         const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-        if (!fs::is_directory(dir)) {
-            status = Status::error(w->path_ + ": directory " + dir.string() + " does not exist");
+        std::error_code dirEc;  // never thrown: a loop of links on the way is an error like any other
+        if (!fs::is_directory(dir, dirEc)) {
+            status = Status::error(StatusKind::NotFound, w->path_ + ": directory " + dir.string() + " does not exist");
             return nullptr;
         }
         const std::string stale = "." + target.filename().string() + ".tmp";

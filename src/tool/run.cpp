@@ -136,6 +136,7 @@ int runCommand(const RunOptions& o) {
     std::vector<std::string_view> skip;
     if (!o.summary) skip.push_back("summary.png");
     if (!o.overlay) skip.insert(skip.end(), {"overlay.mp4", "overlay.avi"});
+    if (o.overlay && o.overlay_format == "avi") skip.push_back("overlay.mp4");  // avi is mp4's fallback, not the reverse
     if (Status st = out.probe({"frames.csv", "run.txt", "words.csv", "positions.csv", "topics.csv", "perplexity.csv",
                                "surprise.csv", "surprise_cells.csv", "topicmodel.csv", "summary.png", "overlay.mp4",
                                "overlay.avi"},

@@ -36,8 +36,10 @@ std::vector<std::string> globFiles(const std::string& pattern) {
     glob_t g{};
     std::vector<std::string> files;
     if (::glob(pattern.c_str(), 0, nullptr, &g) == 0)
-        for (std::size_t i = 0; i < g.gl_pathc; ++i)
-            if (fs::is_regular_file(g.gl_pathv[i])) files.emplace_back(g.gl_pathv[i]);
+        for (std::size_t i = 0; i < g.gl_pathc; ++i) {
+            std::error_code ec;  // a link that leads nowhere (or to itself) is no frame: skipped, never thrown
+            if (fs::is_regular_file(g.gl_pathv[i], ec)) files.emplace_back(g.gl_pathv[i]);
+        }
     globfree(&g);
     std::sort(files.begin(), files.end());
     return files;
@@ -360,8 +362,10 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const Sou
     std::error_code ec;
     if (fs::is_directory(input, ec)) {
         std::vector<std::string> files;
-        for (const auto& e : fs::directory_iterator(input, ec))
-            if (e.is_regular_file() && isImageFile(e.path())) files.push_back(e.path().string());
+        for (const auto& e : fs::directory_iterator(input, ec)) {
+            std::error_code entry;  // a link that leads nowhere (or to itself) is no frame: skipped, never thrown
+            if (e.is_regular_file(entry) && isImageFile(e.path())) files.push_back(e.path().string());
+        }
         if (ec) {
             status = Status::error(input + ": cannot list directory: " + ec.message());
             return nullptr;
