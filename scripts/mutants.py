@@ -10,6 +10,9 @@ checkout or an export without .git.
   mutants.sh             every mutant
   mutants.sh --quick     the three marked quick (the core and two faces; CI runs it)
   mutants.sh --list      the mutants, one a line
+  mutants.sh --check     only whether every mutant still applies to the tree
+                         (its text found exactly once), without building: CI
+                         runs it, so a mutant the code moved away from is named
   mutants.sh NAME...     those mutants
 
 Prints a line per mutant, then `mutants: N, caught: C`; exits 0 only when
@@ -160,9 +163,9 @@ def main(argv):
             print(f"{m['name']}{' (quick)' if m['quick'] else ''}: {m['file']}: {m['why']}")
         return 0
     names = [a for a in argv if not a.startswith("--")]
-    unknown = [a for a in argv if a.startswith("--") and a not in ("--quick",)]
+    unknown = [a for a in argv if a.startswith("--") and a not in ("--quick", "--check")]
     if unknown:
-        fail(f"unknown option {unknown[0]} (--list, --quick, or mutant names)")
+        fail(f"unknown option {unknown[0]} (--list, --quick, --check, or mutant names)")
     if names:
         known = {m["name"] for m in mutants}
         for n in names:
@@ -180,6 +183,9 @@ def main(argv):
             fail(f"[{m['name']}] {m['file']}: no such file")
         originals[m["file"]] = read(path)
         mutated(originals[m["file"]], m)
+    if "--check" in argv:
+        print(f"mutants: all {len(chosen)} apply to the tree (each one's text found exactly once)")
+        return 0
 
     scratch = os.environ.get("ROST_MUTANTS_DIR") or os.path.join(
         "/tmp", "rost-mutants-" + hashlib.sha1(ROOT.encode()).hexdigest()[:10])
