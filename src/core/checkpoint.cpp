@@ -729,13 +729,12 @@ std::unique_ptr<CheckpointWriter> CheckpointWriter::create(Engine& engine, std::
         namespace fs = std::filesystem;
         const fs::path target(w->path_);
         const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-        std::error_code dirEc;  // never thrown: a loop of links on the way is an error like any other
-        if (!fs::is_directory(dir, dirEc)) {
+        std::error_code ec;  // never thrown: a loop of links on the way is an error like any other
+        if (!fs::is_directory(dir, ec)) {
             status = Status::error(StatusKind::NotFound, w->path_ + ": directory " + dir.string() + " does not exist");
             return nullptr;
         }
         const std::string stale = "." + target.filename().string() + ".tmp";
-        std::error_code ec;
         for (const auto& e : fs::directory_iterator(dir, ec)) {
             const std::string f = e.path().filename().string();
             if (f.size() == stale.size() + 6 && f.compare(0, stale.size(), stale) == 0) fs::remove(e.path(), ec);
