@@ -224,6 +224,8 @@ bool Pipeline::push(const cv::Mat& image, int64_t timestamp) {
     return m.engine->tryPush(view);
 }
 
+bool Pipeline::canPush() { return impl_->engine->canPush(); }
+
 bool Pipeline::next(FrameResult& out) {
     Impl& m = *impl_;
     if (!m.engine->readResult(m.record)) return false;

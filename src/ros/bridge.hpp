@@ -116,6 +116,8 @@ public:
     // image and hands them to the engine (Engine::tryPush: never blocks). False
     // when the image is unusable or the queue dropped it.
     bool push(const cv::Mat& image, int64_t timestamp);
+    // A slot of the engine's queue is free: a push now would not drop.
+    bool canPush();
     // Consumer side (one thread): the next frame's results; false when none.
     bool next(FrameResult& out);
     uint64_t dropped() const;  // frames lost to a full queue or a full result ring

@@ -345,10 +345,30 @@ void Node::wordsMain() {
             std::lock_guard<std::mutex> lock(headers_mutex_);
             headers_[r.index] = r.header;
         }
+        waitForSlot();
         std::lock_guard<std::mutex> lock(pipeline_mutex_);  // the services stop and restart the engine
         if (!pipeline_->push(r.bgr, static_cast<int64_t>(r.index)))
             ROS_WARN_THROTTLE(5.0, "rost: frames dropped (the refiner is behind, or images without words): %llu so far",
                               static_cast<unsigned long long>(pipeline_->dropped()));
+    }
+}
+
+// The engine's queue is full while the refiner takes up an observation: the
+// image in hand waits for a slot unless a newer one is waiting (or the node
+// stops), so the newest image is always modelled and an older one is the one
+// dropped. (Pushed into a full queue, the newest would be refused whenever
+// the refiner holds the only slot.)
+void Node::waitForSlot() {
+    for (;;) {
+        {
+            std::lock_guard<std::mutex> lock(pipeline_mutex_);
+            if (pipeline_->canPush()) return;
+        }
+        {
+            std::lock_guard<std::mutex> lock(queue_mutex_);
+            if (stopping_ || !queue_.empty()) return;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
 }
 

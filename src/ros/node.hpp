@@ -73,6 +73,7 @@ private:
     bool ensureEngine(int width, int height);
     void badImage(const std::string& why, const std_msgs::Header& header);
     void wordsMain();
+    void waitForSlot();  // words thread: until the engine has a slot or a newer image waits
     void publisherMain();
     void publish(const rost::bridge::FrameResult& r);
 
