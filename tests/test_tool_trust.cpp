@@ -527,6 +527,11 @@ TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {
     expectError(runRost("refine " + (t / "words.csv") + " --out " + (t / "o") + " --positions ''"),
                 "--positions: no file given", t / "o");
     expectError(runRost("refine " + (t / "words.csv") + " --out ''"), "--out: no directory given", t / "o");
+    // And every positional path: the error names the argument, not a file of no name.
+    expectError(runRost("refine '' --out " + (t / "o")), "words: no file given", t / "o");
+    expectError(runRost("merge '' --out " + (t / "o")), "model: no file given", t / "o");
+    expectError(runRost("run " + (t / "clip.avi") + " '' --out " + (t / "o")), "input: no input given", t / "o");
+    expectError(runRost("vocab '' --out " + (t / "o") + "/v.voc"), "input: no input given", t / "o");
     expectError(runRost("run " + (t / "clip.avi") + " --out " + (t / "v") + " --out.bag ''"), "--out.bag: no file given",
                 t / "v");
     std::filesystem::create_directory(t / "dir.ckpt");

@@ -72,8 +72,9 @@ void addRun(CLI::App& app, RunCli& r) {
                        "INPUT...: a video file, a directory of images, a glob ('frames/*.png', quoted), camera:N, or a "
                        "bag (FILE.bag with --topic). "
                        "Several inputs play one after the other at the first one's size")
-        ->required();
-    runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required()->check(givenPath("directory"));
+        ->required()
+        ->check(givenPath(PathKind::Input));
+    runCmd->add_option("--out,-o", run.out, "output directory (created if needed)")->required()->check(givenPath(PathKind::Directory));
     r.settings = std::make_unique<SettingsOptions>(*runCmd, run.model, SettingsOptions::Command::Run);
     runCmd->add_option("--vocabulary", run.vocabulary,
                        "ORB vocabulary file from `rost vocab`; default: the built-in one (share/rost/README.md)")
@@ -137,12 +138,14 @@ void addRefine(CLI::App& app, RefineCli& r) {
     RefineOptions& ref = r.o;
     CLI::App* refCmd = app.add_subcommand("refine", "model a word stream made elsewhere (words.csv from earlier ROST "
                                                     "tools or another extractor)");
-    refCmd->add_option("words", ref.words, "WORDS.csv: timestamp,w1,w2,... per observation")->required();
+    refCmd->add_option("words", ref.words, "WORDS.csv: timestamp,w1,w2,... per observation")
+        ->required()
+        ->check(givenPath());
     refCmd->add_option("--positions", ref.positions,
                        "POSITIONS.csv: timestamp,x1,y1,x2,y2,... for the same observations; without it every word "
                        "is at (0,0): one cell per time step")
         ->check(givenPath());
-    refCmd->add_option("--out,-o", ref.out, "output directory")->required()->check(givenPath("directory"));
+    refCmd->add_option("--out,-o", ref.out, "output directory")->required()->check(givenPath(PathKind::Directory));
     refCmd->add_option("--width", ref.width, "frame width positions lie in (0: the largest x + 1)")->check(nonNegative());
     refCmd->add_option("--height", ref.height, "frame height positions lie in (0: the largest y + 1)")->check(nonNegative());
     r.settings = std::make_unique<SettingsOptions>(*refCmd, ref.model, SettingsOptions::Command::Refine);
@@ -156,7 +159,9 @@ void addRefine(CLI::App& app, RefineCli& r) {
 CLI::App* addVocab(CLI::App& app, VocabOptions& voc) {
     CLI::App* vocCmd = app.add_subcommand("vocab", "train an ORB vocabulary from footage (k-majority clustering in "
                                                    "Hamming space)");
-    vocCmd->add_option("input", voc.inputs, "INPUT...: videos, image directories or globs")->required();
+    vocCmd->add_option("input", voc.inputs, "INPUT...: videos, image directories or globs")
+        ->required()
+        ->check(givenPath(PathKind::Input));
     vocCmd->add_option("--out,-o", voc.out, "vocabulary file to write (format: docs/vision.md)")
         ->required()
         ->check(givenPath());
@@ -241,11 +246,12 @@ int main(int argc, char** argv) {
     CLI::App* mergeCmd = app.add_subcommand("merge", "match the topics of several missions' models into one global "
                                                      "set (docs/fleet.md)");
     mergeCmd->add_option("model", merge.models, "MODEL...: topicmodel.csv files or checkpoints, in this order")
-        ->required();
+        ->required()
+        ->check(givenPath());
     mergeCmd->add_option("--out,-o", merge.out, "directory for topicmodel.csv (the global model) and lifting.csv "
                                                 "(model,local,global)")
         ->required()
-        ->check(givenPath("directory"));
+        ->check(givenPath(PathKind::Directory));
     mergeCmd->add_option("--threshold", merge.threshold, "Hellinger distance in [0, 1] up to which a topic joins a "
                                                          "global topic (0: only identical ones)");
     mergeCmd->add_option("--beta", merge.beta, "smoothing of the topic-word distributions compared");

@@ -121,11 +121,19 @@ SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : 
 
 SettingsOptions::~SettingsOptions() = default;
 
-const CLI::Validator& givenPath(const char* what) {
-    static const CLI::Validator file([](std::string& s) { return s.empty() ? std::string("no file given") : std::string(); }, "");
-    static const CLI::Validator dir(
-        [](std::string& s) { return s.empty() ? std::string("no directory given") : std::string(); }, "");
-    return std::string_view(what) == "directory" ? dir : file;
+const CLI::Validator& givenPath(PathKind kind) {
+    auto refuseEmpty = [](const char* what) {
+        return CLI::Validator(
+            [what](std::string& s) { return s.empty() ? std::string("no ") + what + " given" : std::string(); }, "");
+    };
+    static const CLI::Validator file = refuseEmpty("file"), dir = refuseEmpty("directory"),
+                                input = refuseEmpty("input");
+    switch (kind) {
+        case PathKind::Directory: return dir;
+        case PathKind::Input: return input;
+        case PathKind::File: break;
+    }
+    return file;
 }
 
 // --config FILE: its keys onto `s`, except where the command line gives the

@@ -165,8 +165,10 @@ private:
 
 // A path option's value may not be empty: `--checkpoint "$CKPT"` with CKPT
 // unset is refused ("--checkpoint: no file given"), not read as no
-// checkpoint. `what` is "file" or "directory".
-const CLI::Validator& givenPath(const char* what = "file");
+// checkpoint; `rost run "$VIDEO"` with VIDEO unset says "input: no input
+// given", not a missing file of no name.
+enum class PathKind { File, Directory, Input };
+const CLI::Validator& givenPath(PathKind kind = PathKind::File);
 
 // `rost config`: prints every setting as a configuration file.
 int configCommand(const ModelOptions& m);
