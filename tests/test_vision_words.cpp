@@ -199,6 +199,11 @@ TEST(VisionWords, SettingsChangeTheWordsAndBadSettingsAreNamed) {
     c = {};
     EXPECT_FALSE(WordExtractor::create(c, nullptr, st));
     EXPECT_NE(st.message().find("vocabulary"), std::string::npos);
+    // A vocabulary with ORB words off would make no word: named, not ignored.
+    c.orb = false;
+    EXPECT_FALSE(WordExtractor::create(c, vocabulary(), st));
+    EXPECT_EQ(st.message(), "vocabulary: given, but words.orb is false: no word would come from it");
+    EXPECT_TRUE(WordExtractor::create(c, nullptr, st)) << st.message();
 }
 
 TEST(VisionWords, EmptyOrUnsupportedImagesAreRefused) {

@@ -114,9 +114,8 @@ public:
         const vision::ExtractorConfig cfg = vision::ExtractorConfig::from(s.words);
         if (Status st = cfg.validate(); !st.ok()) throw py::value_error("rost.vision.WordExtractor: " + st.message());
         std::shared_ptr<const Vocabulary> v;
-        if (!cfg.orb && !vocabulary.is_none())  // as a mission refuses it
-            throw py::value_error("rost.vision.WordExtractor: vocabulary given, but words.orb is false: no word would "
-                                  "come from it");
+        if (Status st = vision::unusedVocabulary(cfg, "vocabulary"); !st.ok() && !vocabulary.is_none())
+            throw py::value_error("rost.vision.WordExtractor: " + st.message());  // before a path is read
         if (vocabulary.is_none()) {
             if (cfg.orb) v = defaultVocabulary().vocabulary;
         } else if (py::isinstance<PyVocabulary>(vocabulary)) {

@@ -300,8 +300,10 @@ def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
     # A vocabulary nothing would use is named, not ignored.
     with pytest.raises(ValueError, match=r"vocabulary .*nope: given, but words\.orb is false"):
         rost.vision.Mission(tmp_path / "frames", vocabulary=nope, words_orb=False)
-    with pytest.raises(ValueError, match=r"rost\.vision\.WordExtractor: vocabulary given, but words\.orb is false"):
+    with pytest.raises(ValueError, match=r"rost\.vision\.WordExtractor: vocabulary: given, but words\.orb is false"):
         rost.vision.WordExtractor(rost.vision.Vocabulary.default(), words_orb=False)
+    with pytest.raises(ValueError, match=r"rost\.vision\.WordExtractor: vocabulary: given, but words\.orb is false"):
+        rost.vision.WordExtractor(nope, words_orb=False)  # named before the path is read
     # An empty path (a script's unset variable) is refused, as the tool refuses `--resume ''`, not read as "none".
     for make, what in ((lambda: rost.Mission(words, resume=""), "rost.Mission: resume"),
                        (lambda: rost.Mission(words, topicmodel=""), "rost.Mission: topicmodel"),

@@ -11,8 +11,8 @@ namespace rost::vision {
 Status MissionWords::open(const WordSettings& settings, const std::string& vocabularyPath) {
     Status st;
     extractors = ExtractorConfig::from(settings);
-    if (!extractors.orb && !vocabularyPath.empty())  // a setting that does nothing is a mistake to name
-        return Status::error("vocabulary " + vocabularyPath + ": given, but words.orb is false: no word would come from it");
+    if (!vocabularyPath.empty())  // before the file is read
+        if (st = unusedVocabulary(extractors, "vocabulary " + vocabularyPath); !st.ok()) return st;
     if (extractors.orb) {
         if (vocabularyPath.empty()) {
             vocabulary = defaultVocabulary(st);

@@ -89,6 +89,7 @@ std::unique_ptr<WordExtractor> WordExtractor::create(const ExtractorConfig& conf
         status = Status::error("ORB words need a vocabulary (none given)");
         return nullptr;
     }
+    if (vocabulary && (status = unusedVocabulary(config, "vocabulary"), !status.ok())) return nullptr;
     return std::unique_ptr<WordExtractor>(new WordExtractor(config, config.orb ? std::move(vocabulary) : nullptr));
 }
 
@@ -96,6 +97,11 @@ namespace {
 // Thumbnail size of a frame: one pixel per thumb_cell x thumb_cell block (at least 1 x 1).
 int thumbSize(int frameSize, int cell) noexcept { return std::max(1, frameSize / cell); }
 } // namespace
+
+Status unusedVocabulary(const ExtractorConfig& config, const std::string& what) {
+    if (config.orb) return Status();
+    return Status::error(what + ": given, but words.orb is false: no word would come from it");
+}
 
 uint64_t maxWordsPerFrame(const ExtractorConfig& c, int width, int height) noexcept {
     const uint64_t thumb = c.thumb_cell > 0 && width > 0 && height > 0

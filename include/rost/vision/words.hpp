@@ -85,7 +85,8 @@ public:
     static constexpr uint32_t kHueWords = 180;
 
     // `vocabulary` is needed when config.orb is set (shared: several
-    // extractors, e.g. one per thread, may use one vocabulary).
+    // extractors, e.g. one per thread, may use one vocabulary), and refused
+    // when it is not (unusedVocabulary).
     static std::unique_ptr<WordExtractor> create(const ExtractorConfig& config,
                                                  std::shared_ptr<const Vocabulary> vocabulary, Status& status);
     ~WordExtractor();
@@ -127,6 +128,12 @@ WordLayout makeLayout(const ExtractorConfig& config, uint32_t orb_vocabulary_siz
 // `config`: orb_features ORB words (extract keeps no more), one intensity
 // word and at most one hue word per thumbnail pixel. The rost tool sizes an
 // observation's capacity (max.words) with it, so no word is dropped.
+// A vocabulary given with ORB words off would make no word: a setting that
+// does nothing is a mistake to name. "WHAT: given, but words.orb is false:
+// ..." when it is so, else ok. The mission checks a vocabulary's path with it
+// before reading the file; WordExtractor::create checks a vocabulary.
+Status unusedVocabulary(const ExtractorConfig& config, const std::string& what);
+
 uint64_t maxWordsPerFrame(const ExtractorConfig& config, int width, int height) noexcept;
 
 // The vocabulary shipped with rost (share/rost/default.rostvoc, compiled into
