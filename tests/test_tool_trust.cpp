@@ -27,13 +27,18 @@ namespace {
 std::string tool() { return std::string("'") + ROST_TOOL + "'"; }
 RunResult runRost(const std::string& args) { return rost::testing::runShell(tool() + " " + args); }
 
-void expectError(const RunResult& r, const std::string& needle, const std::string& out) {
+// A refused run: exit 2, one line naming the error, and nothing left in
+// `out` but the files named in `before` (there before the run).
+void expectError(const RunResult& r, const std::string& needle, const std::string& out,
+                 const std::vector<std::string>& before = {}) {
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find(needle), std::string::npos) << "stderr: " << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line: " << r.err;
     EXPECT_EQ(r.err.rfind("rost: error: ", 0), 0u) << r.err;
     if (std::filesystem::exists(out))
-        for (const auto& e : std::filesystem::directory_iterator(out)) ADD_FAILURE() << "left behind: " << e.path();
+        for (const auto& e : std::filesystem::directory_iterator(out))
+            if (std::find(before.begin(), before.end(), e.path().filename().string()) == before.end())
+                ADD_FAILURE() << "left behind: " << e.path();
 }
 
 // A small word stream: 40 observations of 12 words in a 64 x 64 frame.
@@ -286,21 +291,22 @@ TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {
     std::filesystem::copy_file(t / "words.csv", t / "o2/perplexity.csv");
     expectError(runRost("refine " + (t / "o2/perplexity.csv") + " --out " + (t / "o2") + " -q --no-summary"),
                 "rost: error: --out: " + (t / "o2/perplexity.csv") + " is an input of this run: writing there would replace it",
-                t / "o2/none");
+                t / "o2", {"perplexity.csv"});
     EXPECT_EQ(rost::testing::readText(t / "o2/perplexity.csv"), words);
     // Only the files the run writes count: no summary.png under --no-summary.
     std::filesystem::create_directories(t / "o3");
     std::filesystem::copy_file(t / "words.csv", t / "o3/summary.png");
     expectError(runRost("refine " + (t / "o3/summary.png") + " --out " + (t / "o3") + " -q"),
                 "rost: error: --out: " + (t / "o3/summary.png") + " is an input of this run: writing there would replace it",
-                t / "o3/none");
+                t / "o3", {"summary.png"});
     const RunResult kept = runRost("refine " + (t / "o3/summary.png") + " --out " + (t / "o3") + " -q --no-summary");
     EXPECT_EQ(kept.exit_code, 0) << kept.err;
     EXPECT_EQ(rost::testing::readText(t / "o3/summary.png"), words);
     EXPECT_TRUE(std::filesystem::exists(t / "o3/topics.csv"));
     std::filesystem::create_directories(t / "o4/summary.png");  // nor is a directory in its place refused
     expectError(runRost("refine " + (t / "words.csv") + " --out " + (t / "o4") + " -q"),
-                "rost: error: " + (t / "o4/summary.png") + ": is a directory, not a file that can be written", t / "o4/none");
+                "rost: error: " + (t / "o4/summary.png") + ": is a directory, not a file that can be written", t / "o4",
+                {"summary.png"});
     const RunResult noSummary = runRost("refine " + (t / "words.csv") + " --out " + (t / "o4") + " -q --no-summary");
     EXPECT_EQ(noSummary.exit_code, 0) << noSummary.err;
     ASSERT_EQ(runRost(refine(t, "o", "--checkpoint " + (t / "m.ckpt"))).exit_code, 0);

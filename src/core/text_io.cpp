@@ -434,8 +434,10 @@ Status writeTemporary(const std::string& path, std::string_view content, std::st
         return Status::error(path + ": write failed: " + why);
     }
     ::fchmod(fd, 0644);
-    if (::fsync(fd) != 0 || ::close(fd) != 0) {
-        const std::string why = std::strerror(errno);
+    const int synced = ::fsync(fd) == 0 ? 0 : errno;
+    const int closed = ::close(fd) == 0 ? 0 : errno;  // closed whether or not fsync failed
+    if (synced != 0 || closed != 0) {
+        const std::string why = std::strerror(synced != 0 ? synced : closed);
         ::unlink(tmp.c_str());
         return Status::error(path + ": flush failed: " + why);
     }
