@@ -125,7 +125,7 @@ TEST(ToolCli, InvalidOptionValuesAreNamed) {
 
 TEST(ToolCli, UnreadableInputsAreNamed) {
     TempDir t;
-    expectError(runRost("run " + (t / "missing.mov") + " --out " + (t / "o")), "missing.mov: no such file", t / "o");
+    expectError(runRost("run " + (t / "missing.mov") + " --out " + (t / "o")), "missing.mov: cannot open: No such file or directory", t / "o");
     std::filesystem::create_directory(t / "empty");
     expectError(runRost("run " + (t / "empty") + " --out " + (t / "o")), "empty: directory holds no images", t / "o");
     rost::testing::writeText(t / "broken.mov", std::string(10000, '\x42'));

@@ -116,7 +116,7 @@ TEST(VisionSources, ALoopOfLinksAmongTheFramesIsSkippedNeverThrown) {
         EXPECT_EQ(readAll(*src).size(), 1u) << input;
     }
     const std::string loop = t / "d/loop.png";
-    EXPECT_EQ(openError(loop), loop + ": cannot read: Too many levels of symbolic links");
+    EXPECT_EQ(openError(loop), loop + ": cannot open: Too many levels of symbolic links");
     Status st;
     EXPECT_FALSE(openFrameSource(loop, {}, st));
     EXPECT_EQ(st.kind(), StatusKind::OsError);
@@ -192,7 +192,7 @@ TEST(VisionSources, JoinedInputsPlayInOrderAtTheFirstSize) {
 
 TEST(VisionSources, UnreadableInputsGiveOneLineNamingTheInput) {
     TempDir t;
-    EXPECT_NE(openError(t / "missing.mp4").find("missing.mp4: no such file"), std::string::npos);
+    EXPECT_NE(openError(t / "missing.mp4").find("missing.mp4: cannot open: No such file or directory"), std::string::npos);
     std::filesystem::create_directory(t / "empty");
     EXPECT_NE(openError(t / "empty").find("holds no images"), std::string::npos);
     rost::testing::writeText(t / "junk.mp4", std::string(4096, 'x'));

@@ -268,7 +268,7 @@ def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
         (lambda: rost.Mission(words, resume=nope), "rost.Mission: resume: " + gone),
         (lambda: rost.Mission(words, topicmodel=nope), "rost.Mission: topicmodel: " + gone),
         (lambda: rost.vision.Mission(nope + ".mov"),
-         "rost.vision.Mission: " + nope + ".mov: no such file or directory"),
+         "rost.vision.Mission: " + nope + ".mov: cannot open: No such file or directory"),
         (lambda: rost.vision.Mission(tmp_path / "frames", vocabulary=nope),
          "rost.vision.Mission: vocabulary " + gone),
         (lambda: rost.Model.load(nope), "rost.Model.load: " + gone),

@@ -162,7 +162,7 @@ def test_a_frame_mission_gives_rost_runs_results_and_resumes(tmp_path):
         rost.vision.Mission(diver, resume=tmp_path / "m.ckpt", K=16)
     with pytest.raises(ValueError, match=r"nothing to resume with: .*m\.ckpt has every frame up to 4 \(max_frames 5"):
         rost.vision.Mission(diver, resume=tmp_path / "m.ckpt", max_frames=5)
-    with pytest.raises(FileNotFoundError, match=r"rost\.vision\.Mission: .*nosuch\.mov: no such file or directory"):
+    with pytest.raises(FileNotFoundError, match=r"rost\.vision\.Mission: .*nosuch\.mov: cannot open: No such file or directory"):
         rost.vision.Mission(tmp_path / "nosuch.mov")
     with pytest.raises(TypeError, match=r"inputs: expected a path or a list of paths, found int"):
         rost.vision.Mission(3)

@@ -76,17 +76,19 @@ bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
     return true;
 }
 
-// Checks that a path exists, is a regular file and can be read.
+// Checks that a path exists, is a regular file and can be read; a missing or
+// unreadable one is said as every reader of the library says it
+// ("PATH: cannot open: No such file or directory", text_io's words).
 Status checkReadable(const std::string& path) {
     std::error_code ec;
     const auto st = fs::status(path, ec);
     if (!fs::exists(st) && (!ec || ec == std::errc::no_such_file_or_directory))
-        return Status::error(StatusKind::NotFound, path + ": no such file or directory");
-    if (ec) return Status::fromErrno(ec.value(), path + ": cannot read: " + ec.message());  // as open(2) says it
+        return Status::fromErrno(ENOENT, path + ": cannot open: " + std::strerror(ENOENT));
+    if (ec) return Status::fromErrno(ec.value(), path + ": cannot open: " + ec.message());  // as open(2) says it
     if (!fs::is_regular_file(st) && !fs::is_directory(st)) return Status::error(path + ": not a regular file");
     if (::access(path.c_str(), R_OK) != 0) {
         const int err = errno;
-        return Status::fromErrno(err, path + ": cannot read: " + std::strerror(err));
+        return Status::fromErrno(err, path + ": cannot open: " + std::strerror(err));
     }
     return {};
 }
@@ -352,7 +354,7 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const Sou
         for (const auto& f : files)
             if (::access(f.c_str(), R_OK) != 0) {
                 const int err = errno;
-                status = Status::fromErrno(err, f + ": cannot read: " + std::strerror(err));
+                status = Status::fromErrno(err, f + ": cannot open: " + std::strerror(err));
                 return nullptr;
             }
         return openFiles(std::move(files), "images " + input, o, status);
