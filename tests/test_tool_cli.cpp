@@ -131,6 +131,18 @@ TEST(ToolCli, UnreadableInputsAreNamed) {
     rost::testing::writeText(t / "broken.mov", std::string(10000, '\x42'));
     expectError(runRost("run " + (t / "broken.mov") + " --out " + (t / "o")), "broken.mov: cannot decode video", t / "o");
     expectError(runRost("run '" + t.path() + "/*.jpg' --out " + (t / "o")), "no files match", t / "o");
+    // An image cut short (a copy interrupted): named, on rost's one line; libjpeg's and libpng's own
+    // lines kept off stderr, and no half-grey frame modelled.
+    std::filesystem::create_directory(t / "cut");
+    for (const char* ext : {".jpg", ".png"}) {
+        std::vector<uint8_t> bytes;
+        ASSERT_TRUE(cv::imencode(ext, cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 200, 30)), bytes));
+        const std::string name = std::string("cut/001") + ext;
+        rost::testing::writeText(t / name, std::string(bytes.begin(), bytes.begin() + bytes.size() * 2 / 3));
+        expectError(runRost("run " + (t / "cut") + " --out " + (t / "o")),
+                    name + ": cannot decode image: truncated " + (ext[1] == 'j' ? "JPEG" : "PNG"), t / "o");
+        std::filesystem::remove(t / name);
+    }
 }
 
 // The frame size rule (rost/vision/frame_source.hpp) in the tool: an image too

@@ -26,6 +26,7 @@ endfunction()
 
 rost_add_vision_test(test_vision
   SOURCES test_vision_vocabulary.cpp test_vision_words.cpp test_vision_pixel_format.cpp test_vision_sources.cpp
+          test_vision_image_file.cpp
           test_vision_curiosity.cpp
   LIBS rost::vision)
 if(TARGET rost)

@@ -5,6 +5,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "rost/vision/image_file.hpp"
+
 namespace rost::bridge {
 
 namespace {
@@ -60,6 +62,10 @@ bool toBgr(const sensor_msgs::Image& msg, cv::Mat& out, std::string& error) {
 bool toBgr(const sensor_msgs::CompressedImage& msg, cv::Mat& out, std::string& error) {
     if (msg.data.empty()) {
         error = "compressed image (format '" + msg.format + "') without data";
+        return false;
+    }
+    if (const std::string why = rost::vision::imageTruncated(msg.data.data(), msg.data.size()); !why.empty()) {
+        error = "compressed image (format '" + msg.format + "', " + std::to_string(msg.data.size()) + " bytes): " + why;
         return false;
     }
     const cv::Mat bytes(1, static_cast<int>(msg.data.size()), CV_8UC1, const_cast<uint8_t*>(msg.data.data()));

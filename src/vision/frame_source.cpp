@@ -1,4 +1,5 @@
 #include "rost/vision/frame_source.hpp"
+#include "rost/vision/image_file.hpp"
 
 #include <fnmatch.h>
 #include <glob.h>
@@ -124,8 +125,7 @@ public:
             if (next_ >= files_.size())
                 return Status::error(what_ + ": no image large enough to extract words from (each side at least " +
                                      std::to_string(kMinFrameSide) + " pixels)");
-            first = cv::imread(files_[next_], cv::IMREAD_UNCHANGED);
-            if (first.empty()) return Status::error(files_[next_] + ": cannot decode image");
+            if (Status st = readImageFile(files_[next_], first); !st.ok()) return st;
             if (!skipSmall(first)) break;
         }
         chooseSize(o, first.cols, first.rows, info_, notes_);
@@ -141,9 +141,13 @@ public:
         cv::Mat img;
         do {
             if (next_ >= files_.size()) return ReadStatus::End;
-            if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
-            else img = cv::imread(files_[next_], cv::IMREAD_UNCHANGED);
-        } while (!img.empty() && skipSmall(img));
+            if (!pending_.empty()) {
+                img = std::move(pending_), pending_ = cv::Mat();
+            } else if (Status st = readImageFile(files_[next_], img); !st.ok()) {
+                error_ = st.message();
+                return ReadStatus::Error;
+            }
+        } while (skipSmall(img));
         // An image of another size than the first is scaled to the frame: said once per size in a row.
         if (!img.empty() && img.size() != first_ && img.size() != noted_) {
             notes_.push_back(files_[next_] + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +

@@ -1,0 +1,112 @@
+// Image files cut short: every cut of a JPEG or PNG is found without decoding,
+// a whole file never is, and a frame source names the file instead of
+// modelling a half-grey frame.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "rost/vision/frame_source.hpp"
+#include "rost/vision/image_file.hpp"
+#include "test_vision_support.hpp"
+
+using namespace rost;
+using namespace rost::vision;
+using rost::testing::TempDir;
+
+namespace {
+
+// Noise with a flat band: the entropy-coded data holds stuffed 0xFF 0x00
+// bytes, and the flat band long runs.
+cv::Mat noisy(int w, int h, int channels) {
+    cv::Mat m(h, w, channels == 3 ? CV_8UC3 : CV_8UC1);
+    cv::RNG rng(7);
+    rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+    m.rowRange(0, h / 3).setTo(cv::Scalar(200, 40, 90));
+    return m;
+}
+
+std::vector<uint8_t> encode(const std::string& ext, const cv::Mat& m, const std::vector<int>& params = {}) {
+    std::vector<uint8_t> out;
+    EXPECT_TRUE(cv::imencode(ext, m, out, params)) << ext;
+    return out;
+}
+
+std::string truncated(const std::vector<uint8_t>& b, std::size_t n) { return imageTruncated(b.data(), n); }
+
+void writeBytes(const std::string& path, const std::vector<uint8_t>& b, std::size_t n) {
+    rost::testing::writeText(path, std::string(reinterpret_cast<const char*>(b.data()), n));
+}
+
+} // namespace
+
+TEST(VisionImageFile, EveryCutOfAJpegIsTruncatedAndTheWholeFileIsNot) {
+    const std::vector<std::vector<int>> kinds = {
+        {},
+        {cv::IMWRITE_JPEG_PROGRESSIVE, 1},                              // several scans, tables between them
+        {cv::IMWRITE_JPEG_RST_INTERVAL, 1},                             // restart markers inside the scan
+        {cv::IMWRITE_JPEG_PROGRESSIVE, 1, cv::IMWRITE_JPEG_RST_INTERVAL, 2},
+        {cv::IMWRITE_JPEG_OPTIMIZE, 1, cv::IMWRITE_JPEG_QUALITY, 100},
+    };
+    for (int channels : {3, 1})
+        for (const auto& params : kinds) {
+            const std::vector<uint8_t> b = encode(".jpg", noisy(83, 61, channels), params);
+            ASSERT_GT(b.size(), 200u);
+            EXPECT_EQ(truncated(b, b.size()), "") << "whole, " << channels << " channels, kind " << params.size();
+            for (std::size_t n = 3; n < b.size(); ++n)
+                ASSERT_EQ(truncated(b, n), "truncated JPEG: the file ends before its end-of-image marker")
+                    << "cut at " << n << " of " << b.size() << ", " << channels << " channels, kind " << params.size();
+            // Bytes after the end-of-image marker (a motion photo's video) are not a cut.
+            std::vector<uint8_t> tail = b;
+            tail.insert(tail.end(), {0x00, 0x00, 0x00, 0x18, 'f', 't', 'y', 'p', 0xFF, 0xD8});
+            EXPECT_EQ(truncated(tail, tail.size()), "");
+        }
+}
+
+TEST(VisionImageFile, EveryCutOfAPngIsTruncatedAndTheWholeFileIsNot) {
+    for (int level : {0, 9}) {
+        const std::vector<uint8_t> b = encode(".png", noisy(40, 30, 3), {cv::IMWRITE_PNG_COMPRESSION, level});
+        EXPECT_EQ(truncated(b, b.size()), "");
+        for (std::size_t n = 8; n < b.size(); ++n)
+            ASSERT_EQ(truncated(b, n).rfind("truncated PNG: the file ends ", 0), 0u) << "cut at " << n << " of " << b.size();
+    }
+}
+
+TEST(VisionImageFile, OtherBytesAreLeftToTheDecoder) {
+    for (const std::string text : {"", "x", "not an image at all", "\xFF\xD8", "\x89PNG\r\n\x1A"}) {
+        const std::vector<uint8_t> b(text.begin(), text.end());
+        EXPECT_EQ(truncated(b, b.size()), "") << text;
+    }
+    // A JPEG damaged where a marker must be (not a cut): OpenCV decides.
+    std::vector<uint8_t> b = encode(".jpg", noisy(40, 30, 3));
+    b[2] = 0x12;
+    EXPECT_EQ(truncated(b, b.size()), "");
+    const std::vector<uint8_t> bmp = encode(".bmp", noisy(40, 30, 3));
+    EXPECT_EQ(truncated(bmp, bmp.size() / 2), "");
+}
+
+TEST(VisionImageFile, AFrameSourceNamesACutImageInsteadOfModellingIt) {
+    TempDir t;
+    std::filesystem::create_directories(t / "frames");
+    const std::vector<uint8_t> jpg = encode(".jpg", noisy(64, 48, 3)), png = encode(".png", noisy(64, 48, 3));
+    writeBytes(t / "frames/001.jpg", jpg, jpg.size());
+    writeBytes(t / "frames/002.jpg", jpg, jpg.size() / 2);
+    Status st;
+    auto s = openFrameSource(t / "frames", {}, st);
+    ASSERT_TRUE(s) << st.message();
+    Frame f;
+    EXPECT_EQ(s->read(f), ReadStatus::Ok);
+    EXPECT_EQ(s->read(f), ReadStatus::Error);
+    EXPECT_EQ(s->error(), (t / "frames/002.jpg") + ": cannot decode image: truncated JPEG: the file ends before its "
+                                                   "end-of-image marker");
+    // The first image cut: open() says it.
+    writeBytes(t / "frames/000.png", png, png.size() - 5);
+    EXPECT_FALSE(openFrameSource(t / "frames", {}, st));
+    EXPECT_EQ(st.message(), (t / "frames/000.png") + ": cannot decode image: truncated PNG: the file ends before its "
+                                                     "IEND chunk");
+    // And a missing one is said as every reader says it.
+    cv::Mat m;
+    EXPECT_EQ(readImageFile(t / "none.png", m).message(), (t / "none.png") + ": cannot open: No such file or directory");
+    EXPECT_EQ(readImageFile(t / "frames/001.jpg", m).message(), "");
+    EXPECT_EQ(m.size(), cv::Size(64, 48));
+}
