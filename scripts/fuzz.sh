@@ -12,7 +12,7 @@
 # Usage: scripts/fuzz.sh [SECONDS_PER_TARGET] [--update] [--seeds] [TARGET...]
 #   SECONDS_PER_TARGET  default 30
 #   --seeds             regenerate the binary seeds (checkpoint, vocabulary) first
-#   TARGET              word_stream checkpoint vocabulary config_file (default: all)
+#   TARGET              word_stream checkpoint vocabulary config_file image_file (default: all)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -29,7 +29,7 @@ for arg in "$@"; do
     *) seconds=$arg ;;
   esac
 done
-[ ${#targets[@]} -gt 0 ] || targets=(word_stream checkpoint vocabulary config_file)
+[ ${#targets[@]} -gt 0 ] || targets=(word_stream checkpoint vocabulary config_file image_file)
 
 # Largest input per target (bytes): enough for a seed checkpoint or a few
 # hundred vocabulary words, small enough to keep executions fast.

@@ -12,11 +12,16 @@
 #include <cstdint>
 #include <string>
 
-#include <opencv2/core.hpp>
-
 #include "rost/status.hpp"
 
+namespace cv {
+class Mat;
+}
+
 namespace rost::vision {
+
+// No OpenCV here: the fuzz target (fuzz/fuzz_image_file.cpp) builds
+// imageTruncated (src/vision/image_truncated.cpp) without it.
 
 // Why the bytes of a JPEG or PNG file are cut short ("truncated JPEG: ..."),
 // or "" when they end where their structure says (or are of another format,
