@@ -437,6 +437,13 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     EXPECT_EQ(r.err, "topics.refine.txy: p.csv:2:9: 3 coordinates for the 2 words of w.csv:2 (expected x,y per word: 4)\n");
     for (const char* f : {"topics.csv", "topics.maxlikelihood.csv", "topicmodel.csv", "perplexity.csv", "topics.log"})
         EXPECT_FALSE(fs::exists(dir + "/" + f)) << f;
+    // An empty -i (a script's unset variable) is refused, not read as standard input.
+    for (const char* cmd : {ROSTCLI_REFINE_T, ROSTCLI_BINCOUNT}) {
+        r = run(dir, bin(cmd) + " -i '' -V 5 < bad.csv");
+        EXPECT_EQ(r.status, 2) << cmd;
+        EXPECT_NE(r.err.find(": --in.words: no file given (for standard input leave -i out, or give -)"),
+                  std::string::npos) << r.err;
+    }
     r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i bad.csv -V 5 -o h.csv");
     EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err, "words.bincount: bad.csv:2:5: expected word id (a non-negative integer), found 'x4'\n");

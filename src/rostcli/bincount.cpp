@@ -55,7 +55,8 @@ int wordsBincountMain(int argc, char** argv) {
                  "words.bincount");
     app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     BincountOptions o;
-    app.add_option("-i,--in.words", o.in, "labels: timestamp,z,z,... per line (default: standard input)");
+    app.add_option("-i,--in.words", o.in, "labels: timestamp,z,z,... per line (default: standard input)")
+        ->check(wordsInputGiven());
     app.add_option("-o,--out", o.out, "the histograms (default: standard output)");
     app.add_option("-V,--vocabsize", o.V, "bins: labels are 0..V-1 [the schema's V: " + settingRange(*findSetting("V")) + "]")
         ->required();

@@ -119,9 +119,23 @@ struct Parsed {
     std::vector<CLI::Option*> limited_opts;
 };
 
+} // namespace
+
+const CLI::Validator& wordsInputGiven() {
+    static const CLI::Validator v(
+        [](std::string& s) {
+            return s.empty() ? std::string("no file given (for standard input leave -i out, or give -)") : std::string();
+        },
+        "");
+    return v;
+}
+
+namespace {
+
 void addFileFlags(CLI::App& app, Parsed& p) {
     RunOptions& o = p.run;
-    app.add_option("-i,--in.words", o.in_words, "words: a document per line, timestamp,w,w,... (default: standard input)");
+    app.add_option("-i,--in.words", o.in_words, "words: a document per line, timestamp,w,w,... (default: standard input)")
+        ->check(wordsInputGiven());
     app.add_option("--in.words.delim", o.delim, "the delimiter of the input files")->capture_default_str();
     app.add_option("--in.position", o.in_position, "word positions: timestamp,x,y,x,y,... per document (txy)");
     app.add_option("--in.topics", o.in_topics, "start from these labels: timestamp,z,z,... per document (a topics.csv; batch)");

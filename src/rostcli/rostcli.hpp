@@ -18,8 +18,15 @@
 namespace rost {
 class Engine;
 }
+namespace CLI {
+class Validator;
+}
 
 namespace rost::cli {
+
+// -i/--in.words given empty (a script's unset variable): refused, not read as
+// standard input, which would wait on a terminal ("-" and /dev/stdin are it).
+const CLI::Validator& wordsInputGiven();
 
 // ---- input ------------------------------------------------------------------
 
