@@ -38,7 +38,8 @@ def test_push_never_blocks_and_counts_drops():
         t0 = time.perf_counter()
         accepted = [engine.push(t, w, p) for t, (w, p) in enumerate(data)]
         elapsed = time.perf_counter() - t0
-    assert elapsed < 0.5  # 50 pushes while the refiner is busy: none waits
+    assert elapsed < 5.0  # 50 pushes while the refiner is busy: none waits (loose: a loaded machine; a
+    # push that waited for a slot would let every observation in, which the next line refuses)
     assert not all(accepted)
     c = engine.counters()
     assert c["pushed"] == 50

@@ -77,12 +77,13 @@ def run():
     frames = {v: [] for v in VEHICLES}
     models = {v: [] for v in VEHICLES}
     merged, liftings, global_frames = [], [], []
+    subs = []
     for v in VEHICLES:
-        rospy.Subscriber("/%s/rost/frame" % v, FrameTopics, frames[v].append, queue_size=100)
+        subs.append(rospy.Subscriber("/%s/rost/frame" % v, FrameTopics, frames[v].append, queue_size=100))
         rospy.Subscriber("/%s/rost/topic_model" % v, TopicModel, models[v].append, queue_size=10)
     rospy.Subscriber("/rost_merge/global_model", TopicModel, merged.append, queue_size=10)
     rospy.Subscriber("/rost_merge/lifting", TopicLifting, liftings.append, queue_size=10)
-    rospy.Subscriber("/auv2/rost/global_frame", FrameTopics, global_frames.append, queue_size=100)
+    subs.append(rospy.Subscriber("/auv2/rost/global_frame", FrameTopics, global_frames.append, queue_size=100))
     node_bin = os.path.join(build, "rost_node")
     nodes = {}
     for v in VEHICLES:
@@ -93,12 +94,18 @@ def run():
                                 "_image_queue:=64", "_queue_slots:=64", "_model_period:=0.4"] + extra, v + ".log")
     merger = procs.start([os.path.join(build, "rost_merge_node"), "__name:=rost_merge", "_period:=0.4",
                           "_models:=/auv1/rost/topic_model,/auv2/rost/topic_model"], "merge.log")
-    players = [procs.start(["rosbag", "play", "--wait-for-subscribers", "-q", bags[v]], v + "-play.log")
-               for v in VEHICLES]
-    for p in players:
-        p.wait(timeout=90)
+    # The first images wait until this process's subscriptions to the frames
+    # are connected (after the nodes advertise them), so no ~frame goes unseen;
+    # --keep-alive: a player that exits may take its last, still unsent image
+    # with it under load: each is stopped once its images are in.
+    wait_until(lambda: all(s.get_num_connections() > 0 for s in subs) or
+               any(n.poll() is not None for n in nodes.values()), 60)
+    players = [procs.start(["rosbag", "play", "--wait-for-subscribers", "--keep-alive", "-q", bags[v]],
+                           v + "-play.log") for v in VEHICLES]
     for v in VEHICLES:
         check(frames_until(frames[v], N, nodes[v]) == N, "%s: ~frame for each of its %d images" % (v, N))
+    for p in players:
+        Procs.stop(p)
 
     # Each node's model, once its bag is done, is the model ~get_topic_model gives.
     final = {}
@@ -146,8 +153,10 @@ def run():
     check(n_local >= 1 and all(is_global(m) for m in global_frames[n_local:before]),
           "~global_frame: the first %d frames in local labels (no lifting yet), the next %d mapped through a lifting"
           % (n_local, before - n_local))
-    procs.start(["rosbag", "play", "--wait-for-subscribers", "-q", bags["auv2"]], "auv2-play2.log").wait(timeout=90)
+    again = procs.start(["rosbag", "play", "--wait-for-subscribers", "--keep-alive", "-q", bags["auv2"]],
+                        "auv2-play2.log")
     frames_until(global_frames, before + N, nodes["auv2"])
+    Procs.stop(again)
     after = global_frames[before:]
     frames_until(frames["auv2"], 2 * N, nodes["auv2"])
     local.update({m.frame: m for m in frames["auv2"]})

@@ -58,11 +58,14 @@ def launch(log, args, stamps):
     got = []
     sub = rospy.Subscriber("/rost/frame", FrameTopics, lambda m: got.append(m), queue_size=1000)
     p = procs.start(["roslaunch", "--screen", "rost", "rost.launch"] + args, log)
-    player = procs.start(["rosbag", "play", "--wait-for-subscribers", "-q", bag], log + ".rosbag")
-    # The bag plays once the node subscribes; a node that exits stops the wait.
-    wait_until(lambda: player.poll() is not None or p.poll() is not None, 90)
-    Procs.stop(player)
+    # The bag plays once the node subscribes to the images and this process to
+    # its ~frame (or a first ~frame could go unseen); a node that exits stops
+    # the wait. --keep-alive: a player that exits may take its last, still
+    # unsent image with it under load; it is stopped once the images are in.
+    wait_until(lambda: sub.get_num_connections() > 0 or p.poll() is not None, 90)
+    player = procs.start(["rosbag", "play", "--wait-for-subscribers", "--keep-alive", "-q", bag], log + ".rosbag")
     frames_until(got, len(stamps), p)
+    Procs.stop(player)
     sub.unregister()
     return got, p
 

@@ -20,7 +20,7 @@ import subprocess
 import sys
 import time
 
-from roshelp import Procs, check, main, private_master
+from roshelp import Procs, check, main, private_master, wait_until
 
 PER_SCENE = 16
 WARM_UP = 6
@@ -89,13 +89,17 @@ def run():
     from rost_msgs.msg import FrameTopics
     rospy.init_node("rost_test", anonymous=True, disable_signals=True)
     got = []
-    rospy.Subscriber("/rost/frame", FrameTopics, lambda m: got.append(m), queue_size=1000)
+    frame_sub = rospy.Subscriber("/rost/frame", FrameTopics, lambda m: got.append(m), queue_size=1000)
 
     ckpt = os.path.join(work, "node.ckpt")
     if os.path.exists(ckpt):
         os.remove(ckpt)
     node = start([os.path.join(build, "rost_node"), "__name:=rost", "image:=/camera/image_raw",
-                  "_budget_refines:=8", "_queue_slots:=64", "_checkpoint:=" + ckpt], "rost_node.log")
+                  "_budget_refines:=8", "_queue_slots:=64", "_image_queue:=64",  # every image, however loaded
+                  "_checkpoint:=" + ckpt], "rost_node.log")
+    # This process's subscription to ~frame connects after the node advertises
+    # it: the first image waits for that, or its ~frame could go unseen.
+    wait_until(lambda: frame_sub.get_num_connections() > 0 or node.poll() is not None, 60)
     # --keep-alive: a player that exits at once may take its last, still unsent
     # image with it (seen under load); it is stopped once every image is in.
     player = start(["rosbag", "play", "--wait-for-subscribers", "--keep-alive", "-q", bag], "rosbag.log")
@@ -179,9 +183,10 @@ def run():
             fast_stamps.append(m.header.stamp.to_nsec())
             dst.write("/fast/image", m, rospy.Time(STAMP0, i * 100000000))  # recorded at 10 Hz
     fast_got = []
-    rospy.Subscriber("/rost_fast/frame", FrameTopics, lambda m: fast_got.append(m), queue_size=1000)
+    fast_sub = rospy.Subscriber("/rost_fast/frame", FrameTopics, lambda m: fast_got.append(m), queue_size=1000)
     fast_node = start([os.path.join(build, "rost_node"), "__name:=rost_fast", "image:=/fast/image", "_image_queue:=2",
                        "_queue_slots:=1", "_budget_refines:=200"], "rost_fast.log")
+    wait_until(lambda: fast_sub.get_num_connections() > 0 or fast_node.poll() is not None, 60)
     player = start(["rosbag", "play", "--wait-for-subscribers", "--keep-alive", "-q", "-r", "100", fast],
                    "rosbag_fast.log")
     quiet_since, seen = time.time(), -1
@@ -230,13 +235,13 @@ def run():
     check(badnode.returncode != 0 and "~cell_space = 0, allowed [1, 65536]" in out, "a bad parameter: exit %d, %s" %
           (badnode.returncode, out.strip().splitlines()[-1] if out.strip() else "(nothing)"))
 
-    def start_up(name, params):
+    def start_up(name, params, timeout=60):
         """rost_node with these parameters on a topic no one publishes: its
-        exit code (None: still running after its start-up, then stopped) and log."""
+        exit code (None: still running after `timeout` s, then stopped) and log."""
         p = subprocess.Popen([os.path.join(build, "rost_node"), "__name:=" + name, "image:=/nobody"] + params,
                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=os.environ)
         try:
-            out, _ = p.communicate(timeout=8)
+            out, _ = p.communicate(timeout=timeout)
             return p.returncode, out.decode(errors="replace")
         except subprocess.TimeoutExpired:
             os.kill(p.pid, signal.SIGINT)
@@ -250,7 +255,7 @@ def run():
     code, out = start_up("rost_budgets", ["_budget_refines:=4", "_budget_ms:=5.0"])
     check(code == 2 and "~budget_ms" in out and "~budget_refines" in out and "listening" not in out,
           "two budgets: exit %s at start-up, before subscribing" % code)
-    code, out = start_up("rost_unknown", ["_etta:=0.5", "_num_threads:=4"])
+    code, out = start_up("rost_unknown", ["_etta:=0.5", "_num_threads:=4"], timeout=15)
     check(code is None and "~etta is not a parameter of rost_node; ignored (did you mean ~eta?)" in out and
           "~num_threads is not a parameter" in out,
           "unknown private parameters: a warning each at start-up, with the likeliest meant")
