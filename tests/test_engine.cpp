@@ -13,6 +13,7 @@
 
 #include "rost/engine.hpp"
 #include "observation_queue.hpp"
+#include "predictor.hpp"
 #include "rost/realtime.hpp"
 #include "rost/replay.hpp"
 #include "test_engine_support.hpp"
@@ -129,6 +130,35 @@ TEST(EngineMemory, IsReportedBeforeStartAndDoesNotGrow) {
 }
 
 // ---- budgets ------------------------------------------------------------------
+
+// The time budget's cost predictor: a first round preempted (a sample a
+// thousand times the true cost) must not set a cost no round ever fits again,
+// for then no round runs and no later sample corrects it.
+TEST(EngineBudget, APreemptedFirstRoundCannotStopRefinementForGood) {
+    using detail::robustAverage;
+    const double prior = 40.0, truth = 40.0;
+    uint64_t samples = 0;
+    double avg = robustAverage(prior, 1000.0 * truth, 0.05, samples);
+    EXPECT_EQ(avg, 8.0 * prior) << "the first sample is kept within 8 times the prior";
+    int rounds = 0;
+    while (avg > 2.0 * truth && rounds < 1000) avg = robustAverage(avg, truth, 0.05, samples), ++rounds;
+    EXPECT_EQ(rounds, 55) << "true samples bring it within 2 times of the truth";
+    // A first sample far below the prior (a slower board's prior is far too low the other way round).
+    samples = 0;
+    avg = robustAverage(prior, prior / 1000.0, 0.05, samples);
+    EXPECT_EQ(avg, prior / 8.0);
+    // A true cost 64 times the prior (an emulated board): the first sample gives 8 times the prior,
+    // and the 3-times clamp catches up within 2 times of the truth in 16 rounds.
+    samples = 0;
+    avg = robustAverage(prior, 64.0 * prior, 0.05, samples);
+    EXPECT_EQ(avg, 8.0 * prior);
+    for (rounds = 0; avg < 32.0 * prior && rounds < 1000; ++rounds) avg = robustAverage(avg, 64.0 * prior, 0.05, samples);
+    EXPECT_EQ(rounds, 16);
+    // After the first, one outlier moves the average by a bounded step.
+    const double before = avg;
+    EXPECT_NEAR(robustAverage(before, 1e9, 0.05, samples), before * 1.1, 1e-9 * before);
+    EXPECT_NEAR(robustAverage(before, 0.0, 0.05, samples), before * 0.975, 1e-9 * before);
+}
 
 TEST(EngineBudget, StepBudgetRefinesExactlyRTimeStepsPerObservation) {
     Engine e(engineConfig(Budget::steps(3)));

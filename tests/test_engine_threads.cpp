@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -107,7 +108,17 @@ TEST(EngineThreads, EachObservationRefinesUntilNearItsTimeBudgetDeadline) {
     e.stop();
     ASSERT_EQ(elapsed.size(), frames.size());
     const auto atLeast = static_cast<int64_t>(kDeadlineTestBudgetMs * 0.8e6);
-    for (int64_t ns : elapsed) EXPECT_GE(ns, atLeast) << "spends (nearly) its whole " << kDeadlineTestBudgetMs << " ms budget";
+    // Every observation from the eleventh on: a first round or publication
+    // preempted on a loaded machine sets a predictor too high, and the first
+    // observations after it may end early while it comes back (clamped: see
+    // EngineBudget.APreemptedFirstRoundCannotStopRefinementForGood); a later
+    // outlier moves it by a bounded step only. And the median of all.
+    for (std::size_t i = 10; i < elapsed.size(); ++i)
+        EXPECT_GE(elapsed[i], atLeast) << "observation " << i << " spends (nearly) its whole " << kDeadlineTestBudgetMs
+                                       << " ms budget";
+    std::vector<int64_t> sorted = elapsed;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_GE(sorted[sorted.size() / 2], atLeast) << "the median observation spends (nearly) its whole budget";
 }
 
 TEST(EngineThreads, StopOnArrivalEndsATimeBudgetEarlyWhenANewerObservationWaits) {

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "observation_queue.hpp"
+#include "predictor.hpp"
 #include "rost/checkpoint.hpp"
 #include "rost/settings.hpp"
 #include "spsc_ring.hpp"
@@ -23,14 +24,7 @@ inline void bump(std::atomic<uint64_t>& a, uint64_t d = 1) noexcept {
     a.store(a.load(std::memory_order_relaxed) + d, std::memory_order_relaxed);
 }
 
-// Exponential average that a single outlier (the thread preempted in the
-// middle of a cell) moves by a bounded amount: each sample is clamped to
-// [0.5, 3] times the current average first. The first sample is taken as is.
-inline double robustAverage(double avg, double sample, double weight, uint64_t& samples) noexcept {
-    if (samples++ == 0) return sample;
-    const double s = std::clamp(sample, 0.5 * avg, 3.0 * avg);
-    return avg + weight * (s - avg);
-}
+using detail::robustAverage;  // src/core/predictor.hpp
 
 inline uint64_t bitsOf(double d) noexcept { return std::bit_cast<uint64_t>(d); }
 inline double doubleOf(uint64_t u) noexcept { return std::bit_cast<double>(u); }
