@@ -71,14 +71,23 @@ class Procs:
 def private_master(procs, command="rosmaster"):
     """Starts `rosmaster --core` (or `roscore`) on a free port, with this
     process's ROS environment pointing at it; waits until it answers."""
-    port = free_port()
-    os.environ.update(ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1",
-                      ROS_HOME=os.path.join(procs.work, "ros_home"), ROS_LOG_DIR=os.path.join(procs.work, "ros_log"))
-    os.environ.pop("ROS_HOSTNAME", None)
-    cmd = ["rosmaster", "--core", "-p", str(port)] if command == "rosmaster" else ["roscore", "-p", str(port)]
-    procs.start(cmd, command + ".log")
     import rosgraph
-    check(wait_until(rosgraph.is_master_online, 30), "%s answers on 127.0.0.1:%d" % (command, port))
+    for attempt in range(3):
+        # The port is free now; a process of a test running beside this one
+        # may take it before the master binds it. The master then exits (and
+        # what answers is not it): another port.
+        port = free_port()
+        os.environ.update(ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_IP="127.0.0.1",
+                          ROS_HOME=os.path.join(procs.work, "ros_home"),
+                          ROS_LOG_DIR=os.path.join(procs.work, "ros_log"))
+        os.environ.pop("ROS_HOSTNAME", None)
+        cmd = ["rosmaster", "--core", "-p", str(port)] if command == "rosmaster" else ["roscore", "-p", str(port)]
+        master = procs.start(cmd, "%s%s.log" % (command, "-%d" % attempt if attempt else ""))
+        online = wait_until(lambda: master.poll() is not None or rosgraph.is_master_online(), 30)
+        if online and master.poll() is None and not wait_until(lambda: master.poll() is not None, 1):
+            break
+        Procs.stop(master)
+    check(master.poll() is None and rosgraph.is_master_online(), "%s answers on 127.0.0.1:%d" % (command, port))
     return port
 
 
