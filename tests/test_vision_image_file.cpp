@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <iterator>
+
 #include <opencv2/imgcodecs.hpp>
 
 #include "rost/vision/frame_source.hpp"
@@ -80,6 +83,13 @@ TEST(VisionImageFile, OtherBytesAreLeftToTheDecoder) {
     // A JPEG damaged where a marker must be (not a cut): OpenCV decides.
     std::vector<uint8_t> b = encode(".jpg", noisy(40, 30, 3));
     b[2] = 0x12;
+    EXPECT_EQ(truncated(b, b.size()), "");
+    // Stray FF 00 between two segments: libjpeg skips them (a warning) and decodes the image whole.
+    b = encode(".jpg", noisy(40, 30, 3));
+    const uint8_t tables[] = {0xFF, 0xDB};
+    const auto dqt = std::search(b.begin(), b.end(), std::begin(tables), std::end(tables));
+    ASSERT_NE(dqt, b.end());
+    b.insert(dqt, {0xFF, 0x00});
     EXPECT_EQ(truncated(b, b.size()), "");
     const std::vector<uint8_t> bmp = encode(".bmp", noisy(40, 30, 3));
     EXPECT_EQ(truncated(bmp, bmp.size() / 2), "");

@@ -40,6 +40,7 @@ std::string jpegTruncated(const uint8_t* b, std::size_t n) {
         if (i + 1 >= n) return kJpegCut;
         const uint8_t m = b[i + 1];
         if (m == 0xD9) return {};                                  // end of image
+        if (m == 0x00) return {};  // FF 00 is no marker outside a scan: stray bytes, OpenCV skips them
         if (m == 0x01 || (m >= 0xD0 && m <= 0xD7)) { i += 2; continue; }  // markers without a length
         if (i + 4 > n) return kJpegCut;
         const std::size_t end = i + 2 + bigEndian16(b + i + 2);
