@@ -4,7 +4,7 @@
 if(NOT TARGET rostcli_topics_refine_t)
   return()
 endif()
-rost_add_test(test_rostcli SOURCES test_rostcli.cpp test_rostcli_online.cpp)
+rost_add_test(test_rostcli SOURCES test_rostcli.cpp test_rostcli_online.cpp TIMED)
 target_compile_definitions(test_rostcli PRIVATE
   ROSTCLI_REFINE_T="$<TARGET_FILE:rostcli_topics_refine_t>"
   ROSTCLI_REFINE_TXY="$<TARGET_FILE:rostcli_topics_refine_txy>"

@@ -395,6 +395,35 @@ TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
     }
 }
 
+// A settings file with the frame size: `rost config` prints it (commented, as
+// the tool derives it from its input), `rost refine` takes it, `rost run`
+// refuses it by file, line and key (its input sets the frame size).
+TEST(ToolCli, AFrameSizeInASettingsFileIsPrintedTakenOrRefusedByCommand) {
+    TempDir t;
+    rost::testing::writeText(t / "c.conf", "alpha = 0.25\nframe.width = 96\nframe.height = 48\n");
+    const RunResult conf = runRost("config --config " + (t / "c.conf"));
+    ASSERT_EQ(conf.exit_code, 0) << conf.err;
+    EXPECT_NE(conf.out.find("\nalpha = 0.25\n"), std::string::npos) << conf.out;
+    EXPECT_NE(conf.out.find("\n# frame.width = 96\n"), std::string::npos) << conf.out;
+    EXPECT_NE(conf.out.find("\n# frame.height = 48\n"), std::string::npos) << conf.out;
+    rost::testing::writeText(t / "w.csv", "0,1,2\n1,2,3\n");
+    rost::testing::writeText(t / "p.csv", "0,90,40,95,47\n1,1,1,2,2\n");
+    const RunResult ref = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " --config " +
+                                  (t / "c.conf") + " -q --no-summary --out " + (t / "r"));
+    EXPECT_EQ(ref.exit_code, 0) << ref.err;  // positions up to 95 x 47 lie in the file's 96 x 48 frame
+    rost::testing::writeText(t / "narrow.conf", "frame.width = 64\n");
+    const RunResult narrow = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " --config " +
+                                     (t / "narrow.conf") + " -q --no-summary --out " + (t / "n"));
+    EXPECT_EQ(narrow.exit_code, 2);
+    EXPECT_NE(narrow.err.find("p.csv:1:3: position (90, 40) outside the frame 64 wide"), std::string::npos) << narrow.err;
+    const RunResult run = runRost("run " + (t / "none") + " --config " + (t / "c.conf") + " --out " + (t / "o"));
+    EXPECT_EQ(run.exit_code, 2);
+    EXPECT_EQ(run.err, "rost: error: --config: " + (t / "c.conf") +
+                           ":2: key 'frame.width' is not a setting of this command (the input sets the frame size; "
+                           "--width/--height resize it)\n");
+    EXPECT_FALSE(std::filesystem::exists(t / "o"));
+}
+
 TEST(ToolCli, ASettingsValueOnTheCommandLineIsCheckedByTheSchema) {
     TempDir t;
     cv::imwrite(t / "a.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 20, 30)));

@@ -91,6 +91,12 @@ TEST(VisionImageFile, OtherBytesAreLeftToTheDecoder) {
     ASSERT_NE(dqt, b.end());
     b.insert(dqt, {0xFF, 0x00});
     EXPECT_EQ(truncated(b, b.size()), "");
+    // A byte damaged inside a scan's data (FF 12: a reserved code, no marker) is
+    // not a cut, whatever the bytes after it would give as a segment's length.
+    b = encode(".jpg", noisy(40, 30, 3));
+    const std::size_t k = b.size() - 40;  // inside the scan, before the end-of-image marker
+    b[k - 1] = 0x00, b[k] = 0xFF, b[k + 1] = 0x12, b[k + 2] = 0xFF, b[k + 3] = 0xFF;
+    EXPECT_EQ(truncated(b, b.size()), "");
     const std::vector<uint8_t> bmp = encode(".bmp", noisy(40, 30, 3));
     EXPECT_EQ(truncated(bmp, bmp.size() / 2), "");
 }

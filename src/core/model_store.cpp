@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -371,6 +372,15 @@ Status ModelCore::addTopicCounts(std::span<const int32_t> counts) {
         if (counts[i] < 0)
             return Status::error("topic model count at topic " + std::to_string(i / V_) + ", word " +
                                  std::to_string(i % V_) + " is negative");
+    // n_k is 32-bit: a topic's total with the model's own counts (an earlier
+    // prior, a ROS client's second model) must stay within it.
+    for (int k = 0; k < K_; ++k) {
+        int64_t total = nk_[k];
+        for (int v = 0; v < V_; ++v) total += counts[static_cast<std::size_t>(k) * V_ + v];
+        if (total > std::numeric_limits<int32_t>::max())
+            return Status::error("topic " + std::to_string(k) +
+                                 " would hold more than 2^31 - 1 words with the model's own counts");
+    }
     uint64_t added = 0;
     for (int k = 0; k < K_; ++k)
         for (int v = 0; v < V_; ++v) {

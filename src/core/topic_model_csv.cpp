@@ -103,14 +103,6 @@ Status loadTopicModelCsv(const std::string& path, Model& model) {
     if (Status st = text::readFile(path, csv); !st.ok()) return st;
     std::vector<int32_t> counts;
     if (Status st = parseTopicModelCsv(csv, model.K(), model.V(), counts, path); !st.ok()) return st;
-    const auto V = static_cast<std::size_t>(model.V());
-    for (int k = 0; k < model.K(); ++k) {
-        int64_t total = model.topicCount(k);
-        for (std::size_t v = 0; v < V; ++v) total += counts[static_cast<std::size_t>(k) * V + v];
-        if (total > std::numeric_limits<int32_t>::max())
-            return Status::error(path + ": topic " + std::to_string(k) +
-                                 " would hold more than 2^31 - 1 words with the model's own counts");
-    }
     if (Status st = model.addTopicCounts(counts); !st.ok()) return Status::error(path + ": " + st.message());
     return {};
 }

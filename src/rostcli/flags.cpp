@@ -15,6 +15,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_given.hpp"
 #include "rostcli.hpp"
 
 namespace rost::cli {
@@ -122,11 +123,7 @@ struct Parsed {
 } // namespace
 
 const CLI::Validator& wordsInputGiven() {
-    static const CLI::Validator v(
-        [](std::string& s) {
-            return s.empty() ? std::string("no file given (for standard input leave -i out, or give -)") : std::string();
-        },
-        "");
+    static const CLI::Validator v = cli::nonEmpty("file", "for standard input leave -i out, or give -");
     return v;
 }
 

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "cli_given.hpp"
 #include "rost/settings.hpp"
 #include "tool.hpp"
 
@@ -122,12 +123,8 @@ SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : 
 SettingsOptions::~SettingsOptions() = default;
 
 const CLI::Validator& givenPath(PathKind kind) {
-    auto refuseEmpty = [](const char* what) {
-        return CLI::Validator(
-            [what](std::string& s) { return s.empty() ? std::string("no ") + what + " given" : std::string(); }, "");
-    };
-    static const CLI::Validator file = refuseEmpty("file"), dir = refuseEmpty("directory"),
-                                input = refuseEmpty("input");
+    static const CLI::Validator file = cli::nonEmpty("file"), dir = cli::nonEmpty("directory"),
+                                input = cli::nonEmpty("input");
     switch (kind) {
         case PathKind::Directory: return dir;
         case PathKind::Input: return input;
@@ -151,6 +148,7 @@ Status SettingsOptions::Impl::applyFile(Settings& s, RunOptions* runOpts, Refine
             if (runOpts)
                 return Status::error(where + " is not a setting of this command (the input sets the frame size; "
                                              "--width/--height resize it)");
+            if (!ref) continue;  // rost config: printed with the file's value (commented: the input's)
             int& size = key == "frame.width" ? ref->width : ref->height;
             const CLI::Option* cli = app.get_option_no_throw(key == "frame.width" ? "--width" : "--height");
             if (!cli || cli->count() == 0) size = key == "frame.width" ? file.engine.model.frame_width : file.engine.model.frame_height;

@@ -125,7 +125,7 @@ public:
             if (next_ >= files_.size())
                 return Status::error(what_ + ": no image large enough to extract words from (each side at least " +
                                      std::to_string(kMinFrameSide) + " pixels)");
-            if (Status st = readImageFile(files_[next_], first); !st.ok()) return st;
+            if (Status st = readImageFile(files_[next_], first, bytes_); !st.ok()) return st;
             if (!skipSmall(first)) break;
         }
         chooseSize(o, first.cols, first.rows, info_, notes_);
@@ -143,7 +143,7 @@ public:
             if (next_ >= files_.size()) return ReadStatus::End;
             if (!pending_.empty()) {
                 img = std::move(pending_), pending_ = cv::Mat();
-            } else if (Status st = readImageFile(files_[next_], img); !st.ok()) {
+            } else if (Status st = readImageFile(files_[next_], img, bytes_); !st.ok()) {
                 error_ = st.message();
                 return ReadStatus::Error;
             }
@@ -182,6 +182,7 @@ private:
     int64_t delivered_ = 0;
     cv::Mat pending_;
     cv::Size first_, noted_;  // the first image's size; the last other size noted
+    std::string bytes_;       // each file's bytes, read into the same buffer
 };
 
 class VideoSource final : public FrameSource {

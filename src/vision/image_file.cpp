@@ -13,8 +13,12 @@
 namespace rost::vision {
 
 Status readImageFile(const std::string& path, cv::Mat& out) {
-    out.release();
     std::string bytes;
+    return readImageFile(path, out, bytes);
+}
+
+Status readImageFile(const std::string& path, cv::Mat& out, std::string& bytes) {
+    out.release();
     if (Status st = text::readFile(path, bytes); !st.ok()) return st;
     if (const std::string why = imageTruncated(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
         !why.empty())

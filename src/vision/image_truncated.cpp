@@ -41,6 +41,9 @@ std::string jpegTruncated(const uint8_t* b, std::size_t n) {
         const uint8_t m = b[i + 1];
         if (m == 0xD9) return {};                                  // end of image
         if (m == 0x00) return {};  // FF 00 is no marker outside a scan: stray bytes, OpenCV skips them
+        // A reserved code (FF 02 to FF BF) is no segment: a byte damaged inside
+        // a scan's data, not a cut. Read as one, its "length" would be noise.
+        if (m >= 0x02 && m <= 0xBF) return {};
         if (m == 0x01 || (m >= 0xD0 && m <= 0xD7)) { i += 2; continue; }  // markers without a length
         if (i + 4 > n) return kJpegCut;
         const std::size_t end = i + 2 + bigEndian16(b + i + 2);

@@ -34,5 +34,8 @@ std::string imageTruncated(const uint8_t* bytes, std::size_t size);  // C++17: r
 // or an error naming the file: "PATH: cannot open: REASON",
 // "PATH: cannot decode image: truncated JPEG: ...", "PATH: cannot decode image".
 Status readImageFile(const std::string& path, cv::Mat& out);
+// The same, the file's bytes read into `bytes`: a buffer the caller keeps from
+// image to image (a frame source's), whose capacity is then reused.
+Status readImageFile(const std::string& path, cv::Mat& out, std::string& bytes);
 
 } // namespace rost::vision
