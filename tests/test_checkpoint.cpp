@@ -566,6 +566,20 @@ TEST(CheckpointErrors, WrongVersionMagicAndTrailingBytesAreNamed) {
     EXPECT_EQ(tryLoad(std::vector<uint8_t>(text.begin(), text.end()), cfg).status.message(),
               "run.ckpt: not a rost checkpoint (only 7 bytes)");
 
+    // A header of no sections (or too many), its checksum valid: refused by the
+    // header, before any section is looked for.
+    for (const uint32_t count : {0u, 257u}) {
+        std::vector<uint8_t> bare(other.begin(), other.begin() + 32);
+        bare[0] = 'R';
+        put32(bare, 12, count);
+        put32(bare, 16, 32);
+        put32(bare, 20, 0);
+        put32(bare, 28, crc32c({bare.data(), 28}));  // the header's checksum (no sections to reseal)
+        const Loaded l = tryLoad(bare, cfg);
+        EXPECT_EQ(l.status.message(), "run.ckpt: file header: " + std::to_string(count) + " sections (expected 1..256)");
+        EXPECT_TRUE(l.untouched);
+    }
+
     std::vector<uint8_t> longer = goodFile(cfg);
     const std::size_t n = longer.size();
     longer.push_back(0);
@@ -637,7 +651,11 @@ TEST(CheckpointErrors, HostileContentsWithValidChecksumsAreRefusedNamingSectionA
         {"counters.steps", 0, 99, "step count 99 does not follow from 14 observations"},
         {"ring.slot_step", 0, 5, "slot 0 holds step 5, expected 12"},
         {"ring.in_n", 0, 41, "41 words in an observation, at most 40"},
+        // A dropped word's cell (the flag 0x80000000 and its cell), one past the grid.
+        {"ring.in_slot", 0, 0x80000000u | cells, "cell " + std::to_string(cells) + " out of range"},
         {"engine.predictors", 0, 0x7FF8000000000000ull, "cost estimate nan ns is out of range"},
+        {"engine.predictors", 0, 0xBFF0000000000000ull, "cost estimate -1 ns is out of range [0, 1e12)"},
+        {"engine.predictors", 0, 0x7E37E43C8800759Cull, "cost estimate 1e+300 ns is out of range [0, 1e12)"},
         {"n_k", 0, 12345, "the model state is inconsistent: n_k[0] = 12345 but sum_v n_k^v"},
         {"ring.n_ck", 16, 1000, "the model state is inconsistent: n_c^k mismatch"},
     };

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <vector>
@@ -139,6 +140,35 @@ TEST(MissionRecords, AResumedMissionsRowsStartAtItsFirstObservationAndARefusedOn
     EXPECT_EQ(resumed.rejection().index, 4u);
     const std::string csv = resumed.perplexityCsv("timestamp");
     EXPECT_EQ(csv.substr(0, csv.find('\n')), "timestamp,instantaneous,final,plugin,topics");
+}
+
+// Each cell's dominant topic (the overlay's tint, the bag's cell_topics) is
+// the topic with the most labels there, the lowest on a tie, and none for a
+// cell without words: with every word in cell 0, the other cells have none
+// and cell 0's is the step's most frequent topic.
+TEST(MissionRecords, ACellsDominantTopicIsItsMostFrequentAndAnEmptyCellHasNone) {
+    Engine e(config(1, 4));
+    MissionRecords records(e, 4);
+    ASSERT_TRUE(records.status().ok());
+    std::vector<ObservationRecord> seen;
+    records.setObservationSink([&](const ObservationRecord& r) { seen.push_back(r); });
+    std::vector<Frame> frames = rost::testing::makeStream(e.model().config(), 6, 30, 5);
+    for (Frame& f : frames)
+        for (std::size_t i = 0; i < f.positions.size(); ++i)
+            f.positions[i] = {static_cast<int32_t>(i % 64), static_cast<int32_t>((i * 7) % 64)};  // cell 0
+    for (const Frame& f : frames) {
+        (void)e.processNow(f.view());
+        records.drain();
+    }
+    ASSERT_EQ(seen.size(), frames.size());
+    for (const ObservationRecord& r : seen) {
+        ASSERT_EQ(r.dominant.size(), 12u);  // 4 x 3 cells
+        for (std::size_t c = 1; c < r.dominant.size(); ++c)
+            EXPECT_EQ(r.dominant[c], ObservationRecord::kNoTopic) << "cell " << c << ", observation " << r.observation;
+        const auto most = std::max_element(r.topic_share.begin(), r.topic_share.end());  // the first of equals
+        ASSERT_GT(*most, 0.f);
+        EXPECT_EQ(r.dominant[0], static_cast<uint16_t>(most - r.topic_share.begin())) << "observation " << r.observation;
+    }
 }
 
 } // namespace

@@ -119,9 +119,21 @@ TEST(ModelIngest, RejectsOutOfRangeWordAndPositionWithoutChangingState) {
     EXPECT_EQ(res.index, 1u);
     p[1] = {-1, 0};
     EXPECT_EQ(m.addObservation(w, p).error, rost::AddError::PositionOutOfRange);
+    // Each side's bound: [0, width) and [0, height), the last pixel taken.
+    for (const rost::Position q : {rost::Position{0, c.frame_height}, rost::Position{0, -1},
+                                   rost::Position{c.frame_width, c.frame_height - 1}}) {
+        p[1] = q;
+        res = m.addObservation(w, p);
+        EXPECT_EQ(res.error, rost::AddError::PositionOutOfRange) << q.x << "," << q.y;
+        EXPECT_EQ(res.index, 1u);
+    }
+    EXPECT_EQ(m.observations(), 0u);
     EXPECT_EQ(m.addObservation(w, std::span(p).first(2)).error, rost::AddError::SizeMismatch);
     EXPECT_EQ(m.observations(), 0u);
     EXPECT_EQ(m.wordsInModel(), 0u);
+    p[1] = {c.frame_width - 1, c.frame_height - 1};
+    EXPECT_EQ(m.addObservation(w, p).error, rost::AddError::None);
+    EXPECT_EQ(m.observations(), 1u);
 }
 
 TEST(ModelIngest, WordsLandInTheirCellAndOverflowIsUniformlySubsampled) {

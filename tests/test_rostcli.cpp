@@ -435,6 +435,20 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position p.csv -V 40 -K 4");
     EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err, "topics.refine.txy: p.csv:2:9: 3 coordinates for the 2 words of w.csv:2 (expected x,y per word: 4)\n");
+    // A side file of other documents (shifted, another run's) is not paired
+    // with these line by line: its time stamps, and its lines, must match.
+    writeText(dir + "/shifted.csv", "0,1,2\n2,3,4,5,6\n");
+    r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position shifted.csv -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.txy: shifted.csv:2:1: timestamp '2' differs from w.csv:2's '1'\n");
+    writeText(dir + "/short.csv", "0,1,2\n");
+    r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position short.csv -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.txy: short.csv:2:1: 1 position lines for the 2 documents of w.csv\n");
+    writeText(dir + "/long.csv", "0,1,2\n1,3,4,5,6\n2,7,8\n");
+    r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position long.csv -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.txy: long.csv:3:1: a position line beyond the 2 documents of w.csv\n");
     for (const char* f : {"topics.csv", "topics.maxlikelihood.csv", "topicmodel.csv", "perplexity.csv", "topics.log"})
         EXPECT_FALSE(fs::exists(dir + "/" + f)) << f;
     // An empty -i (a script's unset variable) is refused, not read as standard input.

@@ -10,6 +10,7 @@
 
 #include "rost/random.hpp"
 #include "rost/settings.hpp"
+#include "rost/vision/vocabulary.hpp"
 #include "test_vision_support.hpp"
 
 using rost::testing::RunResult;
@@ -395,6 +396,47 @@ TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
     }
 }
 
+// `rost vocab` end to end: the frames it trains on (--max-frames per input,
+// --every), the vocabulary's size and provenance note, the same bytes for
+// the same seed, and a vocabulary `rost run` then takes.
+TEST(ToolCli, VocabTrainsOnTheFramesAskedForAndRunUsesIt) {
+    TempDir t;
+    std::filesystem::create_directory(t / "in");
+    cv::RNG rng(3);
+    for (int i = 0; i < 6; ++i) {
+        cv::Mat m(120, 160, CV_8UC3);
+        rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+        ASSERT_TRUE(cv::imwrite(t / ("in/f" + std::to_string(i) + ".png"), m));
+    }
+    const auto vocab = [&](const std::string& out, const std::string& extra) {
+        const RunResult r = runRost("vocab " + (t / "in") + " --out " + (t / out) + " --words 16 -q " + extra);
+        EXPECT_EQ(r.exit_code, 0) << r.err;
+        rost::vision::Vocabulary v;
+        const rost::Status st = rost::vision::Vocabulary::load(t / out, v);
+        EXPECT_TRUE(st.ok()) << st.message();
+        EXPECT_EQ(v.size(), 16u);
+        return v.note();
+    };
+    for (const auto& [extra, frames] : {std::pair{"--every 1 --max-frames 3", "from 3 frames (every 1)"},
+                                        std::pair{"--every 2 --max-frames 5", "from 3 frames (every 2)"},
+                                        std::pair{"--every 4", "from 2 frames (every 4)"},
+                                        std::pair{"--max-frames 1", "from 1 frames (every 1)"}}) {
+        const std::string note = vocab("v.rostvoc", extra);
+        EXPECT_NE(note.find(frames), std::string::npos) << extra << ": " << note;
+    }
+    vocab("a.rostvoc", "--seed 9 --max-frames 2");
+    const std::string first = rost::testing::readText(t / "a.rostvoc");
+    vocab("a.rostvoc", "--seed 9 --max-frames 2");
+    EXPECT_EQ(rost::testing::readText(t / "a.rostvoc"), first) << "the same seed, the same bytes";
+    const RunResult run = runRost("run " + (t / "in") + " --vocabulary " + (t / "a.rostvoc") + " -K 2 -q --no-summary --out " +
+                                  (t / "o"));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const std::string runTxt = rost::testing::readText(t / "o/run.txt");
+    EXPECT_NE(runTxt.find("vocabulary: " + (t / "a.rostvoc") + ", 16 words: k-majority, 16 words, seed 9"), std::string::npos)
+        << runTxt;
+    EXPECT_NE(runTxt.find("words: V = 452 (orb 16 at 0, "), std::string::npos) << runTxt;
+}
+
 // A settings file with the frame size: `rost config` prints it (commented, as
 // the tool derives it from its input), `rost refine` takes it, `rost run`
 // refuses it by file, line and key (its input sets the frame size).
@@ -416,6 +458,11 @@ TEST(ToolCli, AFrameSizeInASettingsFileIsPrintedTakenOrRefusedByCommand) {
                                      (t / "narrow.conf") + " -q --no-summary --out " + (t / "n"));
     EXPECT_EQ(narrow.exit_code, 2);
     EXPECT_NE(narrow.err.find("p.csv:1:3: position (90, 40) outside the frame 64 wide"), std::string::npos) << narrow.err;
+    // The command line wins over the file, for the frame size too.
+    const RunResult wins = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " --config " +
+                                   (t / "c.conf") + " --width 64 -q --no-summary --out " + (t / "n"));
+    EXPECT_EQ(wins.exit_code, 2);
+    EXPECT_NE(wins.err.find("p.csv:1:3: position (90, 40) outside the frame 64x48"), std::string::npos) << wins.err;
     const RunResult run = runRost("run " + (t / "none") + " --config " + (t / "c.conf") + " --out " + (t / "o"));
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_EQ(run.err, "rost: error: --config: " + (t / "c.conf") +

@@ -509,6 +509,25 @@ TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) 
                 (t / "other.csv") + ": 2 observations, fewer than the 14 " + (t / "m.ckpt") +
                     " holds, and not the ones after them (they would start after time stamp 20)",
                 t / "x");
+    // A stream that starts at the checkpoint's last time stamp is not what came after it.
+    rost::testing::writeText(t / "same.csv", "20,1,2\n30,4,5\n");
+    rost::testing::writeText(t / "psame.csv", "20,0,0,1,1\n30,2,2,3,3\n");
+    expectError(cmd("same.csv", "psame.csv", "x", "--resume " + (t / "m.ckpt")),
+                (t / "same.csv") + ": 2 observations, fewer than the 14 " + (t / "m.ckpt") +
+                    " holds, and not the ones after them (they would start after time stamp 20)",
+                t / "x");
+    std::string longWords, longPositions;
+    for (int i = 0; i < 15; ++i) {
+        longWords += std::to_string(i) + ",1,2\n";
+        longPositions += std::to_string(i) + ",0,0,1,1\n";
+    }
+    rost::testing::writeText(t / "long.csv", longWords);
+    rost::testing::writeText(t / "plong.csv", longPositions);
+    expectError(cmd("long.csv", "plong.csv", "x", "--resume " + (t / "m.ckpt")),
+                (t / "long.csv") + ": neither the stream " + (t / "m.ckpt") +
+                    " was made from (its observation 14 has time stamp 20, here 13) nor what came after it (the first "
+                    "time stamp here, 0, is not after 20)",
+                t / "x");
     expectError(cmd("wn.csv", "pn.csv", "x", "--resume " + (t / "m.ckpt")),
                 "nothing to resume with", t / "x");
     // No positions for a model of 64 x 64 frames.

@@ -5,6 +5,8 @@
 
 #include <unistd.h>
 
+#include <tuple>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -99,6 +101,19 @@ TEST(VisionSources, GlobSelectsMatchingFilesAndOptionsResize) {
     const auto frames = readAll(*src);
     ASSERT_EQ(frames.size(), 3u);
     EXPECT_EQ(frames[0].image.size(), cv::Size(20, 15));
+    // A height alone keeps the aspect ratio too; both sides are taken as given.
+    for (const auto& [width, height, expect] : {std::tuple{0, 15, cv::Size(20, 15)}, std::tuple{0, 60, cv::Size(80, 60)},
+                                                std::tuple{25, 25, cv::Size(25, 25)}}) {
+        SourceOptions sized;
+        sized.width = width;
+        sized.height = height;
+        auto s = openFrameSource(t / "a*.png", sized, st);
+        ASSERT_TRUE(s) << st.message();
+        EXPECT_EQ(cv::Size(s->info().width, s->info().height), expect) << width << "x" << height;
+        const auto all = readAll(*s);
+        ASSERT_EQ(all.size(), 3u);
+        EXPECT_EQ(all[2].image.size(), expect) << width << "x" << height;
+    }
 }
 
 // A link that leads to itself among the frames is no frame: skipped in a

@@ -508,11 +508,10 @@ void fillInfo(const Parsed& p, std::span<const uint8_t> bytes, CheckpointInfo& i
 
 // ---- semantic validation ---------------------------------------------------------------
 
-// Every value a Model or Engine could index with, divide by or count must
-// be in range, so a file with valid checksums but hostile contents is
-// refused instead of loaded. The model's sections are the store's to judge
-// (Model::checkRestoredState, then Model::checkInvariants, on a scratch
-// model); the engine's cost estimates are checked here.
+// Every value a Model or Engine could index with, divide by or count must be
+// in range, so a file with valid checksums but hostile contents is refused.
+// The model's sections are the store's to judge (Model::checkRestoredState,
+// then checkInvariants, on a scratch model); the engine's cost estimates here.
 
 // A problem in section `section`, element `index`, named with its byte in the file.
 Status sectionProblem(const Parsed& p, std::string_view name, const std::string& section, std::size_t index,
@@ -526,12 +525,13 @@ Status sectionProblem(const Parsed& p, std::string_view name, const std::string&
 // The time-budget predictors: finite, non-negative cost estimates.
 Status checkPredictors(const Parsed& p, std::span<const uint8_t> bytes, std::string_view name) {
     const ParsedSection* pred = findSection(p, "engine.predictors");
-    if (!pred) return {};
-    for (std::size_t i = 0; i < pred->bytes / 8; ++i) {
+    for (std::size_t i = 0; pred && i < pred->bytes / 8; ++i) {
         const double v = element<double>(bytes.data() + pred->payload, i);
-        if (!(v >= 0.0 && v < 1e12))
-            return sectionProblem(p, name, pred->name, i,
-                                  "cost estimate " + std::to_string(v) + " ns is out of range [0, 1e12)");
+        if (!(v >= 0.0 && v < 1e12)) {
+            std::string what = "cost estimate ";
+            text::appendNumber(what, v);  // shortest: "-1", "1e+300", "nan"
+            return sectionProblem(p, name, pred->name, i, what + " ns is out of range [0, 1e12)");
+        }
     }
     return {};
 }
