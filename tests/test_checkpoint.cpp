@@ -907,21 +907,26 @@ TEST(TopicModelCsv, ErrorsNameFileLineAndColumn) {
 
 // n_k is 32-bit. A topic model added to a model that already holds counts (a
 // second --in.topicmodel, a ROS client's ~set_topic_model called twice) is
-// refused where a topic's total would pass 2^31 - 1, and the model is left as
-// it was; up to the limit it is taken.
+// refused where a topic's total would leave no room for the words the window
+// can hold, and the model is left as it was; up to that bound it is taken.
 TEST(TopicModelCsv, CountsPastTwoToThe31WithTheModelsOwnAreRefusedAndChangeNothing) {
     Config c = smallConfig();
     c.K = 2;
     c.V = 2;
     Model m(c);
-    const std::vector<int32_t> full = {2147483646, 0, 0, 5};
+    const int64_t window = static_cast<int64_t>(c.ring_steps) * c.cellsPerStep() * c.cell_capacity;
+    const auto most = static_cast<int32_t>(2147483647 - window - 1);
+    const std::vector<int32_t> full = {most - 1, 0, 0, 5};
     ASSERT_TRUE(m.addTopicCounts(full).ok());
     const std::vector<int32_t> one = {0, 1, 0, 0};
-    ASSERT_TRUE(m.addTopicCounts(one).ok());  // exactly 2^31 - 1
-    EXPECT_EQ(m.topicCount(0), 2147483647);
+    ASSERT_TRUE(m.addTopicCounts(one).ok());  // exactly the bound
+    EXPECT_EQ(m.topicCount(0), most);
+    const std::string refused = "topic 0 would hold " + std::to_string(int64_t{most} + 1) +
+                                " words with the model's own counts, more than the " + std::to_string(most) +
+                                " that leave room for the window's " + std::to_string(window) + " (n_k is 32-bit)";
     const std::vector<int32_t> past = {1, 0, 0, 1};
-    EXPECT_EQ(m.addTopicCounts(past).message(), "topic 0 would hold more than 2^31 - 1 words with the model's own counts");
-    EXPECT_EQ(m.topicCount(0), 2147483647);
+    EXPECT_EQ(m.addTopicCounts(past).message(), refused);
+    EXPECT_EQ(m.topicCount(0), most);
     EXPECT_EQ(m.topicCount(1), 5);
     EXPECT_EQ(m.topicWordCount(1, 1), 5);
     std::string why;
@@ -930,9 +935,8 @@ TEST(TopicModelCsv, CountsPastTwoToThe31WithTheModelsOwnAreRefusedAndChangeNothi
     const fs::path dir = tempDir("topics_total");
     const std::string path = (dir / "tm.csv").string();
     ASSERT_TRUE(writeFileAtomic(path, "0,1\n").ok());
-    EXPECT_EQ(loadTopicModelCsv(path, m).message(),
-              path + ": topic 0 would hold more than 2^31 - 1 words with the model's own counts");
-    EXPECT_EQ(m.topicCount(0), 2147483647);
+    EXPECT_EQ(loadTopicModelCsv(path, m).message(), path + ": " + refused);
+    EXPECT_EQ(m.topicCount(0), most);
     fs::remove_all(dir);
 }
 

@@ -373,13 +373,17 @@ Status ModelCore::addTopicCounts(std::span<const int32_t> counts) {
             return Status::error("topic model count at topic " + std::to_string(i / V_) + ", word " +
                                  std::to_string(i % V_) + " is negative");
     // n_k is 32-bit: a topic's total with the model's own counts (an earlier
-    // prior, a ROS client's second model) must stay within it.
+    // prior, a ROS client's second model) must leave room for every word the
+    // window can hold, and one more (the kernel's cached 1 / (n_k + 1 + V beta)).
+    const int64_t room = static_cast<int64_t>(cfg_.ring_steps) * cells_ * cap_ + 1;
+    const int64_t most = std::numeric_limits<int32_t>::max() - room;
     for (int k = 0; k < K_; ++k) {
         int64_t total = nk_[k];
         for (int v = 0; v < V_; ++v) total += counts[static_cast<std::size_t>(k) * V_ + v];
-        if (total > std::numeric_limits<int32_t>::max())
-            return Status::error("topic " + std::to_string(k) +
-                                 " would hold more than 2^31 - 1 words with the model's own counts");
+        if (total > most)
+            return Status::error("topic " + std::to_string(k) + " would hold " + std::to_string(total) +
+                                 " words with the model's own counts, more than the " + std::to_string(most) +
+                                 " that leave room for the window's " + std::to_string(room - 1) + " (n_k is 32-bit)");
     }
     uint64_t added = 0;
     for (int k = 0; k < K_; ++k)
