@@ -327,7 +327,8 @@ public:
     // Adds K x V counts (row-major, topic by word) learned elsewhere to n_k^v and n_k;
     // they act as a prior that refinement never removes. Set-up only. Refused,
     // the model unchanged, for a negative count or a topic whose total with the
-    // model's own would pass 2^31 - 1 (n_k is 32-bit).
+    // model's own would leave its 32-bit n_k no room for every word the window
+    // can hold, and one more.
     Status addTopicCounts(std::span<const int32_t> counts);
 
     // Recomputes every count from the labels and compares; on failure `why` says what differs.
