@@ -14,6 +14,13 @@ checkout or an export without .git.
                          (its text found exactly once), without building: CI
                          runs it, so a mutant the code moved away from is named
   mutants.sh NAME...     those mutants
+  mutants.sh --in-build DIR [--quick | NAME...]
+                         no scratch copy: DIR is an existing build of this tree
+                         (CI's build/, already built and tested), each mutant
+                         is applied to the tree's own file and restored, and
+                         DIR is rebuilt as the tree is at the end. For a
+                         throw-away checkout: an interrupted run restores the
+                         file it had changed, a killed one (SIGKILL) cannot.
 
 Prints a line per mutant, then `mutants: N, caught: C`; exits 0 only when
 every mutant run was caught (a test failed). A mutant whose build targets this
@@ -25,6 +32,7 @@ import hashlib
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -151,6 +159,22 @@ def tests_matching(build, regex):
     return int(m.group(1)) if m else 0
 
 
+def built_from(build):
+    """The source directory a CMake build was configured from, or None."""
+    try:
+        with open(os.path.join(build, "CMakeCache.txt"), encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("CMAKE_HOME_DIRECTORY:"):
+                    return os.path.realpath(line.split("=", 1)[1].strip())
+    except OSError:
+        pass
+    return None
+
+
+def terminated(signum, frame):
+    raise SystemExit(128 + signum)  # unwinds through the `finally` that restores a mutated file
+
+
 def targets_of(build):
     p = subprocess.run(["ninja", "-C", build, "-t", "targets", "all"], capture_output=True, text=True)
     return {line.split(":")[0] for line in p.stdout.splitlines()}
@@ -162,10 +186,17 @@ def main(argv):
         for m in mutants:
             print(f"{m['name']}{' (quick)' if m['quick'] else ''}: {m['file']}: {m['why']}")
         return 0
+    in_build = None
+    if "--in-build" in argv:
+        i = argv.index("--in-build")
+        if i + 1 >= len(argv) or argv[i + 1].startswith("--"):
+            fail("--in-build needs a build directory")
+        in_build = os.path.realpath(argv[i + 1])
+        argv = argv[:i] + argv[i + 2:]
     names = [a for a in argv if not a.startswith("--")]
     unknown = [a for a in argv if a.startswith("--") and a not in ("--quick", "--check")]
     if unknown:
-        fail(f"unknown option {unknown[0]} (--list, --quick, --check, or mutant names)")
+        fail(f"unknown option {unknown[0]} (--list, --quick, --check, --in-build DIR, or mutant names)")
     if names:
         known = {m["name"] for m in mutants}
         for n in names:
@@ -187,18 +218,26 @@ def main(argv):
         print(f"mutants: all {len(chosen)} apply to the tree (each one's text found exactly once)")
         return 0
 
-    scratch = os.environ.get("ROST_MUTANTS_DIR") or os.path.join(
-        "/tmp", "rost-mutants-" + hashlib.sha1(ROOT.encode()).hexdigest()[:10])
-    src, build, log = (os.path.join(scratch, d) for d in ("src", "build", "log.txt"))
-    os.makedirs(scratch, exist_ok=True)
+    jobs = str(os.cpu_count() or 2)
+    if in_build:
+        src, build = ROOT, in_build
+        if built_from(build) != ROOT:
+            fail(f"{build} is not a CMake build of {ROOT} (its CMakeCache.txt names {built_from(build) or 'no source'})")
+        log = os.path.join(build, "mutants-log.txt")
+        print(f"mutants: {len(chosen)} to run in {build}, on the tree's own files; log {log}", flush=True)
+    else:
+        scratch = os.environ.get("ROST_MUTANTS_DIR") or os.path.join(
+            "/tmp", "rost-mutants-" + hashlib.sha1(ROOT.encode()).hexdigest()[:10])
+        src, build, log = (os.path.join(scratch, d) for d in ("src", "build", "log.txt"))
+        os.makedirs(scratch, exist_ok=True)
+        print(f"mutants: {len(chosen)} to run; scratch copy {src}, build {build}, log {log}", flush=True)
     with open(log, "w", encoding="utf-8"):
         pass
-    jobs = str(os.cpu_count() or 2)
-    print(f"mutants: {len(chosen)} to run; scratch copy {src}, build {build}, log {log}", flush=True)
-    sync(src)
-    if run(["cmake", "-S", src, "-B", build, "-G", "Ninja", "-DCMAKE_BUILD_TYPE=Release", "-DROST_VISION=ON",
-            "-DROST_BUILD_BENCH=OFF"], log) != 0:
-        fail(f"the scratch copy does not configure (see {log})")
+    if not in_build:
+        sync(src)
+        if run(["cmake", "-S", src, "-B", build, "-G", "Ninja", "-DCMAKE_BUILD_TYPE=Release", "-DROST_VISION=ON",
+                "-DROST_BUILD_BENCH=OFF"], log) != 0:
+            fail(f"the scratch copy does not configure (see {log})")
     have = targets_of(build)
     runnable, skipped = [], []
     for m in chosen:
@@ -210,7 +249,7 @@ def main(argv):
     targets = sorted({t for m in runnable for t in m["build"]})
     t0 = time.time()
     if targets and run(["cmake", "--build", build, "-j", jobs, "--target", *targets], log) != 0:
-        fail(f"the unmutated copy does not build (see {log})")
+        fail(f"the unmutated tree does not build (see {log})")
     for m in runnable:
         if tests_matching(build, m["tests"]) == 0:
             fail(f"[{m['name']}] no test matches {m['tests']}")
@@ -238,9 +277,16 @@ def main(argv):
             print(f"caught    {m['name']} ({took:.0f} s)", flush=True)
         else:
             print(f"SURVIVED  {m['name']}: no test of {m['tests']} failed; {m['why']}", flush=True)
+    if in_build:  # the restored files are newer than what the mutants built from them
+        t1 = time.time()
+        if run(["cmake", "--build", build, "-j", jobs], log) != 0:
+            fail(f"{build} does not build again from the restored tree (see {log})")
+        print(f"rebuilt   {build} from the restored tree ({time.time() - t1:.0f} s)", flush=True)
     print(f"mutants: {len(runnable)}, caught: {caught}" + (f" ({len(skipped)} skipped)" if skipped else ""))
     return 0 if caught == len(runnable) else 1
 
 
 if __name__ == "__main__":
+    signal.signal(signal.SIGTERM, terminated)
+    signal.signal(signal.SIGHUP, terminated)
     sys.exit(main(sys.argv[1:]))

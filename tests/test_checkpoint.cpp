@@ -297,6 +297,46 @@ TEST(CheckpointResume, ResumingTwiceFromTheSameFileGivesTheSameRun) {
     fs::remove_all(dir);
 }
 
+// Observations the queue dropped before a checkpoint, of either kind, are
+// counted apart and come back as they were: the resumed engine's counters go
+// on from the saved ones, and its next observation has the next sequence number.
+TEST(CheckpointResume, DropsOfEachKindComeBackCountedApart) {
+    const fs::path dir = tempDir("drops");
+    for (const DropPolicy policy : {DropPolicy::DropNewest, DropPolicy::DropOldest}) {
+        SCOPED_TRACE(toString(policy));
+        EngineConfig cfg = baseConfig();  // four queue slots
+        cfg.drop = policy;
+        const auto frames = stream(cfg, 12, 4);
+        Engine a(cfg);
+        for (int f = 0; f < 7; ++f) (void)a.tryPush(frames[static_cast<std::size_t>(f)].view());  // 4 queued, 3 dropped
+        EXPECT_EQ(a.processPending(), 4u);
+        for (int f = 7; f < 10; ++f) a.processNow(frames[static_cast<std::size_t>(f)].view());
+        const EngineCounters saved = a.counters();
+        const bool newest = policy == DropPolicy::DropNewest;
+        EXPECT_EQ(saved.dropped_newest, newest ? 3u : 0u);
+        EXPECT_EQ(saved.dropped_oldest, newest ? 0u : 3u);
+        EXPECT_EQ(saved.ingested, 7u);
+        const std::string path = (dir / (std::string(toString(policy)) + ".ckpt")).string();
+        ASSERT_TRUE(saveCheckpoint(a, path).ok());
+
+        Status st;
+        CheckpointInfo info;
+        auto b = resumeEngine(path, st, &info);
+        ASSERT_TRUE(b) << st.message();
+        EXPECT_EQ(info.next_sequence, 10u);
+        const EngineCounters back = b->counters();
+        EXPECT_EQ(back.dropped_newest, saved.dropped_newest);
+        EXPECT_EQ(back.dropped_oldest, saved.dropped_oldest);
+        EXPECT_EQ(back.pushed, saved.pushed);
+        EXPECT_EQ(back.ingested, saved.ingested);
+        const ObservationResult r = b->processNow(frames[10].view());
+        EXPECT_EQ(r.sequence, 10u);
+        EXPECT_EQ(r.observation, 7u);
+        EXPECT_EQ(b->counters().dropped_newest + b->counters().dropped_oldest, 3u);
+    }
+    fs::remove_all(dir);
+}
+
 TEST(CheckpointResume, PeriodicWriterOnARunningEngineResumesBitForBit) {
     // The refiner thread captures every 7th observation in its hook; the
     // writer thread writes the files. Whichever checkpoint is on disk at

@@ -18,7 +18,7 @@ function(rost_add_vision_test name)
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE rost::core rost_internal GTest::gtest GTest::gtest_main rost_warnings ${ARG_LIBS})
   target_include_directories(${name} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
-  target_compile_options(${name} PRIVATE -UNDEBUG)
+  target_compile_options(${name} PRIVATE -UNDEBUG ${ROST_TESTS_OPT})
   target_compile_definitions(${name} PRIVATE ROST_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
                                              $<$<TARGET_EXISTS:rost>:ROST_TOOL="$<TARGET_FILE:rost>">)
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 120 PROPERTIES TIMEOUT 900 FIXTURES_REQUIRED rost_footage)

@@ -294,7 +294,9 @@ void setTopicModel(PyModel& m, const py::handle& counts) {
     if (a.ndim() != 2 || a.shape(0) != model.K() || a.shape(1) != model.V())
         throw py::value_error("counts: expected shape (K, V) = (" + std::to_string(model.K()) + ", " +
                               std::to_string(model.V()) + "), found " + py::str(a.attr("shape")).cast<std::string>());
-    check(model.addTopicCounts(kind == 'u' ? topicCounts<uint64_t>(model, a) : topicCounts<int64_t>(model, a)));
+    // What the library refuses here is a value (a total with no room left for the window): ValueError.
+    const Status st = model.addTopicCounts(kind == 'u' ? topicCounts<uint64_t>(model, a) : topicCounts<int64_t>(model, a));
+    if (!st.ok()) raiseStatus(st, "counts: ", PyExc_ValueError);
 }
 
 void bindModelOutputs(py::class_<PyModel>& c) {

@@ -190,6 +190,10 @@ def test_an_integer_out_of_range_is_named_by_its_value():
     counts[1, 2] = 2**31 - 1
     with pytest.raises(ValueError, match=r"counts: topic 1 would hold more than 2\^31 - 1 words"):
         model.set_topic_model(counts)
+    # A total of 2^31 - 1 leaves n_k no room for the window's words: the library's bound, a ValueError too.
+    counts[1, 2] = 2**31 - 1 - 7
+    with pytest.raises(ValueError, match=r"counts: topic 1 would hold 2147483647 words with the model's own counts"):
+        model.set_topic_model(counts)
     assert model.topic_weights()[1] == 7
 
 
