@@ -352,41 +352,57 @@ TEST(EngineSnapshot, HoldsTheNewestObservationsLabelsHistogramsSurpriseAndCounte
 }
 
 // With growth, the snapshot's labels and histograms number the open topics
-// 0..A-1 and it reports A.
+// 0..A-1 and it reports A: also when a closed slot lies below an open one (a
+// prior in slots 0 and 2), where the numbering is not the slots'.
 TEST(EngineSnapshot, WithGrowingTopicsNumbersOpenTopicsFromZeroAndReportsTheirCount) {
-    EngineConfig c = engineConfig(Budget::steps(3));
-    c.model.grow = true;
-    c.model.gamma = 0.5;
-    Engine e(c);
-    Snapshot s = e.makeSnapshot();
-    const auto frames = makeStream(c.model, 25, 180, 9);
-    int most = 0;
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-        const ObservationResult r = e.processNow(frames[i].view());
-        ASSERT_TRUE(e.readSnapshot(s));
-        const Model& m = e.model();
-        ASSERT_EQ(s.active_topics, m.activeTopics());
-        ASSERT_EQ(r.active_topics, m.activeTopics());
-        most = std::max(most, s.active_topics);
-        for (uint16_t z : s.labels()) ASSERT_LT(z, s.active_topics);
-        std::vector<uint16_t> map(static_cast<std::size_t>(m.K()));
-        m.outputNumbering(map);
-        for (int cell = 0; cell < m.cellsPerStep(); ++cell) {
-            const auto h = m.cellHistogram(r.step, cell);
-            const auto out = s.histogram(cell);
-            for (int k = 0; k < m.K(); ++k) {
-                if (map[k] != 0xFFFF) {
-                    ASSERT_EQ(out[map[k]], h[k]);
-                } else {
-                    ASSERT_EQ(h[k], 0) << "a closed topic holds no word";
-                }
+    for (const bool gap : {false, true}) {
+        SCOPED_TRACE(gap ? "a prior in slots 0 and 2" : "no prior");
+        EngineConfig c = engineConfig(Budget::steps(3));
+        c.model.grow = true;
+        c.model.gamma = 0.5;
+        Engine e(c);
+        if (gap) {
+            std::vector<int32_t> prior(static_cast<std::size_t>(c.model.K) * static_cast<std::size_t>(c.model.V), 0);
+            for (int v = 0; v < c.model.V; ++v) {
+                prior[static_cast<std::size_t>(v)] = v % 2 == 0 ? 3 : 0;
+                prior[static_cast<std::size_t>(2 * c.model.V + v)] = v % 2 == 1 ? 3 : 0;
             }
-            for (int k = s.active_topics; k < m.K(); ++k) ASSERT_EQ(out[k], 0);
+            ASSERT_TRUE(e.model().addTopicCounts(prior).ok());
         }
+        Snapshot s = e.makeSnapshot();
+        const auto frames = makeStream(c.model, 25, 180, 9);
+        int most = 0, renumbered = 0;
+        for (std::size_t i = 0; i < frames.size(); ++i) {
+            const ObservationResult r = e.processNow(frames[i].view());
+            ASSERT_TRUE(e.readSnapshot(s));
+            const Model& m = e.model();
+            ASSERT_EQ(s.active_topics, m.activeTopics());
+            ASSERT_EQ(r.active_topics, m.activeTopics());
+            most = std::max(most, s.active_topics);
+            std::vector<uint16_t> map(static_cast<std::size_t>(m.K()));
+            m.outputNumbering(map);
+            for (int k = 0; k < m.K(); ++k) renumbered += map[k] != 0xFFFF && map[k] != k;
+            for (uint16_t z : s.labels()) ASSERT_LT(z, s.active_topics);
+            for (int cell = 0; cell < m.cellsPerStep(); ++cell) {
+                const auto h = m.cellHistogram(r.step, cell);
+                const auto out = s.histogram(cell);
+                for (int k = 0; k < m.K(); ++k) {
+                    if (map[k] != 0xFFFF) {
+                        ASSERT_EQ(out[map[k]], h[k]);
+                    } else {
+                        ASSERT_EQ(h[k], 0) << "a closed topic holds no word";
+                    }
+                }
+                for (int k = s.active_topics; k < m.K(); ++k) ASSERT_EQ(out[k], 0);
+            }
+        }
+        EXPECT_GT(most, 1) << "topics grew";
+        if (gap) {
+            EXPECT_GT(renumbered, 0) << "the numbering differed from the slots'";
+        }
+        std::string why;
+        EXPECT_TRUE(e.model().checkInvariants(&why)) << why;
     }
-    EXPECT_GT(most, 1) << "topics grew";
-    std::string why;
-    EXPECT_TRUE(e.model().checkInvariants(&why)) << why;
 }
 
 TEST(EngineSnapshot, ReadIsRefusedForASnapshotSizedForAnotherConfiguration) {

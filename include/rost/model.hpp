@@ -162,6 +162,13 @@ public:
     // way; cellHistogram, topicWordCount and topicCount are indexed by topic
     // slot k (0..K-1, open or not): map[k] is slot k's label. map.size() >= K.
     void outputNumbering(std::span<uint16_t> map) const noexcept;
+    // Its inverse, with the closed slots after: slots[i] is the slot labelled
+    // i for i < activeTopics(), then the closed slots in slot order. A topic
+    // model's rows in this order are what every face writes and reads
+    // (topicmodel.csv holds the first activeTopics() of them; Python's
+    // topic_model() and rost_node's topic models all K, the closed slots' zero
+    // rows last). Without growth the identity. slots.size() >= K.
+    void slotsInLabelOrder(std::span<uint16_t> slots) const noexcept;
     int V() const noexcept;
     int cellsPerStep() const noexcept;
 

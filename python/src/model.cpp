@@ -226,19 +226,14 @@ double perplexity(PyModel& m, std::optional<int64_t> t) {
     });
 }
 
-// The model's topic slots in label order: row i of topic_model() and
-// topic_weights() (and of set_topic_model's counts) is slot slots[i]. With
-// growth the labels number the open topics 0..A-1 (Model::outputNumbering),
-// so rows 0..A-1 are those topics, label by label, as in topicmodel.csv, and
-// rows A..K-1 the closed slots (no word: zero rows); without growth the identity.
+// The model's topic slots in label order (Model::slotsInLabelOrder): row i of
+// topic_model() and topic_weights() (and of set_topic_model's counts) is slot
+// slots[i]; rows 0..A-1 the open topics, as in topicmodel.csv, then the closed
+// slots' zero rows.
 std::vector<int> slotsInLabelOrder(const Model& model) {
-    std::vector<int> slots;
-    slots.reserve(static_cast<std::size_t>(model.K()));
-    for (int k = 0; k < model.K(); ++k)
-        if (model.topicOpen(k)) slots.push_back(k);
-    for (int k = 0; k < model.K(); ++k)
-        if (!model.topicOpen(k)) slots.push_back(k);
-    return slots;
+    std::vector<uint16_t> order(static_cast<std::size_t>(model.K()));
+    model.slotsInLabelOrder(order);
+    return {order.begin(), order.end()};
 }
 
 py::array_t<int32_t> topicModel(PyModel& m) {

@@ -65,6 +65,22 @@ void loadBytes(void* dst, const std::atomic<uint64_t>* src, std::size_t bytes) n
 }
 constexpr std::size_t wordsFor(std::size_t bytes) noexcept { return (bytes + 7) / 8; }
 
+// A step's cell histograms (cells x K) in the output numbering: with growth the
+// open topics are 0..A-1 (a closed topic holds no word, so nothing is lost), as
+// the labels are. No allocation: the map is on the stack (K <= 1024).
+void outputHistograms(const Model& m, int64_t step, std::size_t cells, int32_t* out) noexcept {
+    const auto K = static_cast<std::size_t>(m.K());
+    uint16_t map[1024];
+    m.outputNumbering({map, K});
+    for (std::size_t c = 0; c < cells; ++c, out += K) {
+        const std::span<const int32_t> h = m.cellHistogram(step, static_cast<int>(c));
+        std::fill_n(out, K, 0);
+        if (h.size() != K) continue;
+        for (std::size_t k = 0; k < K; ++k)
+            if (map[k] != 0xFFFF) out[map[k]] = h[k];
+    }
+}
+
 // Header of a snapshot buffer, in 64-bit words.
 enum Header : std::size_t {
     kObservation, kSequence, kTimestamp, kStep, kPerplexity, kSurprise, kPrevStep, kPrevPerplexity, kPrevPlugin, kActiveTopics, kWords,
@@ -360,21 +376,10 @@ void Engine::publishResult(const ObservationResult& r) noexcept {
     o->result = r;
     if (r.add.ok() && r.step >= 0) {
         const Model& m = *model_;
-        const auto K = static_cast<std::size_t>(m.K());
         const auto cells = o->cell_surprise.size();
         const std::span<const float> cs = m.cellSurprise(r.step);
-        // Histograms in the output numbering (growth: open topics 0..A-1; a
-        // closed topic holds no word, so nothing is lost).
-        uint16_t map[1024];
-        m.outputNumbering({map, K});
-        for (std::size_t c = 0; c < cells; ++c) {
-            o->cell_surprise[c] = c < cs.size() ? cs[c] : 0.f;
-            const std::span<const int32_t> h = m.cellHistogram(r.step, static_cast<int>(c));
-            int32_t* out = o->histograms.data() + c * K;
-            std::fill_n(out, K, 0);
-            for (std::size_t k = 0; k < K; ++k)
-                if (map[k] != 0xFFFF) out[map[k]] = h[k];
-        }
+        for (std::size_t c = 0; c < cells; ++c) o->cell_surprise[c] = c < cs.size() ? cs[c] : 0.f;
+        outputHistograms(m, r.step, cells, o->histograms.data());
     }
     pub_->results.commitPush();
 }
@@ -604,11 +609,7 @@ void Engine::publish(const ObservationResult& r) noexcept {
         m.observationLabels(r.observation, {s.labels_.data(), n});
         m.observationWords(r.observation, {s.words_.data(), n});
         m.observationPositions(r.observation, {s.positions_.data(), n});
-        const auto K = static_cast<std::size_t>(m.K());
-        for (int c = 0; c < m.cellsPerStep(); ++c) {
-            const auto h = m.cellHistogram(r.step, c);
-            if (h.size() == K) std::copy(h.begin(), h.end(), s.hist_.begin() + static_cast<std::ptrdiff_t>(c * K));
-        }
+        outputHistograms(m, r.step, static_cast<std::size_t>(m.cellsPerStep()), s.hist_.data());
         const auto cs = m.cellSurprise(r.step);
         if (cs.size() == s.cell_surprise_.size()) std::copy(cs.begin(), cs.end(), s.cell_surprise_.begin());
     } else {

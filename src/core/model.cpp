@@ -50,6 +50,12 @@ double Model::learnedGamma() const noexcept { return core_->learnedGamma(); }
 bool Model::topicCapReached() const noexcept { return core_->topicCapReached(); }
 bool Model::topicOpen(int k) const noexcept { return core_->topicOpen(k); }
 void Model::outputNumbering(std::span<uint16_t> map) const noexcept { core_->outputNumbering(map); }
+void Model::slotsInLabelOrder(std::span<uint16_t> slots) const noexcept {
+    std::size_t i = 0;
+    for (const bool open : {true, false})
+        for (int k = 0; k < K() && i < slots.size(); ++k)
+            if (topicOpen(k) == open) slots[i++] = static_cast<uint16_t>(k);
+}
 int Model::V() const noexcept { return core_->V(); }
 int Model::cellsPerStep() const noexcept { return core_->cellsPerStep(); }
 AddResult Model::addObservation(std::span<const uint32_t> words, std::span<const Position> positions) noexcept { return core_->addObservation(words, positions, {}); }

@@ -278,19 +278,21 @@ std::string Pipeline::getTopicModel(std::vector<int32_t>& counts) const {
     Impl& m = *impl_;
     const bool was = m.engine->running();
     m.engine->stop(Engine::StopMode::Drain);
-    const Model& model = m.engine->model();
-    counts.resize(static_cast<std::size_t>(model.K()) * static_cast<std::size_t>(model.V()));
-    for (int k = 0; k < model.K(); ++k)
-        for (int v = 0; v < model.V(); ++v)
-            counts[static_cast<std::size_t>(k) * model.V() + v] = model.topicWordCount(k, v);
+    counts.resize(static_cast<std::size_t>(m.ec.model.K) * static_cast<std::size_t>(m.ec.model.V));
+    m.copyCounts(m.engine->model(), counts.data());
     return was ? m.engine->start().message() : std::string();
 }
 
+// K rows of V counts in label order (Model::slotsInLabelOrder): row i is the
+// topic the frames label i, the closed slots' zero rows last. On the refining
+// thread (the observation hook): no allocation.
 void Pipeline::Impl::copyCounts(const Model& model, int32_t* out) const noexcept {
     const int K = ec.model.K, V = ec.model.V;
+    uint16_t slots[1024];
+    model.slotsInLabelOrder({slots, static_cast<std::size_t>(K)});
     std::size_t i = 0;
-    for (int k = 0; k < K; ++k)
-        for (int v = 0; v < V; ++v) out[i++] = model.topicWordCount(k, v);
+    for (int r = 0; r < K; ++r)
+        for (int v = 0; v < V; ++v) out[i++] = model.topicWordCount(slots[r], v);
 }
 
 // Observations the engine accepted (pushed and not dropped): each is taken
@@ -335,7 +337,16 @@ std::string Pipeline::addTopicModel(int K, int V, const std::vector<int32_t>& co
     }
     const bool was = m.engine->running();
     m.engine->stop(Engine::StopMode::Drain);
-    Status st = m.engine->model().addTopicCounts(counts);
+    // Row i is the topic labelled i (as ~get_topic_model gives them): into its slot.
+    Model& model = m.engine->model();
+    std::vector<uint16_t> slots(static_cast<std::size_t>(K));
+    model.slotsInLabelOrder(slots);
+    std::vector<int32_t> bySlot(counts.size(), 0);
+    if (counts.size() == static_cast<std::size_t>(K) * static_cast<std::size_t>(V))
+        for (int r = 0; r < K; ++r)
+            std::copy_n(counts.begin() + static_cast<std::ptrdiff_t>(r) * V, V,
+                        bySlot.begin() + static_cast<std::ptrdiff_t>(slots[static_cast<std::size_t>(r)]) * V);
+    Status st = model.addTopicCounts(bySlot);
     if (m.checkpoints) m.checkpoints->invalidate();
     if (was)
         if (Status s2 = m.engine->start(); !s2.ok() && st.ok()) st = s2;

@@ -8,7 +8,10 @@ until its first ~frame comes:
 - `_image_transport:=compressed`: sensor_msgs/CompressedImage (PNG) on
   <image>/compressed, and nothing subscribed on <image> itself;
 - `_compressed:=true` (deprecated): CompressedImage on the image topic as
-  before, with a warning naming ~image_transport.
+  before, with a warning naming ~image_transport;
+- `_topics_grow:=true _K:=32`: then paused, its topic model's rows are in
+  label order through ~get_topic_model and ~set_topic_model (a prior in the
+  last row comes back right after the open topics).
 Then the mistakes, each fatal at start-up (exit 2) naming the parameter: a
 transport no plugin provides, ~compressed disagreeing with ~image_transport,
 an ~image_transport that is not a name.
@@ -54,6 +57,31 @@ def fatal(name, params):
     return p.returncode, p.stdout.decode(errors="replace")
 
 
+def topic_model_rows_in_label_order(node):
+    """With growth, ~get_topic_model's and ~set_topic_model's row k is the topic ~frame labels k: a
+    prior set in the last row (a slot above the open ones) comes back right after the open topics."""
+    import rospy
+    from rost_msgs.srv import GetTopicModel, SetTopicModel
+    from std_srvs.srv import SetBool
+    rospy.ServiceProxy(node + "/pause", SetBool)(True)
+    get = rospy.ServiceProxy(node + "/get_topic_model", GetTopicModel)
+    m = get()
+    K, V = m.K, m.V
+    rows = [list(m.counts[k * V:(k + 1) * V]) for k in range(K)]
+    A = sum(1 for r in rows if any(r))
+    check(0 < A < K - 1 and all(any(r) for r in rows[:A]),
+          "%s: the %d open topics of %d are rows 0..%d" % (node, A, K, A - 1))
+    prior = [0] * (K * V)
+    prior[(K - 1) * V + 3] = 5000
+    ok = rospy.ServiceProxy(node + "/set_topic_model", SetTopicModel)(K, V, prior)
+    check(ok.success, "%s: ~set_topic_model with a prior in row %d: %s" % (node, K - 1, ok.message))
+    m = get()
+    rows = [list(m.counts[k * V:(k + 1) * V]) for k in range(K)]
+    nonzero = [k for k in range(K) if any(rows[k])]
+    check(nonzero == list(range(A + 1)) and rows[A][3] == 5000 and sum(rows[A]) == 5000,
+          "%s: the prior's topic is the next label, row %d (rows holding words: %s)" % (node, A, nonzero))
+
+
 def run():
     private_master(procs)
     import rospy
@@ -65,6 +93,7 @@ def run():
         "rost_raw": (["image:=/cam/raw"], "/cam/raw", Image),
         "rost_compressed": (["image:=/cam/png", "_image_transport:=compressed"], "/cam/png/compressed", CompressedImage),
         "rost_alias": (["image:=/cam/old", "_compressed:=true"], "/cam/old", CompressedImage),
+        "rost_grow": (["image:=/cam/grow", "_topics_grow:=true", "_K:=32"], "/cam/grow", Image),
     }
     got, pubs, nodes = {}, {}, {}
     for name, (params, topic, kind) in cases.items():
@@ -88,6 +117,7 @@ def run():
               (name, cases[name][1], cases[name][2].__name__))
     check(subscribers("/cam/png") == [] and subscribers("/cam/png/compressed") == ["/rost_compressed"],
           "_image_transport:=compressed subscribes <image>/compressed only")
+    topic_model_rows_in_label_order("/rost_grow")
     for p in nodes.values():
         Procs.stop(p)
     logs = {name: procs.log(name + ".log") for name in cases}
