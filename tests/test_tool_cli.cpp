@@ -287,7 +287,8 @@ TEST(ToolCli, AFixedTopicModelLabelsInTheGivenTopicsAndKeepsThem) {
 }
 
 // rost merge: a mission's checkpoint and its topicmodel.csv are the same
-// model (every topic meets itself); bad input leaves nothing behind.
+// model (every topic meets itself); bad input leaves nothing behind, and an
+// --out whose files would replace a model it merges is refused.
 TEST(ToolCli, MergeReadsTopicModelsAndCheckpointsAndNamesBadInput) {
     TempDir t;
     std::string words;
@@ -308,6 +309,12 @@ TEST(ToolCli, MergeReadsTopicModelsAndCheckpointsAndNamesBadInput) {
                 "nope.csv: cannot open", t / "n");
     expectError(runRost("merge " + (t / "a/topicmodel.csv") + " --threshold 2 --out " + (t / "n")),
                 "merge threshold 2 out of range [0, 1]", t / "n");
+    // Its files over one of the models it merges: refused, the model kept.
+    const std::string model = rost::testing::readText(t / "a/topicmodel.csv");
+    expectError(runRost("merge " + (t / "a.ckpt") + " " + (t / "a/topicmodel.csv") + " --out " + (t / "a")),
+                "--out: " + (t / "a/topicmodel.csv") + " is an input of this run");
+    EXPECT_EQ(rost::testing::readText(t / "a/topicmodel.csv"), model);
+    EXPECT_FALSE(std::filesystem::exists(t / "a/lifting.csv"));
 }
 
 // The option that sets a setting: "--key" unless the schema names others ("-K,--topics").

@@ -4,9 +4,11 @@
 // nothing and a previous merge's files stay whole.
 
 #include <cstdio>
+#include <filesystem>
 
 #include "outputs.hpp"
 #include "rost/merge.hpp"
+#include "rost/mission.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -16,6 +18,12 @@ int mergeCommand(const MergeCliOptions& o) {
     options.threshold = o.threshold;
     options.beta = o.beta;
     if (Status st = options.validate(); !st.ok()) return fail(st.message());
+    // The merge's files over one of the models it merges would replace it: refused before reading.
+    MissionOptions read;
+    read.inputs = o.models;
+    for (const char* name : {"topicmodel.csv", "lifting.csv"})
+        if (Status st = checkMissionOutputOverlap(read, "--out", (std::filesystem::path(o.out) / name).string()); !st.ok())
+            return fail(st.message());
     std::vector<TopicCounts> models(o.models.size());
     for (std::size_t i = 0; i < o.models.size(); ++i)
         if (Status st = readTopicCounts(o.models[i], models[i]); !st.ok()) return fail(st.message());
