@@ -407,6 +407,19 @@ TEST_F(RostCli, TopicModelCarriesOverAndDelimiterIsHonoured) {
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i semi.csv --in.words.delim ';' -V 40 -K 4 -n 5 --out.topics=semi-topics.csv");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(readText(dir + "/semi-topics.csv"), readText(dir + "/comma.csv"));
+    // The run's own topics.csv (commas, as every output) starts a run on the ';' input.
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i semi.csv --in.words.delim ';' -V 40 -K 4 -n 0 --in.topics semi-topics.csv"
+                                         " --out.topics=again.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/again.csv"), readText(dir + "/semi-topics.csv"));
+    // V from the topic model too: a model of more words than the input uses loads without -V.
+    writeText(dir + "/w4.csv", "0,1,2\n1,3\n");
+    writeText(dir + "/tm5.csv", "1,2,3,4,5\n0,0,0,0,9\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i w4.csv -K 3 -n 2 --in.topicmodel tm5.csv --out.topicmodel=tm-out.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto rows = csv(dir + "/tm-out.csv");
+    ASSERT_FALSE(rows.empty());
+    EXPECT_EQ(rows[0].size(), 5u) << "V = 5, the topic model's columns";
 }
 
 // Bad input: one line naming the file, line and column; exit 2; no outputs.
@@ -485,6 +498,11 @@ TEST_F(RostCli, FlagsGoThroughTheSchema) {
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --retime=false");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("--retime is supported only as true"), std::string::npos) << r.err;
+    for (const std::string& tool : {bin(ROSTCLI_REFINE_T), bin(ROSTCLI_BINCOUNT) + " -V 4"}) {
+        r = run(dir, tool + " -i words.csv --in.words.delim ''");
+        EXPECT_EQ(r.status, 2);
+        EXPECT_NE(r.err.find("--in.words.delim: no delimiter given"), std::string::npos) << r.err;
+    }
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv --no.such.flag 1");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("no.such.flag"), std::string::npos) << r.err;

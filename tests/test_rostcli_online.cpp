@@ -215,6 +215,19 @@ TEST_F(RostCliOnline, NeedsTheVocabularySize) {
     EXPECT_NE(readText(dir + "/err.txt").find("give -V/--vocabsize"), std::string::npos) << readText(dir + "/err.txt");
 }
 
+// A --cell.time whose cells could not hold its documents' words is named, with
+// its bound (rost-cli has no flag for the cell's capacity it would need).
+TEST_F(RostCliOnline, ACellTimeTooLongForACellIsNamedWithItsBound) {
+    const std::string cmd = "cd '" + dir + "' && echo 1,2,3 | '" + ROSTCLI_REFINE_T +
+                            "' -V 5 --online --cell.time 300 2>err.txt";
+    const int rc = std::system(cmd.c_str());
+    EXPECT_EQ(WEXITSTATUS(rc), 2);
+    const std::string err = readText(dir + "/err.txt");
+    EXPECT_NE(err.find("--cell.time 300: online, a cell keeps room for 300 documents of up to 4096 words, more than "
+                       "the 1048576 a cell can hold (--cell.time 256 at most)"),
+              std::string::npos) << err;
+}
+
 // A bad line mid-stream is named by its line.
 TEST_F(RostCliOnline, ABadLineIsNamedByItsLine) {
     const std::string cmd = "cd '" + dir + "' && printf '1,2,3\\n\\n2,4,x\\n' | '" + ROSTCLI_REFINE_T +

@@ -115,6 +115,11 @@ BusyGuard::BusyGuard(std::atomic<bool>& flag, const char* what) : flag_(flag) {
                                  "refine(), is running); use one object per thread or a lock");
 }
 
+void checkNotNegative(int64_t value, const std::string& what, const std::string& zero) {
+    if (value < 0)
+        throw py::value_error(what + " = " + std::to_string(value) + ", allowed at least 0 (0: " + zero + ")");
+}
+
 void check(const Status& st) {
     if (!st.ok()) raiseStatus(st, {}, PyExc_RuntimeError);
 }

@@ -42,6 +42,10 @@ py::object settingObject(const Settings& s, const SettingSpec& spec);
 // Raises a failed Status (raiseStatus: RuntimeError unless it is about a file).
 void check(const Status& st);
 
+// A count or size argument that may not be negative: ValueError
+// "WHAT = V, allowed at least 0 (0: ZERO)" otherwise.
+void checkNotNegative(int64_t value, const std::string& what, const std::string& zero);
+
 // A path argument as text: str or os.PathLike (TypeError naming the argument
 // otherwise); an empty one is refused (ValueError: "WHAT: no file given").
 std::string pathArgument(const py::handle& value, const char* what);

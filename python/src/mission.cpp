@@ -24,6 +24,8 @@ class PyMission {
 public:
     PyMission(const py::object& words, const py::object& positions, const py::object& resume,
               const py::object& topicmodel, int width, int height, const py::kwargs& settings) {
+        checkNotNegative(width, "rost.Mission: width", "the largest x + 1");
+        checkNotNegative(height, "rost.Mission: height", "the largest y + 1");
         MissionOptions m = missionOptions(settings, "rost.Mission", resume, topicmodel);
         StreamMissionInput in;
         in.words = pathArgument(words, "rost.Mission: words");

@@ -38,8 +38,9 @@ public:
     PyFrameMission(const py::object& inputs, const py::object& resume, const py::object& topicmodel,
                    const py::object& vocabulary, int width, int height, int64_t maxFrames, const py::kwargs& settings)
         : max_frames_(maxFrames) {
-        if (maxFrames < 0) throw py::value_error("rost.vision.Mission: max_frames = " + std::to_string(maxFrames) +
-                                                 ", allowed at least 0 (0: every frame)");
+        checkNotNegative(maxFrames, "rost.vision.Mission: max_frames", "every frame");
+        checkNotNegative(width, "rost.vision.Mission: width", "as the input");
+        checkNotNegative(height, "rost.vision.Mission: height", "as the input");
         MissionOptions m = missionOptions(settings, "rost.vision.Mission", resume, topicmodel);
         vision::SourceOptions so;  // sized by the library's rule (MissionOptions::frameWidth)
         so.width = m.frameWidth(width);

@@ -174,6 +174,9 @@ def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
     assert (m.config.frame_width, m.config.frame_height) == (80, 70), "frame_width/frame_height are the frame"
     with pytest.raises(ValueError, match=r"positions\.csv:1:\d+: .*outside"):
         rost.Mission(words, positions=positions, frame_width=20, frame_height=20)
+    for side in ("width", "height"):  # as the tool's --width -5: refused, not taken as "from the data"
+        with pytest.raises(ValueError, match=r"rost\.Mission: %s = -5, allowed at least 0" % side):
+            rost.Mission(words, positions=positions, **{side: -5})
     with pytest.raises(FileNotFoundError, match=r"rost\.Mission\.save: .*nodir"):  # as open() raises it
         m.save(tmp_path / "nodir" / "m.ckpt")
     # The mission's own inputs would be replaced: refused by name, the file kept.

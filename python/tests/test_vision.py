@@ -168,5 +168,7 @@ def test_a_frame_mission_gives_rost_runs_results_and_resumes(tmp_path):
         rost.vision.Mission(3)
     with pytest.raises(ValueError, match=r"max_frames = -3, allowed at least 0"):
         rost.vision.Mission(diver, max_frames=-3)
+    with pytest.raises(ValueError, match=r"rost\.vision\.Mission: width = -3, allowed at least 0 \(0: as the input\)"):
+        rost.vision.Mission(diver, width=-3)
     small = rost.vision.Mission(diver, max_frames=2, frame_width=320, frame_height=240)
     assert (small.config.frame_width, small.config.frame_height) == (320, 240), "frame_width sizes the frames"

@@ -60,7 +60,7 @@ int wordsBincountMain(int argc, char** argv) {
     app.add_option("-o,--out", o.out, "the histograms (default: standard output)");
     app.add_option("-V,--vocabsize", o.V, "bins: labels are 0..V-1 [the schema's V: " + settingRange(*findSetting("V")) + "]")
         ->required();
-    app.add_option("--in.words.delim", o.delim, "the delimiter of the input")->capture_default_str();
+    app.add_option("--in.words.delim", o.delim, "the delimiter of the input")->capture_default_str()->check(delimiterGiven());
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -127,13 +127,20 @@ const CLI::Validator& wordsInputGiven() {
     return v;
 }
 
+const CLI::Validator& delimiterGiven() {
+    static const CLI::Validator v = cli::nonEmpty("delimiter");
+    return v;
+}
+
 namespace {
 
 void addFileFlags(CLI::App& app, Parsed& p) {
     RunOptions& o = p.run;
     app.add_option("-i,--in.words", o.in_words, "words: a document per line, timestamp,w,w,... (default: standard input)")
         ->check(wordsInputGiven());
-    app.add_option("--in.words.delim", o.delim, "the delimiter of the input files")->capture_default_str();
+    app.add_option("--in.words.delim", o.delim, "the delimiter of the input files")
+        ->capture_default_str()
+        ->check(delimiterGiven());
     app.add_option("--in.position", o.in_position, "word positions: timestamp,x,y,x,y,... per document (txy)");
     app.add_option("--in.topics", o.in_topics, "start from these labels: timestamp,z,z,... per document (a topics.csv; batch)");
     app.add_option("--in.topicmodel", o.in_topicmodel, "start from this topic model (1 to K rows of V counts), as a prior");

@@ -86,9 +86,19 @@ Status fitModel(const RunOptions& o, const Corpus* stream, Settings& s) {
     MissionOptions mission;
     mission.settings = s;
     mission.given = o.given;
+    mission.in_topicmodel = o.in_topicmodel;  // V holds its columns too
     mission.names.problem = [](const SettingProblem& p) { return "the model this input needs: " + problemText(p); };
     MissionInput in;
     if (stream == nullptr) {
+        // Online, a cell keeps room for its documents' most words (max.words each) from the start.
+        const uint64_t perDoc = static_cast<uint64_t>(s.engine.model.max_words_per_frame);
+        const auto most = static_cast<uint64_t>(settingSpec("cell.capacity").hi);
+        const auto docs = static_cast<uint64_t>(s.engine.model.cell_time);
+        if (perDoc * docs > most)
+            return Status::error("--cell.time " + std::to_string(docs) + ": online, a cell keeps room for " +
+                                 std::to_string(docs) + " documents of up to " + std::to_string(perDoc) +
+                                 " words, more than the " + std::to_string(most) + " a cell can hold (--cell.time " +
+                                 std::to_string(std::max<uint64_t>(most / std::max<uint64_t>(perDoc, 1), 1)) + " at most)");
         in.width = in.height = 1;
         in.busiest_cell = [](const Config& m) -> uint64_t {
             return static_cast<uint64_t>(m.max_words_per_frame) * static_cast<uint64_t>(m.cell_time);
@@ -111,6 +121,14 @@ Status fitModel(const RunOptions& o, const Corpus* stream, Settings& s) {
     if (Status st = planMission(mission, in, plan); !st.ok()) return st;
     s.engine = plan.config;
     return {};
+}
+
+// --in.topics: a topics.csv as rost-cli writes it has commas whatever the
+// input's delimiter; a file of the user's own may have --in.words.delim. The
+// first line says which: the delimiter where it holds one, else commas.
+std::string_view topicsDelimiter(std::string_view text, std::string_view delim) {
+    const std::string_view first = text.substr(0, text.find('\n'));
+    return first.find(delim) == std::string_view::npos && first.find(',') != std::string_view::npos ? "," : delim;
 }
 
 void appendLabels(std::string& out, const std::string& timestamp, const std::vector<uint16_t>& z) {
@@ -265,7 +283,8 @@ Status runRefine(const RunOptions& o, Settings& s) {
     if (!o.in_topics.empty()) {  // the labels to start from, once K is known
         std::string text, name;
         if (Status st = readInput(o.in_topics, text, name); !st.ok()) return st;
-        if (Status st = parseInitialTopics(text, name, o.delim, s.engine.model.K, c); !st.ok()) return st;
+        if (Status st = parseInitialTopics(text, name, topicsDelimiter(text, o.delim), s.engine.model.K, c); !st.ok())
+            return st;
     }
     Outputs out;
     try {

@@ -27,6 +27,8 @@ namespace rost::cli {
 // -i/--in.words given empty (a script's unset variable): refused, not read as
 // standard input, which would wait on a terminal ("-" and /dev/stdin are it).
 const CLI::Validator& wordsInputGiven();
+// --in.words.delim: an empty delimiter is refused by name.
+const CLI::Validator& delimiterGiven();
 
 // ---- input ------------------------------------------------------------------
 
