@@ -8,10 +8,39 @@
 
 #include "aligned_buffer.hpp"
 #include "outputs.hpp"
+#include "sinks.hpp"
 
 namespace {
 
 using rost::tool::FrameRow;
+
+// summary.png's thumbnails, their pool sized for the frames the input said it
+// had: an input of more (a container's count of 1 for 79 frames) fills the
+// pool, which halves, keeping every other frame, and never writes past it.
+TEST(ToolThumbnails, APoolSizedForFewerFramesThanComeKeepsTakingThemEvenlySpaced) {
+    for (const int64_t planned : {1, 2, 3, 7}) {
+        SCOPED_TRACE(planned);
+        rost::tool::ThumbnailSink t;
+        rost::vision::SourceInfo info;
+        info.width = 64;
+        info.height = 48;
+        t.open(info, planned);
+        rost::tool::FrameSlot s;
+        s.image = cv::Mat(48, 64, CV_8UC3, cv::Scalar(10, 20, 30));
+        for (int64_t f = 0; f < 79; ++f) {
+            s.frame = f;
+            ASSERT_NO_THROW(t.take(s)) << "frame " << f;
+        }
+        std::vector<cv::Mat> thumbs;
+        std::vector<int64_t> frames;
+        t.pick({}, 100, thumbs, frames);
+        ASSERT_GE(frames.size(), 2u);
+        EXPECT_LE(frames.size(), static_cast<std::size_t>(std::max<int64_t>(planned, 2)));
+        EXPECT_EQ(frames.front(), 0);
+        for (std::size_t i = 1; i < frames.size(); ++i) EXPECT_EQ(frames[i] - frames[i - 1], frames[1] - frames[0]);
+        for (const cv::Mat& m : thumbs) EXPECT_EQ(m.size(), cv::Size(160, 120));
+    }
+}
 
 TEST(ToolSummary, TheCanvasIsDrawnInAMappingOfItsOwn) {
     std::vector<FrameRow> rows(120);

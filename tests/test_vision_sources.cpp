@@ -91,18 +91,18 @@ TEST(VisionSources, ImageDirectoryIsReadInNameOrderAtTheFirstImagesSize) {
 
 TEST(VisionSources, GlobSelectsMatchingFilesAndOptionsResize) {
     TempDir t;
-    for (int i = 0; i < 3; ++i) ASSERT_TRUE(cv::imwrite(t / ("a" + std::to_string(i) + ".png"), patterned(40, 30, i)));
-    ASSERT_TRUE(cv::imwrite(t / "b0.png", patterned(40, 30, 9)));
+    for (int i = 0; i < 3; ++i) ASSERT_TRUE(cv::imwrite(t / ("a" + std::to_string(i) + ".png"), patterned(80, 60, i)));
+    ASSERT_TRUE(cv::imwrite(t / "b0.png", patterned(80, 60, 9)));
     SourceOptions o;
-    o.width = 20;  // height follows the aspect ratio
+    o.width = 40;  // height follows the aspect ratio
     Status st;
     auto src = openFrameSource(t / "a*.png", o, st);
     ASSERT_TRUE(src) << st.message();
     const auto frames = readAll(*src);
     ASSERT_EQ(frames.size(), 3u);
-    EXPECT_EQ(frames[0].image.size(), cv::Size(20, 15));
+    EXPECT_EQ(frames[0].image.size(), cv::Size(40, 30));
     // A height alone keeps the aspect ratio too; both sides are taken as given.
-    for (const auto& [width, height, expect] : {std::tuple{0, 15, cv::Size(20, 15)}, std::tuple{0, 60, cv::Size(80, 60)},
+    for (const auto& [width, height, expect] : {std::tuple{0, 30, cv::Size(40, 30)}, std::tuple{0, 120, cv::Size(160, 120)},
                                                 std::tuple{25, 25, cv::Size(25, 25)}}) {
         SourceOptions sized;
         sized.width = width;
@@ -114,6 +114,39 @@ TEST(VisionSources, GlobSelectsMatchingFilesAndOptionsResize) {
         ASSERT_EQ(all.size(), 3u);
         EXPECT_EQ(all[2].image.size(), expect) << width << "x" << height;
     }
+    // A size words cannot be extracted from is refused, naming what was asked
+    // (it gave frames of no words, and a run of empty outputs).
+    SourceOptions tiny;
+    tiny.width = 8;
+    EXPECT_FALSE(openFrameSource(t / "a*.png", tiny, st));
+    EXPECT_NE(st.message().find("a*.png: width 8, height 0 asked for: a 8x6 frame is too small to extract words"),
+              std::string::npos)
+        << st.message();
+}
+
+// A file or directory whose own name holds glob characters ("dive [x3f]",
+// as downloaders name files) is itself, not a pattern; a pattern that matches
+// nothing is still named.
+TEST(VisionSources, ANameWithBracketsIsItsFileNotAPattern) {
+    TempDir t;
+    const std::string dir = t / "frames [1]";
+    ASSERT_TRUE(std::filesystem::create_directory(dir));
+    for (int i = 0; i < 2; ++i)
+        ASSERT_TRUE(cv::imwrite(dir + "/f" + std::to_string(i) + ".png", patterned(40, 30, i)));
+    const std::string image = t / "still [x3f].png";
+    ASSERT_TRUE(cv::imwrite(image, patterned(40, 30, 5)));
+    EXPECT_FALSE(isGlobInput(dir));
+    EXPECT_FALSE(isGlobInput(image));
+    EXPECT_TRUE(isGlobInput(t / "f[01].png"));
+    Status st;
+    auto d = openFrameSource(dir, {}, st);
+    ASSERT_TRUE(d) << st.message();
+    EXPECT_EQ(readAll(*d).size(), 2u);
+    auto one = openFrameSource(image, {}, st);
+    ASSERT_TRUE(one) << st.message();
+    EXPECT_EQ(readAll(*one).size(), 1u);
+    EXPECT_FALSE(openFrameSource(t / "none [2].png", {}, st));
+    EXPECT_NE(st.message().find("none [2].png: no files match"), std::string::npos) << st.message();
 }
 
 // A link that leads to itself among the frames is no frame: skipped in a

@@ -31,7 +31,7 @@ rost_add_vision_test(test_vision
   LIBS rost::vision)
 if(TARGET rost)
   rost_add_vision_test(test_tool SOURCES test_tool_cli.cpp test_tool_end_to_end.cpp test_tool_picture.cpp
-                       LIBS rost::vision rost_tool_words)
+                       LIBS rost::vision rost_tool_lib)
   add_dependencies(test_tool rost)
   # Counts the threads a tool process starts (LD_PRELOAD). A sanitizer's
   # runtime must be the first library of a process, so not under one.

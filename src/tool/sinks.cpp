@@ -107,7 +107,10 @@ void ThumbnailSink::open(const vision::SourceInfo& info, int64_t frames) {
     on_ = true;
     w_ = 160;
     h_ = std::max(1, info.height * 160 / std::max(1, info.width));
-    cap_ = static_cast<std::size_t>(frames > 0 ? std::min<int64_t>(frames, 512) : 512);
+    // Two at least: halving a full pool of one would free no slot. `frames` may
+    // be a container's estimate below what the input holds (a count of 1 for
+    // 79 frames): the pool then fills and halves as it would for any input.
+    cap_ = static_cast<std::size_t>(frames > 0 ? std::clamp<int64_t>(frames, 2, 512) : 512);
     pool_.create(static_cast<int>(cap_) * h_, w_, CV_8UC3);
     thumbs_.reserve(cap_);
     frames_.reserve(cap_);

@@ -96,7 +96,8 @@ Status checkReadable(const std::string& path) {
 
 // The size of a source's frames: the options' (one alone keeps the aspect
 // ratio), else the first usable frame's within kMaxModelSide (a note when scaled).
-void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes) {
+// A size asked for that words cannot be extracted from is refused.
+Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes) {
     if (o.width > 0 && o.height > 0) {
         info.width = o.width;
         info.height = o.height;
@@ -112,6 +113,10 @@ void chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vec
         info.height = m.height;
         if (m.width != w || m.height != h) notes.push_back(scaledNote(w, h, m));
     }
+    if (const std::string why = frameTooSmall(info.width, info.height); !why.empty())
+        return Status::error("width " + std::to_string(o.width) + ", height " + std::to_string(o.height) +
+                             " asked for: " + why);
+    return {};
 }
 
 class ImageSequenceSource final : public FrameSource {
@@ -128,7 +133,7 @@ public:
             if (Status st = readImageFile(files_[next_], first, bytes_); !st.ok()) return st;
             if (!skipSmall(first)) break;
         }
-        chooseSize(o, first.cols, first.rows, info_, notes_);
+        if (Status st = chooseSize(o, first.cols, first.rows, info_, notes_); !st.ok()) return st.prefixed(what_ + ": ");
         first_ = noted_ = cv::Size(first.cols, first.rows);
         info_.frames = static_cast<int64_t>(files_.size() - next_);
         info_.description = what_ + " (" + std::to_string(files_.size()) + " images, " + std::to_string(info_.width) +
@@ -199,7 +204,7 @@ public:
             return Status::error(path_ + ": cannot decode video (no frame could be decoded)");
         if (const std::string why = frameTooSmall(pending_.cols, pending_.rows); !why.empty())
             return Status::error(path_ + ": " + why + " (every frame of a video has its size)");
-        chooseSize(o, pending_.cols, pending_.rows, info_, notes_);
+        if (Status st = chooseSize(o, pending_.cols, pending_.rows, info_, notes_); !st.ok()) return st.prefixed(path_ + ": ");
         info_.fps = cap_.get(cv::CAP_PROP_FPS);
         if (!(info_.fps > 0.0 && info_.fps < 1000.0)) info_.fps = 0.0;
         const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
@@ -330,7 +335,11 @@ bool inputWouldRead(const std::string& input, const std::string& path) {
 
 bool isCameraInput(const std::string& input) noexcept { return input.rfind("camera:", 0) == 0; }
 
-bool isGlobInput(const std::string& input) noexcept { return input.find_first_of("*?[") != std::string::npos; }
+bool isGlobInput(const std::string& input) noexcept {
+    if (input.find_first_of("*?[") == std::string::npos) return false;
+    std::error_code ec;  // a file or directory of that very name is itself ("dive [x3f].mov", as downloaders name them)
+    return !fs::exists(input, ec);
+}
 
 std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const SourceOptions& o, Status& status) {
     status = {};

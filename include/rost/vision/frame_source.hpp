@@ -140,7 +140,8 @@ std::unique_ptr<FrameSource> openFrameSources(const std::vector<std::string>& in
 // True when INPUT names a camera ("camera:N").
 bool isCameraInput(const std::string& input) noexcept;
 
-// True when INPUT is a glob(3) pattern of image files ('*', '?' or '[' in it).
+// True when INPUT is a glob(3) pattern of image files: '*', '?' or '[' in it,
+// and no file or directory of that very name ("dive [x3f].mov" is the video).
 bool isGlobInput(const std::string& input) noexcept;
 
 // Whether the input `input` would read the file `path` besides being it (a
