@@ -442,6 +442,12 @@ TEST(ToolCli, VocabTrainsOnTheFramesAskedForAndRunUsesIt) {
     EXPECT_NE(runTxt.find("vocabulary: " + (t / "a.rostvoc") + ", 16 words: k-majority, 16 words, seed 9"), std::string::npos)
         << runTxt;
     EXPECT_NE(runTxt.find("words: V = 452 (orb 16 at 0, "), std::string::npos) << runTxt;
+    // --max-frames N reads N frames, not N + 1: a damaged frame after them is never read.
+    rost::testing::writeText(t / "in/f6.png", "not an image");
+    vocab("b.rostvoc", "--max-frames 6");
+    const RunResult past = runRost("vocab " + (t / "in") + " --out " + (t / "c.rostvoc") + " --words 16 -q --max-frames 7");
+    EXPECT_EQ(past.exit_code, 2);
+    EXPECT_NE(past.err.find("f6.png"), std::string::npos) << past.err;
 }
 
 // A settings file with the frame size: `rost config` prints it (commented, as

@@ -25,6 +25,7 @@ import os
 import re
 import shutil
 import subprocess
+import uuid
 
 import numpy as np
 
@@ -114,10 +115,13 @@ def _run_tool(argv):
 
 
 def _run_all(commands, names, client, stage):
-    """Runs the commands in order here, or as Dask tasks (keys name the mission and stage)."""
+    """Runs the commands in order here, or as Dask tasks. Keys name the mission and stage, and a
+    token of this call: Dask takes a task whose key it holds already for that task, so another
+    fleet's mission of the same name (on a shared client or scheduler) would not run."""
     if client is None:
         return [_run_tool(c) for c in commands]
-    keys = [f"rost-fleet-{stage}-{n}" for n in names]
+    token = uuid.uuid4().hex[:12]
+    keys = [f"rost-fleet-{stage}-{n}-{token}" for n in names]
     futures = client.map(_run_tool, commands, key=keys, pure=False)
     return client.gather(futures)
 

@@ -91,6 +91,12 @@ def test_the_same_inputs_give_the_same_bytes_with_and_without_a_cluster(tmp_path
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c, \
             distributed.Client(c) as client:
         spread = rost.fleet.run(inputs, tmp_path / "spread", client, fixed=True, K=6, final_sweeps=10, seed=5)
+        # A second fleet on the same client, its missions of the same names: each one runs (Dask
+        # takes a task of a key it holds already for that task, so the keys cannot be the names').
+        again = rost.fleet.run(inputs, tmp_path / "again", client, K=6, final_sweeps=10, seed=5)
+    for name in inputs:
+        assert (tmp_path / "again" / name / "topics.csv").read_bytes() == (tmp_path / "here" / name / "topics.csv").read_bytes()
+    np.testing.assert_array_equal(again["global_counts"], here["global_counts"])
     a, b = _tree(tmp_path / "here"), _tree(tmp_path / "spread")
     assert sorted(a) == sorted(b)
     assert {"m0/topics.global.csv", "m2/fixed/topics.csv", "merged/lifting.csv", "merged/topicmodel.csv"} <= set(a)
@@ -101,6 +107,31 @@ def test_the_same_inputs_give_the_same_bytes_with_and_without_a_cluster(tmp_path
     for name in inputs:
         labels = np.concatenate(rost.io.read_topics(tmp_path / "here" / name / "fixed" / "topics.csv")[1])
         assert labels.min() >= 0 and labels.max() < G
+
+
+def test_each_fleets_dask_keys_are_its_own():
+    """Dask takes a task whose key it holds already for that task: two fleets (one client, or one
+    scheduler shared by two users) with a mission of the same name must not share its key, or the
+    second one's mission never runs."""
+    class Recorder:  # a client that records the keys it is given
+        def __init__(self):
+            self.keys = []
+
+        def map(self, fn, commands, key, pure):
+            assert pure is False
+            self.keys.append(list(key))
+            return commands
+
+        def gather(self, futures):
+            return futures
+
+    client = Recorder()
+    for _ in range(2):
+        rost.fleet._run_all([["rost", "run", "--out", "a"], ["rost", "run", "--out", "b"]], ["dive1", "dive2"], client,
+                            "mission")
+    first, second = client.keys
+    assert all("mission" in k and "dive1" in k for k in (first[0], second[0])), client.keys
+    assert len(set(first) | set(second)) == 4, "every task of both fleets has a key of its own: %s" % client.keys
 
 
 def test_bad_missions_are_refused_naming_them_before_anything_runs(tmp_path):

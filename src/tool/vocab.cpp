@@ -51,11 +51,11 @@ int vocabCommand(const VocabOptions& o) {
         std::vector<cv::KeyPoint> kps;
         int64_t read = 0;
         for (;;) {
+            if (o.max_frames > 0 && read >= o.max_frames) break;  // before reading: the next may be a damaged one
             const vision::ReadStatus rs = src->read(f);
             if (rs == vision::ReadStatus::End) break;
             if (rs == vision::ReadStatus::Error) return fail(src->error());
             progress.update(++read);
-            if (o.max_frames > 0 && read > o.max_frames) break;
             if ((read - 1) % o.every != 0) continue;
             ++framesUsed;
             cv::cvtColor(f.image, grey, cv::COLOR_BGR2GRAY);
