@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 
 #include <opencv2/imgproc.hpp>
@@ -133,8 +134,14 @@ std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int
     const MissionOptions mission = missionOptions();
     vision::SourceInfo info;  // the image topic: live, of unknown length
     info.description = "the image topic";
-    info.width = given.given("frame.width") ? settings.engine.model.frame_width : width;
-    info.height = given.given("frame.height") ? settings.engine.model.frame_height : height;
+    // One side given alone keeps the first image's aspect ratio, as the tool's --width does.
+    const bool gw = given.given("frame.width"), gh = given.given("frame.height");
+    const int fw = settings.engine.model.frame_width, fh = settings.engine.model.frame_height;
+    const auto scaled = [](int side, int num, int den) {
+        return den > 0 ? std::max(1, static_cast<int>(std::lround(static_cast<double>(side) * num / den))) : side;
+    };
+    info.width = gw ? fw : gh ? scaled(width, fh, height) : width;
+    info.height = gh ? fh : gw ? scaled(height, fw, width) : height;
     info.live = true;
     if (!options.resume.empty()) info.width = info.height = 0;  // the checkpoint's: images are resized to it
     MissionInput in;

@@ -157,7 +157,7 @@ public:
 
         // Sized once: the converted frame and the repack scratch.
         bgr_.create(height_, width_, CV_8UC3);
-        chooseOutputSize(o);
+        if (Status st = chooseSize(o, width_, height_, info_, notes_); !st.ok()) return st.prefixed(what + ": ");
         info_.fps = 0.0;
         info_.frames = -1;
         info_.live = true;
@@ -223,11 +223,6 @@ public:
     }
 
 private:
-    void chooseOutputSize(const SourceOptions& o) {
-        info_.width = o.width > 0 ? o.width : width_;
-        info_.height = o.height > 0 ? o.height : (o.width > 0 ? height_ * o.width / width_ : height_);
-    }
-
     // Runs on libcamera's thread: hand the request over and return.
     void onRequestCompleted(libcamera::Request* r) {
         if (r->status() == libcamera::Request::RequestCancelled) return;

@@ -94,9 +94,9 @@ Status checkReadable(const std::string& path) {
     return {};
 }
 
-// The size of a source's frames: the options' (one alone keeps the aspect
-// ratio), else the first usable frame's within kMaxModelSide (a note when scaled).
-// A size asked for that words cannot be extracted from is refused.
+} // namespace
+
+// camera_source.hpp: every source's frame size, the camera's too.
 Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes) {
     if (o.width > 0 && o.height > 0) {
         info.width = o.width;
@@ -118,6 +118,8 @@ Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::v
                              " asked for: " + why);
     return {};
 }
+
+namespace {
 
 class ImageSequenceSource final : public FrameSource {
 public:

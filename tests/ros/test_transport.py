@@ -9,7 +9,8 @@ until its first ~frame comes:
   <image>/compressed, and nothing subscribed on <image> itself;
 - `_compressed:=true` (deprecated): CompressedImage on the image topic as
   before, with a warning naming ~image_transport;
-- `_topics_grow:=true _K:=32`: then paused, its topic model's rows are in
+- `_topics_grow:=true _K:=32 _frame_width:=128` (the height follows the
+  images' aspect ratio): then paused, its topic model's rows are in
   label order through ~get_topic_model and ~set_topic_model (a prior in the
   last row comes back right after the open topics).
 Then the mistakes, each fatal at start-up (exit 2) naming the parameter: a
@@ -93,7 +94,7 @@ def run():
         "rost_raw": (["image:=/cam/raw"], "/cam/raw", Image),
         "rost_compressed": (["image:=/cam/png", "_image_transport:=compressed"], "/cam/png/compressed", CompressedImage),
         "rost_alias": (["image:=/cam/old", "_compressed:=true"], "/cam/old", CompressedImage),
-        "rost_grow": (["image:=/cam/grow", "_topics_grow:=true", "_K:=32"], "/cam/grow", Image),
+        "rost_grow": (["image:=/cam/grow", "_topics_grow:=true", "_K:=32", "_frame_width:=128"], "/cam/grow", Image),
     }
     got, pubs, nodes = {}, {}, {}
     for name, (params, topic, kind) in cases.items():
@@ -122,6 +123,8 @@ def run():
         Procs.stop(p)
     logs = {name: procs.log(name + ".log") for name in cases}
     check("(raw transport)" in logs["rost_raw"] and "deprecated" not in logs["rost_raw"], "no parameter: raw")
+    check("frames of 128x96," in logs["rost_grow"],
+          "~frame_width:=128 alone keeps the 256x192 images' aspect ratio: frames of 128x96")
     check("(compressed transport, decoded by rost_node)" in logs["rost_compressed"] and
           "deprecated" not in logs["rost_compressed"], "compressed: rost_node decodes them (no plugin installed)")
     check("~compressed is deprecated" in logs["rost_alias"] and "use ~image_transport" in logs["rost_alias"] and
