@@ -126,3 +126,34 @@ TEST(VisionImageFile, AFrameSourceNamesACutImageInsteadOfModellingIt) {
     EXPECT_EQ(readImageFile(t / "frames/001.jpg", m).message(), "");
     EXPECT_EQ(m.size(), cv::Size(64, 48));
 }
+
+// A photo's EXIF orientation is applied, as image viewers and cv::imread
+// show it: a 64x48 JPEG tagged "rotate 90 degrees" (orientation 6, as a phone
+// held upright writes it) is a 48x64 frame, for an image read alone and for a
+// directory of them; 16-bit and grey images keep their depth and channels.
+TEST(VisionImageFile, ThePhotosOrientationIsApplied) {
+    TempDir t;
+    std::vector<uint8_t> jpg = encode(".jpg", noisy(64, 48, 3));
+    // An APP1 segment after SOI: "Exif\0\0", a little-endian TIFF header, one
+    // IFD entry: tag 0x0112 (Orientation), type SHORT, count 1, value 6.
+    const std::vector<uint8_t> exif = {0xFF, 0xE1, 0x00, 34,  'E',  'x',  'i',  'f',  0, 0, 'I', 'I', 42, 0, 8, 0, 0, 0,
+                                       1,    0,    0x12, 0x01, 3,   0,    1,    0,    0, 0, 6,   0,   0,  0, 0, 0, 0, 0};
+    jpg.insert(jpg.begin() + 2, exif.begin(), exif.end());
+    std::filesystem::create_directories(t / "photos");
+    writeBytes(t / "photos/upright.jpg", jpg, jpg.size());
+    cv::Mat m;
+    ASSERT_TRUE(readImageFile(t / "photos/upright.jpg", m).ok());
+    EXPECT_EQ(m.size(), cv::Size(48, 64)) << "rotated as its orientation tag says";
+    EXPECT_EQ(m.size(), cv::imread(t / "photos/upright.jpg").size());
+    Status st;
+    auto s = openFrameSource(t / "photos", {}, st);
+    ASSERT_TRUE(s) << st.message();
+    EXPECT_EQ(cv::Size(s->info().width, s->info().height), cv::Size(48, 64));
+    cv::Mat deep(40, 30, CV_16UC1, cv::Scalar(40000)), grey = noisy(30, 40, 1);
+    ASSERT_TRUE(cv::imwrite(t / "deep.png", deep));
+    ASSERT_TRUE(cv::imwrite(t / "grey.png", grey));
+    ASSERT_TRUE(readImageFile(t / "deep.png", m).ok());
+    EXPECT_EQ(m.type(), CV_16UC1);
+    ASSERT_TRUE(readImageFile(t / "grey.png", m).ok());
+    EXPECT_EQ(m.type(), CV_8UC1);
+}

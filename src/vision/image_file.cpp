@@ -28,7 +28,10 @@ Status readImageFile(const std::string& path, cv::Mat& out, std::string& bytes) 
                              " bytes, more than OpenCV decodes");
     if (!bytes.empty()) {
         const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1, bytes.data());
-        out = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
+        // Depth and channels as stored (16-bit, grey), and the EXIF orientation
+        // applied as viewers show a photo (IMREAD_UNCHANGED ignores it); an
+        // alpha channel is dropped, as the frames' BGR conversion would.
+        out = cv::imdecode(raw, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
     }
     if (out.empty()) return Status::error(path + ": cannot decode image");
     return {};
