@@ -221,6 +221,50 @@ TEST(VisionSources, AVideoCutShortIsAnErrorNamingTheFramesDecoded) {
     }
 }
 
+// A container without a frame count (Matroska, an MPEG stream): FFmpeg's
+// estimate from the duration is no count. The length is unknown, as a
+// camera's; the video is read to its end; where decoding falls short of the
+// estimate a note says so (an intact file whose audio outlasts its video
+// would fail otherwise, its work lost). A real 79-frame MPEG stream whose
+// estimate is 1 frame plays whole.
+TEST(VisionSources, AVideoWithoutAFrameCountIsReadToItsEndAndAShortfallNoted) {
+    TempDir t;
+    ASSERT_TRUE(writeClip(t / "clip.mkv", 120));
+    const std::string whole = rost::testing::readText(t / "clip.mkv");
+    rost::testing::writeText(t / "cut.mkv", whole.substr(0, whole.size() / 2));
+    for (const char* name : {"clip.mkv", "cut.mkv"}) {
+        SCOPED_TRACE(name);
+        Status st;
+        auto src = openFrameSource(t / name, {}, st);
+        ASSERT_TRUE(src) << st.message();
+        EXPECT_EQ(src->info().frames, -1);
+        Frame f;
+        int64_t decoded = 0;
+        ReadStatus rs;
+        while ((rs = src->read(f)) == ReadStatus::Ok) ++decoded;
+        EXPECT_EQ(rs, ReadStatus::End) << src->error();
+        const std::vector<std::string> notes = src->takeNotes();
+        if (std::string(name) == "clip.mkv") {
+            EXPECT_EQ(decoded, 120);
+            EXPECT_TRUE(notes.empty());
+            continue;
+        }
+        EXPECT_GT(decoded, 10);
+        EXPECT_LT(decoded, 110);
+        ASSERT_EQ(notes.size(), 1u);
+        EXPECT_EQ(notes[0], (t / "cut.mkv") + ": " + std::to_string(decoded) +
+                                " frames decoded where its duration suggested 120: the video may be cut short or "
+                                "damaged (its container gives no frame count)");
+    }
+    ROST_FOOTAGE_OR_SKIP(cube, "visp-images-data", "usr/share/visp-images-data/ViSP-images/video/cube.mpeg");
+    Status st;
+    auto src = openFrameSource(cube, {}, st);
+    ASSERT_TRUE(src) << st.message();
+    EXPECT_EQ(src->info().frames, -1) << "not FFmpeg's estimate of 1";
+    EXPECT_EQ(readAll(*src).size(), 79u);
+    EXPECT_TRUE(src->takeNotes().empty());
+}
+
 TEST(VisionSources, JoinedInputsPlayInOrderAtTheFirstSize) {
     TempDir a, b;
     for (int i = 0; i < 2; ++i) ASSERT_TRUE(cv::imwrite(a / ("f" + std::to_string(i) + ".png"), patterned(40, 30, i)));

@@ -121,6 +121,23 @@ Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::v
 
 namespace {
 
+// Whether a video's container stores its frame count: QuickTime and MP4 (the
+// sample tables) and AVI (its header). The others (Matroska and WebM, MPEG
+// program and elementary streams, TS, Ogg, FLV) have none, and FFmpeg then
+// estimates one from the duration and the rate, off either way: 1 for a
+// 79-frame MPEG stream, twice the frames for a WebM whose audio outlasts its
+// video. Told by the file's first bytes.
+bool containerCountsFrames(const std::string& path) {
+    char h[12] = {};
+    std::ifstream f(path, std::ios::binary);
+    if (!f.read(h, sizeof h)) return false;
+    const auto at = [&](int offset, const char* tag) { return std::memcmp(h + offset, tag, 4) == 0; };
+    if (at(0, "RIFF") && at(8, "AVI ")) return true;
+    for (const char* box : {"ftyp", "moov", "mdat", "wide", "free", "skip", "pnot"})
+        if (at(4, box)) return true;  // a QuickTime box: 4 bytes of size, then its type
+    return false;
+}
+
 class ImageSequenceSource final : public FrameSource {
 public:
     ImageSequenceSource(std::vector<std::string> files, std::string what) : files_(std::move(files)), what_(std::move(what)) {}
@@ -210,7 +227,11 @@ public:
         info_.fps = cap_.get(cv::CAP_PROP_FPS);
         if (!(info_.fps > 0.0 && info_.fps < 1000.0)) info_.fps = 0.0;
         const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
-        info_.frames = n >= 1.0 ? static_cast<int64_t>(n) : -1;
+        // An estimate is no count: the length unknown, as a camera's (planning
+        // and progress not misled), and kept to say where decoding fell short of it.
+        const int64_t count = n >= 1.0 ? static_cast<int64_t>(n) : -1;
+        if (containerCountsFrames(path_)) info_.frames = count;
+        else info_.frames = -1, estimate_ = count;
         char fps[32];
         std::snprintf(fps, sizeof fps, "%.3g fps", info_.fps);
         info_.description = "video " + path_ + " (" + std::to_string(pending_.cols) + "x" +
@@ -239,9 +260,16 @@ private:
     // gives (beyond the slack of a count estimated from the duration), the
     // file was cut or damaged: an error naming where, not an end that would
     // pass a part of the video off as the whole.
+    // A container without a count: a note where its estimate said more.
     ReadStatus endOrCut() {
-        const int64_t n = info_.frames;
+        const int64_t n = info_.frames > 0 ? info_.frames : estimate_;
         if (n <= 0 || next_ + std::max<int64_t>(2, n / 100) >= n) return ReadStatus::End;
+        if (info_.frames <= 0) {
+            notes_.push_back(path_ + ": " + std::to_string(next_) + " frames decoded where its duration suggested " +
+                             std::to_string(n) + ": the video may be cut short or damaged (its container gives no "
+                             "frame count)");
+            return ReadStatus::End;
+        }
         error_ = path_ + ": only " + std::to_string(next_) + " of the " + std::to_string(n) +
                  " frames its container gives could be decoded: truncated or damaged (--max-frames " +
                  std::to_string(next_) + " models those)";
@@ -252,6 +280,7 @@ private:
     cv::VideoCapture cap_;
     cv::Mat pending_, raw_;
     int64_t next_ = 0;
+    int64_t estimate_ = -1;  // FFmpeg's estimate of the frames, where the container gives no count
 };
 
 // Several sources one after the other at the first one's size.
