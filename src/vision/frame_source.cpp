@@ -96,7 +96,7 @@ Status checkReadable(const std::string& path) {
 
 } // namespace
 
-// rost/vision/frame_source.hpp: every source's frame size.
+// camera_source.hpp: every source's frame size, the camera's too.
 Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes) {
     if (o.width > 0 && o.height > 0) {
         info.width = o.width;
