@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cmath>
 #include <cstdio>
 
 #include <opencv2/imgproc.hpp>
@@ -134,14 +133,12 @@ std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int
     const MissionOptions mission = missionOptions();
     vision::SourceInfo info;  // the image topic: live, of unknown length
     info.description = "the image topic";
-    // One side given alone keeps the first image's aspect ratio, as the tool's --width does.
-    const bool gw = given.given("frame.width"), gh = given.given("frame.height");
-    const int fw = settings.engine.model.frame_width, fh = settings.engine.model.frame_height;
-    const auto scaled = [](int side, int num, int den) {
-        return den > 0 ? std::max(1, static_cast<int>(std::lround(static_cast<double>(side) * num / den))) : side;
-    };
-    info.width = gw ? fw : gh ? scaled(width, fh, height) : width;
-    info.height = gh ? fh : gw ? scaled(height, fw, width) : height;
+    // Sized as every source is (one side given alone keeps the first image's aspect ratio).
+    vision::SourceOptions asked;
+    if (given.given("frame.width")) asked.width = settings.engine.model.frame_width;
+    if (given.given("frame.height")) asked.height = settings.engine.model.frame_height;
+    std::vector<std::string> notes;  // the first image was brought within the model's size already (ensureEngine)
+    if (Status st = vision::chooseSize(asked, width, height, info, notes); !st.ok()) return st.message();
     info.live = true;
     if (!options.resume.empty()) info.width = info.height = 0;  // the checkpoint's: images are resized to it
     MissionInput in;

@@ -96,7 +96,7 @@ Status checkReadable(const std::string& path) {
 
 } // namespace
 
-// camera_source.hpp: every source's frame size, the camera's too.
+// rost/vision/frame_source.hpp: every source's frame size.
 Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes) {
     if (o.width > 0 && o.height > 0) {
         info.width = o.width;

@@ -137,6 +137,13 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const Sou
 std::unique_ptr<FrameSource> openFrameSources(const std::vector<std::string>& inputs, const SourceOptions& options,
                                               Status& status);
 
+// The size of a source's frames, whose first (or native) size is w x h: the
+// options' (one alone keeps the aspect ratio), else w x h within
+// kMaxModelSide (a note in `notes` when scaled). A size asked for that words
+// cannot be extracted from is refused. Every source sizes its frames so (files,
+// cameras, rost_node's image topic).
+Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes);
+
 // True when INPUT names a camera ("camera:N").
 bool isCameraInput(const std::string& input) noexcept;
 
