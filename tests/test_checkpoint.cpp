@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 
 #include "rost/checkpoint.hpp"
 #include "rost/config_file.hpp"
+#include "rost/mission.hpp"
 #include "rost/topic_model_csv.hpp"
 #include "rost/word_stream.hpp"
 #include "test_engine_support.hpp"
@@ -772,10 +774,65 @@ TEST(CheckpointErrors, ASmallFileClaimingAHugeConfigurationIsRefusedBeforeAlloca
     const auto t0 = std::chrono::steady_clock::now();
     EXPECT_FALSE(resumeEngine(path, st));
     EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
-    EXPECT_TRUE(contains(st.message(), path + ": section 'ring.cell_words' has ")) << st.message();
-    EXPECT_TRUE(contains(st.message(), "the configuration in the file implies")) << st.message();
+    EXPECT_TRUE(contains(st.message(), path + ": section 'ring.slot_step' has 48 bytes")) << st.message();
+    EXPECT_TRUE(contains(st.message(), "the configuration in the file implies 8388608")) << st.message();
     // The same file against an engine of the original size: the configuration differs.
     EXPECT_TRUE(contains(tryLoad(bad, cfg).status.message(), "ring.steps = 1048576 in the checkpoint, 6 in this run"));
+    fs::remove_all(dir);
+}
+
+TEST(CheckpointErrors, EveryTableThatGrowsWithTheConfigurationIsCheckedBeforeAnEngineIsBuilt) {
+    // Each claim grows other tables (the vocabulary n_kv; the cells' n_ck
+    // alone, with a vocabulary and ring that keep their sizes; the inputs;
+    // the words a cell holds). Each is refused by readers that would build
+    // an engine of the claimed size: resumeEngine (rost merge) and
+    // planMission (--resume of every face), in moments, naming the section.
+    const EngineConfig cfg = baseConfig();
+    const std::vector<uint8_t> good = goodFile(cfg);
+    std::size_t nkvBytes = 0;
+    for (const SectionAt& at : sectionsOf(good))
+        if (at.name == "n_kv") nkvBytes = at.bytes;
+    const int Kp = static_cast<int>(nkvBytes / (static_cast<std::size_t>(cfg.model.V) * 4));  // K as the tables pad it
+    ASSERT_GE(Kp, cfg.model.K);
+    struct Claim {
+        const char* what;
+        std::function<void(Config&)> apply;
+        const char* section;
+    };
+    const Claim claims[] = {
+        {"K four times, V a quarter: n_kv keeps its size", [Kp](Config& m) { m.K = 4 * Kp; m.V /= 4; }, "ring.n_ck"},
+        {"V", [](Config& m) { m.V = 1 << 24; }, "n_kv"},
+        {"a frame of many cells", [](Config& m) { m.frame_width = m.frame_height = 4096; }, "ring.cell_n"},
+        {"cell.time", [](Config& m) { m.cell_time = 1024; }, "ring.in_word"},
+        {"max.words", [](Config& m) { m.max_words_per_frame = 1 << 20; }, "ring.in_word"},
+        {"cell.capacity", [](Config& m) { m.cell_capacity = 1 << 20; }, "ring.cell_words"},
+    };
+    const fs::path dir = tempDir("claims");
+    for (const Claim& c : claims) {
+        SCOPED_TRACE(c.what);
+        EngineConfig huge = cfg;
+        c.apply(huge.model);
+        const std::vector<uint8_t> bad = withSection(good, "config", formatConfig(huge));
+        const std::string path = (dir / "claim.ckpt").string();
+        ASSERT_TRUE(writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(bad.data()), bad.size())).ok());
+        CheckpointInfo info;
+        ASSERT_TRUE(readCheckpointInfo(path, info).ok());
+        EXPECT_TRUE(contains(info.sizes_problem, std::string("section '") + c.section + "'")) << info.sizes_problem;
+        const auto t0 = std::chrono::steady_clock::now();
+        Status st;
+        EXPECT_FALSE(resumeEngine(path, st));
+        EXPECT_EQ(st.message(), path + ": " + info.sizes_problem);
+        MissionOptions m;
+        m.resume = path;
+        MissionPlan plan;
+        const Status planned = planMission(m, MissionInput{}, plan);
+        EXPECT_EQ(planned.message(), m.names.resume + ": " + path + ": " + info.sizes_problem);
+        EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));
+    }
+    // The file as written passes the same check.
+    CheckpointInfo info;
+    ASSERT_TRUE(inspectCheckpoint(good, "good.ckpt", info).ok());
+    EXPECT_EQ(info.sizes_problem, "");
     fs::remove_all(dir);
 }
 

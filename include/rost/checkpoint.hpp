@@ -79,6 +79,11 @@ struct CheckpointInfo {
     // not yet taken up when it was made are not in it).
     uint64_t next_sequence = 0;
     int64_t last_timestamp = 0;   // time stamp of the last observation ingested (when observations > 0)
+    // Empty when every section whose size the configuration fixes and which
+    // grows with it (n_kv, the ring's tables) is there with that size; else
+    // which is not. A reader refuses such a file before building an engine
+    // of the size its configuration claims (resumeEngine, planMission).
+    std::string sizes_problem;
 };
 
 struct CheckpointLoadOptions {

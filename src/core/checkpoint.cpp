@@ -487,11 +487,59 @@ const ParsedSection* findSection(const Parsed& p, std::string_view name) {
     return nullptr;
 }
 
+// The sections whose sizes the configuration fixes and which grow with it
+// (the vocabulary, the ring's cells, steps and words): each must be in the
+// file with that size, so a small file cannot make a reader build an engine
+// of gigabytes only to refuse the file. Empty when they all are; else which
+// section is not.
+std::string sizesProblem(const Parsed& p) {
+    const Config& c = p.config.model;
+    // Saturating products: a hostile configuration cannot wrap to a match.
+    const auto times = [](std::initializer_list<uint64_t> xs) {
+        uint64_t r = 1;
+        for (const uint64_t x : xs)
+            if (__builtin_mul_overflow(r, x, &r)) return std::numeric_limits<uint64_t>::max();
+        return r;
+    };
+    const uint64_t V = static_cast<uint64_t>(std::max(c.V, 0)), Kp = static_cast<uint64_t>(kernel::paddedK(c.K));
+    const uint64_t ring = static_cast<uint64_t>(std::max(c.ring_steps, 0));
+    const uint64_t cells = static_cast<uint64_t>(std::max(c.cellsPerStep(), 0));
+    const uint64_t cap = static_cast<uint64_t>(std::max(c.cell_capacity, 0));
+    const uint64_t ct = static_cast<uint64_t>(std::max(c.cell_time, 0));
+    const uint64_t maxw = static_cast<uint64_t>(std::max(c.max_words_per_frame, 0));
+    const struct {
+        const char* name;
+        uint64_t bytes;
+    } expect[] = {
+        {"n_kv", times({V, Kp, 4})},
+        {"ring.slot_step", times({ring, 8})},
+        {"ring.cell_n", times({ring, cells, 4})},
+        {"ring.cell_words", times({ring, cells, cap, 4})},
+        {"ring.cell_z", times({ring, cells, cap, 2})},
+        {"ring.n_ck", times({ring, cells, Kp, 4})},
+        {"ring.cell_surprise", times({ring, cells, 4})},
+        {"ring.in_word", times({ring, ct, maxw, 4})},
+        {"ring.in_pos", times({ring, ct, maxw, 4})},
+        {"ring.in_slot", times({ring, ct, maxw, 4})},
+        {"ring.in_n", times({ring, ct, 4})},
+        {"ring.obs_surprise", times({ring, ct, 4})},
+    };
+    for (const auto& e : expect) {
+        const ParsedSection* s = findSection(p, e.name);
+        if (!s || s->bytes != e.bytes)
+            return std::string("section '") + e.name + "' " +
+                   (s ? "has " + std::to_string(s->bytes) + " bytes" : std::string("is missing")) +
+                   ", the configuration in the file implies " + std::to_string(e.bytes);
+    }
+    return {};
+}
+
 void fillInfo(const Parsed& p, std::span<const uint8_t> bytes, CheckpointInfo& info) {
     info = CheckpointInfo{};
     info.version = p.version;
     info.bytes = p.size;
     info.config = p.config;
+    info.sizes_problem = sizesProblem(p);
     const uint8_t* b = bytes.data();
     if (const auto* s = findSection(p, "counters.frames"); s && s->bytes == 8) info.observations = getU64(b + s->payload);
     if (const auto* s = findSection(p, "counters.steps"); s && s->bytes == 8)
@@ -676,26 +724,10 @@ std::unique_ptr<Engine> resumeEngine(const std::string& path, Status& status, Ch
     Parsed p;
     status = parseImage(bytes, path, p);
     if (!status.ok()) return nullptr;
-    // Before building an engine of the size the file claims: its largest
-    // sections must have that size, so a small file cannot make us allocate
-    // gigabytes only to be refused.
-    const Config& c = p.config.model;
-    const uint64_t expect[] = {
-        static_cast<uint64_t>(c.V) * static_cast<uint64_t>(kernel::paddedK(c.K)) * 4,
-        static_cast<uint64_t>(c.ring_steps) * static_cast<uint64_t>(c.cellsPerStep()) *
-            static_cast<uint64_t>(c.cell_capacity) * 4,
-        static_cast<uint64_t>(c.ring_steps) * static_cast<uint64_t>(c.cell_time) *
-            static_cast<uint64_t>(c.max_words_per_frame) * 4,
-    };
-    const char* names[] = {"n_kv", "ring.cell_words", "ring.in_word"};
-    for (int k = 0; k < 3; ++k) {
-        const ParsedSection* s = findSection(p, names[k]);
-        if (!s || s->bytes != expect[k]) {
-            status = Status::error(path + ": section '" + names[k] + "' " +
-                                   (s ? "has " + std::to_string(s->bytes) + " bytes" : std::string("is missing")) +
-                                   ", the configuration in the file implies " + std::to_string(expect[k]));
-            return nullptr;
-        }
+    // Before building an engine of the size the file claims (sizesProblem).
+    if (const std::string why = sizesProblem(p); !why.empty()) {
+        status = Status::error(path + ": " + why);
+        return nullptr;
     }
     auto engine = Engine::create(p.config, status);
     if (!engine) {

@@ -167,6 +167,8 @@ Status checkMission(const MissionOptions& m, MissionPlan& plan) {
     if (std::filesystem::is_directory(m.resume, ec))
         return Status::error(StatusKind::IsADirectory, name + ": " + m.resume + " is a directory, not a checkpoint file");
     if (Status st = readCheckpointInfo(m.resume, plan.checkpoint); !st.ok()) return st.prefixed(name + ": ");
+    if (!plan.checkpoint.sizes_problem.empty())
+        return Status::error(name + ": " + m.resume + ": " + plan.checkpoint.sizes_problem);
     if (!m.in_topicmodel.empty())
         return Status::error(m.names.topicmodel + " cannot be used with " + name +
                              ": the checkpoint holds the mission's topic model");
