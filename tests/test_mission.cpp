@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -47,10 +48,12 @@ struct TempDir {
     ~TempDir() { std::filesystem::remove_all(path); }
 };
 
-// A checkpoint of K = 6 on 64x48 frames, V = 30, sampler now, 5 observations.
-std::string makeCheckpoint(const TempDir& t) {
+// A checkpoint of K = 6 on 64x48 frames, V = 30, sampler now, 5 observations
+// (and the settings `extra` gives).
+std::string makeCheckpoint(const TempDir& t, const std::function<void(MissionOptions&)>& extra = {}) {
     MissionOptions m;
     give(m, "K", "6");
+    if (extra) extra(m);
     give(m, "sampler", "now");
     give(m, "budget.refines", "3");
     MissionInput in;
@@ -193,6 +196,25 @@ TEST(Mission, ACheckpointFixesTheModelAtStartUpNamingWhatDiffers) {
               "~resume " + ckpt + ": the frames are 80 pixels wide but " + ckpt + " models 64x48 frames");
     in.width = 64;
     EXPECT_TRUE(planMission(m, in, plan).ok());
+}
+
+TEST(Mission, AModelSettingWithoutEffectIsStillKeptSoTheSameCommandLineResumes) {
+    // gamma matters only with topics.grow; a checkpoint made without growth
+    // but with --gamma 0.5 on the command line must let the same command line
+    // plus --resume go on, and still refuse another gamma.
+    TempDir t;
+    const std::string ckpt = makeCheckpoint(t, [](MissionOptions& m) { give(m, "gamma", "0.5"); });
+    MissionOptions m = nodeLike();
+    m.resume = ckpt;
+    give(m, "gamma", "0.5");
+    MissionPlan plan;
+    EXPECT_TRUE(checkMission(m, plan).ok()) << checkMission(m, plan).message();
+    EXPECT_EQ(plan.checkpoint.config.model.gamma, 0.5);
+    m = nodeLike();
+    m.resume = ckpt;
+    give(m, "gamma", "0.4");
+    EXPECT_EQ(checkMission(m, plan).message(),
+              "~gamma = 0.4 differs from " + ckpt + "'s gamma = 0.5 (a resumed mission keeps its model; leave ~gamma out)");
 }
 
 TEST(Mission, AResumedMissionKeepsTheCheckpointsRefinementUnlessGivenAndTheRuntimeIsThisProcesss) {

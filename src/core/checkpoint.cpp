@@ -142,14 +142,23 @@ void putSectionHeader(uint8_t* h, std::string_view name, uint32_t version, uint3
 // existed: the serial sampler).
 std::string checkpointConfigText(const EngineConfig& cfg) {
     const std::string all = formatConfig(cfg);  // a "key = value\n" line per setting
+    const std::string defaults = "\n" + formatConfig(EngineConfig{});
+    const auto isDefault = [&defaults](std::string_view line) {
+        std::string key(1, '\n');  // appended: GCC 12 warns falsely on "\n" + string (-Wrestrict)
+        key.append(line);
+        key += '\n';
+        return defaults.find(key) != std::string::npos;
+    };
     std::string out;
     text::LineReader lines(all, {}, text::kEveryLine);
     for (text::Line l; lines.next(l);) {
         // Left out: what does not change the state, and the defaults of settings
-        // newer than format 1 (so such checkpoints stay as they were).
+        // newer than format 1 (so such checkpoints stay as they were). A gamma
+        // other than its default stays even without growth: a resume that
+        // repeats the command line's --gamma must find it.
         const std::string_view line = l.text;
         const bool newer = line == "topicmodel.fixed = false" ||
-                           (!cfg.model.grow && (line == "topics.grow = false" || line.starts_with("gamma = ")));
+                           (!cfg.model.grow && (line == "topics.grow = false" || (line.starts_with("gamma = ") && isDefault(line))));
         if (!newer && !line.starts_with("threads = ") && line != "refine.window = 1") (out += line) += '\n';
     }
     return out;
