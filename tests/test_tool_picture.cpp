@@ -3,7 +3,14 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <future>
+#include <limits>
+#include <memory>
+#include <thread>
 #include <vector>
 
 #include "aligned_buffer.hpp"
@@ -39,6 +46,55 @@ TEST(ToolThumbnails, APoolSizedForFewerFramesThanComeKeepsTakingThemEvenlySpaced
         EXPECT_EQ(frames.front(), 0);
         for (std::size_t i = 1; i < frames.size(); ++i) EXPECT_EQ(frames[i] - frames[i - 1], frames[1] - frames[0]);
         for (const cv::Mat& m : thumbs) EXPECT_EQ(m.size(), cv::Size(160, 120));
+    }
+}
+
+// Draws in a thread of its own and waits at most `limit`: a drawing that
+// never ends fails the test (and ends the process) instead of hanging it.
+bool drawsWithin(const rost::tool::SummaryInput& in, std::chrono::seconds limit) {
+    auto done = std::make_shared<std::promise<void>>();
+    std::future<void> f = done->get_future();
+    std::thread([in, done] {
+        (void)rost::tool::drawSummary(in);
+        done->set_value();
+    }).detach();
+    return f.wait_for(limit) == std::future_status::ready;
+}
+
+TEST(ToolSummary, TimeStampsInNanosecondsOrAllAlikeAreDrawnAndTheDrawingEnds) {
+    // Stamps near 1.7e18 (ROS's nanoseconds), one frame or frames 100 apart:
+    // a double cannot tell x + step from x there; and the extremes of int64.
+    const std::vector<std::vector<int64_t>> streams = {
+        {1700000000000000000},
+        {1700000000000000000, 1700000000000000100},
+        {1700000000000000000, 1700000000000000100, 1700000000000000200, 1700000000040000000},
+        {std::numeric_limits<int64_t>::min(), 0, std::numeric_limits<int64_t>::max()},
+        {5},
+    };
+    for (const std::vector<int64_t>& stamps : streams) {
+        SCOPED_TRACE(stamps.front());
+        std::vector<FrameRow> rows(stamps.size());
+        for (std::size_t i = 0; i < rows.size(); ++i) {
+            rows[i].timestamp = stamps[i];
+            rows[i].surprise = 40.0 + static_cast<double>(i);
+            rows[i].instantaneous = 300.0 - static_cast<double>(i);
+            rows[i].final = 280.0;
+            rows[i].topic_share.assign(4, 0.25f);
+        }
+        // The axis is wide enough for its ticks (a tenth of it) to advance.
+        const auto [f0, f1] = rost::tool::timeAxis(rows);
+        EXPECT_EQ(f0, static_cast<double>(stamps.front()));
+        EXPECT_GE(f1, static_cast<double>(stamps.back()));
+        EXPECT_GT(f0 + (f1 - f0) / 10, f0);
+        rost::tool::SummaryInput in;
+        in.title = "stamps";
+        in.K = 4;
+        in.rows = rows;
+        if (!drawsWithin(in, std::chrono::seconds(20))) {
+            ADD_FAILURE() << "summary.png's drawing did not end in 20 s";
+            std::fflush(nullptr);
+            std::_Exit(1);
+        }
     }
 }
 

@@ -126,6 +126,15 @@ cv::Scalar topicColour(int k) {
     return {static_cast<double>(c[0]), static_cast<double>(c[1]), static_cast<double>(c[2])};
 }
 
+std::pair<double, double> timeAxis(std::span<const FrameRow> rows) {
+    if (rows.empty()) return {0.0, 1.0};
+    const double f0 = static_cast<double>(rows.front().timestamp);
+    // At least one unit wide, and wide enough for a double to tell its tenths
+    // apart: at 1.7e18 (nanoseconds) f0 + 1 is f0, the axis would divide 0 by
+    // 0 and its ticks would not advance.
+    return {f0, std::max(f0 + std::max(1.0, std::abs(f0) * 1e-12), static_cast<double>(rows.back().timestamp))};
+}
+
 std::vector<std::size_t> surprisePeaks(std::span<const FrameRow> rows, std::size_t count, std::size_t separation) {
     // A peak is a frame whose surprise jumps above the recent past: score =
     // surprise / median of the 10 frames before it. The first frames, where an
@@ -201,10 +210,17 @@ struct Axes {
     }
 };
 
+constexpr int kMaxTicks = 64;  // niceStep aims at 4 and 10
+
 void drawFrame(cv::Mat& img, const Axes& a, const std::string& ylabel, bool xLabels) {
     // Horizontal grid and y ticks.
+    // Ticks counted, not stepped: at time stamps near 1e18 (nanoseconds) a
+    // double cannot tell x + step from x, and a stepped loop never ends.
     const double ys = niceStep(a.y1 - a.y0, 4);
-    for (double y = std::ceil(a.y0 / ys) * ys; y <= a.y1 + 1e-9; y += ys) {
+    const double yFirst = std::ceil(a.y0 / ys);
+    for (int i = 0; i <= kMaxTicks; ++i) {
+        const double y = (yFirst + i) * ys;
+        if (!(y <= a.y1 + 1e-9)) break;
         const int p = a.py(y);
         cv::line(img, {a.box.x, p}, {a.box.x + a.box.width - 1, p}, kGrid, 1, cv::LINE_AA);
         const std::string s = tickLabel(y, ys);
@@ -212,7 +228,10 @@ void drawFrame(cv::Mat& img, const Axes& a, const std::string& ylabel, bool xLab
     }
     // Vertical grid and x ticks.
     const double xs = std::max(1.0, niceStep(a.x1 - a.x0, 10));
-    for (double x = std::ceil(a.x0 / xs) * xs; x <= a.x1 + 1e-9; x += xs) {
+    const double xFirst = std::ceil(a.x0 / xs);
+    for (int i = 0; i <= kMaxTicks; ++i) {
+        const double x = (xFirst + i) * xs;
+        if (!(x <= a.x1 + 1e-9)) break;
         const int p = a.px(x);
         cv::line(img, {p, a.box.y}, {p, a.box.y + a.box.height - 1}, kGrid, 1, cv::LINE_AA);
         if (xLabels) {
@@ -417,11 +436,7 @@ Picture drawSummary(const SummaryInput& in) {
     text(img, title, {left, 34}, 0.8, kInk, 2);
     text(img, in.subtitle, {left, 60}, 0.5, cv::Scalar(90, 90, 90));
 
-    double f0 = 0, f1 = 1;
-    if (!rows.empty()) {
-        f0 = static_cast<double>(rows.front().timestamp);
-        f1 = std::max(f0 + 1.0, static_cast<double>(rows.back().timestamp));
-    }
+    const auto [f0, f1] = timeAxis(rows);
     const std::vector<std::size_t> peaks = surprisePeaks(rows, 3, std::max<std::size_t>(5, rows.size() / 20));
 
     // Perplexity.

@@ -10,6 +10,7 @@
 #include <span>
 #include <string_view>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -100,6 +101,11 @@ struct SummaryInput {
     bool resumed = false;
 };
 Picture drawSummary(const SummaryInput& in);
+
+// summary.png's time axis, first and last: the rows' first and last time
+// stamps, made at least 1 wide and wide enough for a double to tell its
+// tenths apart (stamps in nanoseconds, a single row).
+std::pair<double, double> timeAxis(std::span<const FrameRow> rows);
 
 // Rows where the surprise jumps to at least twice the median of the 10 rows
 // before it (after the first frames), strongest jump first, at least
