@@ -108,18 +108,17 @@ Status Source::open(const std::string& path, const std::string& topic, const vis
     } catch (const rosbag::BagException& e) {
         return Status::error(path + ": topic " + topic + ", message " + std::to_string(message_) +
                              ": cannot read the bag: " + e.what());
+    } catch (const ros::Exception& e) {  // a message that does not deserialise (StreamOverrunException)
+        return Status::error(path + ": topic " + topic + ", message " + std::to_string(message_) +
+                             ": cannot read the message: " + e.what());
+    } catch (const std::exception& e) {  // anything else converting a message throws
+        return Status::error(path + ": topic " + topic + ", message " + std::to_string(message_) +
+                             ": cannot convert the message: " + e.what());
     }
-    int w = options.width, h = options.height;
-    if (w <= 0 && h <= 0) {
-        const vision::FrameSize m = vision::modelFrameSize(bgr_.cols, bgr_.rows);
-        w = m.width;
-        h = m.height;
-        if (w != bgr_.cols || h != bgr_.rows) notes_.push_back(vision::scaledNote(bgr_.cols, bgr_.rows, m));
-    }
-    else if (w <= 0) w = std::max(1, static_cast<int>(static_cast<int64_t>(h) * bgr_.cols / bgr_.rows));
-    else if (h <= 0) h = std::max(1, static_cast<int>(static_cast<int64_t>(w) * bgr_.rows / bgr_.cols));
-    info_.width = w;
-    info_.height = h;
+    // Sized as every source is (one side given alone keeps the aspect ratio).
+    if (Status st = vision::chooseSize(options, bgr_.cols, bgr_.rows, info_, notes_); !st.ok())
+        return st.prefixed(path + ": topic " + topic + ": ");
+    const int w = info_.width, h = info_.height;
     info_.description = "bag " + path + " topic " + topic + " (" + std::to_string(w) + "x" + std::to_string(h) +
                         ", " + std::to_string(info_.frames) + " frames)";
     return {};
@@ -144,6 +143,8 @@ vision::ReadStatus Source::read(vision::Frame& out) {
         return fail(std::string("cannot read the bag: ") + e.what());
     } catch (const ros::Exception& e) {
         return fail(std::string("cannot read the message: ") + e.what());
+    } catch (const std::exception& e) {  // anything else converting a message throws
+        return fail(std::string("cannot convert the message: ") + e.what());
     }
     const cv::Mat* img = &bgr_;
     cv::Mat colour;

@@ -69,7 +69,13 @@ bool toBgr(const sensor_msgs::CompressedImage& msg, cv::Mat& out, std::string& e
         return false;
     }
     const cv::Mat bytes(1, static_cast<int>(msg.data.size()), CV_8UC1, const_cast<uint8_t*>(msg.data.data()));
-    out = cv::imdecode(bytes, cv::IMREAD_COLOR);
+    try {
+        out = cv::imdecode(bytes, cv::IMREAD_COLOR);
+    } catch (const cv::Exception& e) {  // a header claiming more pixels than OpenCV decodes (CV_IO_MAX_IMAGE_PIXELS)
+        error = "compressed image (format '" + msg.format + "', " + std::to_string(msg.data.size()) +
+                " bytes) that OpenCV refuses to decode: " + e.err;
+        return false;
+    }
     if (out.empty()) {
         error = "compressed image (format '" + msg.format + "', " + std::to_string(msg.data.size()) +
                 " bytes) that OpenCV cannot decode";

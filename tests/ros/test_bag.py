@@ -15,9 +15,11 @@ Usage: test_bag.py BUILD_DIR FOOTAGE_DIR
 import csv
 import os
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
+import zlib
 
 N = 8
 W, H = 320, 240
@@ -159,6 +161,41 @@ def main():
     code, err = rost_run(trunc, "--topic", "/cam/image_raw", "--out", os.path.join(work, "trunc"), "-q")
     check(code == 2 and len(err.strip().splitlines()) == 1 and "topic /cam/image_raw" in err,
           "a truncated bag: exit 2, " + err.strip())
+
+    # Messages that do not deserialise or decode, first or later: one line
+    # naming the message, exit 2, nothing left in the output directory (they
+    # had aborted with exit 134 and left its staging directory).
+    import rosbag
+    import rospy
+    from sensor_msgs.msg import CompressedImage, Image
+    good = open(os.path.join(work, "jpeg", "001.jpg"), "rb").read()
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xffffffff)
+    huge_png = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 200000, 200000, 8, 2, 0, 0, 0)) +
+                chunk(b"IDAT", zlib.compress(b"\x00" * 100)) + chunk(b"IEND", b""))
+    for name, at in (("short message first", 0), ("short message later", 2), ("huge png first", 0),
+                     ("huge png later", 2)):
+        path = os.path.join(work, "bad.bag")
+        with rosbag.Bag(path, "w") as b:
+            for i in range(4):
+                t = rospy.Time(1700000000 + i, 0)
+                if i == at and name.startswith("short"):
+                    b.write("/cam/c", ("sensor_msgs/CompressedImage", b"\x01\x00\x00\x00\x02",
+                                       CompressedImage._md5sum, CompressedImage), t, raw=True)
+                else:
+                    m = CompressedImage(format="png" if i == at else "jpeg", data=huge_png if i == at else good)
+                    m.header.stamp = t
+                    b.write("/cam/c", m, t)
+        out = os.path.join(work, "bad")
+        shutil.rmtree(out, ignore_errors=True)
+        os.makedirs(out)
+        code, err = rost_run(path, "--topic", "/cam/c", "--out", out, "-q", "--no-overlay")
+        check(code == 2 and len(err.strip().splitlines()) == 1 and "topic /cam/c, message %d" % at in err and
+              ("cannot read the message: Buffer Overrun" in err if name.startswith("short") else
+               "that OpenCV refuses to decode" in err) and
+              not [f for f in os.listdir(out) if f.startswith(".rost-partial")],
+              "%s: exit %d, %s" % (name, code, err.strip()))
 
 
 try:
