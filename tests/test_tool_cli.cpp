@@ -448,6 +448,15 @@ TEST(ToolCli, VocabTrainsOnTheFramesAskedForAndRunUsesIt) {
     const RunResult past = runRost("vocab " + (t / "in") + " --out " + (t / "c.rostvoc") + " --words 16 -q --max-frames 7");
     EXPECT_EQ(past.exit_code, 2);
     EXPECT_NE(past.err.find("f6.png"), std::string::npos) << past.err;
+    // A vocabulary over one of its inputs (the video itself, a frame of the
+    // directory it reads) is refused before training, and the input kept.
+    const std::string frame = rost::testing::readText(t / "in/f1.png");
+    for (const std::string& in : {t / "in/f1.png", t / "in"}) {
+        const RunResult over = runRost("vocab " + in + " --out " + (t / "in/f1.png") + " --words 16 -q");
+        EXPECT_EQ(over.exit_code, 2) << in;
+        EXPECT_NE(over.err.find("--out: " + (t / "in/f1.png")), std::string::npos) << over.err;
+        EXPECT_EQ(rost::testing::readText(t / "in/f1.png"), frame) << in;
+    }
 }
 
 // A settings file with the frame size: `rost config` prints it (commented, as

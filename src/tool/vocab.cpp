@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "progress.hpp"
+#include "rost/mission.hpp"
 #include "rost/random.hpp"
 #include "rost/word_stream.hpp"
 #include "tool.hpp"
@@ -24,7 +25,13 @@ int vocabCommand(const VocabOptions& o) {
     if (o.features < 1) return fail("--features must be at least 1");
     if (o.every < 1) return fail("--every must be at least 1");
     if (o.max_descriptors < o.words) return fail("--max-descriptors must be at least --words");
-    // The output before the training (minutes on a long video): an unwritable one fails at once.
+    // The output before the training (minutes on a long video): one that would
+    // replace an input (a video, a frame of an image directory) or is
+    // unwritable fails at once.
+    MissionOptions inputs;
+    inputs.inputs = o.inputs;
+    inputs.would_read = vision::inputWouldRead;
+    if (Status st = checkMissionOutputOverlap(inputs, "--out", o.out); !st.ok()) return fail(st.message());
     if (Status st = probeOutputFile(o.out); !st.ok()) return fail("--out: " + st.message());
 
     vision::ExtractorConfig ex;  // same ORB settings as the extractor's defaults
