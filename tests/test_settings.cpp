@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -173,20 +174,36 @@ TEST(Settings, EveryKeyRoundTripsThroughTheDocumentedFile) {
     ASSERT_TRUE(setSetting(s, "budget.ms", "12.5").ok());
     ASSERT_TRUE(setSetting(s, "sampler", "agep+exp").ok());
     ASSERT_TRUE(setSetting(s, "final.sweeps", "3").ok());
-    const std::string text = formatSettingsDocumented(s);
+    ASSERT_TRUE(setSetting(s, "V", "100").ok());  // derived from the input unless given, as here
+    ASSERT_TRUE(setSetting(s, "ppx.snapshot", "false").ok());  // the tool's own (Library)
+    const std::vector<std::string> given = {"K", "orb.features", "words.hue", "budget.ms", "sampler",
+                                            "final.sweeps", "V", "ppx.snapshot"};
+    const std::string text = formatSettingsDocumented(s, given);
     Settings back;
-    const Status st = parseSettingsText(text, "config", back);
+    std::vector<ConfigKeyLine> set;
+    const Status st = parseSettingsText(text, "config", back, &set);
     ASSERT_TRUE(st.ok()) << st.message();
     for (const SettingSpec& spec : settingSpecs()) {
-        if (spec.has(setting_flags::Derived) || spec.has(setting_flags::Library)) continue;
+        if (spec.has(setting_flags::Library)) continue;
         EXPECT_EQ(settingValue(back, spec.key), settingValue(s, spec.key)) << spec.key;
     }
-    // Settings the tool derives or sets itself are there, commented out.
-    EXPECT_NE(text.find("\n# V = 5436\n"), std::string::npos);
-    EXPECT_NE(text.find("\n# ppx.snapshot = true\n"), std::string::npos);
-    EXPECT_NE(text.find("\n# budget.refines = 40\n"), std::string::npos);  // not in force: budget.ms is
-    EXPECT_NE(text.find("\nbudget.ms = 12.5\n"), std::string::npos);
+    // What was given is set again, and only that: the text read back gives the same keys.
+    std::vector<std::string> setKeys;
+    for (const ConfigKeyLine& k : set) setKeys.push_back(k.key);
+    std::sort(setKeys.begin(), setKeys.end());
+    std::vector<std::string> expected = {"K", "V", "budget.ms", "final.sweeps", "orb.features", "sampler", "words.hue"};
+    EXPECT_EQ(setKeys, expected);
+    EXPECT_NE(text.find("\nV = 100\n"), std::string::npos);
     EXPECT_NE(text.find("# topics (paper: 16); [1, 1024]\nK = 32\n"), std::string::npos);
+    EXPECT_NE(text.find("\nbudget.ms = 12.5\n"), std::string::npos);
+    // The rest is there commented out, with its value: the tool's own even when given,
+    // a budget key not in force, every key not given.
+    EXPECT_NE(text.find("\n# ppx.snapshot = false\n"), std::string::npos);
+    EXPECT_NE(text.find("\n# budget.refines = 40\n"), std::string::npos);  // not in force: budget.ms is
+    EXPECT_NE(text.find("\n# alpha = 0.1\n"), std::string::npos);
+    // Printed with nothing given, it sets nothing.
+    ASSERT_TRUE(parseSettingsText(formatSettingsDocumented(Settings{}, {}), "config", back, &set).ok());
+    EXPECT_TRUE(set.empty());
 }
 
 TEST(Settings, ErrorsNameTheKeyAndWhatWasExpected) {

@@ -377,7 +377,28 @@ TEST(ToolCli, RostConfigsFileAndItsValuesOnTheCommandLineChangeNothing) {
     rost::testing::writeText(t / "p.csv", positions);
     const RunResult conf = runRost("config");
     ASSERT_EQ(conf.exit_code, 0);
-    rost::testing::writeText(t / "all.conf", conf.out);
+    // Printed with nothing given, every key is commented out; uncommented
+    // (all but the ones the tool derives from its input or sets itself, and
+    // the budget keys not in force), the file holds every default.
+    std::string uncommented;
+    int set = 0;
+    for (std::size_t at = 0; at < conf.out.size();) {
+        const std::size_t end = conf.out.find('\n', at);
+        std::string line = conf.out.substr(at, end - at);
+        at = end == std::string::npos ? conf.out.size() : end + 1;
+        if (line.starts_with("# ") && line.find(" = ") != std::string::npos) {
+            const std::string key = line.substr(2, line.find(" = ") - 2);
+            const rost::SettingSpec* s = rost::findSetting(key);
+            if (s && !s->has(rost::setting_flags::Derived) && !s->has(rost::setting_flags::Library) &&
+                !key.starts_with("budget.")) {
+                line = line.substr(2);
+                ++set;
+            }
+        }
+        uncommented += line + "\n";
+    }
+    EXPECT_GT(set, 30);
+    rost::testing::writeText(t / "all.conf", uncommented);
     std::string explicitOptions;  // every refine option set to its default
     for (const rost::SettingSpec& s : rost::settingSpecs()) {
         if (s.has(rost::setting_flags::Library) || s.has(rost::setting_flags::Derived) || s.def.empty()) continue;
@@ -467,14 +488,22 @@ TEST(ToolCli, AFrameSizeInASettingsFileIsPrintedTakenOrRefusedByCommand) {
     rost::testing::writeText(t / "c.conf", "alpha = 0.25\nframe.width = 96\nframe.height = 48\n");
     const RunResult conf = runRost("config --config " + (t / "c.conf"));
     ASSERT_EQ(conf.exit_code, 0) << conf.err;
+    // What the file set is set in what is printed, and nothing else: the
+    // printed file does what c.conf does (below, for refine and run).
     EXPECT_NE(conf.out.find("\nalpha = 0.25\n"), std::string::npos) << conf.out;
-    EXPECT_NE(conf.out.find("\n# frame.width = 96\n"), std::string::npos) << conf.out;
-    EXPECT_NE(conf.out.find("\n# frame.height = 48\n"), std::string::npos) << conf.out;
+    EXPECT_NE(conf.out.find("\nframe.width = 96\n"), std::string::npos) << conf.out;
+    EXPECT_NE(conf.out.find("\nframe.height = 48\n"), std::string::npos) << conf.out;
+    EXPECT_NE(conf.out.find("\n# K = 16\n"), std::string::npos) << conf.out;
+    rost::testing::writeText(t / "printed.conf", conf.out);
+    const RunResult again = runRost("config --config " + (t / "printed.conf"));
+    EXPECT_EQ(again.out, conf.out) << "printing the printed file changes it";
     rost::testing::writeText(t / "w.csv", "0,1,2\n1,2,3\n");
     rost::testing::writeText(t / "p.csv", "0,90,40,95,47\n1,1,1,2,2\n");
-    const RunResult ref = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " --config " +
-                                  (t / "c.conf") + " -q --no-summary --out " + (t / "r"));
-    EXPECT_EQ(ref.exit_code, 0) << ref.err;  // positions up to 95 x 47 lie in the file's 96 x 48 frame
+    for (const char* file : {"c.conf", "printed.conf"}) {
+        const RunResult ref = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " --config " +
+                                      (t / file) + " -q --no-summary --out " + (t / "r"));
+        EXPECT_EQ(ref.exit_code, 0) << ref.err;  // positions up to 95 x 47 lie in the file's 96 x 48 frame
+    }
     rost::testing::writeText(t / "narrow.conf", "frame.width = 64\n");
     const RunResult narrow = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " --config " +
                                      (t / "narrow.conf") + " -q --no-summary --out " + (t / "n"));

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <type_traits>
@@ -138,11 +139,14 @@ Status parseSettingsText(std::string_view text, std::string_view name, Settings&
                          std::vector<ConfigKeyLine>* set = nullptr);
 Status readSettingsFile(const std::string& path, Settings& s, std::vector<ConfigKeyLine>* set = nullptr);
 
-// Every setting as a configuration file that parseSettingsText() reads back to
-// `s`: each key with its documentation and range as a comment. Settings the
-// rost tool derives from its input or sets itself, and budget keys not in
-// force, are written commented out (with their value), so reading the text
-// changes nothing for the tool.
-std::string formatSettingsDocumented(const Settings& s);
+// Every setting as a configuration file: each key with its documentation and
+// range as a comment, then its line. The keys in `given` (what the user set,
+// on the command line or in a settings file) are written as settings; every
+// other key, and the keys the rost tool sets itself (Library) or a budget
+// key not in force, commented out with its value, to be uncommented. So
+// parseSettingsText() reads the text back to `s` with the same keys given:
+// a file printed without options sets nothing (it fixes no model key for a
+// --resume), one printed with `-V 100` sets V.
+std::string formatSettingsDocumented(const Settings& s, std::span<const std::string> given);
 
 } // namespace rost

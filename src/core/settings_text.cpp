@@ -92,11 +92,12 @@ Status readSettingsFile(const std::string& path, Settings& s, std::vector<Config
     return parseSettingsText(content, path, s, set);
 }
 
-std::string formatSettingsDocumented(const Settings& s) {
+std::string formatSettingsDocumented(const Settings& s, std::span<const std::string> given) {
     std::string out =
         "# rost settings: every setting with its value, as `rost run --config FILE` reads them.\n"
-        "# Lines starting with '#' are comments. Settings the rost tool derives from its input or\n"
-        "# sets itself, and the budget keys not in force, are written commented out.\n";
+        "# Lines starting with '#' are comments. The settings given when this was printed are\n"
+        "# set; every other is commented out with its value (uncomment a line to set it; the rost\n"
+        "# tool derives V, ring.steps, max.words and the frame size from its input unless set).\n";
     int group = -1;
     for (const SettingSpec& sp : settingSpecs()) {
         if (static_cast<int>(sp.group) != group) {
@@ -107,7 +108,8 @@ std::string formatSettingsDocumented(const Settings& s) {
         out += "# " + std::string(sp.doc) + "; " + settingRange(sp);
         if (sp.has(setting_flags::Library)) out += " (the library and the ROS node; the rost tool sets it itself)";
         out += "\n";
-        const bool commented = value.empty() || sp.has(setting_flags::Derived) || sp.has(setting_flags::Library);
+        const bool isGiven = std::find(given.begin(), given.end(), sp.key) != given.end();
+        const bool commented = value.empty() || !isGiven || sp.has(setting_flags::Library);
         if (value.empty()) value = std::string(sp.def.empty() ? "" : sp.def);
         out += (commented ? "# " : "") + std::string(sp.key) + " =" + (value.empty() ? "" : " " + value) + "\n";
     }

@@ -148,7 +148,10 @@ Status SettingsOptions::Impl::applyFile(Settings& s, RunOptions* runOpts, Refine
             if (runOpts)
                 return Status::error(where + " is not a setting of this command (the input sets the frame size; "
                                              "--width/--height resize it)");
-            if (!ref) continue;  // rost config: printed with the file's value (commented: the input's)
+            if (!ref) {  // rost config: printed set, as the file sets it (for rost refine)
+                m.given.push_back(key);
+                continue;
+            }
             int& size = key == "frame.width" ? ref->width : ref->height;
             const CLI::Option* cli = app.get_option_no_throw(key == "frame.width" ? "--width" : "--height");
             if (!cli || cli->count() == 0) size = key == "frame.width" ? file.engine.model.frame_width : file.engine.model.frame_height;
@@ -183,7 +186,7 @@ Status SettingsOptions::apply(RunOptions* run, RefineOptions* ref) {
 }
 
 int configCommand(const ModelOptions& m) {
-    const std::string text = formatSettingsDocumented(m.settings);
+    const std::string text = formatSettingsDocumented(m.settings, m.given);
     std::fwrite(text.data(), 1, text.size(), stdout);
     return std::fflush(stdout) == 0 ? kExitOk : kExitError;
 }
