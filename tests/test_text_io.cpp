@@ -460,6 +460,46 @@ TEST(TextFiles, FilesWrittenTogetherAreAllOrNone) {
     EXPECT_EQ(d.names(), (Strings{"a.csv", "b.csv", "c.csv"}));
 }
 
+TEST(TextFiles, AWriteThroughALinkReplacesWhatItLeadsToAndKeepsTheLink) {
+    TempDir d;
+    fs::create_directory(d.path / "store");
+    const fs::path real = d.path / "store" / "m.ckpt", link = d.path / "m.ckpt", relative = d.path / "rel.ckpt";
+    ASSERT_TRUE(text::writeFileAtomic(real.string(), "old\n").ok());
+    fs::create_symlink(real, link);
+    fs::create_symlink("store/m.ckpt", relative);  // relative to the link's directory
+    ASSERT_TRUE(text::writeFileAtomic(link.string(), "new\n").ok());
+    EXPECT_TRUE(fs::is_symlink(link));
+    EXPECT_EQ(slurp(real), "new\n");
+    const text::FileToWrite files[] = {{relative.string(), "newer\n"}};
+    ASSERT_TRUE(text::writeFilesAtomic(files).ok());
+    EXPECT_TRUE(fs::is_symlink(relative));
+    EXPECT_EQ(slurp(real), "newer\n");
+    // A link to a file not made yet: the file is made where it leads.
+    const fs::path dangling = d.path / "next.ckpt";
+    fs::create_symlink(d.path / "store" / "next.ckpt", dangling);
+    ASSERT_TRUE(text::writeFileAtomic(dangling.string(), "first\n").ok());
+    EXPECT_TRUE(fs::is_symlink(dangling));
+    EXPECT_EQ(slurp(d.path / "store" / "next.ckpt"), "first\n");
+    EXPECT_EQ(d.names(), (Strings{"m.ckpt", "next.ckpt", "rel.ckpt", "store"}));
+}
+
+TEST(TextFiles, AWrittenFileHasTheModeOfTheOneItReplacesElseTheUmasks) {
+    TempDir d;
+    const fs::path fresh = d.path / "fresh.csv", kept = d.path / "kept.csv";
+    const mode_t before = ::umask(077);
+    const rost::Status st = text::writeFileAtomic(fresh.string(), "x\n");
+    ::umask(before);
+    ASSERT_TRUE(st.ok()) << st.message();
+    struct stat sb {};
+    ASSERT_EQ(::stat(fresh.c_str(), &sb), 0);
+    EXPECT_EQ(sb.st_mode & 0777, 0600u) << "a new file under umask 077";
+    ASSERT_TRUE(text::writeFileAtomic(kept.string(), "x\n").ok());
+    ASSERT_EQ(::chmod(kept.c_str(), 0640), 0);
+    ASSERT_TRUE(text::writeFileAtomic(kept.string(), "y\n").ok());
+    ASSERT_EQ(::stat(kept.c_str(), &sb), 0);
+    EXPECT_EQ(sb.st_mode & 0777, 0640u) << "replacing a file keeps its mode";
+}
+
 TEST(TextFiles, AFailedWriteLeavesTheOldFile) {
     TempDir d;
     const fs::path path = d.path / "words.csv";

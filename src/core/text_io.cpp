@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
+#include <fstream>
 #include <limits>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -342,6 +343,41 @@ Status readFile(const std::string& path, FileBytes& out) {
 }
 
 namespace {
+// The file writing `path` replaces: `path`, or where its symbolic links lead
+// (a checkpoint linked into a store is written there, and the link kept).
+// A link that leads nowhere yet leads to the file to make; a loop stops
+// after 40 links, as the kernel's lookups do, at the last one.
+std::string finalTarget(const std::string& path) {
+    std::string p = path;
+    for (int hops = 0; hops < 40; ++hops) {
+        struct stat st {};
+        if (::lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) break;
+        std::string to(static_cast<std::size_t>(st.st_size > 0 ? st.st_size : 255) + 1, '\0');
+        const ssize_t n = ::readlink(p.c_str(), to.data(), to.size());
+        if (n <= 0 || static_cast<std::size_t>(n) >= to.size()) break;
+        to.resize(static_cast<std::size_t>(n));
+        const std::size_t slash = p.find_last_of('/');
+        p = to.front() == '/' || slash == std::string::npos ? to : p.substr(0, slash + 1) + to;
+    }
+    return p;
+}
+
+// The permissions a written file gets: those of the file it replaces, else
+// what a new file gets under this process's umask (0666 less it).
+mode_t modeFor(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) return st.st_mode & 07777;
+    // The umask, read without changing it (umask(2) sets it, a race with
+    // other threads creating files): /proc/self/status's "Umask:" line.
+    const mode_t mask = [] {
+        std::ifstream f("/proc/self/status");
+        for (std::string line; std::getline(f, line);)
+            if (line.starts_with("Umask:")) return static_cast<mode_t>(std::strtoul(line.c_str() + 6, nullptr, 8) & 0777);
+        return static_cast<mode_t>(022);
+    }();
+    return static_cast<mode_t>(0666 & ~mask);
+}
+
 // The temporary file beside `path` that writeFileAtomic renames over it ("DIR/.NAME.tmpXXXXXX", made).
 int makeTemporary(const std::string& path, std::string& dir, std::string& tmp) {
     const std::size_t slash = path.find_last_of('/');
@@ -433,7 +469,7 @@ Status writeTemporary(const std::string& path, std::string_view content, std::st
         ::unlink(tmp.c_str());
         return Status::error(path + ": write failed: " + why);
     }
-    ::fchmod(fd, 0644);
+    ::fchmod(fd, modeFor(path));
     const int synced = ::fsync(fd) == 0 ? 0 : errno;
     const int closed = ::close(fd) == 0 ? 0 : errno;  // closed whether or not fsync failed
     if (synced != 0 || closed != 0) {
@@ -463,15 +499,17 @@ Status renameInto(const std::string& tmp, const std::string& path, const std::st
 
 Status writeFileAtomic(const std::string& path, std::string_view content) {
     if (isDeviceOrFifo(path)) return writeInPlace(path, content);
+    const std::string target = finalTarget(path);
     std::string dir, tmp;
-    if (Status st = writeTemporary(path, content, dir, tmp); !st.ok()) return st;
-    return renameInto(tmp, path, dir);
+    if (Status st = writeTemporary(target, content, dir, tmp); !st.ok()) return st;
+    return renameInto(tmp, target, dir);
 }
 
 Status writeFilesAtomic(std::span<const FileToWrite> files) {
     struct Staged {
         const FileToWrite* file;
         std::string dir, tmp;  // tmp empty: a device or FIFO, written in place at the end
+        std::string target;    // the file replaced (finalTarget)
     };
     std::vector<Staged> staged;
     staged.reserve(files.size());
@@ -480,9 +518,9 @@ Status writeFilesAtomic(std::span<const FileToWrite> files) {
             if (!s.tmp.empty()) ::unlink(s.tmp.c_str());
     };
     for (const FileToWrite& f : files) {
-        Staged s{&f, {}, {}};
+        Staged s{&f, {}, {}, finalTarget(f.path)};
         if (!isDeviceOrFifo(f.path)) {
-            if (Status st = writeTemporary(f.path, f.content, s.dir, s.tmp); !st.ok()) {
+            if (Status st = writeTemporary(s.target, f.content, s.dir, s.tmp); !st.ok()) {
                 dropTemporaries();
                 return st;
             }
@@ -492,7 +530,7 @@ Status writeFilesAtomic(std::span<const FileToWrite> files) {
     Status result;
     for (Staged& s : staged) {
         if (s.tmp.empty()) continue;
-        Status st = result.ok() ? renameInto(s.tmp, s.file->path, s.dir) : Status{};
+        Status st = result.ok() ? renameInto(s.tmp, s.target, s.dir) : Status{};
         if (!result.ok()) ::unlink(s.tmp.c_str());  // after a failed rename: the rest stay as they were
         if (!st.ok()) result = st;
         s.tmp.clear();
