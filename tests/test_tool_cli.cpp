@@ -480,6 +480,29 @@ TEST(ToolCli, VocabTrainsOnTheFramesAskedForAndRunUsesIt) {
     }
 }
 
+// The budget in force is the one reported, in run.txt and on the start-up
+// line: refines, tokens or milliseconds (a token budget was reported as
+// that many refines, so a run.txt could not reproduce its run).
+TEST(ToolCli, TheBudgetInForceIsTheOneReported) {
+    TempDir t;
+    std::filesystem::create_directory(t / "in");
+    cv::RNG rng(5);
+    for (int i = 0; i < 3; ++i) {
+        cv::Mat m(96, 128, CV_8UC3);
+        rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+        ASSERT_TRUE(cv::imwrite(t / ("in/f" + std::to_string(i) + ".png"), m));
+    }
+    for (const auto& [option, text] : {std::pair{"--budget.tokens 500", "500 tokens"},
+                                       std::pair{"--budget.ms 2.5", "2.5 ms"},
+                                       std::pair{"--budget.refines 7", "7 refines"}}) {
+        const RunResult r = runRost("run " + (t / "in") + " --out " + (t / "o") + " --no-overlay --no-summary -K 4 " + option);
+        ASSERT_EQ(r.exit_code, 0) << r.err;
+        EXPECT_NE(r.err.find(std::string("budget ") + text + ", model memory"), std::string::npos) << option << ": " << r.err;
+        const std::string runTxt = rost::testing::readText(t / "o/run.txt");
+        EXPECT_NE(runTxt.find(std::string("budget ") + text + " per observation"), std::string::npos) << option << ": " << runTxt;
+    }
+}
+
 // A settings file with the frame size: `rost config` prints it (commented, as
 // the tool derives it from its input), `rost refine` takes it, `rost run`
 // refuses it by file, line and key (its input sets the frame size).

@@ -44,9 +44,8 @@ Status writeRefineSummary(const OutputDir& out, const RefineOptions& o, const St
     SummaryInput si;
     si.title = "rost refine: " + o.words;
     char sub[200];
-    std::snprintf(sub, sizeof sub, "K = %d, V = %d, %s, %llu refines per observation, %zu observations", in.ec.model.K,
-                  in.ec.model.V, toString(in.ec.strategy.kind), static_cast<unsigned long long>(in.ec.budget.count),
-                  c.rows().size());
+    std::snprintf(sub, sizeof sub, "K = %d, V = %d, %s, %s, %zu observations", in.ec.model.K, in.ec.model.V,
+                  toString(in.ec.strategy.kind), budgetText(in.ec.budget, " per observation").c_str(), c.rows().size());
     si.subtitle = sub;
     si.K = in.ec.model.K;
     si.rows = c.rows();

@@ -16,12 +16,6 @@ namespace rost::tool {
 
 namespace {
 
-std::string fmt(const char* f, double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, f, v);
-    return buf;
-}
-
 void tintCells(cv::Mat& img, const ObservationRecord& r, int cellSpace, int gridW) {
     // Blend in place (38% topic colour), without temporaries.
     constexpr int kAlpha = 97;  // of 256
@@ -66,9 +60,6 @@ std::string shortName(const std::string& input) {
     return p.filename().string();
 }
 
-std::string budgetText(const EngineConfig& ec, const char* ms, const char* count) {
-    return ec.budget.kind == BudgetKind::Time ? fmt(ms, ec.budget.ms) : std::to_string(ec.budget.count) + count;
-}
 
 } // namespace
 
@@ -259,7 +250,7 @@ std::string RunReport::settingsText() const {
                   "refinement: sampler %s, eta = %g, q = %g, budget %s, final sweeps %d, refine.window %d, "
                   "threads %d, %s\n",
                   toString(ec.strategy.kind), ec.strategy.eta, ec.strategy.q,
-                  budgetText(ec, "%g ms per observation", " refines per observation").c_str(),
+                  budgetText(ec.budget, " per observation").c_str(),
                   o.model.settings.final_sweeps, ec.model.refine_window, ec.model.threads,
                   realtime                             ? "realtime (capture and refiner threads)"
                   : ec.budget.kind == BudgetKind::Time ? "offline (time budget: not reproducible)"
@@ -321,7 +312,7 @@ Status writeRunSummary(OutputDir& out, const RunOptions& o, const WordsStage& w,
     char sub[256];
     std::snprintf(sub, sizeof sub, "%dx%d, K = %d, V = %d, sampler %s, %s, %zu frames, %.0f words/frame", w.info.width,
                   w.info.height, e.ec.model.K, e.V, toString(e.ec.strategy.kind),
-                  budgetText(e.ec, "%g ms per frame", " refines per frame").c_str(), rows.size(), frames.wordsPerFrame());
+                  budgetText(e.ec.budget, " per frame").c_str(), rows.size(), frames.wordsPerFrame());
     si.subtitle = sub;
     si.K = e.ec.model.K;
     si.rows = rows;

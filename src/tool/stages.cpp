@@ -8,14 +8,6 @@
 
 namespace rost::tool {
 
-namespace {
-std::string fmtMs(double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.3g ms", v);
-    return buf;
-}
-} // namespace
-
 Status WordsStage::open(const RunOptions& o) {
     vision::SourceOptions so;
     so.width = o.width;
@@ -91,8 +83,7 @@ void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime
                  "model memory %.1f MiB%s\n",
                  w.info.description.c_str(), V, ec.model.K, ec.model.cellsPerStep(), ec.model.cell_space,
                  ec.model.ring_steps, ec.model.max_words_per_frame, toString(ec.strategy.kind),
-                 ec.budget.kind == BudgetKind::Time ? fmtMs(ec.budget.ms).c_str()
-                                                    : (std::to_string(ec.budget.count) + " refines").c_str(),
+                 budgetText(ec.budget).c_str(),
                  mib, realtime ? ", realtime" : "");
     if (resuming)
         std::fprintf(stderr, "rost: resuming %s at observation %llu (frame %lld)%s%s\n", o.model.resume.c_str(),

@@ -27,6 +27,10 @@
 
 namespace rost::tool {
 
+// The refinement budget as the tool prints it (start-up line, run.txt,
+// summary.png): "40 refines", "5000 tokens" or "5 ms", then `per`.
+std::string budgetText(const Budget& b, const std::string& per = "");
+
 // A captured frame on its way to the writer (overlay, thumbnails, frames.csv).
 struct FrameSlot {
     int64_t frame = 0;

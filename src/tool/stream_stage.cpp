@@ -10,6 +10,17 @@
 
 namespace rost::tool {
 
+// stages.hpp
+std::string budgetText(const Budget& b, const std::string& per) {
+    if (b.kind == BudgetKind::Time) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%g ms", b.ms);
+        return buf + per;
+    }
+    return std::to_string(b.count) + (b.kind == BudgetKind::Tokens ? " tokens" : " refines") + per;
+}
+
+
 // The library's word-stream mission (rost/mission.hpp, openStreamMission)
 // reads, plans or resumes, and opens the engine; the tool says where it is.
 Status StreamStage::open(const RefineOptions& o) {
