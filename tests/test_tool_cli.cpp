@@ -557,6 +557,9 @@ TEST(ToolCli, ASettingsValueOnTheCommandLineIsCheckedByTheSchema) {
     expectError(runRost("config --eta 2"), "rost: error: --eta = 2, allowed [0, 1]");
     expectError(runRost("config --queue 0"), "rost: error: --queue.slots/--queue = 0, allowed [1, 65536]");
     expectError(runRost("config --budget.ms 0"), "rost: error: --budget.ms = 0, allowed (0, 3600000]");
+    // A write that fails (a full disk) is an error, not exit 0 with half a file.
+    expectError(rost::testing::runShell("(" + tool() + " config > /dev/full)"),
+                "rost: error: cannot write the settings to standard output: No space left on device");
     // A combination names every option involved.
     expectError(runRost("config --g.time 9 --ring.steps 4"),
                 "rost: error: --g.time = 9, allowed [0, 3]; below --ring.steps = 4");

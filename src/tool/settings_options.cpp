@@ -2,6 +2,8 @@
 // setting (rost/settings_schema.hpp), never written by hand.
 
 #include <cstdio>
+#include <cstring>
+#include <cerrno>
 #include <deque>
 #include <string>
 
@@ -187,8 +189,13 @@ Status SettingsOptions::apply(RunOptions* run, RefineOptions* ref) {
 
 int configCommand(const ModelOptions& m) {
     const std::string text = formatSettingsDocumented(m.settings, m.given);
-    std::fwrite(text.data(), 1, text.size(), stdout);
-    return std::fflush(stdout) == 0 ? kExitOk : kExitError;
+    const bool written = std::fwrite(text.data(), 1, text.size(), stdout) == text.size();
+    if (!written || std::fflush(stdout) != 0 || std::ferror(stdout)) {
+        const int err = errno;
+        return fail(std::string("cannot write the settings to standard output: ") +
+                    (err != 0 ? std::strerror(err) : "write error"));
+    }
+    return kExitOk;
 }
 
 } // namespace rost::tool
