@@ -144,6 +144,26 @@ TEST(Merge, BadInputIsNamed) {
     EXPECT_EQ(rost::mergeTopicModels(bad, {}, out).message(), "model 1: count of topic 0, word 7 is negative");
     bad[1].counts.pop_back();
     EXPECT_EQ(rost::mergeTopicModels(bad, {}, out).message(), "model 1: 19 counts, expected K x V = 20");
+    // A sum no topicmodel.csv can hold (its readers take counts below 2^31) is
+    // refused, not written for --in.topicmodel to refuse later; so is a merge
+    // of models without a count.
+    rost::TopicCounts big;
+    big.K = 2;
+    big.V = 2;
+    big.counts = {2000000000, 1, 1, 2000000000};
+    const std::vector<rost::TopicCounts> twice{big, big};
+    EXPECT_EQ(rost::mergeTopicModels(twice, {}, out).message(),
+              "global topic 0, word 0: 4000000000 counts, more than a topic model file holds (2^31 - 1); merge fewer "
+              "or smaller models");
+    big.counts = {1000000000, 1, 1, 1000000000};
+    EXPECT_TRUE(rost::mergeTopicModels(std::vector<rost::TopicCounts>{big, big}, {}, out).ok());
+    EXPECT_EQ(out.global.at(0, 0), 2000000000);
+    rost::TopicCounts empty;
+    empty.K = 2;
+    empty.V = 3;
+    empty.counts.assign(6, 0);
+    EXPECT_EQ(rost::mergeTopicModels(std::vector<rost::TopicCounts>{empty, empty}, {}, out).message(),
+              "the topic models hold no counts: no topic to merge");
 }
 
 TEST(Merge, LiftingCsvNamesEveryTopicOfEveryModel) {

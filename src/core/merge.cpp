@@ -151,6 +151,15 @@ Status mergeTopicModels(std::span<const TopicCounts> models, const MergeOptions&
     result.lifting.resize(models.size());
     result.distance.resize(models.size());
     for (std::size_t i = 0; i < models.size(); ++i) join(models[i], options, g, result.lifting[i], result.distance[i]);
+    if (g.rows.empty()) return Status::error("the topic models hold no counts: no topic to merge");
+    // What a topicmodel.csv holds (its readers: --in.topicmodel, rost merge):
+    // a count below 2^31. A sum past it is refused, not written unreadable.
+    for (std::size_t k = 0; k < g.rows.size(); ++k)
+        for (std::size_t v = 0; v < g.rows[k].size(); ++v)
+            if (g.rows[k][v] > std::numeric_limits<int32_t>::max())
+                return Status::error("global topic " + std::to_string(k) + ", word " + std::to_string(v) + ": " +
+                                     std::to_string(g.rows[k][v]) +
+                                     " counts, more than a topic model file holds (2^31 - 1); merge fewer or smaller models");
     result.global.K = static_cast<int>(g.rows.size());
     result.global.V = g.V;
     for (const auto& row : g.rows) result.global.counts.insert(result.global.counts.end(), row.begin(), row.end());
