@@ -254,6 +254,17 @@ TEST(ToolTrust, ASignalAbandonsARefineRunWithExitCode130AndKeepsWhatWasThere) {
         for (const auto& e : std::filesystem::directory_iterator(t / "out"))
             if (e.path().filename() != "topics.csv") ADD_FAILURE() << "left behind: " << e.path();
     }
+    // A SIGINT ignored on entry stays ignored: a non-interactive shell's
+    // `rost refine ... &` ignores it (so Ctrl-C ends only the foreground job),
+    // and the run goes on to write its outputs.
+    std::filesystem::remove_all(t / "out");
+    const std::string script = "{ " + tool() + " " + refine(t, "out", "--final.sweeps 3000") +
+                               " & pid=$!; i=0; while ! ls -A '" + (t / "out") +
+                               "' 2>/dev/null | grep -q rost-partial && [ $i -lt 600 ]; do i=$((i+1)); sleep 0.05; done; "
+                               "sleep 0.2; kill -INT $pid; wait $pid; }";
+    const RunResult res = rost::testing::runShell(script);
+    EXPECT_EQ(res.exit_code, 0) << res.err;
+    EXPECT_TRUE(std::filesystem::exists(t / "out/topics.csv"));
 }
 
 // A checkpoint (or a bag) written over an input of the same run would replace
@@ -557,6 +568,11 @@ TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {
     expectError(runRost("merge '' --out " + (t / "o")), "model: no file given", t / "o");
     expectError(runRost("run " + (t / "clip.avi") + " '' --out " + (t / "o")), "input: no input given", t / "o");
     expectError(runRost("vocab '' --out " + (t / "o") + "/v.voc"), "input: no input given", t / "o");
+    expectError(runRost("vocab " + (t / "clip.avi") + " --out " + (t / "o") + "/v.voc --threads 0"), "--threads 0 outside 1..1024", t / "o");
+    expectError(runRost("vocab " + (t / "clip.avi") + " --out " + (t / "o") + "/v.voc --threads 1000000"),
+                "--threads 1000000 outside 1..1024", t / "o");
+    expectError(runRost("vocab " + (t / "clip.avi") + " --out " + (t / "o") + "/v.voc --iterations 0"),
+                "--iterations 0: must be at least 1", t / "o");
     expectError(runRost("run " + (t / "clip.avi") + " --out " + (t / "v") + " --out.bag ''"), "--out.bag: no file given",
                 t / "v");
     std::filesystem::create_directory(t / "dir.ckpt");

@@ -28,6 +28,10 @@ InterruptScope::InterruptScope() noexcept {
     g_interrupted.store(false, std::memory_order_relaxed);  // an earlier command's (tests run several in one process)
     old_int_ = std::signal(SIGINT, onInterrupt);
     old_term_ = std::signal(SIGTERM, onInterrupt);
+    // A signal ignored on entry stays ignored (a shell's `rost refine ... &`
+    // ignores SIGINT, so that Ctrl-C at the terminal ends only the foreground).
+    if (old_int_ == SIG_IGN) std::signal(SIGINT, SIG_IGN);
+    if (old_term_ == SIG_IGN) std::signal(SIGTERM, SIG_IGN);
 }
 
 InterruptScope::~InterruptScope() {

@@ -25,6 +25,9 @@ int vocabCommand(const VocabOptions& o) {
     if (o.features < 1) return fail("--features must be at least 1");
     if (o.every < 1) return fail("--every must be at least 1");
     if (o.max_descriptors < o.words) return fail("--max-descriptors must be at least --words");
+    if (o.iterations < 1) return fail("--iterations " + std::to_string(o.iterations) + ": must be at least 1");
+    // As run's and refine's --threads (the schema's range): a million threads is not a request to honour.
+    if (o.threads < 1 || o.threads > 1024) return fail("--threads " + std::to_string(o.threads) + " outside 1..1024");
     // The output before the training (minutes on a long video): one that would
     // replace an input (a video, a frame of an image directory) or is
     // unwritable fails at once.
