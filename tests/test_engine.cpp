@@ -566,6 +566,17 @@ TEST(ThreadSettings, OnboardRequestsFifoPinningAndLockedMemory) {
     EXPECT_GE(s.priority, 1);
     EXPECT_LE(s.priority, 99);
     EXPECT_EQ(ThreadSettings{}.fifo, false) << "the library default asks for nothing";
+    // The CPU is the last this machine has (one that exists), or none on one CPU.
+    const unsigned n = std::thread::hardware_concurrency();
+    EXPECT_EQ(s.cpu, n > 1 ? static_cast<int>(n) - 1 : -1);
+    if (n > 1) {  // pinning there works (FIFO and locked memory left out: they need privileges)
+        ThreadSettings pinOnly;
+        pinOnly.cpu = s.cpu;
+        ThreadSettingsReport report;
+        std::thread t([&] { report = applyToCurrentThread(pinOnly); });
+        t.join();
+        EXPECT_TRUE(report.pinned) << report.message;
+    }
 }
 
 // ---- replay ------------------------------------------------------------------------------
@@ -620,6 +631,24 @@ TEST(Replay, RejectsAStreamWhosePositionsDoNotMatchItsWordsNamingTheObservation)
     ASSERT_FALSE(s.ok());
     EXPECT_NE(s.message().find("observation 1"), std::string::npos) << s.message();
     EXPECT_NE(s.message().find("10 words but 9 positions"), std::string::npos) << s.message();
+    // More positions than words is as wrong.
+    frames = makeStream(c.model, 3, 10, 1);
+    frames[2].positions.push_back(frames[2].positions.back());
+    Engine e2(c);
+    const Status more = replay(e2, toStream(frames), {}, r);
+    EXPECT_NE(more.message().find("observation 2"), std::string::npos) << more.message();
+    EXPECT_NE(more.message().find("10 words but 11 positions"), std::string::npos) << more.message();
+}
+
+TEST(Replay, EveryFinalSweepAskedForIsRun) {
+    // One final sweep is a sweep: the final labels and perplexities differ
+    // from none, and two from one.
+    const EngineConfig c = engineConfig(Budget::steps(1));
+    const auto frames = makeStream(c.model, 20, 40, 3);
+    const ReplayResult none = replayOf(c, frames, false, 0), one = replayOf(c, frames, false, 1),
+                       two = replayOf(c, frames, false, 2);
+    EXPECT_GT(differences(none, one), 0);
+    EXPECT_GT(differences(one, two), 0);
 }
 
 TEST(Replay, AStreamWithoutPositionsPutsEveryWordInTheFirstCell) {
