@@ -369,11 +369,34 @@ TEST(ToolTrust, ResumeMayChangeRefinementAndSaysSo) {
     EXPECT_EQ(info.config.budget.count, 2u);
     EXPECT_STREQ(rost::toString(info.config.strategy.kind), "now");
     EXPECT_EQ(info.config.model.ring_steps, 48);  // the model is the checkpoint's
+    EXPECT_EQ(r.err, "") << "-q: nothing on stderr, the resume's note neither";
     // -q keeps the note off stderr; without it the note says the run is not bit for bit.
     r = runRost("refine " + (t / "words.csv") + " --positions " + (t / "positions.csv") + " --out " + (t / "again") +
                 " --no-summary --resume " + (t / "m.ckpt") + " --eta 0.25 --sampler uni+now");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.err.find("refinement settings changed (not bit for bit)"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("rost: resuming " + (t / "m.ckpt") + " at observation 25 (time stamp 24); 25 observations skipped"),
+              std::string::npos)
+        << r.err;
+}
+
+// The rows of rost refine's files begin with the
+// observation's own time stamp, whatever it is (every other test counts
+// from 0, where a time stamp and an observation's number agree).
+TEST(ToolTrust, OutputRowsCarryTheStreamsOwnTimeStamps) {
+    TempDir t;
+    rost::testing::writeText(t / "w.csv", "100,1,2,3\n250,2,3,4\n1700000000000000000,3,4,5\n");
+    rost::testing::writeText(t / "p.csv", "100,1,1,2,2,3,3\n250,1,1,2,2,3,3\n1700000000000000000,1,1,2,2,3,3\n");
+    const RunResult r = runRost("refine " + (t / "w.csv") + " --positions " + (t / "p.csv") + " -K 2 -q --no-summary --out " +
+                                (t / "o"));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    for (const char* f : {"topics.csv", "perplexity.csv", "surprise.csv", "surprise_cells.csv"}) {
+        std::vector<std::string> firsts;
+        std::istringstream lines(rost::testing::readText(t / (std::string("o/") + f)));
+        for (std::string line; std::getline(lines, line);)
+            if (!line.starts_with("frame,")) firsts.push_back(line.substr(0, line.find(',')));
+        EXPECT_EQ(firsts, (std::vector<std::string>{"100", "250", "1700000000000000000"})) << f;
+    }
 }
 
 TEST(ToolTrust, ResumeErrorsNameWhatAndWhereWithExitCode2AndWriteNothing) {
