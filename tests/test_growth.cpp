@@ -8,10 +8,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "rost/model.hpp"
+#include "rost/topic_model_csv.hpp"
 #include "synthetic.hpp"
 
 namespace {
@@ -113,6 +115,39 @@ TEST(TopicGrowth, MergeMovesJoinTopicsThatShareTheirWords) {
     EXPECT_GT(m.learnedGamma(), 0.0);
     std::string why;
     EXPECT_TRUE(m.checkInvariants(&why)) << why;
+}
+
+// topicmodel.csv of a grown model: a line per open topic, line i the topic
+// labelled i, none for a closed slot. The merges above close slots among
+// the open ones, so slot order and label order part.
+TEST(TopicGrowth, TopicModelCsvHoldsTheOpenTopicsInLabelOrder) {
+    const syn::Data d = syn::generate(plantedSpec(11));
+    rost::Model m(growthConfig(d, 16, 0.01, 5));
+    rost::Rng r(6);
+    for (int t = 0; t < d.spec.steps; ++t) {
+        std::vector<uint16_t> labels(d.words[t].size());
+        for (std::size_t i = 0; i < labels.size(); ++i)
+            labels[i] = static_cast<uint16_t>(2 * d.topics[t][i] + r.below(2));
+        ASSERT_TRUE(m.addObservation(d.words[t], d.positions[t], labels).ok());
+    }
+    m.refineAll(60);
+    const int A = m.activeTopics();
+    ASSERT_EQ(A, d.spec.K);
+    std::vector<uint16_t> slots(16);
+    m.slotsInLabelOrder(slots);
+    bool parted = false;  // a closed slot below an open one
+    for (int i = 0; i < A; ++i) parted |= slots[static_cast<std::size_t>(i)] != i;
+    EXPECT_TRUE(parted) << "the test needs a closed slot among the open ones";
+    std::vector<std::string> lines;
+    std::istringstream in(rost::formatTopicModelCsv(m));
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    ASSERT_EQ(lines.size(), static_cast<std::size_t>(A));
+    for (int i = 0; i < A; ++i) {
+        std::string expected;
+        for (int v = 0; v < m.V(); ++v)
+            expected += (v ? "," : "") + std::to_string(m.topicWordCount(slots[static_cast<std::size_t>(i)], v));
+        EXPECT_EQ(lines[static_cast<std::size_t>(i)], expected) << "line " << i;
+    }
 }
 
 // With the cap below the planted number, growth stops at the cap.
