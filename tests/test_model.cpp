@@ -187,6 +187,30 @@ TEST(ModelIngest, CellSubsampleIsUniform) {
     EXPECT_LT(0.9 * chi2, 27.88);
 }
 
+// A cell's surprise is the surprise of the observation's own new words in
+// it, not of every word the cell holds: with one cell and two observations a
+// step (cell.time 2), the cell's surprise after the second is the second
+// observation's, and after the first the first's.
+TEST(ModelSurprise, ACellsSurpriseIsItsNewestObservationsWordsAlone) {
+    rost::Config c = smallConfig();
+    c.cell_space = 64;  // one cell
+    c.cell_time = 2;
+    c.cell_capacity = 80;
+    rost::Model m(c);
+    rost::Rng r(4);
+    std::vector<uint32_t> w;
+    std::vector<rost::Position> p;
+    for (int f = 0; f < 8; ++f) {
+        randomFrame(r, c, 20 + static_cast<uint32_t>(f), w, p);
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+        m.refineAll(2);
+        const uint64_t last = m.observations() - 1;
+        const auto cs = m.cellSurprise(m.steps() - 1);
+        ASSERT_EQ(cs.size(), 1u);
+        EXPECT_NEAR(cs[0], m.observationSurprise(last), 1e-3 * m.observationSurprise(last)) << "observation " << f;
+    }
+}
+
 TEST(ModelPerplexity, FiniteAndBoundedByVocabularyForUniformModel) {
     rost::Config c = smallConfig();
     rost::Model m(c);
