@@ -568,6 +568,13 @@ TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) 
     expectError(runRost("refine " + (t / "words.csv") + " -q --out " + (t / "x") + " --resume " + (t / "m.ckpt")),
                 (t / "words.csv") + ": no --positions, but " + (t / "m.ckpt") + " models 64x64 frames: give the words' positions",
                 t / "x");
+    // No positions but a frame size asked for: refused, not ignored (every word would share one cell).
+    expectError(runRost("refine " + (t / "words.csv") + " -q --out " + (t / "x") + " --width 100"),
+                (t / "words.csv") + ": no --positions, but a frame size was given (width 100): give the words' "
+                                    "positions, or leave the frame size out",
+                t / "x");
+    expectError(runRost("refine " + (t / "words.csv") + " -q --out " + (t / "x") + " --width 100 --height 50"),
+                "(width 100, height 50)", t / "x");
 }
 
 TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {

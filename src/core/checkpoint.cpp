@@ -20,42 +20,6 @@ namespace rost {
 
 using text::readFile, text::writeFileAtomic;
 
-// ---- CRC-32C ----------------------------------------------------------------------
-
-namespace {
-
-// Slice-by-8 tables: table[0] is the classic byte table; table[j][b] is the
-// CRC of byte b followed by j zero bytes.
-constexpr std::array<std::array<uint32_t, 256>, 8> makeCrcTables() {
-    std::array<std::array<uint32_t, 256>, 8> t{};
-    for (uint32_t b = 0; b < 256; ++b) {
-        uint32_t c = b;
-        for (int k = 0; k < 8; ++k) c = (c & 1u) ? (c >> 1) ^ 0x82F63B78u : c >> 1;
-        t[0][b] = c;
-    }
-    for (uint32_t b = 0; b < 256; ++b)
-        for (int j = 1; j < 8; ++j) t[j][b] = (t[j - 1][b] >> 8) ^ t[0][t[j - 1][b] & 0xFFu];
-    return t;
-}
-constexpr auto kCrc = makeCrcTables();
-
-} // namespace
-
-uint32_t crc32c(std::span<const uint8_t> bytes, uint32_t crc) noexcept {
-    uint32_t c = ~crc;
-    const uint8_t* p = bytes.data();
-    std::size_t n = bytes.size();
-    while (n >= 8) {
-        const uint32_t lo = c ^ (uint32_t{p[0]} | uint32_t{p[1]} << 8 | uint32_t{p[2]} << 16 | uint32_t{p[3]} << 24);
-        c = kCrc[7][lo & 0xFFu] ^ kCrc[6][(lo >> 8) & 0xFFu] ^ kCrc[5][(lo >> 16) & 0xFFu] ^ kCrc[4][lo >> 24] ^
-            kCrc[3][p[4]] ^ kCrc[2][p[5]] ^ kCrc[1][p[6]] ^ kCrc[0][p[7]];
-        p += 8;
-        n -= 8;
-    }
-    while (n-- > 0) c = (c >> 8) ^ kCrc[0][(c ^ *p++) & 0xFFu];
-    return ~c;
-}
-
 namespace {
 
 // ---- fixed-width little-endian encoding ----------------------------------------------
@@ -516,10 +480,7 @@ std::string sizesProblem(const Parsed& p) {
     const uint64_t cap = static_cast<uint64_t>(std::max(c.cell_capacity, 0));
     const uint64_t ct = static_cast<uint64_t>(std::max(c.cell_time, 0));
     const uint64_t maxw = static_cast<uint64_t>(std::max(c.max_words_per_frame, 0));
-    const struct {
-        const char* name;
-        uint64_t bytes;
-    } expect[] = {
+    const std::pair<const char*, uint64_t> expect[] = {
         {"n_kv", times({V, Kp, 4})},
         {"ring.slot_step", times({ring, 8})},
         {"ring.cell_n", times({ring, cells, 4})},
@@ -533,13 +494,11 @@ std::string sizesProblem(const Parsed& p) {
         {"ring.in_n", times({ring, ct, 4})},
         {"ring.obs_surprise", times({ring, ct, 4})},
     };
-    for (const auto& e : expect) {
-        const ParsedSection* s = findSection(p, e.name);
-        if (!s || s->bytes != e.bytes)
-            return std::string("section '") + e.name + "' " +
+    for (const auto& [name, bytes] : expect)
+        if (const ParsedSection* s = findSection(p, name); !s || s->bytes != bytes)
+            return std::string("section '") + name + "' " +
                    (s ? "has " + std::to_string(s->bytes) + " bytes" : std::string("is missing")) +
-                   ", the configuration in the file implies " + std::to_string(e.bytes);
-    }
+                   ", the configuration in the file implies " + std::to_string(bytes);
     return {};
 }
 

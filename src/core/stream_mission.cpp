@@ -88,6 +88,14 @@ Status planFromData(const MissionOptions& m, const StreamMissionInput& in, Strea
         for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
         for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
     }
+    // Without positions every word of an observation is in one cell: a frame
+    // size asked for would be ignored, so it is refused.
+    if (!out.stream.has_positions && (in.width > 0 || in.height > 0)) {
+        std::string size = in.width > 0 ? "width " + std::to_string(in.width) : "";
+        if (in.height > 0) size += (size.empty() ? "height " : ", height ") + std::to_string(in.height);
+        return Status::error(in.words + ": no " + m.names.positions + ", but a frame size was given (" + size +
+                             "): give the words' positions, or leave the frame size out");
+    }
     MissionInput mi = in.base;
     mi.V = static_cast<int>(maxWord) + 1;
     mi.width = in.width > 0 ? in.width : maxX + 1;

@@ -20,7 +20,6 @@ std::string budgetText(const Budget& b, const std::string& per) {
     return std::to_string(b.count) + (b.kind == BudgetKind::Tokens ? " tokens" : " refines") + per;
 }
 
-
 // The library's word-stream mission (rost/mission.hpp, openStreamMission)
 // reads, plans or resumes, and opens the engine; the tool says where it is.
 Status StreamStage::open(const RefineOptions& o) {

@@ -16,26 +16,36 @@
 
 namespace rost::tool {
 
-int vocabCommand(const VocabOptions& o) {
-    using vision::Descriptor;
-    const auto started = std::chrono::steady_clock::now();
-    if (o.out.empty()) return fail("--out: no vocabulary file given");
+namespace {
+
+// The options, and the output before the training (minutes on a long video):
+// one that would replace an input (a video, a frame of an image directory)
+// or is unwritable fails at once.
+Status checkVocabOptions(const VocabOptions& o) {
+    if (o.out.empty()) return Status::error("--out: no vocabulary file given");
     if (o.words < 1 || o.words > vision::Vocabulary::kMaxWords)
-        return fail("--words " + std::to_string(o.words) + " outside 1..1000000");
-    if (o.features < 1) return fail("--features must be at least 1");
-    if (o.every < 1) return fail("--every must be at least 1");
-    if (o.max_descriptors < o.words) return fail("--max-descriptors must be at least --words");
-    if (o.iterations < 1) return fail("--iterations " + std::to_string(o.iterations) + ": must be at least 1");
+        return Status::error("--words " + std::to_string(o.words) + " outside 1..1000000");
+    if (o.features < 1) return Status::error("--features must be at least 1");
+    if (o.every < 1) return Status::error("--every must be at least 1");
+    if (o.max_descriptors < o.words) return Status::error("--max-descriptors must be at least --words");
+    if (o.iterations < 1) return Status::error("--iterations " + std::to_string(o.iterations) + ": must be at least 1");
     // As run's and refine's --threads (the schema's range): a million threads is not a request to honour.
-    if (o.threads < 1 || o.threads > 1024) return fail("--threads " + std::to_string(o.threads) + " outside 1..1024");
-    // The output before the training (minutes on a long video): one that would
-    // replace an input (a video, a frame of an image directory) or is
-    // unwritable fails at once.
+    if (o.threads < 1 || o.threads > 1024)
+        return Status::error("--threads " + std::to_string(o.threads) + " outside 1..1024");
     MissionOptions inputs;
     inputs.inputs = o.inputs;
     inputs.would_read = vision::inputWouldRead;
-    if (Status st = checkMissionOutputOverlap(inputs, "--out", o.out); !st.ok()) return fail(st.message());
-    if (Status st = probeOutputFile(o.out); !st.ok()) return fail("--out: " + st.message());
+    if (Status st = checkMissionOutputOverlap(inputs, "--out", o.out); !st.ok()) return st;
+    if (Status st = probeOutputFile(o.out); !st.ok()) return st.prefixed("--out: ");
+    return {};
+}
+
+} // namespace
+
+int vocabCommand(const VocabOptions& o) {
+    using vision::Descriptor;
+    const auto started = std::chrono::steady_clock::now();
+    if (Status st = checkVocabOptions(o); !st.ok()) return fail(st.message());
 
     vision::ExtractorConfig ex;  // same ORB settings as the extractor's defaults
     cv::Ptr<cv::ORB> orb = cv::ORB::create(o.features, ex.orb_scale_factor, ex.orb_levels, 31, 0, 2,
