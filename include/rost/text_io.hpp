@@ -229,6 +229,11 @@ Status probeOutputFile(const std::string& path);
 // replace the device node with a regular file.
 Status writeFileAtomic(const std::string& path, std::string_view content);
 
+// The permissions a file written to `path` gets (writeFileAtomic, and a
+// result bag staged beside it): those of the regular file there, else what
+// a new file gets under this process's umask (0666 less it).
+unsigned fileModeFor(const std::string& path);
+
 // Several files that belong together (a run's outputs): each is written to
 // its temporary file first, and only when every one is written and flushed
 // are they renamed into place. A failure while writing (a full disk) leaves

@@ -362,8 +362,7 @@ std::string finalTarget(const std::string& path) {
     return p;
 }
 
-// The permissions a written file gets: those of the file it replaces, else
-// what a new file gets under this process's umask (0666 less it).
+// fileModeFor (rost/text_io.hpp).
 mode_t modeFor(const std::string& path) {
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) return st.st_mode & 07777;
@@ -469,7 +468,7 @@ Status writeTemporary(const std::string& path, std::string_view content, std::st
         ::unlink(tmp.c_str());
         return Status::error(path + ": write failed: " + why);
     }
-    ::fchmod(fd, modeFor(path));
+    ::fchmod(fd, static_cast<mode_t>(fileModeFor(path)));
     const int synced = ::fsync(fd) == 0 ? 0 : errno;
     const int closed = ::close(fd) == 0 ? 0 : errno;  // closed whether or not fsync failed
     if (synced != 0 || closed != 0) {
@@ -496,6 +495,8 @@ Status renameInto(const std::string& tmp, const std::string& path, const std::st
 }
 
 } // namespace
+
+unsigned fileModeFor(const std::string& path) { return modeFor(path); }
 
 Status writeFileAtomic(const std::string& path, std::string_view content) {
     if (isDeviceOrFifo(path)) return writeInPlace(path, content);

@@ -1,12 +1,24 @@
 // C++17: rosbag's headers. Per-frame results as rost_msgs/FrameTopics into a bag.
 
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <rosbag/bag.h>
 
 #include "bag.hpp"
 #include "frame_msg.hpp"
+
+namespace rost::text {
+// rost/text_io.hpp's (a C++20 header; this file is C++17 for rosbag's).
+unsigned fileModeFor(const std::string& path);
+} // namespace rost::text
 
 namespace rost::bag {
 
@@ -28,16 +40,25 @@ ResultBagWriter::~ResultBagWriter() {
 Status ResultBagWriter::open(const std::string& path, const std::string& topic) {
     impl_->path = path;
     impl_->topic = topic;
-    impl_->tmp = path + ".tmp";
     // A bag is seeked and renamed into place: a device or a FIFO cannot take
     // one, and renaming over it would replace the node itself.
     std::error_code ec;
     const auto st = std::filesystem::status(path, ec);
     if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
         return Status::error("--out.bag " + path + ": not a regular file (a bag is written to a file)");
+    // Staged in a file of its own beside it ("DIR/.NAME.tmpXXXXXX", made
+    // here), never a fixed name another file of the run may have.
+    const std::size_t slash = path.find_last_of('/');
+    impl_->tmp = (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + "." +
+                 (slash == std::string::npos ? path : path.substr(slash + 1)) + ".tmpXXXXXX";
+    const int fd = ::mkstemp(impl_->tmp.data());
+    if (fd < 0) return Status::error("--out.bag " + path + ": cannot create a file beside it: " + std::strerror(errno));
+    ::fchmod(fd, static_cast<mode_t>(text::fileModeFor(path)));  // mkstemp's 0600: the mode a new file gets
+    ::close(fd);
     try {
         impl_->bag.open(impl_->tmp, rosbag::bagmode::Write);
     } catch (const rosbag::BagException& e) {
+        std::filesystem::remove(impl_->tmp, ec);
         return Status::error("--out.bag " + path + ": " + e.what());
     }
     impl_->open = true;

@@ -100,8 +100,15 @@ def main():
     check(not os.path.exists(os.path.join(work, "none")), "no outputs without --topic")
 
     out, outbag = os.path.join(work, "raw"), os.path.join(work, "results.bag")
+    # A file named as the bag plus ".tmp" (a checkpoint, say) is not the bag's
+    # staging file: it stays, and no staging file is left.
+    open(outbag + ".tmp", "wb").write(b"not the bag's")
     code, err = rost_run(bag, "--topic", "/cam/image_raw", "--out", out, "--out.bag", outbag, "-q", "--no-overlay")
     check(code == 0, "raw images: exit 0 " + err.strip())
+    check(open(outbag + ".tmp", "rb").read() == b"not the bag's" and
+          not [f for f in os.listdir(work) if f.startswith(".results.bag.tmp")],
+          "results.bag.tmp untouched, no staging file left")
+    os.remove(outbag + ".tmp")
     rows = list(csv.DictReader(open(os.path.join(out, "frames.csv"))))
     check([int(r["timestamp_us"]) for r in rows] == [s // 1000 for s in stamps],
           "frames.csv has the messages' stamps")
