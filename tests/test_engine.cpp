@@ -11,6 +11,10 @@
 #include <thread>
 #include <vector>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "rost/engine.hpp"
 #include "observation_queue.hpp"
 #include "predictor.hpp"
@@ -102,6 +106,45 @@ TEST(EngineConfig, CreateReturnsNullWithTheMessageAndTheConstructorThrows) {
     EXPECT_EQ(Engine::create(c, s), nullptr);
     EXPECT_NE(s.message().find("queue.slots = -3"), std::string::npos) << s.message();
     EXPECT_THROW(Engine{c}, std::invalid_argument);
+}
+
+// Valid settings whose tables do not fit in memory: a message naming the
+// settings the tables grow with, not "std::bad_alloc". In a child process
+// limited to 1 GiB of address space (not under the sanitizers, whose shadow
+// memory needs more).
+TEST(EngineConfig, TablesThatDoNotFitInMemoryAreRefusedNamingTheirSettings) {
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "an address-space limit and a sanitizer's shadow memory do not mix";
+#else
+    EngineConfig c;
+    c.model.K = 1024;
+    c.model.V = 1000000;  // n_kv alone is 4 GB
+    ASSERT_TRUE(c.validate().ok());
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        ::close(fds[0]);
+        const rlimit lim{1ul << 30, 1ul << 30};
+        ::setrlimit(RLIMIT_AS, &lim);
+        Status st;
+        const bool made = Engine::create(c, st) != nullptr;
+        const std::string msg = made ? std::string("made") : st.message();
+        (void)!::write(fds[1], msg.data(), msg.size());
+        ::_exit(0);
+    }
+    ::close(fds[1]);
+    std::string msg;
+    char buf[512];
+    for (ssize_t n; (n = ::read(fds[0], buf, sizeof buf)) > 0;) msg.append(buf, static_cast<std::size_t>(n));
+    ::close(fds[0]);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the child ended otherwise: " << status;
+    EXPECT_EQ(msg, "engine: not enough memory for the model's tables: " + c.model.tablesText() + "; lower one of them");
+    EXPECT_NE(msg.find("K = 1024, V = 1000000, ring.steps = "), std::string::npos) << msg;
+#endif
 }
 
 TEST(EngineConfig, DropPolicyNamesParseAndUnknownOnesAreRejected) {

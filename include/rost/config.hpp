@@ -75,6 +75,10 @@ struct Config {
 
     // Checks every field; the message names the field, its value and the allowed range.
     [[nodiscard]] Status validate() const;
+    // The settings the model's tables grow with, for a message: "K = 16, V =
+    // 5436, ring.steps = 256, 80 cells a step (frame 640x480, cell.space =
+    // 64), cell.capacity = 256, max.words = 4096".
+    [[nodiscard]] std::string tablesText() const;
 };
 
 const char* toString(EvictionPolicy p) noexcept;
