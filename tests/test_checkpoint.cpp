@@ -914,6 +914,16 @@ TEST(CheckpointFiles, WriterRemovesTemporaryFilesOfInterruptedSaves) {
     EXPECT_FALSE(fs::exists(dir / ".run.ckpt.tmpAbC123"));
     EXPECT_TRUE(fs::exists(dir / ".other.ckpt.tmpAbC123"));
     w.reset();
+    // Through a link into a store, the writes (and what a kill leaves) are
+    // beside the store's file: that is where the writer cleans up.
+    fs::create_directory(dir / "store");
+    fs::create_directory(dir / "d");
+    fs::create_symlink("../store/m.ckpt", dir / "d" / "m.ckpt");
+    std::ofstream(dir / "store" / ".m.ckpt.tmpAbC123") << "half a checkpoint";
+    auto linked = CheckpointWriter::create(e, (dir / "d" / "m.ckpt").string(), st);
+    ASSERT_TRUE(linked) << st.message();
+    EXPECT_FALSE(fs::exists(dir / "store" / ".m.ckpt.tmpAbC123"));
+    linked.reset();
     fs::remove_all(dir);
 }
 

@@ -460,6 +460,8 @@ TEST(TextFiles, FilesWrittenTogetherAreAllOrNone) {
     EXPECT_EQ(d.names(), (Strings{"a.csv", "b.csv", "c.csv"}));
 }
 
+std::string a(const TempDir& d) { return (d.path / "a.csv").string(); }
+
 TEST(TextFiles, AWriteThroughALinkReplacesWhatItLeadsToAndKeepsTheLink) {
     TempDir d;
     fs::create_directory(d.path / "store");
@@ -481,6 +483,15 @@ TEST(TextFiles, AWriteThroughALinkReplacesWhatItLeadsToAndKeepsTheLink) {
     EXPECT_TRUE(fs::is_symlink(dangling));
     EXPECT_EQ(slurp(d.path / "store" / "next.ckpt"), "first\n");
     EXPECT_EQ(d.names(), (Strings{"m.ckpt", "next.ckpt", "rel.ckpt", "store"}));
+    // A loop of links is an error, as the kernel's lookups give, and stays a loop.
+    fs::create_symlink("loopb", d.path / "loopa");
+    fs::create_symlink("loopa", d.path / "loopb");
+    const std::string loop = (d.path / "loopa").string();
+    EXPECT_EQ(text::writeFileAtomic(loop, "x\n").message(), loop + ": too many levels of symbolic links");
+    const text::FileToWrite looped[] = {{a(d), "x\n"}, {loop, "x\n"}};
+    EXPECT_EQ(text::writeFilesAtomic(looped).message(), loop + ": too many levels of symbolic links");
+    EXPECT_TRUE(fs::is_symlink(d.path / "loopa"));
+    EXPECT_FALSE(fs::exists(a(d))) << "all or none";
 }
 
 TEST(TextFiles, AWrittenFileHasTheModeOfTheOneItReplacesElseTheUmasks) {
@@ -498,6 +509,10 @@ TEST(TextFiles, AWrittenFileHasTheModeOfTheOneItReplacesElseTheUmasks) {
     ASSERT_TRUE(text::writeFileAtomic(kept.string(), "y\n").ok());
     ASSERT_EQ(::stat(kept.c_str(), &sb), 0);
     EXPECT_EQ(sb.st_mode & 0777, 0640u) << "replacing a file keeps its mode";
+    ASSERT_EQ(::chmod(kept.c_str(), 04750), 0);  // but not a setuid bit
+    ASSERT_TRUE(text::writeFileAtomic(kept.string(), "z\n").ok());
+    ASSERT_EQ(::stat(kept.c_str(), &sb), 0);
+    EXPECT_EQ(sb.st_mode & 07777, 0750u);
 }
 
 TEST(TextFiles, AFailedWriteLeavesTheOldFile) {

@@ -575,6 +575,8 @@ TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) 
                 t / "x");
     expectError(runRost("refine " + (t / "words.csv") + " -q --out " + (t / "x") + " --width 100 --height 50"),
                 "(width 100, height 50)", t / "x");
+    // 1 x 1 is what no positions means: taken.
+    EXPECT_EQ(runRost("refine " + (t / "words.csv") + " -q --no-summary --out " + (t / "one") + " --width 1 --height 1").exit_code, 0);
 }
 
 TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {

@@ -467,8 +467,7 @@ const ParsedSection* findSection(const Parsed& p, std::string_view name) {
 // section is not.
 std::string sizesProblem(const Parsed& p) {
     const Config& c = p.config.model;
-    // Saturating products: a hostile configuration cannot wrap to a match.
-    const auto times = [](std::initializer_list<uint64_t> xs) {
+    const auto times = [](std::initializer_list<uint64_t> xs) {  // saturating: no wrap to a match
         uint64_t r = 1;
         for (const uint64_t x : xs)
             if (__builtin_mul_overflow(r, x, &r)) return std::numeric_limits<uint64_t>::max();
@@ -724,10 +723,11 @@ std::unique_ptr<CheckpointWriter> CheckpointWriter::create(Engine& engine, std::
     try {
         status = buildImage(engine, w->image_, w->sections_);
         if (!status.ok()) return nullptr;
-        // Temporary files of writes that a crash or kill interrupted
-        // (writeFileAtomic names them ".<name>.tmpXXXXXX").
+        // Temporaries (".<name>.tmpXXXXXX") killed writes left beside the file written (a link's target).
         namespace fs = std::filesystem;
-        const fs::path target(w->path_);
+        std::string written;
+        if (status = text::linkTarget(w->path_, written); !status.ok()) return nullptr;
+        const fs::path target(written);
         const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
         std::error_code ec;  // never thrown: a loop of links on the way is an error like any other
         if (!fs::is_directory(dir, ec)) {

@@ -88,9 +88,9 @@ Status planFromData(const MissionOptions& m, const StreamMissionInput& in, Strea
         for (uint32_t w : ob.words) maxWord = std::max(maxWord, w);
         for (const Position& p : ob.positions) maxX = std::max(maxX, p.x), maxY = std::max(maxY, p.y);
     }
-    // Without positions every word of an observation is in one cell: a frame
-    // size asked for would be ignored, so it is refused.
-    if (!out.stream.has_positions && (in.width > 0 || in.height > 0)) {
+    // Without positions every word of an observation is in one cell of a 1x1
+    // frame: another frame size asked for would be ignored, so it is refused.
+    if (!out.stream.has_positions && (in.width > 1 || in.height > 1)) {
         std::string size = in.width > 0 ? "width " + std::to_string(in.width) : "";
         if (in.height > 0) size += (size.empty() ? "height " : ", height ") + std::to_string(in.height);
         return Status::error(in.words + ": no " + m.names.positions + ", but a frame size was given (" + size +

@@ -343,29 +343,10 @@ Status readFile(const std::string& path, FileBytes& out) {
 }
 
 namespace {
-// The file writing `path` replaces: `path`, or where its symbolic links lead
-// (a checkpoint linked into a store is written there, and the link kept).
-// A link that leads nowhere yet leads to the file to make; a loop stops
-// after 40 links, as the kernel's lookups do, at the last one.
-std::string finalTarget(const std::string& path) {
-    std::string p = path;
-    for (int hops = 0; hops < 40; ++hops) {
-        struct stat st {};
-        if (::lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) break;
-        std::string to(static_cast<std::size_t>(st.st_size > 0 ? st.st_size : 255) + 1, '\0');
-        const ssize_t n = ::readlink(p.c_str(), to.data(), to.size());
-        if (n <= 0 || static_cast<std::size_t>(n) >= to.size()) break;
-        to.resize(static_cast<std::size_t>(n));
-        const std::size_t slash = p.find_last_of('/');
-        p = to.front() == '/' || slash == std::string::npos ? to : p.substr(0, slash + 1) + to;
-    }
-    return p;
-}
-
 // fileModeFor (rost/text_io.hpp).
 mode_t modeFor(const std::string& path) {
     struct stat st {};
-    if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) return st.st_mode & 07777;
+    if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) return st.st_mode & 0777;  // not setuid, setgid, sticky
     // The umask, read without changing it (umask(2) sets it, a race with
     // other threads creating files): /proc/self/status's "Umask:" line.
     const mode_t mask = [] {
@@ -498,9 +479,31 @@ Status renameInto(const std::string& tmp, const std::string& path, const std::st
 
 unsigned fileModeFor(const std::string& path) { return modeFor(path); }
 
+Status linkTarget(const std::string& path, std::string& target) {
+    std::string p = path;
+    for (int hops = 0; hops < 40; ++hops) {
+        struct stat st {};
+        if (::lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) {
+            target = p;
+            return {};
+        }
+        std::string to(static_cast<std::size_t>(st.st_size > 0 ? st.st_size : 255) + 1, '\0');
+        const ssize_t n = ::readlink(p.c_str(), to.data(), to.size());
+        if (n <= 0 || static_cast<std::size_t>(n) >= to.size()) {
+            target = p;  // changed under us: the link itself, as before links were followed
+            return {};
+        }
+        to.resize(static_cast<std::size_t>(n));
+        const std::size_t slash = p.find_last_of('/');
+        p = to.front() == '/' || slash == std::string::npos ? to : p.substr(0, slash + 1) + to;
+    }
+    return Status::fromErrno(ELOOP, path + ": too many levels of symbolic links");
+}
+
 Status writeFileAtomic(const std::string& path, std::string_view content) {
     if (isDeviceOrFifo(path)) return writeInPlace(path, content);
-    const std::string target = finalTarget(path);
+    std::string target;
+    if (Status st = linkTarget(path, target); !st.ok()) return st;
     std::string dir, tmp;
     if (Status st = writeTemporary(target, content, dir, tmp); !st.ok()) return st;
     return renameInto(tmp, target, dir);
@@ -510,7 +513,7 @@ Status writeFilesAtomic(std::span<const FileToWrite> files) {
     struct Staged {
         const FileToWrite* file;
         std::string dir, tmp;  // tmp empty: a device or FIFO, written in place at the end
-        std::string target;    // the file replaced (finalTarget)
+        std::string target;    // the file replaced (linkTarget)
     };
     std::vector<Staged> staged;
     staged.reserve(files.size());
@@ -519,7 +522,11 @@ Status writeFilesAtomic(std::span<const FileToWrite> files) {
             if (!s.tmp.empty()) ::unlink(s.tmp.c_str());
     };
     for (const FileToWrite& f : files) {
-        Staged s{&f, {}, {}, finalTarget(f.path)};
+        Staged s{&f, {}, {}, {}};
+        if (Status st = linkTarget(f.path, s.target); !st.ok()) {
+            dropTemporaries();
+            return st;
+        }
         if (!isDeviceOrFifo(f.path)) {
             if (Status st = writeTemporary(s.target, f.content, s.dir, s.tmp); !st.ok()) {
                 dropTemporaries();

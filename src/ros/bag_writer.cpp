@@ -18,12 +18,13 @@
 namespace rost::text {
 // rost/text_io.hpp's (a C++20 header; this file is C++17 for rosbag's).
 unsigned fileModeFor(const std::string& path);
+Status linkTarget(const std::string& path, std::string& target);
 } // namespace rost::text
 
 namespace rost::bag {
 
 struct ResultBagWriter::Impl {
-    std::string path, tmp, topic;
+    std::string path, tmp, topic, target;  // target: where path's links lead (path itself without)
     rosbag::Bag bag;
     bool open = false;
 };
@@ -46,14 +47,18 @@ Status ResultBagWriter::open(const std::string& path, const std::string& topic) 
     const auto st = std::filesystem::status(path, ec);
     if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
         return Status::error("--out.bag " + path + ": not a regular file (a bag is written to a file)");
-    // Staged in a file of its own beside it ("DIR/.NAME.tmpXXXXXX", made
-    // here), never a fixed name another file of the run may have.
-    const std::size_t slash = path.find_last_of('/');
-    impl_->tmp = (slash == std::string::npos ? std::string() : path.substr(0, slash + 1)) + "." +
-                 (slash == std::string::npos ? path : path.substr(slash + 1)) + ".tmpXXXXXX";
+    // Written where a link leads (the link kept), staged in a file of its own
+    // beside that ("DIR/.NAME.tmpXXXXXX", made here), never a fixed name
+    // another file of the run may have.
+    std::string target;
+    if (Status linked = text::linkTarget(path, target); !linked.ok()) return linked.prefixed("--out.bag ");
+    impl_->target = target;
+    const std::size_t slash = target.find_last_of('/');
+    impl_->tmp = (slash == std::string::npos ? std::string() : target.substr(0, slash + 1)) + "." +
+                 (slash == std::string::npos ? target : target.substr(slash + 1)) + ".tmpXXXXXX";
     const int fd = ::mkstemp(impl_->tmp.data());
     if (fd < 0) return Status::error("--out.bag " + path + ": cannot create a file beside it: " + std::strerror(errno));
-    ::fchmod(fd, static_cast<mode_t>(text::fileModeFor(path)));  // mkstemp's 0600: the mode a new file gets
+    ::fchmod(fd, static_cast<mode_t>(text::fileModeFor(target)));  // mkstemp's 0600: the mode a new file gets
     ::close(fd);
     try {
         impl_->bag.open(impl_->tmp, rosbag::bagmode::Write);
@@ -87,7 +92,7 @@ Status ResultBagWriter::commit() {
     }
     impl_->open = false;
     std::error_code ec;
-    std::filesystem::rename(impl_->tmp, impl_->path, ec);
+    std::filesystem::rename(impl_->tmp, impl_->target, ec);
     if (ec) return Status::error("--out.bag " + impl_->path + ": " + ec.message());
     return {};
 }

@@ -109,6 +109,15 @@ def main():
           not [f for f in os.listdir(work) if f.startswith(".results.bag.tmp")],
           "results.bag.tmp untouched, no staging file left")
     os.remove(outbag + ".tmp")
+    # --out.bag through a link: written where it leads, the link kept.
+    os.makedirs(os.path.join(work, "store"))
+    open(os.path.join(work, "store", "res.bag"), "wb").write(b"old")
+    os.symlink(os.path.join("store", "res.bag"), os.path.join(work, "link.bag"))
+    code, err = rost_run(bag, "--topic", "/cam/image_raw", "--out", os.path.join(work, "linked"), "--out.bag",
+                         os.path.join(work, "link.bag"), "-q", "--no-overlay", "--no-summary")
+    check(code == 0 and os.path.islink(os.path.join(work, "link.bag")) and
+          open(os.path.join(work, "store", "res.bag"), "rb").read(13) == b"#ROSBAG V2.0\n",
+          "--out.bag through a link: the link kept, the bag where it leads " + err.strip())
     rows = list(csv.DictReader(open(os.path.join(out, "frames.csv"))))
     check([int(r["timestamp_us"]) for r in rows] == [s // 1000 for s in stamps],
           "frames.csv has the messages' stamps")
