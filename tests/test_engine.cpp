@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -128,9 +129,14 @@ TEST(EngineConfig, TablesThatDoNotFitInMemoryAreRefusedNamingTheirSettings) {
         ::close(fds[0]);
         const rlimit lim{1ul << 30, 1ul << 30};
         ::setrlimit(RLIMIT_AS, &lim);
-        Status st;
-        const bool made = Engine::create(c, st) != nullptr;
-        const std::string msg = made ? std::string("made") : st.message();
+        // Where the limit is not enforced (an emulator such as qemu-user maps
+        // for the guest), a 2 GiB mapping succeeds: the test cannot run there.
+        void* probe = ::mmap(nullptr, 2ul << 30, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        std::string msg = "unenforced";
+        if (probe == MAP_FAILED) {
+            Status st;
+            msg = Engine::create(c, st) != nullptr ? std::string("made") : st.message();
+        }
         (void)!::write(fds[1], msg.data(), msg.size());
         ::_exit(0);
     }
@@ -142,6 +148,7 @@ TEST(EngineConfig, TablesThatDoNotFitInMemoryAreRefusedNamingTheirSettings) {
     int status = 0;
     ::waitpid(pid, &status, 0);
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the child ended otherwise: " << status;
+    if (msg == "unenforced") GTEST_SKIP() << "an address-space limit is not enforced here (an emulator)";
     EXPECT_EQ(msg, "engine: not enough memory for the model's tables: " + c.model.tablesText() + "; lower one of them");
     EXPECT_NE(msg.find("K = 1024, V = 1000000, ring.steps = "), std::string::npos) << msg;
 #endif
