@@ -28,6 +28,8 @@
 #include <string_view>
 #include <vector>
 
+#include "rost/file_target.hpp"
+
 #include "rost/status.hpp"
 
 namespace rost::text {
@@ -229,17 +231,7 @@ Status probeOutputFile(const std::string& path);
 // replace the device node with a regular file.
 Status writeFileAtomic(const std::string& path, std::string_view content);
 
-// The file a write to `path` replaces: `path`, or where its symbolic links
-// lead (a checkpoint linked into a store is written there, the link kept; a
-// link to a file not made yet leads to the file to make). A loop of links
-// (40 hops) is an error, as the kernel's lookups give. writeFileAtomic and
-// writeFilesAtomic write there; a result bag is staged beside it.
-Status linkTarget(const std::string& path, std::string& target);
-
-// The permissions a file written to `path` gets (writeFileAtomic, and a
-// result bag staged beside it): those of the regular file there, else what
-// a new file gets under this process's umask (0666 less it).
-unsigned fileModeFor(const std::string& path);
+// linkTarget and fileModeFor (where a write lands, with what mode): rost/file_target.hpp.
 
 // Several files that belong together (a run's outputs): each is written to
 // its temporary file first, and only when every one is written and flushed

@@ -343,30 +343,6 @@ Status readFile(const std::string& path, FileBytes& out) {
 }
 
 namespace {
-// fileModeFor (rost/text_io.hpp).
-mode_t modeFor(const std::string& path) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) return st.st_mode & 0777;  // not setuid, setgid, sticky
-    // The umask, read without changing it (umask(2) sets it, a race with
-    // other threads creating files): /proc/self/status's "Umask:" line.
-    const mode_t mask = [] {
-        std::ifstream f("/proc/self/status");
-        for (std::string line; std::getline(f, line);)
-            if (line.starts_with("Umask:")) return static_cast<mode_t>(std::strtoul(line.c_str() + 6, nullptr, 8) & 0777);
-        return static_cast<mode_t>(022);
-    }();
-    return static_cast<mode_t>(0666 & ~mask);
-}
-
-// The temporary file beside `path` that writeFileAtomic renames over it ("DIR/.NAME.tmpXXXXXX", made).
-int makeTemporary(const std::string& path, std::string& dir, std::string& tmp) {
-    const std::size_t slash = path.find_last_of('/');
-    dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
-    const std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
-    tmp = dir + "/." + base + ".tmpXXXXXX";
-    return ::mkstemp(tmp.data());
-}
-
 // Writes all of `content` to `fd`; false (errno set) on failure.
 bool writeAll(int fd, std::string_view content) {
     const char* p = content.data();
@@ -423,7 +399,7 @@ Status probeOutputFile(const std::string& path) {
         return {};
     }
     std::string dir, tmp;
-    const int fd = makeTemporary(path, dir, tmp);
+    const int fd = makeTemporaryBeside(path, dir, tmp);
     if (fd < 0) {
         const int err = errno;
         return Status::fromErrno(err, path + ": cannot write in " + dir + ": " + std::strerror(err));
@@ -438,7 +414,7 @@ namespace {
 // `content` in a new temporary file beside `path` (its name in `tmp`, its
 // directory in `dir`), flushed; on failure nothing is left behind.
 Status writeTemporary(const std::string& path, std::string_view content, std::string& dir, std::string& tmp) {
-    const int fd = makeTemporary(path, dir, tmp);
+    const int fd = makeTemporaryBeside(path, dir, tmp);
     if (fd < 0) {
         const int err = errno;
         return Status::fromErrno(err, path + ": cannot create a temporary file in " + dir + ": " + std::strerror(err));
@@ -449,7 +425,6 @@ Status writeTemporary(const std::string& path, std::string_view content, std::st
         ::unlink(tmp.c_str());
         return Status::error(path + ": write failed: " + why);
     }
-    ::fchmod(fd, static_cast<mode_t>(fileModeFor(path)));
     const int synced = ::fsync(fd) == 0 ? 0 : errno;
     const int closed = ::close(fd) == 0 ? 0 : errno;  // closed whether or not fsync failed
     if (synced != 0 || closed != 0) {
@@ -477,7 +452,26 @@ Status renameInto(const std::string& tmp, const std::string& path, const std::st
 
 } // namespace
 
-unsigned fileModeFor(const std::string& path) { return modeFor(path); }
+unsigned fileModeFor(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) return st.st_mode & 0777;  // not setuid, setgid, sticky
+    // The umask, read without changing it (umask(2) sets it, a race with
+    // other threads creating files): /proc/self/status's "Umask:" line.
+    std::ifstream f("/proc/self/status");
+    for (std::string line; std::getline(f, line);)
+        if (line.starts_with("Umask:")) return 0666u & ~(static_cast<unsigned>(std::strtoul(line.c_str() + 6, nullptr, 8)) & 0777u);
+    return 0644u;  // a kernel before 4.7 shows no umask: the common 022
+}
+
+int makeTemporaryBeside(const std::string& target, std::string& dir, std::string& tmp) {
+    const std::size_t slash = target.find_last_of('/');
+    dir = slash == std::string::npos ? "." : (slash == 0 ? "/" : target.substr(0, slash));
+    const std::string base = slash == std::string::npos ? target : target.substr(slash + 1);
+    tmp = dir + "/." + base + ".tmpXXXXXX";
+    const int fd = ::mkstemp(tmp.data());
+    if (fd >= 0) ::fchmod(fd, static_cast<mode_t>(fileModeFor(target)));  // mkstemp's 0600: the mode the file gets
+    return fd;
+}
 
 Status linkTarget(const std::string& path, std::string& target) {
     std::string p = path;

@@ -7,19 +7,13 @@
 #include <filesystem>
 
 #include <fcntl.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <rosbag/bag.h>
 
 #include "bag.hpp"
 #include "frame_msg.hpp"
-
-namespace rost::text {
-// rost/text_io.hpp's (a C++20 header; this file is C++17 for rosbag's).
-unsigned fileModeFor(const std::string& path);
-Status linkTarget(const std::string& path, std::string& target);
-} // namespace rost::text
+#include "rost/file_target.hpp"
 
 namespace rost::bag {
 
@@ -48,17 +42,13 @@ Status ResultBagWriter::open(const std::string& path, const std::string& topic) 
     if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
         return Status::error("--out.bag " + path + ": not a regular file (a bag is written to a file)");
     // Written where a link leads (the link kept), staged in a file of its own
-    // beside that ("DIR/.NAME.tmpXXXXXX", made here), never a fixed name
-    // another file of the run may have.
-    std::string target;
+    // beside that (rost/file_target.hpp), never a fixed name another file of
+    // the run may have.
+    std::string target, dir;
     if (Status linked = text::linkTarget(path, target); !linked.ok()) return linked.prefixed("--out.bag ");
     impl_->target = target;
-    const std::size_t slash = target.find_last_of('/');
-    impl_->tmp = (slash == std::string::npos ? std::string() : target.substr(0, slash + 1)) + "." +
-                 (slash == std::string::npos ? target : target.substr(slash + 1)) + ".tmpXXXXXX";
-    const int fd = ::mkstemp(impl_->tmp.data());
-    if (fd < 0) return Status::error("--out.bag " + path + ": cannot create a file beside it: " + std::strerror(errno));
-    ::fchmod(fd, static_cast<mode_t>(text::fileModeFor(target)));  // mkstemp's 0600: the mode a new file gets
+    const int fd = text::makeTemporaryBeside(target, dir, impl_->tmp);
+    if (fd < 0) return Status::error("--out.bag " + path + ": cannot create a file in " + dir + ": " + std::strerror(errno));
     ::close(fd);
     try {
         impl_->bag.open(impl_->tmp, rosbag::bagmode::Write);
