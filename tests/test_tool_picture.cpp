@@ -10,6 +10,7 @@
 #include <future>
 #include <limits>
 #include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -95,6 +96,52 @@ TEST(ToolSummary, TimeStampsInNanosecondsOrAllAlikeAreDrawnAndTheDrawingEnds) {
             std::fflush(nullptr);
             std::_Exit(1);
         }
+    }
+}
+
+// The time axis's labels: short, side by side without touching, and, where
+// the stamps are far larger than their span (a bag's nanoseconds), counted
+// from an origin that is one of the ticks. Frame numbers read as they are.
+TEST(ToolSummary, TimeLabelsFitTheAxisAndCountFromAnOriginWhereStampsAreLarge) {
+    struct Axis {
+        double x0, x1;
+        bool from_origin;
+        int width;  // 1468: the summary's plot
+    };
+    const Axis axes[] = {
+        {0, 300, false, 1468},                                        // frames
+        {0, 99999, false, 1468},                                      // a long video
+        {0, 99999, false, 300},                                       // in a narrow box: fewer ticks
+        {1700000000000000000.0, 1700000060000000000.0, true, 1468},  // a minute of a bag, ns
+        {1700000000000000000.0, 1700000000400000000.0, true, 1468},  // 0.4 s of it
+        {1.7e9, 1.7e9 + 3600, true, 1468},                          // a Unix time in s with an hour
+        {-5e12, 5e12, false, 1468},
+    };
+    for (const Axis& a : axes) {
+        SCOPED_TRACE(std::to_string(a.x0) + " to " + std::to_string(a.x1) + " in " + std::to_string(a.width));
+        const int width = a.width;
+        const rost::tool::TimeTicks t = rost::tool::timeTicks(a.x0, a.x1, width);
+        ASSERT_GE(t.at.size(), 2u);
+        ASSERT_EQ(t.labels.size(), t.at.size());
+        EXPECT_EQ(t.origin != 0.0, a.from_origin);
+        if (a.from_origin) {
+            EXPECT_EQ(t.origin, t.at.front());
+        }
+        int used = 0;
+        for (std::size_t i = 0; i < t.at.size(); ++i) {
+            EXPECT_GE(t.at[i], a.x0);
+            EXPECT_LE(t.at[i], a.x1);
+            if (i > 0) {
+                EXPECT_GT(t.at[i], t.at[i - 1]);
+            }
+            EXPECT_LE(t.labels[i].size(), 9u) << t.labels[i];
+            used += rost::tool::tickLabelWidth(t.labels[i]) + 12;
+            // What a label reads is where its tick stands, from the origin.
+            EXPECT_NEAR(std::strtod(t.labels[i].c_str(), nullptr) + t.origin, t.at[i],
+                        std::abs(t.at[1] - t.at[0]) * 0.01)
+                << t.labels[i];
+        }
+        EXPECT_LE(used, width) << "labels would touch";
     }
 }
 

@@ -198,6 +198,54 @@ std::string tickLabel(double v, double step) {
     return buf;
 }
 
+constexpr int kMaxTicks = 64;  // niceStep aims at 2 to 10
+
+} // namespace
+
+int tickLabelWidth(const std::string& label) { return textWidth(label, 0.42); }
+
+TimeTicks timeTicks(double x0, double x1, int width) {
+    TimeTicks t;
+    if (!(x1 > x0) || width <= 0) return t;
+    // From ten ticks down to two, the first whose labels have room.
+    for (int target : {10, 8, 6, 4, 3, 2}) {
+        const double step = std::max(1.0, niceStep(x1 - x0, target));
+        const double first = std::ceil(x0 / step);
+        // Counted, not stepped: near 1e18 a double cannot tell x + step from x.
+        std::vector<double> at;
+        for (int i = 0; i <= kMaxTicks; ++i) {
+            const double x = (first + i) * step;
+            if (!(x <= x1 + 1e-9)) break;
+            at.push_back(x);
+        }
+        if (at.empty()) continue;
+        // Labels of more than nine characters are written short ("-5e+12"),
+        // and, on an axis far narrower than its stamps, read from the first tick.
+        const double mag = std::max(std::abs(at.front()), std::abs(at.back()));
+        const bool longLabels = tickLabel(mag, step).size() > 9;
+        const double origin = longLabels && (x1 - x0) < mag / 100 ? at.front() : 0.0;
+        std::vector<std::string> labels;
+        int used = 0;
+        for (double x : at) {
+            char buf[32];
+            if (origin == 0.0 && !longLabels) std::snprintf(buf, sizeof buf, "%s", tickLabel(x, step).c_str());
+            else if (origin == 0.0) std::snprintf(buf, sizeof buf, "%.3g", x);
+            else if (x == origin) std::snprintf(buf, sizeof buf, "+0");
+            else if (step >= 1e5) std::snprintf(buf, sizeof buf, "+%.3g", x - origin);
+            else std::snprintf(buf, sizeof buf, "+%s", tickLabel(x - origin, step).c_str());
+            labels.emplace_back(buf);
+            used += tickLabelWidth(labels.back()) + 12;
+        }
+        t.at = std::move(at);
+        t.labels = std::move(labels);
+        t.origin = origin;
+        if (used <= width) break;
+    }
+    return t;
+}
+
+namespace {
+
 struct Axes {
     cv::Rect box;
     double x0, x1, y0, y1;
@@ -209,8 +257,6 @@ struct Axes {
         return box.y + box.height - 1 - static_cast<int>(std::lround((y - y0) / (y1 - y0) * (box.height - 1)));
     }
 };
-
-constexpr int kMaxTicks = 64;  // niceStep aims at 4 and 10
 
 void drawFrame(cv::Mat& img, const Axes& a, const std::string& ylabel, bool xLabels) {
     // Horizontal grid and y ticks.
@@ -227,17 +273,17 @@ void drawFrame(cv::Mat& img, const Axes& a, const std::string& ylabel, bool xLab
         text(img, s, {a.box.x - 8 - textWidth(s, 0.42), p + 5}, 0.42, kInk);
     }
     // Vertical grid and x ticks.
-    const double xs = std::max(1.0, niceStep(a.x1 - a.x0, 10));
-    const double xFirst = std::ceil(a.x0 / xs);
-    for (int i = 0; i <= kMaxTicks; ++i) {
-        const double x = (xFirst + i) * xs;
-        if (!(x <= a.x1 + 1e-9)) break;
-        const int p = a.px(x);
+    const TimeTicks xt = timeTicks(a.x0, a.x1, a.box.width);
+    for (std::size_t i = 0; i < xt.at.size(); ++i) {
+        const int p = a.px(xt.at[i]);
         cv::line(img, {p, a.box.y}, {p, a.box.y + a.box.height - 1}, kGrid, 1, cv::LINE_AA);
-        if (xLabels) {
-            const std::string s = tickLabel(x, xs);
-            text(img, s, {p - textWidth(s, 0.42) / 2, a.box.y + a.box.height + 17}, 0.42, kInk);
-        }
+        if (xLabels)
+            text(img, xt.labels[i], {p - tickLabelWidth(xt.labels[i]) / 2, a.box.y + a.box.height + 17}, 0.42, kInk);
+    }
+    if (xLabels && xt.origin != 0.0) {  // the origin the labels count from, above the box's right end
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "time since %.0f", xt.origin);
+        text(img, buf, {a.box.x + a.box.width - textWidth(buf, 0.42), a.box.y - 6}, 0.42, kInk);
     }
     cv::rectangle(img, a.box, kAxis, 1);
     // Rotated y label: draw into a small image and rotate.
@@ -324,8 +370,7 @@ void drawSurprise(cv::Mat& img, const Axes& sur, std::span<const FrameRow> rows,
     }
     if (!resumed && !rows.empty() && rows.size() > warm && rows.front().surprise > hi) {
         char buf[64];
-        std::snprintf(buf, sizeof buf, "frame %lld: %.0f (empty model)", static_cast<long long>(rows.front().timestamp),
-                      rows.front().surprise);
+        std::snprintf(buf, sizeof buf, "first: %.0f (empty model)", rows.front().surprise);
         text(img, buf, {sur.box.x + 14, sur.box.y + 16}, 0.42, cv::Scalar(110, 110, 110));
     }
 }

@@ -107,6 +107,20 @@ Picture drawSummary(const SummaryInput& in);
 // tenths apart (stamps in nanoseconds, a single row).
 std::pair<double, double> timeAxis(std::span<const FrameRow> rows);
 
+// summary.png's time ticks on an axis from x0 to x1, `width` pixels wide:
+// where they stand and what they read. Stamps much larger than their span
+// (nanoseconds since 1970 from a bag) are read from `origin`, the first
+// tick ("+2e+09", not 19 digits each), and the picture names the origin;
+// fewer ticks are drawn where their labels would touch.
+struct TimeTicks {
+    double origin = 0.0;  // what the labels count from: 0, or the first tick
+    std::vector<double> at;
+    std::vector<std::string> labels;
+};
+TimeTicks timeTicks(double x0, double x1, int width);
+// The width in pixels of a tick label as summary.png draws it.
+int tickLabelWidth(const std::string& label);
+
 // Rows where the surprise jumps to at least twice the median of the 10 rows
 // before it (after the first frames), strongest jump first, at least
 // `separation` rows apart: where the scene changed.
