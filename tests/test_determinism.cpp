@@ -38,6 +38,9 @@ constexpr uint64_t kExpectedWindowChecksum = 0x29495752e6899d62ull;
 // strategy (all eight of section VI), with a count budget; one checksum over all.
 constexpr uint64_t kExpectedEngineChecksum = 0xb38cd0f70b105d7dull;        // refine.window = 1
 constexpr uint64_t kExpectedEngineWindowChecksum = 0xe7b803c6797458b5ull;  // refine.window = 256
+// A fixed topic model (topicmodel.fixed) under the Uniform strategy, W = 256:
+// a window picks a cell twice, and each pick draws from its own random stream.
+constexpr uint64_t kExpectedFixedChecksum = 0x23efac47a5f3f10cull;
 // The lane order (K = 64, K = 100) and growth (cap 100, initial labels over 64 topics): serial
 // and W = 256 for each (LaneOrderAndGrowthGiveTheRecordedChecksums).
 constexpr uint64_t kExpectedLaneChecksum[6] = {0x1ceda9e85141ede9ull, 0x0ed8a20dc6a2201cull, 0xa18469b1d875939cull,
@@ -412,6 +415,58 @@ TEST(EngineReplay, OneCellAWindowIsThePlainSerialLoopForEveryStrategy) {
         for (int v = 0; v < m.V() && counts; ++v)
             for (int k = 0; k < m.K(); ++k) counts = counts && m.topicWordCount(k, v) == plain.topicWordCount(k, v);
         EXPECT_TRUE(counts) << rost::toString(kind) << ": the word-topic counts differ";
+    }
+}
+
+// A fixed topic model given as the textures' bands (topic t: 3 of each word
+// of band t), refined by the Uniform strategy (4 steps a frame from a window of
+// up to 24: a window of picks often holds a step, so its cells, twice). Each
+// pick of a cell draws from its own random stream (keyed by the pick, not the
+// cell): the recorded value, the same for 1 to 3 threads, the counts as given.
+uint64_t fixedReplay(int threads, uint64_t* tokens) {
+    rost::EngineConfig ec;
+    ec.model = streamConfig();
+    ec.model.fixed = true;
+    ec.model.refine_window = 256;
+    ec.model.threads = threads;
+    ec.strategy.kind = rost::StrategyKind::Uniform;
+    ec.budget = rost::Budget::steps(4);
+    rost::Engine engine(ec);
+    const int K = ec.model.K, V = ec.model.V;
+    std::vector<int32_t> counts(static_cast<std::size_t>(K) * static_cast<std::size_t>(V), 0);
+    for (int t = 0; t < kTextures; ++t)
+        for (int v = t * 80; v < t * 80 + 80; ++v) counts[static_cast<std::size_t>(t) * V + v] = 3;
+    EXPECT_TRUE(engine.model().addTopicCounts(counts).ok());
+    rost::Rng stream(99);
+    std::vector<uint32_t> words;
+    std::vector<rost::Position> pos;
+    for (int f = 0; f < kFrames; ++f) {
+        makeFrame(stream, f, words, pos);
+        EXPECT_TRUE(engine.processNow({f, words, pos}).add.ok()) << "frame " << f;
+    }
+    engine.finalPass(2);
+    const rost::Model& m = engine.model();
+    std::string why;
+    EXPECT_TRUE(m.checkInvariants(&why)) << why;
+    for (int k = 0; k < K; ++k)
+        for (int v = 0; v < V; ++v)
+            if (m.topicWordCount(k, v) != counts[static_cast<std::size_t>(k) * V + v]) {
+                ADD_FAILURE() << "n_k^v of topic " << k << ", word " << v << " changed";
+                return 0;
+            }
+    if (tokens) *tokens = m.tokensRefined();
+    Checksum h;
+    hashModel(m, h);
+    return h.value();
+}
+
+TEST(CrossArchReplay, AFixedTopicModelGivesTheRecordedChecksumOnAnyNumberOfThreads) {
+    for (int threads = 1; threads <= 3; ++threads) {
+        uint64_t tokens = 0;
+        const uint64_t c = fixedReplay(threads, &tokens);
+        std::printf("[ replay   ] fixed topic model, W 256, %d threads: checksum %s, %llu tokens\n", threads,
+                    hex(c).c_str(), static_cast<unsigned long long>(tokens));
+        EXPECT_EQ(hex(c), hex(kExpectedFixedChecksum)) << threads << " threads";
     }
 }
 
