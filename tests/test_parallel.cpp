@@ -9,9 +9,11 @@
 #include <atomic>
 #include <bit>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <future>
+#include <memory>
 #include <thread>
 #include <string>
 #include <vector>
@@ -711,6 +713,67 @@ TEST(WorkerPool, EveryTaskRunsExactlyOnceAlsoWithMoreThreadsThanCores) {
     pool.run(job, 0);
     EXPECT_EQ(job.runs[0].load(), 1002u);
     EXPECT_EQ(job.runs[63].load(), 1001u);
+}
+
+// A job of 2^20 tasks or more (a range's fields hold 20 bits): every task
+// still runs exactly once, and the job ends. Before, a 1024 x 1024 grid of
+// 1-pixel cells (2^20 cells, which the settings allow) hung its first
+// measurement for good on two threads.
+struct ManyJob final : detail::WorkerPool::Job {
+    explicit ManyJob(std::size_t n) : runs(n) {}
+    std::vector<std::atomic<uint8_t>> runs;
+    void task(int /*worker*/, uint32_t index) noexcept override { runs[index].fetch_add(1, std::memory_order_relaxed); }
+};
+
+TEST(WorkerPool, AJobOfAMillionTasksOrMoreRunsEachOnceAndEnds) {
+    for (const uint32_t count : {(1u << 20) - 1, 1u << 20, (1u << 20) + 3, 3u << 20}) {
+        SCOPED_TRACE(count);
+        auto job = std::make_shared<ManyJob>(count);
+        auto done = std::make_shared<std::promise<void>>();
+        std::future<void> f = done->get_future();
+        std::thread([job, done, count] {
+            detail::WorkerPool pool(3);
+            pool.run(*job, count);
+            EXPECT_EQ(pool.jobs(), 1u);
+            done->set_value();
+        }).detach();
+        if (f.wait_for(std::chrono::seconds(60)) != std::future_status::ready) {
+            ADD_FAILURE() << "a job of " << count << " tasks did not end in 60 s";
+            std::fflush(nullptr);
+            std::_Exit(1);
+        }
+        std::size_t wrong = 0;
+        for (const auto& r : job->runs) wrong += r.load() != 1 ? 1 : 0;
+        EXPECT_EQ(wrong, 0u) << "tasks not run exactly once";
+    }
+    // The grid of 2^20 cells itself, measured on two threads.
+    Config c;
+    c.V = 50;
+    c.K = 4;
+    c.frame_width = c.frame_height = 1024;
+    c.cell_space = 1;
+    c.cell_capacity = 1;
+    c.ring_steps = 2;
+    c.threads = 2;
+    auto m = std::make_shared<Model>(c);
+    auto done = std::make_shared<std::promise<void>>();
+    std::future<void> f = done->get_future();
+    std::thread([m, done] {
+        std::vector<uint32_t> w(300);
+        std::vector<Position> p(300);
+        for (int i = 0; i < 300; ++i) {
+            w[static_cast<std::size_t>(i)] = static_cast<uint32_t>(i % 50);
+            p[static_cast<std::size_t>(i)] = {i * 3, i * 2};
+        }
+        EXPECT_TRUE(m->addObservation(w, p).ok());
+        EXPECT_TRUE(std::isfinite(m->observationSurprise(0)));
+        done->set_value();
+    }).detach();
+    if (f.wait_for(std::chrono::seconds(120)) != std::future_status::ready) {
+        ADD_FAILURE() << "an observation on a grid of 2^20 cells, two threads, did not end in 120 s";
+        std::fflush(nullptr);
+        std::_Exit(1);
+    }
 }
 
 // A job that takes pairs (src/core/kernel_pair.hpp): an owner claims the

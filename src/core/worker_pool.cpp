@@ -1,5 +1,6 @@
 #include "worker_pool.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -162,12 +163,38 @@ void WorkerPool::countDone(uint32_t ran, uint32_t count) noexcept {
     if (done_.fetch_add(ran, std::memory_order_acq_rel) + ran == count) done_.notify_one();
 }
 
+namespace {
+// Tasks base.. of a job too large for one range's 20 bits, as a job of its own.
+struct JobPart final : WorkerPool::Job {
+    WorkerPool::Job* whole = nullptr;
+    uint32_t base = 0;
+    void task(int worker, uint32_t index) noexcept override { whole->task(worker, base + index); }
+    void taskPair(int worker, uint32_t index) noexcept override { whole->taskPair(worker, base + index); }
+};
+} // namespace
+
 void WorkerPool::run(Job& job, uint32_t count, const uint32_t* cuts) noexcept {
     ++jobs_;
     if (count == 0) return;
     if (workers_ == 1) {
         job.begin(0);
         runInTurn(job, count);
+        return;
+    }
+    if (count > kField) {
+        // A range holds 20 bits: a job of 2^20 tasks or more (the cells of a
+        // 1024 x 1024 grid of 1-pixel cells) runs in parts of 2^19, one after
+        // the other, each task once. Such jobs are the measurements', which
+        // have no begin() and no cuts.
+        constexpr uint32_t kPart = uint32_t{1} << 19;
+        JobPart part;
+        part.whole = &job;
+        part.pairs = job.pairs;
+        for (uint32_t base = 0; base < count; base += kPart) {
+            part.base = base;
+            run(part, std::min(kPart, count - base));
+            --jobs_;
+        }
         return;
     }
     job_ = &job;

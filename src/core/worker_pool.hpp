@@ -71,8 +71,9 @@ public:
     // refiner keeps `cpu`). Set-up code.
     void applySettings(const ThreadSettings& settings);
 
-    // Runs tasks 0..count-1 of the job (count < 2^20) on the workers and the
-    // caller (worker 0); returns when all are done.
+    // Runs tasks 0..count-1 of the job on the workers and the caller (worker
+    // 0); returns when all are done. A job of 2^20 tasks or more runs in
+    // parts (without begin() or cuts: the measurements' jobs, over cells).
     // `cuts`, when given, holds workers() + 1 ascending task indices from 0
     // to count: worker w's own range is [cuts[w], cuts[w + 1]).
     void run(Job& job, uint32_t count, const uint32_t* cuts = nullptr) noexcept;

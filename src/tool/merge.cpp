@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "outputs.hpp"
+#include "progress.hpp"
 #include "rost/merge.hpp"
 #include "rost/mission.hpp"
 #include "tool.hpp"
@@ -24,16 +25,23 @@ int mergeCommand(const MergeCliOptions& o) {
     for (const char* name : {"topicmodel.csv", "lifting.csv"})
         if (Status st = checkMissionOutputOverlap(read, "--out", (std::filesystem::path(o.out) / name).string()); !st.ok())
             return fail(st.message());
+    // Ctrl-C or SIGTERM from here on: exit 130, nothing written (a previous
+    // merge's files kept, the staging directory removed), as a refine's.
+    InterruptScope interrupts;
     std::vector<TopicCounts> models(o.models.size());
-    for (std::size_t i = 0; i < o.models.size(); ++i)
+    for (std::size_t i = 0; i < o.models.size(); ++i) {
         if (Status st = readTopicCounts(o.models[i], models[i]); !st.ok()) return fail(st.message());
+        if (interrupted()) return abandonedRun();
+    }
     MergedTopics merged;
     if (Status st = mergeTopicModels(models, options, merged); !st.ok()) return fail(st.message());
+    if (interrupted()) return abandonedRun();
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
     if (Status st = out.probe({"topicmodel.csv", "lifting.csv"}); !st.ok()) return fail(st.message());
     if (Status st = out.write("topicmodel.csv", formatTopicCountsCsv(merged.global)); !st.ok()) return fail(st.message());
     if (Status st = out.write("lifting.csv", formatLiftingCsv(merged)); !st.ok()) return fail(st.message());
+    if (interrupted()) return abandonedRun();
     if (Status st = out.commit(); !st.ok()) return fail(st.message());
     if (!o.quiet) {
         std::size_t topics = 0;
