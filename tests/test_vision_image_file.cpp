@@ -157,3 +157,29 @@ TEST(VisionImageFile, ThePhotosOrientationIsApplied) {
     ASSERT_TRUE(readImageFile(t / "grey.png", m).ok());
     EXPECT_EQ(m.type(), CV_8UC1);
 }
+
+// A floating-point image (a 32-bit TIFF) holds its brightness in [0, 1]: it
+// is the frame the same picture in 8 bits gives, not a black one.
+TEST(VisionImageFile, AFloatingPointImageIsTheFrameItsEightBitPictureGives) {
+    TempDir t;
+    const cv::Mat eight = noisy(64, 48, 3);
+    cv::Mat real;
+    eight.convertTo(real, CV_32FC3, 1.0 / 255.0);
+    std::filesystem::create_directories(t / "float");
+    std::filesystem::create_directories(t / "eight");
+    ASSERT_TRUE(cv::imwrite(t / "float/a.tiff", real, {cv::IMWRITE_TIFF_COMPRESSION, 1}));  // uncompressed: exact
+    ASSERT_TRUE(cv::imwrite(t / "eight/a.png", eight));
+    cv::Mat m;
+    ASSERT_TRUE(readImageFile(t / "float/a.tiff", m).ok());
+    ASSERT_EQ(m.depth(), CV_32F) << "the test needs a floating-point image";
+    Frame a, b;
+    for (const auto& [dir, frame] : {std::pair<std::string, Frame*>{t / "float", &a}, {t / "eight", &b}}) {
+        Status st;
+        auto s = openFrameSource(dir, {}, st);
+        ASSERT_TRUE(s) << st.message();
+        ASSERT_EQ(s->read(*frame), ReadStatus::Ok) << dir;
+    }
+    ASSERT_EQ(a.image.size(), b.image.size());
+    EXPECT_LE(cv::norm(a.image, b.image, cv::NORM_INF), 1.0) << "the float frame is the 8-bit one";
+    EXPECT_GT(cv::mean(a.image)[0], 50.0) << "not black";
+}

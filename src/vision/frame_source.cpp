@@ -58,8 +58,20 @@ bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
     if (in.empty()) return false;
     cv::Mat m = in;
     if (m.depth() != CV_8U) {
+        // To 8 bits as viewers show them: 16-bit over its range, floating
+        // point (TIFF, EXR) from [0, 1], signed from its range's middle. A
+        // float image taken as 0-255 would be black.
+        double scale = 1.0, shift = 0.0;
+        switch (m.depth()) {
+        case CV_16U: scale = 1.0 / 257.0; break;
+        case CV_16S: scale = 1.0 / 257.0, shift = 32768.0 / 257.0; break;
+        case CV_8S: shift = 128.0; break;
+        case CV_32F:
+        case CV_64F: scale = 255.0; break;
+        default: return false;  // 32-bit integers: no range a viewer agrees on
+        }
         cv::Mat t;
-        m.convertTo(t, CV_8U, m.depth() == CV_16U ? 1.0 / 257.0 : 1.0);
+        m.convertTo(t, CV_8U, scale, shift);
         m = t;
     }
     cv::Mat bgr;
