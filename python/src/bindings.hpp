@@ -10,6 +10,7 @@
 #include <exception>
 #include <span>
 #include <initializer_list>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,6 +19,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include "rost/engine.hpp"
 #include "rost/position.hpp"
 #include "rost/settings.hpp"
 #include "rost/status.hpp"
@@ -70,6 +72,11 @@ private:
     PyObject* type_;
     std::string message_;
 };
+
+// The engine for rost.Engine and rost.Model, built as every face builds it
+// (Engine::create): settings this machine cannot hold raise MemoryError
+// naming the settings the tables grow with, not "std::bad_alloc".
+std::unique_ptr<Engine> makeEngine(const EngineConfig& cfg);
 
 // Registers the translator that raises a StatusError as its Python exception (module init).
 void registerStatusErrors();

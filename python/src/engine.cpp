@@ -41,7 +41,7 @@ py::dict countersDict(const EngineCounters& c) {
 class PyEngine {
 public:
     explicit PyEngine(const Settings& s)
-        : settings_(s), engine_(std::make_unique<Engine>(s.engine)), snap_(engine_->makeSnapshot()) {}
+        : settings_(s), engine_(makeEngine(s.engine)), snap_(engine_->makeSnapshot()) {}
 
     void start() {
         BusyGuard guard(busy_, "rost.Engine");

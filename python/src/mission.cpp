@@ -129,6 +129,13 @@ void raiseStatus(const Status& st, const std::string& prefix, PyObject* otherwis
     throw StatusError(type, prefix + st.message());
 }
 
+std::unique_ptr<Engine> makeEngine(const EngineConfig& cfg) {
+    Status st;
+    std::unique_ptr<Engine> e = Engine::create(cfg, st);
+    if (!e) raiseStatus(st, {}, st.message().find("not enough memory") != std::string::npos ? PyExc_MemoryError : PyExc_ValueError);
+    return e;
+}
+
 void registerStatusErrors() {
     py::register_exception_translator([](std::exception_ptr p) {
         try {

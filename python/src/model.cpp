@@ -54,7 +54,7 @@ Status copyState(Engine& from, Engine& to) {
 
 class PyModel {
 public:
-    explicit PyModel(const Settings& s) : settings_(s), engine_(std::make_unique<Engine>(internalConfig(s.engine))) {}
+    explicit PyModel(const Settings& s) : settings_(s), engine_(makeEngine(internalConfig(s.engine))) {}
 
     const Settings& settings() const { return settings_; }
     Engine& engine() { return *engine_; }

@@ -445,3 +445,42 @@ def test_a_value_a_config_file_set_is_named_by_its_line(tmp_path):
     (tmp_path / "k.conf").write_text("# mission\ng.time = 5\n")
     code, err = tool(tmp_path, "refine", "docs.csv", "--out", tmp_path / "o", "--config", "k.conf")
     refused(code, err, "k.conf:2: key 'g.time': g.time = 5, allowed [0, 2]; below ring.steps = 3", out=tmp_path / "o")
+
+
+# Settings whose tables do not fit in memory: MemoryError naming the settings
+# they grow with, from rost.Model and rost.Engine alike, as the tool says it
+# (not "std::bad_alloc"). Run in a child under a 2 GiB address-space limit;
+# skipped where such a limit is not enforced.
+_OUT_OF_MEMORY = """
+import mmap, resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+try:
+    mmap.mmap(-1, 2 << 30)
+    print("unenforced")
+    sys.exit(0)
+except (OSError, MemoryError, ValueError):
+    pass
+import rost
+for make in (rost.Model, rost.Engine):
+    try:
+        make(rost.Config(V=10_000_000, K=1000, frame_width=64, frame_height=64))
+        print(make.__name__, "made")
+    except MemoryError as e:
+        print(make.__name__, "MemoryError", e)
+"""
+
+
+def test_settings_too_large_for_memory_raise_memory_error_naming_them():
+    import sys
+    p = subprocess.run([sys.executable, "-c", _OUT_OF_MEMORY], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       timeout=120, env=os.environ)
+    out = p.stdout.decode()
+    if "unenforced" in out:
+        pytest.skip("an address-space limit is not enforced here")
+    assert p.returncode == 0, p.stderr.decode()
+    lines = out.strip().splitlines()
+    assert len(lines) == 2, out
+    for line, name in zip(lines, ("Model", "Engine")):
+        assert line.startswith(name + " MemoryError"), line
+        assert "K = 1000" in line and "V = 10000000" in line, line
+        assert "bad_alloc" not in line, line
