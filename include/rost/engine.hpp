@@ -277,7 +277,9 @@ public:
     [[nodiscard]] bool tryPush(const ObservationView& obs) noexcept;
     // For producers that must not lose data (offline replay through the
     // threads): waits (yield, then 50 us sleeps) until a slot is free, never
-    // drops. False on timeout, or if the engine is not running.
+    // drops. False on timeout, or when the queue is full and the engine is
+    // not running (nothing would free a slot). Before start(), as with
+    // tryPush(), an observation with a free slot is queued for the refiner.
     bool pushWait(const ObservationView& obs,
                   std::chrono::nanoseconds timeout = std::chrono::nanoseconds::max()) noexcept;
     // Producer side: a slot is free, so a tryPush() now would not drop.
