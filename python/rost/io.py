@@ -200,11 +200,12 @@ def write_perplexity(path, results):
     """perplexity.csv as ``rost refine`` writes it, from a Mission's ``run()`` (or any mapping
     with timestamp, instantaneous, final, plugin and topics): read_perplexity reads it back."""
     cols = ("instantaneous", "final", "plugin", "topics")
-    _text.write_table(os.fspath(path), ["frame", *cols], np.asarray(results["timestamp"], dtype=np.int64),
-                      [np.asarray(results[c], dtype=np.float64) for c in cols], [False, False, False, True])
+    _text.write_table(os.fspath(path), ["frame", *cols], _int64s(results["timestamp"], "timestamp"),
+                      [np.asarray(results[c], dtype=np.float64) for c in cols[:3]] + [_int64s(results["topics"], "topics")],
+                      [False, False, False, True])
 
 
 def write_surprise(path, results):
     """surprise.csv as ``rost refine`` writes it, from a Mission's ``run()`` (timestamp, surprise)."""
-    _text.write_table(os.fspath(path), ["frame", "surprise"], np.asarray(results["timestamp"], dtype=np.int64),
+    _text.write_table(os.fspath(path), ["frame", "surprise"], _int64s(results["timestamp"], "timestamp"),
                       [np.asarray(results["surprise"], dtype=np.float64)], [False])

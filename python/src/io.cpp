@@ -4,6 +4,7 @@
 // the writers and the atomic write are the core's; rost.io keeps the
 // formats' own checks and messages.
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -153,6 +154,9 @@ void writeTable(const py::object& path, const std::vector<std::string>& header, 
         table.cell(first.at(i));
         for (std::size_t j = 0; j < columns.size(); ++j) {
             const double v = columns[j].at(i);
+            if (integer[j] && !(std::abs(v) < 9.2e18))  // a cast past int64 (or of a NaN) is undefined
+                throw py::value_error(header[j + 1] + "[" + std::to_string(i) + "] = " + std::to_string(v) +
+                                      " is not an integer in int64's range");
             if (integer[j]) table.cell(static_cast<int64_t>(v));
             else table.cell(v);
         }

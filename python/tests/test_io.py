@@ -59,6 +59,16 @@ def test_writers_write_every_value_exactly_or_refuse_it(tmp_path):
         rost.io.write_topicmodel(f, np.array([[2**64 - 1, 1]], np.uint64))
     with pytest.raises(ValueError, match=r"^row 0: expected a 1-D array, found shape \(2, 2\)$"):
         rost.io.write_words(f, [0], [np.ones((2, 2), np.int32)])
+    # The tables' frame and topics columns, as the word stream's time stamps: never truncated.
+    rows = {"timestamp": [0.0, 1.2], "instantaneous": [1.0, 2.0], "final": [1.0, 2.0], "plugin": [1.0, 2.0],
+            "topics": [3, 4], "surprise": [5.0, 6.0]}
+    with pytest.raises(ValueError, match=r"^timestamp\[1\] = 1\.2 is not a whole number in int64's range$"):
+        rost.io.write_perplexity(f, rows)
+    with pytest.raises(ValueError, match=r"^timestamp\[1\] = 1\.2 is not a whole number in int64's range$"):
+        rost.io.write_surprise(f, rows)
+    for bad in (float("nan"), 1e300):
+        with pytest.raises(ValueError, match=r"^topics\[1\] = .* is not a whole number in int64's range$"):
+            rost.io.write_perplexity(f, dict(rows, timestamp=[0, 1], topics=[4.0, bad]))
     assert not f.exists()
     # Whole-number floats and uint64 values within int64 are written as the integers they are.
     rost.io.write_words(f, np.array([0.0, 2.0]), [np.array([7, 2**40], np.uint64), np.array([], np.int32)])
