@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <tuple>
 
 #include <opencv2/imgcodecs.hpp>
@@ -218,6 +219,45 @@ TEST(VisionSources, AVideoCutShortIsAnErrorNamingTheFramesDecoded) {
         EXPECT_EQ(src->error(), (t / "cut.avi") + ": only " + std::to_string(decoded) +
                                     " of the 120 frames its container gives could be decoded: truncated or damaged "
                                     "(--max-frames " + std::to_string(decoded) + " models those)");
+    }
+}
+
+// A whole file that counts more frames than it shows: a clip cut with
+// `ffmpeg -ss 1.3 -c copy` keeps the samples before its start for its edit
+// list (here 185 counted, 102 shown). It is read to its end with a note, not
+// refused as truncated; the same file (its index first) cut short in its
+// bytes still is.
+TEST(VisionSources, AWholeVideoCountingFramesItDoesNotShowIsReadWithANote) {
+    if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) GTEST_SKIP() << "no ffmpeg to cut a clip with";
+    TempDir t;
+    const std::string make = "ffmpeg -v error -f lavfi -i testsrc=size=160x120:rate=25 -t 10 -c:v libx264 -g 250 "
+                             "-pix_fmt yuv420p '" + (t / "long.mp4") + "' && ffmpeg -v error -ss 3.3 -i '" +
+                             (t / "long.mp4") + "' -c copy -t 4 -movflags +faststart '" + (t / "cut.mp4") + "'";
+    if (std::system(make.c_str()) != 0) GTEST_SKIP() << "ffmpeg cannot encode H.264 here";
+    const std::string whole = rost::testing::readText(t / "cut.mp4");
+    rost::testing::writeText(t / "short.mp4", whole.substr(0, whole.size() * 3 / 4));
+    for (const char* name : {"cut.mp4", "short.mp4"}) {
+        SCOPED_TRACE(name);
+        Status st;
+        auto src = openFrameSource(t / name, {}, st);
+        ASSERT_TRUE(src) << st.message();
+        const int64_t counted = src->info().frames;
+        Frame f;
+        int64_t decoded = 0;
+        ReadStatus rs;
+        while ((rs = src->read(f)) == ReadStatus::Ok) ++decoded;
+        ASSERT_GT(counted, decoded + 10) << "the clip must count frames it does not show";
+        const std::vector<std::string> notes = src->takeNotes();
+        if (std::string(name) == "cut.mp4") {
+            EXPECT_EQ(rs, ReadStatus::End) << src->error();
+            ASSERT_EQ(notes.size(), 1u);
+            EXPECT_EQ(notes[0], (t / name) + ": " + std::to_string(decoded) + " of the " + std::to_string(counted) +
+                                    " frames its container counts were decoded; the file is whole (an edit list, or "
+                                    "frames the recorder dropped, are counted and not shown)");
+            continue;
+        }
+        EXPECT_EQ(rs, ReadStatus::Error);
+        EXPECT_NE(src->error().find("truncated or damaged"), std::string::npos) << src->error();
     }
 }
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -150,6 +151,50 @@ bool containerCountsFrames(const std::string& path) {
     return false;
 }
 
+// Whether a container that counts its frames (containerCountsFrames) is
+// whole: every top-level QuickTime box, or every RIFF chunk of an AVI, ends
+// within the file. A file cut short (a copy stopped half way, a card pulled)
+// has its last one run past the end. A whole file may still give fewer
+// frames than its count: an edit list (a clip cut with `ffmpeg -ss ... -c
+// copy` keeps the samples before its start) or an AVI's empty chunks for
+// dropped frames.
+bool containerIsWhole(const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return false;
+    f.seekg(0, std::ios::end);
+    const auto size = static_cast<uint64_t>(f.tellg());
+    const auto bytesAt = [&](uint64_t at, unsigned char* b, std::size_t n) {
+        f.clear();
+        f.seekg(static_cast<std::streamoff>(at));
+        return static_cast<bool>(f.read(reinterpret_cast<char*>(b), static_cast<std::streamsize>(n)));
+    };
+    unsigned char h[16];
+    if (!bytesAt(0, h, 12)) return false;
+    const bool riff = std::memcmp(h, "RIFF", 4) == 0;
+    uint64_t at = 0;
+    for (int chunks = 0; chunks < 1000000 && at < size; ++chunks) {
+        if (riff) {  // "RIFF" or "AVIX", a little-endian size, padded to even
+            if (!bytesAt(at, h, 8)) return false;
+            const uint64_t n = uint64_t{h[4]} | uint64_t{h[5]} << 8 | uint64_t{h[6]} << 16 | uint64_t{h[7]} << 24;
+            at += 8 + n + (n & 1);
+        } else {  // a big-endian size (1: 64 bits follow; 0: to the end), then the type
+            if (!bytesAt(at, h, 8)) return false;
+            uint64_t n = uint64_t{h[0]} << 24 | uint64_t{h[1]} << 16 | uint64_t{h[2]} << 8 | uint64_t{h[3]};
+            if (n == 0) return true;
+            if (n == 1) {
+                if (!bytesAt(at + 8, h + 8, 8)) return false;
+                n = 0;
+                for (int i = 8; i < 16; ++i) n = n << 8 | h[i];
+                if (n < 16) return false;
+            } else if (n < 8) {
+                return false;
+            }
+            at += n;
+        }
+    }
+    return at <= size + 1;  // an odd RIFF chunk's pad byte may be missing at the very end
+}
+
 class ImageSequenceSource final : public FrameSource {
 public:
     ImageSequenceSource(std::vector<std::string> files, std::string what) : files_(std::move(files)), what_(std::move(what)) {}
@@ -280,6 +325,12 @@ private:
             notes_.push_back(path_ + ": " + std::to_string(next_) + " frames decoded where its duration suggested " +
                              std::to_string(n) + ": the video may be cut short or damaged (its container gives no "
                              "frame count)");
+            return ReadStatus::End;
+        }
+        if (containerIsWhole(path_)) {  // not cut: frames counted and never shown
+            notes_.push_back(path_ + ": " + std::to_string(next_) + " of the " + std::to_string(n) +
+                             " frames its container counts were decoded; the file is whole (an edit list, or "
+                             "frames the recorder dropped, are counted and not shown)");
             return ReadStatus::End;
         }
         error_ = path_ + ": only " + std::to_string(next_) + " of the " + std::to_string(n) +
