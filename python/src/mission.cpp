@@ -6,9 +6,12 @@
 // labels and perplexities as rost refine's topics.csv and perplexity.csv.
 
 #include <atomic>
+#include <chrono>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "bindings.hpp"
@@ -51,8 +54,9 @@ public:
     const Settings& settings() const { return settings_; }
 
     // Plays the observations still to play, then the final sweeps; a mission
-    // plays once. Ctrl-C stops it between two observations (KeyboardInterrupt;
-    // the model keeps what was played: save() writes it).
+    // plays once. Ctrl-C stops it between two observations or two rounds of
+    // the sweeps (KeyboardInterrupt; the model keeps what was played: save()
+    // writes it).
     py::dict run() {
         BusyGuard guard(busy_, "rost.Mission");
         if (played_) throw std::runtime_error("rost.Mission.run: this mission was already played");
@@ -69,7 +73,7 @@ public:
                     break;
                 }
             }
-            if (!interrupted && results.why().empty()) results.finish(final_sweeps_);
+            if (!interrupted && results.why().empty()) interrupted = !results.finish(final_sweeps_);
         }
         if (interrupted) throw py::error_already_set();
         if (!results.why().empty())
@@ -211,7 +215,36 @@ bool MissionResults::observe() {
     return false;
 }
 
-void MissionResults::finish(int sweeps) { records_.finish(sweeps); }
+bool MissionResults::finish(int sweeps) {
+    if (sweeps <= 0) {
+        records_.finish(sweeps);
+        return true;
+    }
+    // The sweeps on a thread of their own; this one, which Python's signals
+    // reach, looks for Ctrl-C every 20 ms and stops them between two rounds
+    // (KeyboardInterrupt, as between two observations).
+    std::atomic<bool> stop{false}, done{false};
+    std::exception_ptr failed;
+    std::thread sweeper([&] {
+        try {
+            records_.finish(sweeps, &stop);
+        } catch (...) {
+            failed = std::current_exception();
+        }
+        done.store(true, std::memory_order_release);
+    });
+    bool interrupted = false;
+    while (!done.load(std::memory_order_acquire)) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        if (!interrupted && !keepRunning()) {
+            interrupted = true;
+            stop.store(true, std::memory_order_relaxed);
+        }
+    }
+    sweeper.join();
+    if (failed) std::rethrow_exception(failed);
+    return !interrupted;
+}
 
 py::dict MissionResults::toDict() const {
     const std::vector<MissionRow>& rows = records_.rows();

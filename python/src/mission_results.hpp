@@ -47,8 +47,10 @@ public:
     // After each processNow: its row. False (and why()) when the model refused it.
     bool observe();
     const std::string& why() const noexcept { return why_; }
-    // The end of the stream: MissionRecords::finish.
-    void finish(int sweeps);
+    // The end of the stream: MissionRecords::finish. False when Ctrl-C (or
+    // another signal handler) raised during the final sweeps: they stop,
+    // the Python error is set, and the records are not to be used.
+    [[nodiscard]] bool finish(int sweeps);
     // timestamp, instantaneous, final, plugin, topics, surprise (numpy),
     // surprise_cells (numpy, observations x cells) and labels (a list).
     py::dict toDict() const;

@@ -72,7 +72,7 @@ public:
         {
             py::gil_scoped_release nogil;
             error = play(results);
-            if (error.empty() && results.why().empty() && !interrupted_) results.finish(settings_.final_sweeps);
+            if (error.empty() && results.why().empty() && !interrupted_) interrupted_ = !results.finish(settings_.final_sweeps);
         }
         if (interrupted_) throw py::error_already_set();
         if (!error.empty()) throw py::value_error("rost.vision.Mission.run: " + error);

@@ -4,7 +4,9 @@ resumed skips its own observations; a model keyword that differs from the checkp
 naming the keyword; bad streams raise ValueError naming the file."""
 
 import os
+import signal
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -126,9 +128,7 @@ def test_one_user_at_a_time_and_ctrl_c_stops_between_observations(tmp_path):
     """save() from another thread while run() plays is refused (it would copy a state being changed);
     a signal handler that raises (Ctrl-C) stops run() between two observations, and what was played
     can be saved and resumed."""
-    import signal
     import threading
-    import time
 
     rng = np.random.default_rng(8)
     n = 3000
@@ -201,3 +201,20 @@ def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
     assert open(positions, "rb").read() == before
     with pytest.raises(ValueError, match=r"rost\.Mission\.save: path: no file given \(an empty path\)"):
         m.save("")
+
+
+def test_ctrl_c_during_the_final_sweeps_stops_them(tmp_path):
+    """A million final sweeps (minutes) stop at Ctrl-C within a round: KeyboardInterrupt, soon."""
+    words, positions = planted_stream(tmp_path)
+    m = rost.Mission(words, positions=positions, K=4, cell_space=32, final_sweeps=1000000)
+    previous = signal.signal(signal.SIGALRM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    start = time.monotonic()
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
+        with pytest.raises(KeyboardInterrupt):
+            m.run()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert time.monotonic() - start < 30, "the sweeps went on after Ctrl-C"
+    m.save(tmp_path / "part.ckpt")  # the model is whole
