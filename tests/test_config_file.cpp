@@ -182,6 +182,9 @@ TEST(ConfigFile, SingleValuesAndDifferencesForCommandLinesAndCheckpoints) {
     EXPECT_EQ(configValue(c, "cell.time"), "3");
     EXPECT_EQ(configValue(c, "alpha"), "0.1");
     EXPECT_EQ(configValue(c, "nope"), "");
+    // A key of the settings that is not the engine's has no value in an EngineConfig.
+    EXPECT_EQ(configValue(c, "orb.features"), "");
+    EXPECT_EQ(configValue(c, "final.sweeps"), "");
     EXPECT_EQ(setConfigValue("cel.time", "3", c).message(), "unknown key 'cel.time' (did you mean 'cell.time'?)");
     EngineConfig d = c;
     d.model.K = 20;

@@ -432,6 +432,9 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i big.csv -V 40 -K 4");
     EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err, "topics.refine.t: big.csv:2:5: word id 40 out of range [0, 40)\n");
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i big.csv -V 40 -o h.csv");  // label V: outside the V bins
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "words.bincount: big.csv:2:5: word id 40 out of range [0, 40)\n");
     // V not given: a word beyond the most V may be is named where it is, and so is a
     // position beyond the largest frame.
     writeText(dir + "/huge.csv", "0,1,2\n1,3,4294967295\n");

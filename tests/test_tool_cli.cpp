@@ -115,6 +115,9 @@ TEST(ToolCli, InvalidOptionValuesAreNamed) {
     expectError(runRost("run " + in + " --budget.refines 3 --budget.ms 10"), "excludes", t / "o");
     expectError(runRost("run " + in + " -V 100"), "-V 100 is smaller than the 5436 words", t / "o");
     expectError(runRost("run " + in + " --vocabulary " + (t / "none.rostvoc")), "none.rostvoc: cannot open: No such file or directory", t / "o");
+    // The bag options name themselves when the input is not a bag.
+    expectError(runRost("run " + in + " --topic /camera/image_raw"), "rost: error: --topic needs a bag as the input", t / "o");
+    expectError(runRost("run " + in + " --out.bag " + (t / "x.bag")), "rost: error: --out.bag needs a bag as the input", t / "o");
     // The commands' own sizes and counts, where 0 means "all" or "from the input": never below it.
     for (const char* opt : {"--width", "--height", "--max-frames"})
         expectError(runRost("run " + in + " " + opt + " -5"), std::string(opt) + ": expected 0 or more, found '-5'", t / "o");

@@ -297,6 +297,13 @@ TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {
                     (t / "frames") + ": writing there would change it",
                 t / "v");
     EXPECT_FALSE(std::filesystem::exists(t / "frames/0002.png"));
+    // The vocabulary is an input too (refused before it is read: any content will do).
+    rost::testing::writeText(t / "v.rostvoc", "a vocabulary");
+    expectError(runRost("run " + (t / "frames") + " --out " + (t / "v") + " --vocabulary " + (t / "v.rostvoc") +
+                        " --checkpoint " + (t / "v.rostvoc")),
+                "rost: error: --checkpoint: " + (t / "v.rostvoc") + " is an input of this run: writing there would replace it",
+                t / "v");
+    EXPECT_EQ(rost::testing::readText(t / "v.rostvoc"), "a vocabulary");
     // A words file the run's own results would replace.
     std::filesystem::create_directories(t / "o2");
     std::filesystem::copy_file(t / "words.csv", t / "o2/perplexity.csv");

@@ -199,6 +199,14 @@ TEST(VisionPixelFormat, PlanarYuv420MatchesBt601WithHalfStrideChroma) {
     const uint8_t* before = out.data;
     ASSERT_TRUE(convertToBgr(view, out, s));
     EXPECT_EQ(out.data, before);
+    // A buffer that ends at the last chroma pixel (no padding after it) is enough.
+    const std::size_t tight = H * stride + (H / 2) * cstride + (H / 2 - 1) * cstride + W / 2;
+    ImageView exact;
+    const Status st = describeContiguous(PixelFormat::YUV420, W, H, stride, buf.data(), tight, exact);
+    ASSERT_TRUE(st.ok()) << st.message();
+    cv::Mat tightOut;
+    ASSERT_TRUE(convertToBgr(exact, tightOut, s));
+    expectMatchesReference(tightOut, p, "YUV420 without padding after its last row");
 }
 
 TEST(VisionPixelFormat, InvalidViewsAreRefusedNotReadPastTheirEnd) {
@@ -207,6 +215,8 @@ TEST(VisionPixelFormat, InvalidViewsAreRefusedNotReadPastTheirEnd) {
     cv::Mat out, s;
     // Odd sizes for a subsampled format.
     Status st = describeContiguous(PixelFormat::NV12, W - 1, H, W, buf.data(), buf.size(), v);
+    EXPECT_NE(st.message().find("even width and height"), std::string::npos) << st.message();
+    st = describeContiguous(PixelFormat::NV12, W, H - 1, W, buf.data(), buf.size(), v);
     EXPECT_NE(st.message().find("even width and height"), std::string::npos) << st.message();
     // A buffer one byte short.
     st = describeContiguous(PixelFormat::NV12, W, H, W, buf.data(), buf.size() - 1, v);

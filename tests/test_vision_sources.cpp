@@ -13,6 +13,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "rost/vision/frame_source.hpp"
+#include "rost/vision/mission.hpp"
 #include "test_vision_support.hpp"
 
 using namespace rost;
@@ -455,4 +456,42 @@ TEST(VisionSources, AnInputReadsItsDirectorysImagesAndItsGlobsFiles) {
     EXPECT_FALSE(inputWouldRead(t / "run*/*.png", t / "other/ck.png"));
     EXPECT_FALSE(inputWouldRead("camera:0", t / "frames/0002.png"));
     EXPECT_FALSE(inputWouldRead(t / "run1/f0.png", t / "run1/f1.png")) << "a file input is its one file";
+}
+
+namespace {
+// Frames 0, 1, 2, ... up to `count`, live (a camera) or not (a file).
+class CountingSource final : public FrameSource {
+public:
+    CountingSource(bool live, int64_t count) : count_(count) {
+        info_.live = live;
+        info_.width = info_.height = 32;
+        info_.frames = live ? -1 : count;
+    }
+    ReadStatus read(Frame& out) override {
+        if (next_ == count_) return ReadStatus::End;
+        out.image = cv::Mat(32, 32, CV_8UC3, cv::Scalar(0, 0, 0));
+        out.index = next_++;
+        return ReadStatus::Ok;
+    }
+
+private:
+    int64_t count_, next_ = 0;
+};
+
+std::vector<int64_t> missionFrames(FrameSource& s, int64_t skipThrough, int64_t before) {
+    std::vector<int64_t> out;
+    Frame f;
+    while (readMissionFrame(s, skipThrough, before, f) == ReadStatus::Ok) out.push_back(f.index);
+    return out;
+}
+} // namespace
+
+// Resuming a checkpoint whose last frame is 4: a file's frames 0..4 are
+// skipped, a camera's first frame is numbered 5, right after it.
+TEST(VisionSources, AResumedMissionSkipsAFilesFramesAndNumbersACamerasAfterTheCheckpoint) {
+    CountingSource file(false, 8), camera(true, 3);
+    EXPECT_EQ(missionFrames(file, 4, 5), (std::vector<int64_t>{5, 6, 7}));
+    EXPECT_EQ(missionFrames(camera, 4, 5), (std::vector<int64_t>{5, 6, 7}));
+    CountingSource fresh(true, 2);
+    EXPECT_EQ(missionFrames(fresh, -1, 0), (std::vector<int64_t>{0, 1}));
 }

@@ -101,6 +101,33 @@ TEST(VisionVocabulary, TreeSearchVisitingEveryBucketIsExact) {
     }
 }
 
+// Words that differ in 16 bits only: distances are small and ties common, so
+// a bucket whose bound equals the best distance so far may hold an equally
+// close word of a lower id: the tree, visiting every bucket, keeps the linear
+// search's lowest id.
+TEST(VisionVocabulary, TreeSearchVisitingEveryBucketKeepsTiesToTheLowestId) {
+    Rng rng(71);
+    const Descriptor base = randomDescriptor(rng);
+    auto near = [&] {
+        Descriptor d = base;
+        for (int b = 0; b < 16; ++b)
+            if (rng.below(2)) d.w[0] ^= 1ull << b;
+        return d;
+    };
+    std::vector<Descriptor> words(600);
+    for (auto& d : words) d = near();
+    const Vocabulary v(words);
+    ASSERT_GT(v.coarseCentres(), 1u);
+    for (int i = 0; i < 2000; ++i) {
+        const Descriptor q = near();
+        int a = 0, b = 0;
+        ASSERT_EQ(v.quantize(q, a, Search{SearchMethod::Tree, v.coarseCentres()}),
+                  v.quantize(q, b, Search{SearchMethod::Linear, 0}))
+            << "query " << i;
+        ASSERT_EQ(a, b);
+    }
+}
+
 TEST(VisionVocabulary, TreeSearchMapsEveryWordToItselfAndComputesFewerDistances) {
     const auto words = randomWords(5000, 31);
     const Vocabulary v(words);
@@ -140,6 +167,14 @@ TEST(VisionVocabulary, SaveAndLoadRoundTripKeepsWordsNoteAndIds) {
     // The file is exactly header + note + words, and no temporary is left behind.
     EXPECT_EQ(std::filesystem::file_size(t / "v.rostvoc"), 32u + v.note().size() + 1234u * 32u);
     EXPECT_FALSE(std::filesystem::exists(t / "v.rostvoc.tmp"));
+    // The longest note save() writes (and `rost vocab` cuts a note to) loads back; one byte more is refused.
+    const Vocabulary longest(randomWords(3, 53), std::string(Vocabulary::kMaxNoteBytes, 'n'));
+    ASSERT_TRUE(longest.save(t / "long.rostvoc").ok());
+    Vocabulary back;
+    const Status lst = Vocabulary::load(t / "long.rostvoc", back);
+    ASSERT_TRUE(lst.ok()) << lst.message();
+    EXPECT_EQ(back.note(), longest.note());
+    EXPECT_FALSE(Vocabulary(randomWords(3, 53), std::string(Vocabulary::kMaxNoteBytes + 1, 'n')).save(t / "over.rostvoc").ok());
 }
 
 class VocabularyFileErrors : public ::testing::Test {

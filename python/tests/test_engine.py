@@ -30,6 +30,16 @@ def test_snapshot_is_none_before_the_first_then_the_newest():
     assert s.counters["ingested"] == 5 and s.counters["refinements"] == 10
 
 
+def test_snapshot_grid_is_rows_by_columns():
+    rng = np.random.default_rng(3)
+    engine = rost.Engine(small_config(frame_width=128, frame_height=64, budget_refines=1))
+    with engine:
+        assert engine.push(0, *random_observation(rng, width=128, height=64))
+    s = engine.snapshot()
+    assert s.cell_surprise.shape == (2, 4)  # 64 / 32 rows, 128 / 32 columns
+    assert s.histograms.shape == (8, 4)
+
+
 def test_push_never_blocks_and_counts_drops():
     rng = np.random.default_rng(1)
     engine = rost.Engine(small_config(budget_refines=2000, queue_slots=2, drop="newest"))

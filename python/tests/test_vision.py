@@ -100,6 +100,17 @@ def test_vocabulary_train_save_load(diver_frames, tmp_path):
         rost.vision.Vocabulary.train(diver_frames[:1], words=100000, features=10)
 
 
+def test_a_frame_mission_refuses_to_save_over_its_vocabulary(diver_frames, tmp_path):
+    diver = footage_or_skip()
+    voc = tmp_path / "v.rostvoc"
+    rost.vision.Vocabulary.train(diver_frames, words=64, features=200, iterations=5, seed=3).save(str(voc))
+    before = voc.read_bytes()
+    m = rost.vision.Mission(diver, vocabulary=voc, max_frames=2, K=8)
+    with pytest.raises(RuntimeError, match=r"rost\.vision\.Mission\.save: .*v\.rostvoc is an input of this run"):
+        m.save(voc)
+    assert voc.read_bytes() == before
+
+
 # rost::vision's frame size rule, as the tool and the node apply it: a frame
 # with a side under 16 pixels is refused with ValueError naming its size.
 @pytest.mark.parametrize("shape", [(1, 1, 3), (1, 300, 3), (300, 1, 3), (2, 2, 3), (15, 64), (64, 15, 3)])
