@@ -185,6 +185,10 @@ TEST(ConfigFile, SingleValuesAndDifferencesForCommandLinesAndCheckpoints) {
     // A key of the settings that is not the engine's has no value in an EngineConfig.
     EXPECT_EQ(configValue(c, "orb.features"), "");
     EXPECT_EQ(configValue(c, "final.sweeps"), "");
+    // Python's spelling of a key is the key: read, set, and refused alike.
+    EXPECT_EQ(configValue(c, "cell_time"), "3");
+    EXPECT_EQ(setConfigValue("orb_features", "5", c).message(), "key 'orb_features' is not an engine setting");
+    EXPECT_EQ(setConfigValue("orb.features", "5", c).message(), "key 'orb.features' is not an engine setting");
     EXPECT_EQ(setConfigValue("cel.time", "3", c).message(), "unknown key 'cel.time' (did you mean 'cell.time'?)");
     EngineConfig d = c;
     d.model.K = 20;

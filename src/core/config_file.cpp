@@ -30,7 +30,7 @@ const std::vector<ConfigKey>& configKeys() {
 
 Status setConfigValue(std::string_view key, std::string_view value, EngineConfig& cfg) {
     const SettingSpec* spec = findSetting(key);
-    if (spec && spec->key == key && !isEngineSetting(*spec))
+    if (spec && !isEngineSetting(*spec))  // in any spelling: "orb_features" as "orb.features"
         return Status::error("key '" + std::string(key) + "' is not an engine setting");
     Settings s = around(cfg);
     if (Status st = setSetting(s, key, value); !st.ok()) return st;
@@ -40,8 +40,8 @@ Status setConfigValue(std::string_view key, std::string_view value, EngineConfig
 
 std::string configValue(const EngineConfig& cfg, std::string_view key) {
     const SettingSpec* spec = findSetting(key);
-    if (!spec || spec->key != key || !isEngineSetting(*spec)) return {};
-    return settingValue(around(cfg), key);
+    if (!spec || !isEngineSetting(*spec)) return {};
+    return settingValue(around(cfg), spec->key);
 }
 
 Status parseConfigText(std::string_view text, std::string_view name, EngineConfig& cfg, std::vector<ConfigKeyLine>* set) {
