@@ -4,10 +4,18 @@
 
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -265,6 +273,72 @@ TEST(ToolTrust, ASignalAbandonsARefineRunWithExitCode130AndKeepsWhatWasThere) {
     const RunResult res = rost::testing::runShell(script);
     EXPECT_EQ(res.exit_code, 0) << res.err;
     EXPECT_TRUE(std::filesystem::exists(t / "out/topics.csv"));
+}
+
+// rost merge, interrupted while it reads its models (one comes from a FIFO
+// that this test serves to each open of it, the signal after the first):
+// exit 130, the one-line note, and nothing written, a previous merge's file
+// kept, as a refine's.
+TEST(ToolTrust, ASignalAbandonsAMergeWithExitCode130AndKeepsWhatWasThere) {
+    TempDir t;
+    std::string words;
+    for (int i = 0; i < 20; ++i) {
+        words += std::to_string(i);
+        for (int j = 0; j < 30; ++j) (words += ',') += std::to_string((i * 7 + j * 3) % 40);
+        words += "\n";
+    }
+    rost::testing::writeText(t / "words.csv", words);
+    const RunResult made = runRost("refine " + (t / "words.csv") + " -K 3 --out " + (t / "a") + " -q --no-summary");
+    ASSERT_EQ(made.exit_code, 0) << made.err;
+    const std::string model = rost::testing::readText(t / "a/topicmodel.csv");
+    const std::string pipe = t / "b.csv";
+    ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+    std::filesystem::create_directories(t / "m");
+    rost::testing::writeText(t / "m/topicmodel.csv", "an earlier merge's\n");
+    const std::string err = t / "err.txt";
+    pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+        ::dup2(fd, 2);
+        const std::string a = t / "a/topicmodel.csv", out = t / "m";
+        ::execl(ROST_TOOL, ROST_TOOL, "merge", a.c_str(), pipe.c_str(), "--out", out.c_str(), static_cast<char*>(nullptr));
+        ::_exit(127);
+    }
+    void (*pipeHandler)(int) = std::signal(SIGPIPE, SIG_IGN);  // the merge may close its end first
+    bool signalled = false;
+    int status = 0;
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (::waitpid(pid, &status, WNOHANG) == 0) {
+        if (std::chrono::steady_clock::now() > until) {
+            ::kill(pid, SIGKILL);
+            ::waitpid(pid, &status, 0);
+            break;
+        }
+        // Opens for writing only once the merge opens the FIFO to read it:
+        // past its set-up, reading its models.
+        const int fd = ::open(pipe.c_str(), O_WRONLY | O_NONBLOCK);
+        if (fd < 0) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+            continue;
+        }
+        if (!signalled) {
+            ::kill(pid, SIGINT);
+            signalled = true;
+            std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
+        ::fcntl(fd, F_SETFL, 0);
+        (void)!::write(fd, model.data(), model.size());
+        ::close(fd);
+    }
+    std::signal(SIGPIPE, pipeHandler);
+    ASSERT_TRUE(signalled) << "the merge never opened its FIFO";
+    ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+    EXPECT_EQ(WEXITSTATUS(status), 130);
+    EXPECT_EQ(rost::testing::readText(err), "rost: interrupted; no outputs written\n");
+    EXPECT_EQ(rost::testing::readText(t / "m/topicmodel.csv"), "an earlier merge's\n");
+    for (const auto& e : std::filesystem::directory_iterator(t / "m"))
+        if (e.path().filename() != "topicmodel.csv") ADD_FAILURE() << "left behind: " << e.path();
 }
 
 // A checkpoint (or a bag) written over an input of the same run would replace
