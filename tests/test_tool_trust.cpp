@@ -276,7 +276,7 @@ TEST(ToolTrust, ASignalAbandonsARefineRunWithExitCode130AndKeepsWhatWasThere) {
 }
 
 // rost merge, interrupted while it reads its models (one comes from a FIFO
-// that this test serves to each open of it, the signal after the first):
+// that this test serves once it is opened, the signal first):
 // exit 130, the one-line note, and nothing written, a previous merge's file
 // kept, as a refine's.
 TEST(ToolTrust, ASignalAbandonsAMergeWithExitCode130AndKeepsWhatWasThere) {
@@ -306,7 +306,7 @@ TEST(ToolTrust, ASignalAbandonsAMergeWithExitCode130AndKeepsWhatWasThere) {
         ::_exit(127);
     }
     void (*pipeHandler)(int) = std::signal(SIGPIPE, SIG_IGN);  // the merge may close its end first
-    bool signalled = false;
+    bool signalled = false, served = false;
     int status = 0;
     const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(60);
     while (::waitpid(pid, &status, WNOHANG) == 0) {
@@ -317,7 +317,7 @@ TEST(ToolTrust, ASignalAbandonsAMergeWithExitCode130AndKeepsWhatWasThere) {
         }
         // Opens for writing only once the merge opens the FIFO to read it:
         // past its set-up, reading its models.
-        const int fd = ::open(pipe.c_str(), O_WRONLY | O_NONBLOCK);
+        const int fd = served ? -1 : ::open(pipe.c_str(), O_WRONLY | O_NONBLOCK);
         if (fd < 0) {
             std::this_thread::sleep_for(std::chrono::milliseconds(5));
             continue;
@@ -330,6 +330,7 @@ TEST(ToolTrust, ASignalAbandonsAMergeWithExitCode130AndKeepsWhatWasThere) {
         ::fcntl(fd, F_SETFL, 0);
         (void)!::write(fd, model.data(), model.size());
         ::close(fd);
+        served = true;
     }
     std::signal(SIGPIPE, pipeHandler);
     ASSERT_TRUE(signalled) << "the merge never opened its FIFO";

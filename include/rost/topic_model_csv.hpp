@@ -43,6 +43,8 @@ struct TopicModelShape {
     int columns = 0;
 };
 Status readTopicModelShape(const std::string& path, TopicModelShape& shape);
+// The same, of a file's text already read (`name` for its messages).
+TopicModelShape topicModelShapeOf(std::string_view csv, const std::string& name);
 
 // Reads `path` and adds its counts to `model` (Model::addTopicCounts);
 // refuses counts that would overflow the model's n_k. Set-up only.

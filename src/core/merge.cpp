@@ -245,8 +245,7 @@ Status readTopicCounts(const std::string& path, TopicCounts& out) {
         }
         return {};
     }
-    TopicModelShape shape;
-    if (Status st = readTopicModelShape(path, shape); !st.ok()) return st;
+    const TopicModelShape shape = topicModelShapeOf(bytes, path);  // the file read once (a FIFO can be)
     if (shape.rows == 0 || shape.columns == 0) return Status::error(path + ": no topic lines");
     std::vector<int32_t> counts;
     if (Status st = parseTopicModelCsv(bytes, shape.rows, shape.columns, counts, path); !st.ok()) return st;

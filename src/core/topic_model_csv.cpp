@@ -84,17 +84,22 @@ Status parseTopicModelCsv(std::string_view csv, int K, int V, std::vector<int32_
     return {};
 }
 
-Status readTopicModelShape(const std::string& path, TopicModelShape& shape) {
-    std::string csv;
-    if (Status st = text::readFile(path, csv); !st.ok()) return st;
-    shape = {};
+TopicModelShape topicModelShapeOf(std::string_view csv, const std::string& name) {
+    TopicModelShape shape;
     std::vector<text::Field> fields;
-    text::LineReader lines(csv, path);
+    text::LineReader lines(csv, name);
     for (text::Line line; lines.next(line); ++shape.rows) {
         if (shape.rows > 0) continue;
         text::splitFields(line.text, ",", fields);
         shape.columns = static_cast<int>(std::min<std::size_t>(fields.size(), INT32_MAX));
     }
+    return shape;
+}
+
+Status readTopicModelShape(const std::string& path, TopicModelShape& shape) {
+    std::string csv;
+    if (Status st = text::readFile(path, csv); !st.ok()) return st;
+    shape = topicModelShapeOf(csv, path);
     return {};
 }
 
