@@ -183,3 +183,23 @@ TEST(VisionImageFile, AFloatingPointImageIsTheFrameItsEightBitPictureGives) {
     EXPECT_LE(cv::norm(a.image, b.image, cv::NORM_INF), 1.0) << "the float frame is the 8-bit one";
     EXPECT_GT(cv::mean(a.image)[0], 50.0) << "not black";
 }
+
+// An image of 32-bit integers has no range viewers agree on: it is refused,
+// and the message says why (its depth), not just that it cannot be decoded.
+TEST(VisionImageFile, AThirtyTwoBitIntegerImageIsRefusedNamingItsDepth) {
+    TempDir t;
+    cv::Mat ints(48, 64, CV_32SC1);
+    cv::randu(ints, 0, 1 << 20);
+    std::filesystem::create_directories(t / "ints");
+    ASSERT_TRUE(cv::imwrite(t / "ints/a.tiff", ints));
+    cv::Mat m;
+    ASSERT_TRUE(readImageFile(t / "ints/a.tiff", m).ok());
+    ASSERT_EQ(m.depth(), CV_32S) << "the test needs a 32-bit integer image";
+    Status st;
+    auto s = openFrameSource(t / "ints", {}, st);
+    ASSERT_TRUE(s) << st.message();
+    Frame f;
+    EXPECT_EQ(s->read(f), ReadStatus::Error);
+    EXPECT_EQ(s->error(), (t / "ints/a.tiff") + ": cannot decode image: 32-bit integer pixels, which have no agreed "
+                                                "range: convert it to 8 or 16 bits, or to floating point in [0, 1]");
+}

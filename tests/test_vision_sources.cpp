@@ -262,6 +262,79 @@ TEST(VisionSources, AWholeVideoCountingFramesItDoesNotShowIsReadWithANote) {
     }
 }
 
+namespace {
+
+// A QuickTime box: a 32-bit big-endian size (header included), then its type.
+std::string box(const char* type, uint32_t body) {
+    const uint32_t n = body + 8;
+    std::string b{char(n >> 24), char(n >> 16), char(n >> 8), char(n)};
+    return b + type + std::string(body, 'x');
+}
+// A box with a 64-bit size (size field 1), which may claim any length.
+std::string largeBox(const char* type, uint64_t claimed) {
+    std::string b{'\0', '\0', '\0', '\1'};
+    b += type;
+    for (int i = 7; i >= 0; --i) b += char(claimed >> (8 * i));
+    return b;
+}
+// A RIFF chunk: the tag, a little-endian size (header excluded), the body, a
+// pad byte when the size is odd (unless `pad` is false).
+std::string chunk(const char* tag, uint32_t body, bool pad = true) {
+    std::string b = tag;
+    b += {char(body), char(body >> 8), char(body >> 16), char(body >> 24)};
+    return b + std::string(body, 'y') + (pad && (body & 1) ? std::string(1, '\0') : std::string());
+}
+
+bool wholeBytes(const TempDir& t, const std::string& bytes, int max_chunks = kMaxContainerChunks) {
+    rost::testing::writeText(t / "v", bytes);
+    return containerIsWhole(t / "v", max_chunks);
+}
+
+} // namespace
+
+// The walk that tells a whole video (counting frames it does not show) from
+// a cut one, on hand-made bytes: every edge the review of the walk named.
+TEST(VisionContainer, AFileIsWholeWhenEveryTopLevelBoxOrChunkEndsWithinIt) {
+    TempDir t;
+    const std::string mp4 = box("ftyp", 12) + box("moov", 40) + box("mdat", 100);
+    EXPECT_TRUE(wholeBytes(t, mp4));
+    EXPECT_FALSE(wholeBytes(t, mp4.substr(0, mp4.size() - 1))) << "a QuickTime box one byte short is cut";
+    EXPECT_FALSE(wholeBytes(t, mp4.substr(0, mp4.size() - 50)));
+    EXPECT_TRUE(wholeBytes(t, box("ftyp", 12) + std::string("\0\0\0\0\0\0\0\0mdat", 12)))
+        << "size 0: the last box runs to the end";
+    // Fewer than 8 bytes after the last box cannot start another: zeros
+    // there are padding; a header cut short is a cut.
+    EXPECT_TRUE(wholeBytes(t, mp4 + std::string(5, '\0')));
+    EXPECT_FALSE(wholeBytes(t, mp4 + std::string("\0\0\1\0md", 6)));
+    // A 64-bit size past the end, however large, is a cut: never a wrap of
+    // the walk back into the file, nor past its end.
+    for (const uint64_t claimed : {uint64_t{1} << 63, ~uint64_t{0} - 7, ~uint64_t{0} - 151, uint64_t{200}}) {
+        SCOPED_TRACE(claimed);
+        EXPECT_FALSE(wholeBytes(t, box("ftyp", 12) + largeBox("mdat", claimed) + std::string(100, 'z')));
+    }
+    EXPECT_TRUE(wholeBytes(t, box("ftyp", 12) + largeBox("mdat", 116) + std::string(100, 'z')));
+    EXPECT_FALSE(wholeBytes(t, box("ftyp", 12) + largeBox("mdat", 8))) << "a 64-bit size under its own header";
+
+    // An AVI: an odd-sized last chunk may lack its pad byte, and nothing more.
+    const std::string avi = chunk("RIFF", 101);
+    EXPECT_TRUE(wholeBytes(t, avi));
+    EXPECT_TRUE(wholeBytes(t, chunk("RIFF", 101, false))) << "the pad byte of the last chunk missing";
+    EXPECT_FALSE(wholeBytes(t, avi.substr(0, avi.size() - 2)));
+    EXPECT_TRUE(wholeBytes(t, chunk("RIFF", 100) + chunk("AVIX", 51)));
+    EXPECT_FALSE(wholeBytes(t, chunk("RIFF", 100) + chunk("AVIX", 51).substr(0, 40)));
+}
+
+// A walk that gives up proves nothing: a file of more top-level boxes than
+// the walk reads is not taken as whole.
+TEST(VisionContainer, AWalkThatStopsAtItsChunkLimitDoesNotCallTheFileWhole) {
+    TempDir t;
+    std::string many;
+    for (int i = 0; i < 1000; ++i) many += box("free", 0);
+    EXPECT_FALSE(wholeBytes(t, many, 999));
+    EXPECT_TRUE(wholeBytes(t, many, 1000)) << "at the limit, the same boxes are walked to the end";
+    EXPECT_TRUE(wholeBytes(t, many));
+}
+
 // A container without a frame count (Matroska, an MPEG stream): FFmpeg's
 // estimate from the duration is no count. The length is unknown, as a
 // camera's; the video is read to its end; where decoding falls short of the

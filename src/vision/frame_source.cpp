@@ -54,9 +54,10 @@ bool isImageFile(const fs::path& p) {
     return std::any_of(std::begin(kExt), std::end(kExt), [&](const char* x) { return e == x; });
 }
 
-// Brings a decoded image to 8-bit BGR at the source's size.
-bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
-    if (in.empty()) return false;
+// Brings a decoded image to 8-bit BGR at the source's size: empty, or why
+// it cannot (its pixel depth or channels named).
+std::string normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
+    if (in.empty()) return "no pixels";
     cv::Mat m = in;
     if (m.depth() != CV_8U) {
         // To 8 bits as viewers show them: 16-bit over its range, floating
@@ -69,7 +70,9 @@ bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
         case CV_8S: shift = 128.0; break;
         case CV_32F:
         case CV_64F: scale = 255.0; break;
-        default: return false;  // 32-bit integers: no range a viewer agrees on
+        default:  // 32-bit integers: no range a viewer agrees on
+            return "32-bit integer pixels, which have no agreed range: convert it to 8 or 16 bits, or to floating "
+                   "point in [0, 1]";
         }
         cv::Mat t;
         m.convertTo(t, CV_8U, scale, shift);
@@ -79,15 +82,15 @@ bool normalise(const cv::Mat& in, int width, int height, cv::Mat& out) {
     if (m.channels() == 3) bgr = m;
     else if (m.channels() == 1) cv::cvtColor(m, bgr, cv::COLOR_GRAY2BGR);
     else if (m.channels() == 4) cv::cvtColor(m, bgr, cv::COLOR_BGRA2BGR);
-    else return false;
+    else return std::to_string(m.channels()) + " channels (1, 3 or 4 are read)";
     if (bgr.cols == width && bgr.rows == height) {
-        if (bgr.data == out.data) return true;
+        if (bgr.data == out.data) return {};
         bgr.copyTo(out);
     } else {
         const bool shrink = bgr.cols > width || bgr.rows > height;
         cv::resize(bgr, out, cv::Size(width, height), 0, 0, shrink ? cv::INTER_AREA : cv::INTER_LINEAR);
     }
-    return true;
+    return {};
 }
 
 // Checks that a path exists, is a regular file and can be read; a missing or
@@ -151,6 +154,8 @@ bool containerCountsFrames(const std::string& path) {
     return false;
 }
 
+} // namespace
+
 // Whether a container that counts its frames (containerCountsFrames) is
 // whole: every top-level QuickTime box, or every RIFF chunk of an AVI, ends
 // within the file. A file cut short (a copy stopped half way, a card pulled)
@@ -158,7 +163,15 @@ bool containerCountsFrames(const std::string& path) {
 // frames than its count: an edit list (a clip cut with `ffmpeg -ss ... -c
 // copy` keeps the samples before its start) or an AVI's empty chunks for
 // dropped frames.
-bool containerIsWhole(const std::string& path) {
+// Edge cases, each tested on hand-made bytes (VisionContainer.*):
+// * fewer than 8 bytes after the last whole box or chunk cannot start
+//   another: zeros there are padding (whole), anything else a header cut off;
+// * an AVI's last odd-sized chunk may lack its pad byte; a QuickTime box one
+//   byte short is cut;
+// * a size running past the end, however large (a 64-bit box size near 2^64
+//   included), is a cut, never a wrap;
+// * a walk that gives up (more than max_chunks) proves nothing: not whole.
+bool containerIsWhole(const std::string& path, int max_chunks) {
     std::ifstream f(path, std::ios::binary);
     if (!f) return false;
     f.seekg(0, std::ios::end);
@@ -172,28 +185,38 @@ bool containerIsWhole(const std::string& path) {
     if (!bytesAt(0, h, 12)) return false;
     const bool riff = std::memcmp(h, "RIFF", 4) == 0;
     uint64_t at = 0;
-    for (int chunks = 0; chunks < 1000000 && at < size; ++chunks) {
+    for (int chunks = 0; at < size; ++chunks) {
+        if (chunks == max_chunks) return false;
+        const uint64_t left = size - at;
+        if (left < 8) {  // too short for a header: padding if zeros
+            if (!bytesAt(at, h, static_cast<std::size_t>(left))) return false;
+            return std::all_of(h, h + left, [](unsigned char c) { return c == 0; });
+        }
+        if (!bytesAt(at, h, 8)) return false;
         if (riff) {  // "RIFF" or "AVIX", a little-endian size, padded to even
-            if (!bytesAt(at, h, 8)) return false;
             const uint64_t n = uint64_t{h[4]} | uint64_t{h[5]} << 8 | uint64_t{h[6]} << 16 | uint64_t{h[7]} << 24;
-            at += 8 + n + (n & 1);
+            const uint64_t length = 8 + n + (n & 1);
+            if (length > left) return (n & 1) != 0 && length == left + 1;  // only the pad byte missing
+            at += length;
         } else {  // a big-endian size (1: 64 bits follow; 0: to the end), then the type
-            if (!bytesAt(at, h, 8)) return false;
             uint64_t n = uint64_t{h[0]} << 24 | uint64_t{h[1]} << 16 | uint64_t{h[2]} << 8 | uint64_t{h[3]};
             if (n == 0) return true;
             if (n == 1) {
-                if (!bytesAt(at + 8, h + 8, 8)) return false;
+                if (left < 16 || !bytesAt(at + 8, h + 8, 8)) return false;
                 n = 0;
                 for (int i = 8; i < 16; ++i) n = n << 8 | h[i];
                 if (n < 16) return false;
             } else if (n < 8) {
                 return false;
             }
+            if (n > left) return false;
             at += n;
         }
     }
-    return at <= size + 1;  // an odd RIFF chunk's pad byte may be missing at the very end
+    return true;
 }
+
+namespace {
 
 class ImageSequenceSource final : public FrameSource {
 public:
@@ -237,8 +260,8 @@ public:
                              std::to_string(info_.height) + " frame");
             noted_ = img.size();
         }
-        if (!normalise(img, info_.width, info_.height, out.image)) {
-            error_ = files_[next_] + ": cannot decode image";
+        if (const std::string why = normalise(img, info_.width, info_.height, out.image); !why.empty()) {
+            error_ = files_[next_] + ": cannot decode image: " + why;
             return ReadStatus::Error;
         }
         out.index = delivered_;  // in delivery order: skipped images leave no gap
@@ -302,8 +325,8 @@ public:
         if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
         else if (!cap_.read(raw_) || raw_.empty()) return endOrCut();
         else img = raw_;
-        if (!normalise(img, info_.width, info_.height, out.image)) {
-            error_ = path_ + ": cannot decode frame " + std::to_string(next_);
+        if (const std::string why = normalise(img, info_.width, info_.height, out.image); !why.empty()) {
+            error_ = path_ + ": cannot decode frame " + std::to_string(next_) + ": " + why;
             return ReadStatus::Error;
         }
         out.index = next_;
@@ -366,8 +389,9 @@ public:
         while (cur_ < parts_.size()) {
             const ReadStatus s = parts_[cur_]->read(tmp_);
             if (s == ReadStatus::Ok) {
-                if (!normalise(tmp_.image, info_.width, info_.height, out.image)) {
-                    error_ = "cannot convert a frame of " + parts_[cur_]->info().description;
+                if (const std::string why = normalise(tmp_.image, info_.width, info_.height, out.image);
+                    !why.empty()) {
+                    error_ = "cannot convert a frame of " + parts_[cur_]->info().description + ": " + why;
                     return ReadStatus::Error;
                 }
                 out.index = next_++;

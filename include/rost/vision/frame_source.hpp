@@ -144,6 +144,14 @@ std::unique_ptr<FrameSource> openFrameSources(const std::vector<std::string>& in
 // cameras, rost_node's image topic).
 Status chooseSize(const SourceOptions& o, int w, int h, SourceInfo& info, std::vector<std::string>& notes);
 
+// Whether a video file whose container counts its frames (QuickTime, MP4,
+// AVI) is whole: every top-level box or RIFF chunk ends within the file.
+// A video source that decodes fewer frames than counted tells a whole file
+// (an edit list, dropped frames: a note) from a cut one (an error) by it.
+// The walk stops after `max_chunks` chunks and then says false.
+inline constexpr int kMaxContainerChunks = 1000000;
+bool containerIsWhole(const std::string& path, int max_chunks = kMaxContainerChunks);
+
 // True when INPUT names a camera ("camera:N").
 bool isCameraInput(const std::string& input) noexcept;
 
