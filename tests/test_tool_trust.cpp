@@ -342,6 +342,111 @@ TEST(ToolTrust, ASignalAbandonsAMergeWithExitCode130AndKeepsWhatWasThere) {
         if (e.path().filename() != "topicmodel.csv") ADD_FAILURE() << "left behind: " << e.path();
 }
 
+namespace {
+
+// Starts `rost ARGS...` with its stderr to `err`; the child's pid.
+pid_t spawnRost(const std::vector<std::string>& args, const std::string& err) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+        ::dup2(fd, 2);
+        std::vector<char*> argv{const_cast<char*>(ROST_TOOL)};
+        for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+        argv.push_back(nullptr);
+        ::execv(ROST_TOOL, argv.data());
+        ::_exit(127);
+    }
+    return pid;
+}
+
+// Opens FIFO for writing once a reader has it open (O_NONBLOCK fails before
+// that), within `limit`; -1 if none came.
+int openWriterOnceRead(const std::string& fifo, std::chrono::seconds limit) {
+    const auto until = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < until) {
+        const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+        if (fd >= 0) return fd;
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return -1;
+}
+
+// Waits for `pid` to end within `limit`: true and its status if it did.
+bool endsWithin(pid_t pid, std::chrono::seconds limit, int& status) {
+    const auto until = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < until) {
+        if (::waitpid(pid, &status, WNOHANG) == pid) return true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+}
+
+} // namespace
+
+// A merge whose model comes through a FIFO that a writer holds open and
+// never writes to: Ctrl-C ends the read the merge is blocked in, and the
+// merge exits 130 as interrupted (a restarted read waited for the writer).
+TEST(ToolTrust, CtrlCEndsAMergeBlockedReadingAFifo) {
+    TempDir t;
+    const std::string pipe = t / "a.csv";
+    ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+    const pid_t pid = spawnRost({"merge", pipe, pipe, "--out", t / "m"}, t / "err.txt");
+    ASSERT_GE(pid, 0);
+    const int writer = openWriterOnceRead(pipe, std::chrono::seconds(60));
+    EXPECT_GE(writer, 0) << "the merge never opened its FIFO";
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // into its read
+    ::kill(pid, SIGINT);
+    int status = 0;
+    const bool ended = endsWithin(pid, std::chrono::seconds(20), status);
+    if (writer >= 0) ::close(writer);
+    if (!ended) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        FAIL() << "Ctrl-C did not end a merge blocked reading a FIFO";
+    }
+    ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+    EXPECT_EQ(WEXITSTATUS(status), 130);
+    EXPECT_EQ(rost::testing::readText(t / "err.txt"), "rost: interrupted; no outputs written\n");
+    EXPECT_FALSE(std::filesystem::exists(t / "m"));
+}
+
+// A checkpoint merged through a FIFO: read once, as a topic model's CSV is
+// (it was opened a second time to be loaded, and the merge hung).
+TEST(ToolTrust, ACheckpointMergesThroughAFifo) {
+    TempDir t;
+    writeStream(t);
+    const RunResult made = runRost("refine " + (t / "words.csv") + " -K 3 --out " + (t / "a") +
+                                   " --checkpoint " + (t / "a.ckpt") + " -q --no-summary");
+    ASSERT_EQ(made.exit_code, 0) << made.err;
+    const RunResult direct = runRost("merge " + (t / "a.ckpt") + " " + (t / "a/topicmodel.csv") + " --out " + (t / "d") + " -q");
+    ASSERT_EQ(direct.exit_code, 0) << direct.err;
+    const std::string pipe = t / "b.ckpt";
+    ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+    const pid_t pid = spawnRost({"merge", pipe, t / "a/topicmodel.csv", "--out", t / "m", "-q"}, t / "err.txt");
+    ASSERT_GE(pid, 0);
+    void (*pipeHandler)(int) = std::signal(SIGPIPE, SIG_IGN);
+    const int writer = openWriterOnceRead(pipe, std::chrono::seconds(60));
+    if (writer >= 0) {
+        const std::string ckpt = rost::testing::readText(t / "a.ckpt");
+        ::fcntl(writer, F_SETFL, 0);
+        (void)!::write(writer, ckpt.data(), ckpt.size());
+        ::close(writer);
+    }
+    std::signal(SIGPIPE, pipeHandler);
+    int status = 0;
+    const bool ended = endsWithin(pid, std::chrono::seconds(30), status);
+    if (!ended) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        FAIL() << "the merge of a checkpoint through a FIFO hung";
+    }
+    ASSERT_GE(writer, 0) << "the merge never opened its FIFO";
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0) << rost::testing::readText(t / "err.txt");
+    EXPECT_EQ(rost::testing::readText(t / "m/topicmodel.csv"), rost::testing::readText(t / "d/topicmodel.csv"));
+    EXPECT_EQ(rost::testing::readText(t / "m/lifting.csv"), rost::testing::readText(t / "d/lifting.csv"));
+}
+
 // A checkpoint (or a bag) written over an input of the same run would replace
 // it: refused by name, however the path is spelled, before anything is read.
 TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {

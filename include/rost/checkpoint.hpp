@@ -121,8 +121,11 @@ Status loadCheckpoint(const std::string& path, Engine& engine, const CheckpointL
                       CheckpointInfo* info = nullptr);
 
 // Builds an engine with the checkpoint's configuration and loads it: the
-// tool's --resume. nullptr and `status` set on error.
+// tool's --resume. nullptr and `status` set on error. The bytes overload
+// takes a file already read (a FIFO can be read once only), named `name`.
 std::unique_ptr<Engine> resumeEngine(const std::string& path, Status& status, CheckpointInfo* info = nullptr);
+std::unique_ptr<Engine> resumeEngine(std::span<const uint8_t> bytes, std::string_view name, Status& status,
+                                     CheckpointInfo* info = nullptr);
 
 namespace detail {
 // Where one section sits in a file image.

@@ -687,21 +687,25 @@ std::unique_ptr<Engine> resumeEngine(const std::string& path, Status& status, Ch
     std::string data;
     status = readFile(path, data);
     if (!status.ok()) return nullptr;
-    const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(data.data()), data.size());
+    return resumeEngine({reinterpret_cast<const uint8_t*>(data.data()), data.size()}, path, status, info);
+}
+
+std::unique_ptr<Engine> resumeEngine(std::span<const uint8_t> bytes, std::string_view name, Status& status,
+                                     CheckpointInfo* info) {
     Parsed p;
-    status = parseImage(bytes, path, p);
+    status = parseImage(bytes, name, p);
     if (!status.ok()) return nullptr;
     // Before building an engine of the size the file claims (sizesProblem).
     if (const std::string why = sizesProblem(p); !why.empty()) {
-        status = Status::error(path + ": " + why);
+        status = Status::error(prefix(name) + why);
         return nullptr;
     }
     auto engine = Engine::create(p.config, status);
     if (!engine) {
-        status = status.prefixed(path + ": ");
+        status = status.prefixed(prefix(name));
         return nullptr;
     }
-    status = loadCheckpoint(bytes, path, *engine, {}, info);
+    status = loadCheckpoint(bytes, name, *engine, {}, info);
     if (!status.ok()) return nullptr;
     return engine;
 }

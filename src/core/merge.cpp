@@ -233,7 +233,8 @@ Status readTopicCounts(const std::string& path, TopicCounts& out) {
     if (Status st = text::readFile(path, bytes); !st.ok()) return st;
     if (bytes.starts_with("ROSTCKPT")) {
         Status status;
-        std::unique_ptr<Engine> engine = resumeEngine(path, status);
+        std::unique_ptr<Engine> engine =  // the bytes already read: a FIFO can be read once only
+            resumeEngine({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, path, status);
         if (!engine) return status;
         const Model& m = engine->model();
         out = TopicCounts{};

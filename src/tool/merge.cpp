@@ -26,12 +26,14 @@ int mergeCommand(const MergeCliOptions& o) {
         if (Status st = checkMissionOutputOverlap(read, "--out", (std::filesystem::path(o.out) / name).string()); !st.ok())
             return fail(st.message());
     // Ctrl-C or SIGTERM from here on: exit 130, nothing written (a previous
-    // merge's files kept, the staging directory removed), as a refine's.
-    InterruptScope interrupts;
+    // merge's files kept, the staging directory removed), as a refine's. A
+    // read blocked on a FIFO or pipe ends too (its failure is the signal's).
+    InterruptScope interrupts(InterruptScope::Reads::Interrupted);
     std::vector<TopicCounts> models(o.models.size());
     for (std::size_t i = 0; i < o.models.size(); ++i) {
-        if (Status st = readTopicCounts(o.models[i], models[i]); !st.ok()) return fail(st.message());
+        const Status st = readTopicCounts(o.models[i], models[i]);
         if (interrupted()) return abandonedRun();
+        if (!st.ok()) return fail(st.message());
     }
     MergedTopics merged;
     if (Status st = mergeTopicModels(models, options, merged); !st.ok()) return fail(st.message());

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <csignal>
 #include <cstdio>
+#include <utility>
 
 #include "tool.hpp"
 
@@ -24,19 +25,23 @@ int abandonedRun() {
     return kExitInterrupted;
 }
 
-InterruptScope::InterruptScope() noexcept {
+InterruptScope::InterruptScope(Reads reads) noexcept {
     g_interrupted.store(false, std::memory_order_relaxed);  // an earlier command's (tests run several in one process)
-    old_int_ = std::signal(SIGINT, onInterrupt);
-    old_term_ = std::signal(SIGTERM, onInterrupt);
-    // A signal ignored on entry stays ignored (a shell's `rost refine ... &`
-    // ignores SIGINT, so that Ctrl-C at the terminal ends only the foreground).
-    if (old_int_ == SIG_IGN) std::signal(SIGINT, SIG_IGN);
-    if (old_term_ == SIG_IGN) std::signal(SIGTERM, SIG_IGN);
+    struct sigaction on {};
+    on.sa_handler = onInterrupt;
+    sigemptyset(&on.sa_mask);
+    on.sa_flags = reads == Reads::Restarted ? SA_RESTART : 0;
+    for (const auto& [sig, old] : {std::pair{SIGINT, &old_int_}, std::pair{SIGTERM, &old_term_}}) {
+        ::sigaction(sig, nullptr, old);
+        // A signal ignored on entry stays ignored (a shell's `rost refine ... &`
+        // ignores SIGINT, so that Ctrl-C at the terminal ends only the foreground).
+        if (old->sa_handler != SIG_IGN) ::sigaction(sig, &on, nullptr);
+    }
 }
 
 InterruptScope::~InterruptScope() {
-    std::signal(SIGINT, old_int_ == SIG_ERR ? SIG_DFL : old_int_);
-    std::signal(SIGTERM, old_term_ == SIG_ERR ? SIG_DFL : old_term_);
+    ::sigaction(SIGINT, &old_int_, nullptr);
+    ::sigaction(SIGTERM, &old_term_, nullptr);
 }
 
 Progress::Progress(std::string label, int64_t total, bool quiet)

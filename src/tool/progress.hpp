@@ -3,6 +3,8 @@
 // A one-line progress bar on stderr (frames, frames/s, ETA), drawn only when
 // stderr is a terminal and the user did not ask for quiet.
 
+#include <signal.h>
+
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -39,16 +41,23 @@ bool stderrIsTerminal() noexcept;
 // destruction they set interruptFlag() instead of killing the process, so
 // the command abandons its staging directory and exits 130 (a camera run
 // ends and writes its outputs). The handlers before it come back after.
+//
+// By default a system call the signal lands in is restarted (threads of a
+// run need not see EINTR). A command that only reads, on its one thread,
+// before it starts any (rost merge) asks for Reads::Interrupted: a read
+// blocked on a FIFO or a pipe then fails, and the command, seeing
+// interrupted(), exits 130 rather than waiting for a writer.
 class InterruptScope {
 public:
-    InterruptScope() noexcept;
+    enum class Reads : uint8_t { Restarted, Interrupted };
+    explicit InterruptScope(Reads reads = Reads::Restarted) noexcept;
     ~InterruptScope();
     InterruptScope(const InterruptScope&) = delete;
     InterruptScope& operator=(const InterruptScope&) = delete;
 
 private:
-    void (*old_int_)(int);
-    void (*old_term_)(int);
+    struct sigaction old_int_ {};
+    struct sigaction old_term_ {};
 };
 const std::atomic<bool>& interruptFlag() noexcept;
 inline bool interrupted() noexcept { return interruptFlag().load(std::memory_order_relaxed); }
