@@ -200,9 +200,29 @@ std::string tickLabel(double v, double step) {
 
 constexpr int kMaxTicks = 64;  // niceStep aims at 2 to 10
 
+// A label in %g's short form with the significant digits ticks `step` apart
+// up to `mag` need to differ: 1.025e+10 at steps of 2.5e8, not "1.02e+10".
+std::string shortLabel(double v, double step, double mag) {
+    const double e = std::floor(std::log10(step));
+    const double mantissa = step / std::pow(10.0, e);
+    const int fraction = std::abs(mantissa - std::round(mantissa)) > 1e-6 ? 1 : 0;  // 2.5: one digit more
+    const int digits = std::clamp(static_cast<int>(std::floor(std::log10(std::max(mag, step))) - e) + 1 + fraction, 1, 17);
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+    return buf;
+}
+
 } // namespace
 
 int tickLabelWidth(const std::string& label) { return textWidth(label, 0.42); }
+
+bool tickLabelsFit(const TimeTicks& t, double x0, double x1, int width) {
+    for (std::size_t i = 1; i < t.at.size(); ++i) {
+        const double apart = (t.at[i] - t.at[i - 1]) / (x1 - x0) * (width - 1);
+        if (apart < (tickLabelWidth(t.labels[i - 1]) + tickLabelWidth(t.labels[i])) / 2.0 + 12) return false;
+    }
+    return true;
+}
 
 TimeTicks timeTicks(double x0, double x1, int width) {
     TimeTicks t;
@@ -225,21 +245,17 @@ TimeTicks timeTicks(double x0, double x1, int width) {
         const bool longLabels = tickLabel(mag, step).size() > 9;
         const double origin = longLabels && (x1 - x0) < mag / 100 ? at.front() : 0.0;
         std::vector<std::string> labels;
-        int used = 0;
         for (double x : at) {
-            char buf[32];
-            if (origin == 0.0 && !longLabels) std::snprintf(buf, sizeof buf, "%s", tickLabel(x, step).c_str());
-            else if (origin == 0.0) std::snprintf(buf, sizeof buf, "%.3g", x);
-            else if (x == origin) std::snprintf(buf, sizeof buf, "+0");
-            else if (step >= 1e5) std::snprintf(buf, sizeof buf, "+%.3g", x - origin);
-            else std::snprintf(buf, sizeof buf, "+%s", tickLabel(x - origin, step).c_str());
-            labels.emplace_back(buf);
-            used += tickLabelWidth(labels.back()) + 12;
+            if (origin == 0.0 && !longLabels) labels.push_back(tickLabel(x, step));
+            else if (origin == 0.0) labels.push_back(shortLabel(x, step, mag));
+            else if (x == origin) labels.emplace_back("+0");
+            else if (step >= 1e5) labels.push_back("+" + shortLabel(x - origin, step, at.back() - origin));
+            else labels.push_back("+" + tickLabel(x - origin, step));
         }
         t.at = std::move(at);
         t.labels = std::move(labels);
         t.origin = origin;
-        if (used <= width) break;
+        if (tickLabelsFit(t, x0, x1, width)) break;
     }
     return t;
 }
