@@ -21,6 +21,7 @@
 #include "rost/engine.hpp"
 #include "rost/model.hpp"
 #include "synthetic.hpp"
+#include "test_deadline.hpp"
 #include "test_engine_support.hpp"
 #include "worker_pool.hpp"
 
@@ -722,29 +723,43 @@ TEST(WorkerPool, EveryTaskRunsExactlyOnceAlsoWithMoreThreadsThanCores) {
 struct ManyJob final : detail::WorkerPool::Job {
     explicit ManyJob(std::size_t n) : runs(n) {}
     std::vector<std::atomic<uint8_t>> runs;
-    void task(int /*worker*/, uint32_t index) noexcept override { runs[index].fetch_add(1, std::memory_order_relaxed); }
+    std::atomic<int> begins[3] = {};
+    std::atomic<int> unbegun{0};  // tasks run by a worker before its begin()
+    void begin(int worker) noexcept override { begins[worker].fetch_add(1, std::memory_order_relaxed); }
+    void task(int worker, uint32_t index) noexcept override {
+        if (begins[worker].load(std::memory_order_relaxed) == 0) unbegun.fetch_add(1, std::memory_order_relaxed);
+        runs[index].fetch_add(1, std::memory_order_relaxed);
+    }
 };
 
+// A job of 2^20 tasks or more runs in parts: each task once, each worker's
+// begin() once and before its tasks, with or without cuts (a 1024 x 1024
+// grid of 1-pixel cells hung its first measurement when a range's 20 bits
+// wrapped).
 TEST(WorkerPool, AJobOfAMillionTasksOrMoreRunsEachOnceAndEnds) {
-    for (const uint32_t count : {(1u << 20) - 1, 1u << 20, (1u << 20) + 3, 3u << 20}) {
-        SCOPED_TRACE(count);
-        auto job = std::make_shared<ManyJob>(count);
-        auto done = std::make_shared<std::promise<void>>();
-        std::future<void> f = done->get_future();
-        std::thread([job, done, count] {
-            detail::WorkerPool pool(3);
-            pool.run(*job, count);
-            EXPECT_EQ(pool.jobs(), 1u);
-            done->set_value();
-        }).detach();
-        if (f.wait_for(std::chrono::seconds(60)) != std::future_status::ready) {
-            ADD_FAILURE() << "a job of " << count << " tasks did not end in 60 s";
-            std::fflush(nullptr);
-            std::_Exit(1);
+    for (const bool withCuts : {false, true}) {
+        for (const uint32_t count : {(1u << 20) - 1, 1u << 20, (1u << 20) + 3, 3u << 20}) {
+            SCOPED_TRACE(std::to_string(count) + (withCuts ? " with cuts" : ""));
+            // Two jobs on one pool (the second's begin() is its own), with
+            // uneven own ranges: a fifth, a half, the rest.
+            auto a = std::make_shared<ManyJob>(count), b = std::make_shared<ManyJob>(count);
+            const std::array<uint32_t, 4> cuts{0, count / 5, count / 5 + count / 2, count};
+            const bool ended = rost::testing::endsWithin(std::chrono::seconds(60), [a, b, count, withCuts, cuts] {
+                detail::WorkerPool pool(3);
+                pool.run(*a, count, withCuts ? cuts.data() : nullptr);
+                pool.run(*b, count, withCuts ? cuts.data() : nullptr);
+                EXPECT_EQ(pool.jobs(), 2u);
+            });
+            if (!ended) rost::testing::endTheRun("a job of " + std::to_string(count) + " tasks did not end in 60 s");
+            for (const auto& job : {a, b}) {
+                std::size_t wrong = 0;
+                for (const auto& r : job->runs) wrong += r.load() != 1 ? 1 : 0;
+                EXPECT_EQ(wrong, 0u) << "tasks not run exactly once";
+                EXPECT_EQ(job->unbegun.load(), 0) << "tasks run before their worker's begin()";
+                for (int w = 0; w < 3; ++w) EXPECT_LE(job->begins[w].load(), 1) << "worker " << w;
+                EXPECT_EQ(job->begins[0].load(), 1) << "the caller runs tasks of its own range";
+            }
         }
-        std::size_t wrong = 0;
-        for (const auto& r : job->runs) wrong += r.load() != 1 ? 1 : 0;
-        EXPECT_EQ(wrong, 0u) << "tasks not run exactly once";
     }
     // The grid of 2^20 cells itself, measured on two threads.
     Config c;
@@ -756,9 +771,7 @@ TEST(WorkerPool, AJobOfAMillionTasksOrMoreRunsEachOnceAndEnds) {
     c.ring_steps = 2;
     c.threads = 2;
     auto m = std::make_shared<Model>(c);
-    auto done = std::make_shared<std::promise<void>>();
-    std::future<void> f = done->get_future();
-    std::thread([m, done] {
+    const bool ended = rost::testing::endsWithin(std::chrono::seconds(120), [m] {
         std::vector<uint32_t> w(300);
         std::vector<Position> p(300);
         for (int i = 0; i < 300; ++i) {
@@ -767,13 +780,8 @@ TEST(WorkerPool, AJobOfAMillionTasksOrMoreRunsEachOnceAndEnds) {
         }
         EXPECT_TRUE(m->addObservation(w, p).ok());
         EXPECT_TRUE(std::isfinite(m->observationSurprise(0)));
-        done->set_value();
-    }).detach();
-    if (f.wait_for(std::chrono::seconds(120)) != std::future_status::ready) {
-        ADD_FAILURE() << "an observation on a grid of 2^20 cells, two threads, did not end in 120 s";
-        std::fflush(nullptr);
-        std::_Exit(1);
-    }
+    });
+    if (!ended) rost::testing::endTheRun("an observation on a grid of 2^20 cells, two threads, did not end in 120 s");
 }
 
 // A job that takes pairs (src/core/kernel_pair.hpp): an owner claims the
@@ -806,22 +814,13 @@ struct PairCountJob final : detail::WorkerPool::Job {
     }
 };
 
-// Runs f on a thread of its own; past the deadline (a job the pool never
-// ends: a claim past a range's end leaves its count short) the test binary
-// fails at once instead of waiting for ctest's limit.
+// Runs f; past the deadline (a job the pool never ends: a claim past a
+// range's end leaves its count short) the test binary fails at once instead
+// of waiting for ctest's limit. f owns what it uses (test_deadline.hpp).
 template <typename F>
 void withinDeadline(F f, std::chrono::seconds limit) {
-    std::promise<void> done;
-    std::future<void> finished = done.get_future();
-    std::thread t([&] {
-        f();
-        done.set_value();
-    });
-    if (finished.wait_for(limit) != std::future_status::ready) {
-        std::fprintf(stderr, "the pool's jobs did not end within %lld s\n", static_cast<long long>(limit.count()));
-        std::_Exit(1);
-    }
-    t.join();
+    if (!rost::testing::endsWithin(limit, std::move(f)))
+        rost::testing::endTheRun("the pool's jobs did not end within " + std::to_string(limit.count()) + " s");
 }
 
 TEST(WorkerPool, PairsAreClaimedWithinARangeAndEveryTaskStillRunsOnce) {

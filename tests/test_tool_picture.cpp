@@ -17,6 +17,7 @@
 #include "aligned_buffer.hpp"
 #include "outputs.hpp"
 #include "sinks.hpp"
+#include "test_deadline.hpp"
 
 namespace {
 
@@ -50,16 +51,9 @@ TEST(ToolThumbnails, APoolSizedForFewerFramesThanComeKeepsTakingThemEvenlySpaced
     }
 }
 
-// Draws in a thread of its own and waits at most `limit`: a drawing that
-// never ends fails the test (and ends the process) instead of hanging it.
+// Draws in a thread of its own and waits at most `limit` (test_deadline.hpp).
 bool drawsWithin(const rost::tool::SummaryInput& in, std::chrono::seconds limit) {
-    auto done = std::make_shared<std::promise<void>>();
-    std::future<void> f = done->get_future();
-    std::thread([in, done] {
-        (void)rost::tool::drawSummary(in);
-        done->set_value();
-    }).detach();
-    return f.wait_for(limit) == std::future_status::ready;
+    return rost::testing::endsWithin(limit, [in] { (void)rost::tool::drawSummary(in); });
 }
 
 TEST(ToolSummary, TimeStampsInNanosecondsOrAllAlikeAreDrawnAndTheDrawingEnds) {
@@ -91,11 +85,7 @@ TEST(ToolSummary, TimeStampsInNanosecondsOrAllAlikeAreDrawnAndTheDrawingEnds) {
         in.title = "stamps";
         in.K = 4;
         in.rows = rows;
-        if (!drawsWithin(in, std::chrono::seconds(20))) {
-            ADD_FAILURE() << "summary.png's drawing did not end in 20 s";
-            std::fflush(nullptr);
-            std::_Exit(1);
-        }
+        if (!drawsWithin(in, std::chrono::seconds(20))) rost::testing::endTheRun("summary.png's drawing did not end in 20 s");
     }
 }
 

@@ -27,7 +27,10 @@ inline void cpuRelax() noexcept {
 } // namespace
 
 WorkerPool::WorkerPool(int workers)
-    : workers_(workers < 1 ? 1 : workers), ranges_(std::make_unique<Range[]>(static_cast<std::size_t>(workers_))) {
+    : workers_(workers < 1 ? 1 : workers),
+      ranges_(std::make_unique<Range[]>(static_cast<std::size_t>(workers_))),
+      partCuts_(std::make_unique<uint32_t[]>(static_cast<std::size_t>(workers_) + 1)),
+      partBegun_(std::make_unique<uint8_t[]>(static_cast<std::size_t>(workers_))) {
     start(nullptr);
 }
 
@@ -164,10 +167,19 @@ void WorkerPool::countDone(uint32_t ran, uint32_t count) noexcept {
 }
 
 namespace {
-// Tasks base.. of a job too large for one range's 20 bits, as a job of its own.
+// Tasks base.. of a job too large for one range's 20 bits, as a job of its
+// own. The whole job's begin() runs once per worker, at its first task of
+// any part (`begun`: one flag a worker, each written by its own worker).
 struct JobPart final : WorkerPool::Job {
     WorkerPool::Job* whole = nullptr;
     uint32_t base = 0;
+    uint8_t* begun = nullptr;
+    void begin(int worker) noexcept override {
+        if (begun[worker] == 0) {
+            begun[worker] = 1;
+            whole->begin(worker);
+        }
+    }
     void task(int worker, uint32_t index) noexcept override { whole->task(worker, base + index); }
     void taskPair(int worker, uint32_t index) noexcept override { whole->taskPair(worker, base + index); }
 };
@@ -184,15 +196,22 @@ void WorkerPool::run(Job& job, uint32_t count, const uint32_t* cuts) noexcept {
     if (count > kField) {
         // A range holds 20 bits: a job of 2^20 tasks or more (the cells of a
         // 1024 x 1024 grid of 1-pixel cells) runs in parts of 2^19, one after
-        // the other, each task once. Such jobs are the measurements', which
-        // have no begin() and no cuts.
+        // the other, each task once, each worker's begin() once, and each
+        // worker's own range (cuts) its own within every part.
         constexpr uint32_t kPart = uint32_t{1} << 19;
+        const auto n = static_cast<std::size_t>(workers_);
+        std::fill(partBegun_.get(), partBegun_.get() + n, uint8_t{0});
         JobPart part;
         part.whole = &job;
         part.pairs = job.pairs;
+        part.begun = partBegun_.get();
         for (uint32_t base = 0; base < count; base += kPart) {
             part.base = base;
-            run(part, std::min(kPart, count - base));
+            const uint32_t size = std::min(kPart, count - base);
+            if (cuts)
+                for (std::size_t w = 0; w <= n; ++w)
+                    partCuts_[w] = std::clamp(cuts[w], base, base + size) - base;
+            run(part, size, cuts ? partCuts_.get() : nullptr);
             --jobs_;
         }
         return;

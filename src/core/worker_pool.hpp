@@ -73,7 +73,8 @@ public:
 
     // Runs tasks 0..count-1 of the job on the workers and the caller (worker
     // 0); returns when all are done. A job of 2^20 tasks or more runs in
-    // parts (without begin() or cuts: the measurements' jobs, over cells).
+    // parts of 2^19 (its begin() once a worker, its cuts kept), one after
+    // the other.
     // `cuts`, when given, holds workers() + 1 ascending task indices from 0
     // to count: worker w's own range is [cuts[w], cuts[w + 1]).
     void run(Job& job, uint32_t count, const uint32_t* cuts = nullptr) noexcept;
@@ -106,6 +107,8 @@ private:
     int workers_;
     alignas(64) std::atomic<uint32_t> generation_{0};  // bumped per job (workers park on it)
     std::unique_ptr<Range[]> ranges_;
+    std::unique_ptr<uint32_t[]> partCuts_;  // a part's cuts (workers + 1), for jobs run in parts
+    std::unique_ptr<uint8_t[]> partBegun_;  // whether a worker has begun the job run in parts
     alignas(64) std::atomic<uint32_t> done_{0};  // tasks done
     std::atomic<bool> stop_{false};
     Job* job_ = nullptr;
