@@ -19,6 +19,7 @@ enum class StatusKind : uint8_t {
     IsADirectory,      // a directory where a file was expected
     NotADirectory,     // a file where a directory was expected: "words.csv/x"
     OsError,           // another refusal of the system: a loop of links, a name too long, an I/O error
+    OutOfMemory,       // valid settings this machine cannot hold (tables, a checkpoint's state)
 };
 
 // Result of a set-up call (configuration, loading, opening a source). Empty

@@ -9,9 +9,9 @@
 #include <chrono>
 #include <exception>
 #include <filesystem>
+#include <future>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "bindings.hpp"
@@ -128,6 +128,7 @@ void raiseStatus(const Status& st, const std::string& prefix, PyObject* otherwis
     case StatusKind::IsADirectory: type = PyExc_IsADirectoryError; break;
     case StatusKind::NotADirectory: type = PyExc_NotADirectoryError; break;
     case StatusKind::OsError: type = PyExc_OSError; break;
+    case StatusKind::OutOfMemory: type = PyExc_MemoryError; break;
     case StatusKind::Invalid: break;
     }
     throw StatusError(type, prefix + st.message());
@@ -136,7 +137,7 @@ void raiseStatus(const Status& st, const std::string& prefix, PyObject* otherwis
 std::unique_ptr<Engine> makeEngine(const EngineConfig& cfg) {
     Status st;
     std::unique_ptr<Engine> e = Engine::create(cfg, st);
-    if (!e) raiseStatus(st, {}, st.message().find("not enough memory") != std::string::npos ? PyExc_MemoryError : PyExc_ValueError);
+    if (!e) raiseStatus(st, {}, PyExc_ValueError);  // MemoryError for StatusKind::OutOfMemory
     return e;
 }
 
@@ -221,28 +222,18 @@ bool MissionResults::finish(int sweeps) {
         return true;
     }
     // The sweeps on a thread of their own; this one, which Python's signals
-    // reach, looks for Ctrl-C every 20 ms and stops them between two rounds
-    // (KeyboardInterrupt, as between two observations).
-    std::atomic<bool> stop{false}, done{false};
-    std::exception_ptr failed;
-    std::thread sweeper([&] {
-        try {
-            records_.finish(sweeps, &stop);
-        } catch (...) {
-            failed = std::current_exception();
-        }
-        done.store(true, std::memory_order_release);
-    });
+    // reach, looks for Ctrl-C every 20 ms while they run and stops them
+    // between two rounds (KeyboardInterrupt, as between two observations).
+    std::atomic<bool> stop{false};
+    std::future<void> sweeping = std::async(std::launch::async, [&] { records_.finish(sweeps, &stop); });
     bool interrupted = false;
-    while (!done.load(std::memory_order_acquire)) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    while (sweeping.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
         if (!interrupted && !keepRunning()) {
             interrupted = true;
             stop.store(true, std::memory_order_relaxed);
         }
     }
-    sweeper.join();
-    if (failed) std::rethrow_exception(failed);
+    sweeping.get();  // an exception of the sweeps, rethrown here
     return !interrupted;
 }
 

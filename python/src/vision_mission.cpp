@@ -45,6 +45,7 @@ public:
         vision::SourceOptions so;  // sized by the library's rule (MissionOptions::frameWidth)
         so.width = m.frameWidth(width);
         so.height = m.frameHeight(height);
+        so.max_frames_name = m.names.max_frames;
         const std::vector<std::string> paths = inputList(inputs);
         const std::string vocabularyPath =
             vocabulary.is_none() ? std::string() : pathArgument(vocabulary, "rost.vision.Mission: vocabulary");

@@ -3,6 +3,7 @@ drives too: the same stream, seed and settings give the same results on both fac
 resumed skips its own observations; a model keyword that differs from the checkpoint's is refused
 naming the keyword; bad streams raise ValueError naming the file."""
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -14,6 +15,23 @@ import pytest
 import rost
 
 TOOL = os.environ.get("ROST_TOOL")
+
+
+@contextlib.contextmanager
+def ctrl_c_after(seconds):
+    """KeyboardInterrupt raised in the main thread after `seconds`, as a Ctrl-C would; the timer and
+    the SIGALRM handler before it restored on the way out."""
+
+    def interrupt(*_):
+        raise KeyboardInterrupt()
+
+    previous = signal.signal(signal.SIGALRM, interrupt)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, seconds)
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 def planted_stream(tmp_path, n=60, seed=3):
@@ -148,15 +166,11 @@ def test_one_user_at_a_time_and_ctrl_c_stops_between_observations(tmp_path):
             errors.append(str(e))
 
     t = threading.Thread(target=save_while_running)
-    previous = signal.signal(signal.SIGALRM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
         t.start()
-        signal.setitimer(signal.ITIMER_REAL, 0.5)
-        with pytest.raises(KeyboardInterrupt):
+        with ctrl_c_after(0.5), pytest.raises(KeyboardInterrupt):
             m.run()
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
         finished.set()
         t.join()
     assert errors and "rost.Mission is in use by another thread" in errors[0], errors
@@ -207,14 +221,8 @@ def test_ctrl_c_during_the_final_sweeps_stops_them(tmp_path):
     """A million final sweeps (minutes) stop at Ctrl-C within a round: KeyboardInterrupt, soon."""
     words, positions = planted_stream(tmp_path)
     m = rost.Mission(words, positions=positions, K=4, cell_space=32, final_sweeps=1000000)
-    previous = signal.signal(signal.SIGALRM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     start = time.monotonic()
-    try:
-        signal.setitimer(signal.ITIMER_REAL, 0.5)
-        with pytest.raises(KeyboardInterrupt):
-            m.run()
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+    with ctrl_c_after(0.5), pytest.raises(KeyboardInterrupt):
+        m.run()
     assert time.monotonic() - start < 30, "the sweeps went on after Ctrl-C"
     m.save(tmp_path / "part.ckpt")  # the model is whole

@@ -183,3 +183,23 @@ def test_a_frame_mission_gives_rost_runs_results_and_resumes(tmp_path):
         rost.vision.Mission(diver, width=-3)
     small = rost.vision.Mission(diver, max_frames=2, frame_width=320, frame_height=240)
     assert (small.config.frame_width, small.config.frame_height) == (320, 240), "frame_width sizes the frames"
+
+
+def test_a_video_cut_short_is_refused_naming_the_keyword_that_models_its_frames(tmp_path):
+    """A copy stopped half way: ValueError naming the frames decoded and max_frames (the tool's
+    message names its --max-frames); with that many frames the mission plays."""
+    cv2 = pytest.importorskip("cv2")
+    writer = cv2.VideoWriter(str(tmp_path / "clip.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 12, (64, 48))
+    if not writer.isOpened():
+        pytest.skip("OpenCV cannot write MJPG here")
+    rng = np.random.default_rng(1)
+    for _ in range(120):
+        writer.write(rng.integers(0, 255, (48, 64, 3), dtype=np.uint8))
+    writer.release()
+    whole = (tmp_path / "clip.avi").read_bytes()
+    (tmp_path / "cut.avi").write_bytes(whole[: len(whole) // 2])
+    with pytest.raises(ValueError, match=r"cut\.avi: only (\d+) of the 120 frames .*truncated or damaged "
+                                         r"\(max_frames \1 models those\)$") as e:
+        rost.vision.Mission(tmp_path / "cut.avi", K=4).run()
+    decoded = int(str(e.value).split("only ")[1].split(" ")[0])
+    assert len(rost.vision.Mission(tmp_path / "cut.avi", K=4, max_frames=decoded).run()["timestamp"]) == decoded

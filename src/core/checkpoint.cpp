@@ -646,7 +646,7 @@ Status checkOnScratchModel(const Parsed& p, std::span<const uint8_t> bytes, cons
         std::string why;
         if (!scratch.checkInvariants(&why)) return Status::error(P + "the model state is inconsistent: " + why);
     } catch (const std::bad_alloc&) {
-        return Status::error(P + "not enough memory to validate the checkpoint");
+        return Status::error(StatusKind::OutOfMemory, P + "not enough memory to validate the checkpoint");
     }
     return {};
 }

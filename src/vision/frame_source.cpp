@@ -294,6 +294,7 @@ public:
     explicit VideoSource(std::string path) : path_(std::move(path)) {}
 
     Status open(const SourceOptions& o) {
+        max_frames_name_ = o.max_frames_name;
         // FFmpeg only: it reads every common container, and OpenCV's other
         // backends (GStreamer, image-sequence patterns) would each try a file
         // FFmpeg refused and fill stderr with their complaints.
@@ -357,12 +358,13 @@ private:
             return ReadStatus::End;
         }
         error_ = path_ + ": only " + std::to_string(next_) + " of the " + std::to_string(n) +
-                 " frames its container gives could be decoded: truncated or damaged (--max-frames " +
+                 " frames its container gives could be decoded: truncated or damaged (" + max_frames_name_ + " " +
                  std::to_string(next_) + " models those)";
         return ReadStatus::Error;
     }
 
     std::string path_;
+    std::string max_frames_name_;
     cv::VideoCapture cap_;
     cv::Mat pending_, raw_;
     int64_t next_ = 0;

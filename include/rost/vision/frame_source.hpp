@@ -120,6 +120,10 @@ struct SourceOptions {
     int camera_height = 480;
     int camera_buffers = 4;     // buffers cycling between the camera and the capture thread
     std::string camera_format;  // preferred pixel format name ("NV12", "RGB888", ...); empty: first supported
+    // How the caller's face spells the option that limits the frames read,
+    // named in a cut video's error ("--max-frames 102 models those"):
+    // MissionNames::max_frames.
+    std::string max_frames_name = "--max-frames";
 };
 
 // Opens INPUT, one of:
