@@ -60,9 +60,12 @@ Status parseConfigText(std::string_view text, std::string_view name, EngineConfi
 // Reads and parses a file; the error names the path.
 Status readConfigFile(const std::string& path, EngineConfig& cfg, std::vector<ConfigKeyLine>* set = nullptr);
 
-// Sets one key from its text form (a command-line override). Errors name the key.
+// Sets one key from its text form (a command-line override). A key is
+// matched in either spelling (the file's "orb.features", Python's
+// "orb_features"). Errors name the key.
 Status setConfigValue(std::string_view key, std::string_view value, EngineConfig& cfg);
-// The text form of one key's value; empty for an unknown key.
+// The text form of one key's value, the key in any spelling as above; empty
+// for an unknown key.
 std::string configValue(const EngineConfig& cfg, std::string_view key);
 
 // Every key, one `key = value` per line, in configKeys() order. Numbers are
