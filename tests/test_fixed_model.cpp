@@ -103,6 +103,57 @@ TEST(FixedTopicModel, LabelsInTheGivenTopicsAndLeavesTheirCountsAsGiven) {
     EXPECT_FALSE(countsAsGiven(free, counts)) << "a learning model adds the mission's words";
 }
 
+// A fixed model's task refines a cell against its whole neighbourhood, the
+// next step's cell included. Word 2 is equally likely under both given
+// topics; at step 0 each of eight cells holds only word 2, and at step 1 the
+// same cell holds a word only one topic gives (1 in the even cells, 0 in the
+// odd ones). Step 1's words pull step 0's to their topic in every cell; a
+// neighbourhood of past steps only leaves each cell's word 2 to chance.
+TEST(FixedTopicModel, ACellsWordsFollowTheTopicOfItsNextStep) {
+    rost::Config c;
+    c.V = 3;
+    c.K = 2;
+    c.fixed = true;
+    c.alpha = 0.1;
+    c.beta = 0.01;
+    c.cell_space = 32;
+    c.frame_width = 8 * 32;
+    c.frame_height = 32;
+    c.g_space = 0;
+    c.g_time = 1;
+    c.ring_steps = 4;
+    c.cell_capacity = 64;
+    c.max_words_per_frame = 8 * 40;
+    c.seed = 9;
+    for (const int threads : {1, 2}) {
+        SCOPED_TRACE(threads);
+        c.threads = threads;
+        rost::Model m(c);
+        // topic 0: words 0 and 2; topic 1: words 1 and 2, as often.
+        ASSERT_TRUE(m.addTopicCounts(std::vector<int32_t>{1000, 0, 1000, 0, 1000, 1000}).ok());
+        std::vector<uint32_t> w0, w1;
+        std::vector<rost::Position> p;
+        for (int cell = 0; cell < 8; ++cell)
+            for (int i = 0; i < 40; ++i) {
+                w0.push_back(2);
+                w1.push_back(cell % 2 == 0 ? 1 : 0);
+                p.push_back({cell * 32 + i % 32, i % 32});
+            }
+        ASSERT_TRUE(m.addObservation(w0, p).ok());
+        ASSERT_TRUE(m.addObservation(w1, p).ok());
+        m.refineAll(30);
+        std::vector<uint16_t> z(m.observationSize(0));
+        m.observationLabels(0, z);
+        ASSERT_EQ(z.size(), w0.size());
+        for (int cell = 0; cell < 8; ++cell) {
+            const uint16_t want = cell % 2 == 0 ? 1 : 0;
+            int same = 0;
+            for (int i = 0; i < 40; ++i) same += z[static_cast<std::size_t>(cell * 40 + i)] == want ? 1 : 0;
+            EXPECT_GE(same, 36) << "cell " << cell << ": " << same << " of 40 words in the topic of its next step";
+        }
+    }
+}
+
 // In parallel windows the cells of a round are refined at once against the
 // fixed counts: the same labels and samples on 1, 2 and 3 threads, and no
 // count changes.

@@ -292,6 +292,27 @@ TEST(VisionKMajority, RecoversPlantedClustersDeterministicallyForAnyThreadCount)
     }
 }
 
+// A tied vote keeps the centre's bit: one centre over a descriptor and its
+// complement (every bit one vote against one) stays the descriptor it was
+// seeded with, not all ones (a tie setting the bit) nor all zeros.
+TEST(VisionKMajority, ATiedVoteKeepsTheCentresBit) {
+    Rng rng(17);
+    const Descriptor a = randomDescriptor(rng);
+    Descriptor b;
+    for (int w = 0; w < 4; ++w) b.w[w] = ~a.w[w];
+    for (const uint64_t seed : {1u, 2u, 3u}) {
+        SCOPED_TRACE(seed);
+        KMajorityOptions o;
+        o.words = 1;
+        o.seed = seed;
+        std::vector<Descriptor> c;
+        const std::vector<Descriptor> data{a, b};
+        ASSERT_TRUE(trainKMajority(data, o, c).ok());
+        ASSERT_EQ(c.size(), 1u);
+        EXPECT_TRUE(c[0] == a || c[0] == b) << "a tied bit changed: the centre is neither member";
+    }
+}
+
 TEST(VisionKMajority, RefusesTooFewDescriptorsWithAClearMessage) {
     const auto data = randomWords(10, 81);
     KMajorityOptions o;
