@@ -616,6 +616,25 @@ TEST(ToolTrust, ResumeErrorsNameWhatAndWhereWithExitCode2AndWriteNothing) {
                         " -q --resume " + ckpt),
                 (t / "w25.csv") + ": nothing to resume with: its 25 observations are all in " + ckpt,
                 t / "o");
+    // Another stream numbered by frame as this one (time stamp 24 is its
+    // observation 25 too): its words there are not the checkpoint's.
+    {
+        std::istringstream in(rost::testing::readText(t / "words.csv"));
+        std::string line, other;
+        while (std::getline(in, line)) {
+            std::istringstream cells(line);
+            std::string cell;
+            std::getline(cells, cell, ',');
+            other += cell;  // the time stamp kept, each word moved by one
+            while (std::getline(cells, cell, ',')) other += "," + std::to_string((std::stoi(cell) + 1) % 40);
+            other += "\n";
+        }
+        rost::testing::writeText(t / "other.csv", other);
+    }
+    expectError(runRost("refine " + (t / "other.csv") + " --positions " + (t / "positions.csv") + " --out " + (t / "o") +
+                        " -q --no-summary --resume " + ckpt),
+                (t / "other.csv") + ": not the stream " + ckpt + " was made from: its observation 25 (time stamp 24) lacks word ",
+                t / "o");
     // Missing, truncated, corrupt files.
     expectError(resume(t / "none.ckpt", ""), "--resume: " + (t / "none.ckpt") + ": cannot open: No such file or directory",
                 t / "o");

@@ -106,6 +106,39 @@ Status planFromData(const MissionOptions& m, const StreamMissionInput& in, Strea
     return planMission(m, mi, out.plan);
 }
 
+// A stream whose observation n has the checkpoint's last time stamp is
+// taken for the one the checkpoint was made from; two streams numbered by
+// frame both have it. The checkpoint's last observation is still in the
+// model (the newest step), its kept words and positions a subsequence of
+// what was read (subsampling keeps input order): that observation here
+// must hold them, or the stream is another one.
+Status checkSameStream(const MissionOptions& m, const StreamMissionInput& in, const StreamMission& out) {
+    const Model& model = out.engine->model();
+    const uint64_t frame = out.plan.checkpoint.observations - 1;
+    const uint32_t kept = model.observationSize(frame);
+    std::vector<uint32_t> words(kept);
+    std::vector<Position> positions(kept);
+    model.observationWords(frame, words);
+    model.observationPositions(frame, positions);
+    const StreamObservation& ob = out.stream.observations[out.skipped - 1];
+    std::size_t at = 0;
+    for (uint32_t i = 0; i < kept; ++i, ++at) {
+        while (at < ob.words.size() && (ob.words[at] != words[i] || ob.positions[at].x != positions[i].x ||
+                                        ob.positions[at].y != positions[i].y))
+            ++at;
+        if (at == ob.words.size()) {
+            const std::string t = std::to_string(ob.timestamp);
+            return Status::error(
+                in.words + ": not the stream " + m.resume + " was made from: its observation " +
+                std::to_string(out.skipped) + " (time stamp " + t + ") lacks word " + std::to_string(words[i]) + " at (" +
+                std::to_string(positions[i].x) + ", " + std::to_string(positions[i].y) +
+                ") that the checkpoint's has; to carry the mission on with another stream, give only what came after "
+                "it (time stamps after " + t + ")");
+        }
+    }
+    return {};
+}
+
 } // namespace
 
 Status openStreamMission(const MissionOptions& m, const StreamMissionInput& given, StreamMission& out) {
@@ -124,7 +157,9 @@ Status openStreamMission(const MissionOptions& m, const StreamMissionInput& give
     if (Status st = out.plan.resuming ? resumeSkip(m, in, out) : planFromData(m, in, out); !st.ok()) return st;
     Status st;
     out.engine = openMission(m, out.plan, st);
-    return out.engine ? Status() : st;
+    if (!out.engine) return st;
+    if (out.plan.resuming && out.skipped > 0) return checkSameStream(m, in, out);
+    return {};
 }
 
 } // namespace rost
