@@ -697,6 +697,35 @@ TEST(ToolTrust, RunResumedAfterItsSourceFailedEndsAsIfItHadNeverFailed) {
     EXPECT_EQ(std::filesystem::last_write_time(t / "m.ckpt"), mtime);
 }
 
+// A resumed --realtime run of a file is paced from the first frame it
+// plays: frame i is due (i - the checkpoint's frames) / fps after the start,
+// not i / fps (which waited out the checkpoint's 19 s before its first
+// frame). 200 images (10 frames/s, an image sequence's pace), 190 in the
+// checkpoint: the resumed run plays 10, in about 0.9 s.
+TEST(ToolTrust, AResumedRealtimeRunIsPacedFromItsFirstFramePlayed) {
+    TempDir t;
+    std::filesystem::create_directory(t / "frames");
+    cv::RNG rng(12);
+    cv::Mat img(48, 64, CV_8UC3);
+    for (int i = 0; i < 200; ++i) {
+        rng.fill(img, cv::RNG::UNIFORM, 0, 255);
+        char name[32];
+        std::snprintf(name, sizeof name, "frames/f%03d.png", i);
+        ASSERT_TRUE(cv::imwrite(t / name, img));
+    }
+    const std::string opts = " --no-overlay --no-summary -q --budget.refines 2 -K 4";
+    RunResult r = runRost("run " + (t / "frames") + " --max-frames 190 --out " + (t / "a") + " --checkpoint " +
+                          (t / "m.ckpt") + opts);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto start = std::chrono::steady_clock::now();
+    r = runRost("run " + (t / "frames") + " --realtime --out " + (t / "b") + " --resume " + (t / "m.ckpt") + opts);
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(lines(t / "b/frames.csv"), 1 + 10);
+    EXPECT_GE(took, 0.85) << "paced: the tenth frame played is due 0.9 s after the first";
+    EXPECT_LT(took, 12.0) << "paced from frame 0, the checkpoint's 190 frames (19 s) were waited out first";
+}
+
 TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) {
     TempDir t;
     // Time stamps that are neither increasing nor unique: position in the stream decides.

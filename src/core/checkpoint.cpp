@@ -693,21 +693,16 @@ std::unique_ptr<Engine> resumeEngine(const std::string& path, Status& status, Ch
 std::unique_ptr<Engine> resumeEngine(std::span<const uint8_t> bytes, std::string_view name, Status& status,
                                      CheckpointInfo* info) {
     Parsed p;
-    status = parseImage(bytes, name, p);
-    if (!status.ok()) return nullptr;
+    if (status = parseImage(bytes, name, p); !status.ok()) return nullptr;
     // Before building an engine of the size the file claims (sizesProblem).
     if (const std::string why = sizesProblem(p); !why.empty()) {
         status = Status::error(prefix(name) + why);
         return nullptr;
     }
-    auto engine = Engine::create(p.config, status);
-    if (!engine) {
-        status = status.prefixed(prefix(name));
-        return nullptr;
-    }
-    status = loadCheckpoint(bytes, name, *engine, {}, info);
-    if (!status.ok()) return nullptr;
-    return engine;
+    std::unique_ptr<Engine> engine = Engine::create(p.config, status);
+    if (!engine) status = status.prefixed(prefix(name));
+    else status = loadCheckpoint(bytes, name, *engine, {}, info);
+    return status.ok() ? std::move(engine) : nullptr;
 }
 
 // ---- CheckpointWriter ---------------------------------------------------------------------
