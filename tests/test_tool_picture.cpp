@@ -107,6 +107,7 @@ TEST(ToolSummary, TimeLabelsFitTheAxisAndCountFromAnOriginWhereStampsAreLarge) {
         {1.7e9, 1.7e9 + 3600, true, 1468},                          // a Unix time in s with an hour
         {-5e12, 5e12, false, 1468},
         {1.0e10, 1.24e10, false, 1468},                              // steps of 2.5e8: 1.025e+10 needs 4 digits
+        {1.0e10, 1.025e10, false, 1468},                             // 2.5e7 would need 1.0025e+10: fewer ticks
         {1.7e9, 1.7e9 + 3.5e6, true, 1468},                         // steps of 2.5e5 from the origin
     };
     for (const Axis& a : axes) {

@@ -297,7 +297,10 @@ Status readWhole(const std::string& path, Grow&& grow, std::size_t& have) {
             if (have == size) data = grow(size = std::max<std::size_t>(size * 2, std::size_t{1} << 16), have);
             const std::size_t n = std::fread(data + have, 1, size - have, f);
             have += n;
-            if (n == 0) break;
+            // An error ends the read even with bytes in hand: a signal that
+            // interrupts a read of a pipe returns what came before it, and
+            // reading on would wait for the writer again.
+            if (n == 0 || std::ferror(f)) break;
         }
     } catch (...) {  // out of memory
         std::fclose(f);

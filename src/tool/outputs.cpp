@@ -255,7 +255,11 @@ TimeTicks timeTicks(double x0, double x1, int width) {
         t.at = std::move(at);
         t.labels = std::move(labels);
         t.origin = origin;
-        if (tickLabelsFit(t, x0, x1, width)) break;
+        // At most nine characters a label (and a sign): fewer ticks need fewer digits.
+        const bool shortEnough = std::all_of(t.labels.begin(), t.labels.end(), [](const std::string& l) {
+            return l.size() - (!l.empty() && l.front() == '-' ? 1 : 0) <= 9;
+        });
+        if (shortEnough && tickLabelsFit(t, x0, x1, width)) break;
     }
     return t;
 }

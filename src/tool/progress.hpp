@@ -43,10 +43,11 @@ bool stderrIsTerminal() noexcept;
 // ends and writes its outputs). The handlers before it come back after.
 //
 // By default a system call the signal lands in is restarted (threads of a
-// run need not see EINTR). A command that only reads, on its one thread,
-// before it starts any (rost merge) asks for Reads::Interrupted: a read
-// blocked on a FIFO or a pipe then fails, and the command, seeing
-// interrupted(), exits 130 rather than waiting for a writer.
+// run need not see EINTR). A command whose blocking calls are its reads of
+// input files (rost merge: a checkpoint's engine starts pool threads, which
+// wait in calls that retry) asks for Reads::Interrupted: a read blocked on
+// a FIFO or a pipe then fails, and the command, seeing interrupted(),
+// exits 130 rather than waiting for a writer.
 class InterruptScope {
 public:
     enum class Reads : uint8_t { Restarted, Interrupted };
