@@ -92,6 +92,7 @@ struct Pipeline::Impl {
     PublishedResult record;
 
     MissionPlan plan;
+    int64_t before = 0;  // frames the checkpoint holds (FrameMission::before)
 
     // The model's counts copied for a reader (requestModel, takeModel).
     std::vector<int32_t> captured;        // K x V, sized by makeEngine
@@ -147,6 +148,7 @@ std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int
     vision::FrameMission m;
     if (Status st = vision::openFrameMission(mission, in, info, extractors, 0, m); !st.ok()) return st.message();
     plan = m.plan;
+    before = m.before;
     ec = plan.config;
     engine = std::move(m.engine);
     Status st;
@@ -212,6 +214,7 @@ int Pipeline::height() const { return impl_->ec.model.frame_height; }
 int Pipeline::cellsX() const { return impl_->ec.model.gridWidth(); }
 int Pipeline::cellsY() const { return impl_->ec.model.gridHeight(); }
 int Pipeline::cellSpace() const { return impl_->ec.model.cell_space; }
+int64_t Pipeline::framesBefore() const { return impl_->before; }
 
 bool Pipeline::push(const cv::Mat& image, int64_t timestamp) {
     Impl& m = *impl_;

@@ -111,6 +111,10 @@ public:
     int cellsX() const;
     int cellsY() const;
     int cellSpace() const;
+    // Frames ~resume's checkpoint holds (0 for a new mission): the node's
+    // images are numbered after them, as a camera's are in `rost run
+    // --resume` (rost::vision::FrameMission::before).
+    int64_t framesBefore() const;
 
     // Capture side (one thread): extracts the words of an 8-bit BGR or grey
     // image and hands them to the engine (Engine::tryPush: never blocks). False

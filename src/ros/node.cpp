@@ -347,7 +347,9 @@ void Node::wordsMain() {
         }
         waitForSlot();
         std::lock_guard<std::mutex> lock(pipeline_mutex_);  // the services stop and restart the engine
-        if (!pipeline_->push(r.bgr, static_cast<int64_t>(r.index)))
+        // The observation's time stamp: the image's number in the mission,
+        // after the frames ~resume's checkpoint holds.
+        if (!pipeline_->push(r.bgr, pipeline_->framesBefore() + static_cast<int64_t>(r.index)))
             ROS_WARN_THROTTLE(5.0, "rost: frames dropped (the refiner is behind, or images without words): %llu so far",
                               static_cast<unsigned long long>(pipeline_->dropped()));
     }
@@ -387,8 +389,9 @@ void Node::publisherMain() {
 }
 
 void Node::publish(const rost::bridge::FrameResult& r) {
-    // The observation's time stamp is the image's number in the order received.
-    const auto index = static_cast<uint64_t>(r.timestamp);
+    // The observation's time stamp is the image's number in the mission: the
+    // checkpoint's frames, then the images in the order this node received them.
+    const auto index = static_cast<uint64_t>(r.timestamp - pipeline_->framesBefore());
     std_msgs::Header header;
     {
         std::lock_guard<std::mutex> lock(headers_mutex_);
@@ -402,7 +405,7 @@ void Node::publish(const rost::bridge::FrameResult& r) {
     rost_msgs::FrameTopics frame;
     rost::bridge::fillFrameTopics(r, frame);
     frame.header = header;
-    frame.frame = index;
+    frame.frame = static_cast<uint64_t>(r.timestamp);
     // Images received up to this one that no message carries (dropped, bad, too small, paused).
     frame.dropped = static_cast<uint32_t>(index + 1 > published_ ? index + 1 - published_ : 0);
     frame_pub_.publish(frame);

@@ -13,7 +13,8 @@ then:
    checkpoint;
 2. leaves a stale `/rost/K` of 16, launches with `resume:=` that checkpoint
    and no K, plays the bag again and checks that the resumed mission keeps
-   its K of 8 (the launch file passes no K it was not given).
+   its K of 8 (the launch file passes no K it was not given) and numbers its
+   frames after the checkpoint's.
 
 Usage: test_launch.py BUILD_DIR
 """
@@ -94,6 +95,7 @@ def run():
     check(p.poll() is None, "roslaunch runs rost_node")
     check([m.header.stamp.to_nsec() for m in got] == stamps,
           "~frame for every image of the bag, stamped like it (%d of %d)" % (len(got), len(stamps)))
+    check([m.frame for m in got] == list(range(N)), "~frame numbers the images from 0: %s" % [m.frame for m in got])
     check(all(m.active_topics == 8 and len(m.topic_weights) == 8 for m in got), "K:=8 reaches the node: 8 topics")
     check(rosparam("get", "/rost/budget_refines") == "4", "params:=FILE loads its parameters (rosparam get: 4)")
     check(rosparam("list", "/rost").split().count("/rost/image_transport") == 0,
@@ -111,6 +113,11 @@ def run():
     got, p = launch("launch2.log", ["image:=/cam/image", "resume:=" + ckpt, "params:=" + queues], stamps)
     check(p.poll() is None and len(got) == len(stamps),
           "resume:= through the launch file runs (%d of %d frames)" % (len(got), len(stamps)))
+    # The mission's frames are numbered on after the checkpoint's, as `rost run
+    # --resume` numbers a camera's; `dropped` counts this node's images only.
+    check([m.frame for m in got] == list(range(N, 2 * N)) and all(m.dropped == 0 for m in got),
+          "the resumed node numbers its images after the checkpoint's %d: %s, dropped %s" %
+          (N, [m.frame for m in got], [m.dropped for m in got]))
     stop_launch(p)
     log = procs.log("launch2.log")  # whole once roslaunch is gone
     check(all(m.active_topics == 8 for m in got) and "K = 8, V = " in log and "resumed from " + ckpt in log,
