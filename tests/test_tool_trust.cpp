@@ -740,6 +740,33 @@ TEST(ToolTrust, AResumedRealtimeRunIsPacedFromItsFirstFramePlayed) {
     EXPECT_LT(took, 12.0) << "paced from frame 0, the checkpoint's 190 frames (19 s) were waited out first";
 }
 
+// A variable-frame-rate video under --realtime plays at its frames' own
+// times, and frames.csv carries them. The clip's last 5 frames come 0.5 s
+// apart, after 10 at 10 a second: resumed after the first 10, a run plays
+// the 5 in 2 s, where the clip's nominal rate (15 frames over its duration,
+// 6.5 a second) would have played them in 0.6 s.
+TEST(ToolTrust, ARealtimeRunPlaysAVariableRateVideoAtItsFramesTimes) {
+    namespace rt = rost::testing;
+    TempDir t;
+    if (!rt::writeVariableRateClip(t / "vfr.mp4")) GTEST_SKIP() << "no ffmpeg to encode a variable-rate clip with";
+    const std::string opts = " --no-overlay --no-summary -q --budget.refines 2 -K 4";
+    RunResult r = runRost("run " + (t / "vfr.mp4") + " --max-frames 10 --out " + (t / "a") + " --checkpoint " +
+                          (t / "m.ckpt") + opts);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto start = std::chrono::steady_clock::now();
+    r = runRost("run " + (t / "vfr.mp4") + " --realtime --out " + (t / "b") + " --resume " + (t / "m.ckpt") + opts);
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_GE(took, 1.95) << "the clip's last frame is due 2 s after its eleventh";
+    std::vector<std::string> rows = rt::lines(rt::readText(t / "a/frames.csv"));
+    const std::vector<std::string> resumed = rt::lines(rt::readText(t / "b/frames.csv"));
+    ASSERT_EQ(rows.size(), 1 + 10u);
+    ASSERT_EQ(resumed.size(), 1 + 5u);
+    rows.insert(rows.end(), resumed.begin() + 1, resumed.end());
+    for (std::size_t i = 0; i < rt::kVariableRateClipUs.size(); ++i)
+        EXPECT_EQ(rt::fields(rows[1 + i]).at(1), std::to_string(rt::kVariableRateClipUs[i])) << "frame " << i;
+}
+
 TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) {
     TempDir t;
     // Time stamps that are neither increasing nor unique: position in the stream decides.

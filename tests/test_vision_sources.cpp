@@ -223,6 +223,21 @@ TEST(VisionSources, AVideoCutShortIsAnErrorNamingTheFramesDecoded) {
     }
 }
 
+// A variable-frame-rate video keeps its frames' own times (the decoder's
+// presentation times), not index / nominal rate: here the rate drops from
+// 10 to 2 frames a second after 1 s. The last frames, which the decoder
+// holds back to the end of the stream, are timed by the step before them.
+TEST(VisionSources, AVariableFrameRateVideoKeepsItsFramesTimes) {
+    TempDir t;
+    if (!rost::testing::writeVariableRateClip(t / "vfr.mp4")) GTEST_SKIP() << "no ffmpeg to encode a variable-rate clip with";
+    Status st;
+    auto src = openFrameSource(t / "vfr.mp4", {}, st);
+    ASSERT_TRUE(src) << st.message();
+    std::vector<int64_t> times;
+    for (const Frame& f : readAll(*src)) times.push_back(f.timestamp_us);
+    EXPECT_EQ(times, rost::testing::kVariableRateClipUs);
+}
+
 // A whole file that counts more frames than it shows: a clip cut with
 // `ffmpeg -ss 1.3 -c copy` keeps the samples before its start for its edit
 // list (here 185 counted, 102 shown). It is read to its end with a note, not

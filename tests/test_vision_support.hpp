@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -101,6 +102,20 @@ inline RunResult runShell(const std::string& command) {
     r.out = slurp(t / "out");
     r.err = slurp(t / "err");
     return r;
+}
+
+// A variable-frame-rate H.264 clip, as a phone records: 15 frames of
+// 160x120, the first 10 at 10 a second (0, 0.1, ..., 0.9 s), then 5 at 2 a
+// second (1.0, 1.5, ..., 3.0 s). False where ffmpeg is missing or cannot
+// encode it.
+inline const std::vector<int64_t> kVariableRateClipUs = {0,      100000, 200000,  300000,  400000,
+                                                          500000, 600000, 700000,  800000,  900000,
+                                                          1000000, 1500000, 2000000, 2500000, 3000000};
+inline bool writeVariableRateClip(const std::string& path) {
+    const std::string make = "command -v ffmpeg > /dev/null 2>&1 && ffmpeg -v error -f lavfi -i "
+                             "testsrc=size=160x120:rate=10 -frames:v 15 -vf \"setpts='if(lt(N,10),N,10+(N-10)*5)/(10*TB)'\" "
+                             "-fps_mode vfr -c:v libx264 -pix_fmt yuv420p -y '" + path + "' > /dev/null 2>&1";
+    return std::system(make.c_str()) == 0;
 }
 
 inline std::string readText(const std::string& path) {

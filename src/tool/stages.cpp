@@ -98,13 +98,19 @@ bool Capture::readNext() {
     return rs == vision::ReadStatus::Ok;
 }
 
-// File input at its own frame rate: frame i is due at t0 + i / fps (i
-// counted from the first frame this run plays).
-void Capture::pace(Clock::time_point t0) const {
-    const double fps = w_.info.fps > 0 ? w_.info.fps : 10.0;
-    const auto due = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                              static_cast<double>(frame_.index - e_.before) / fps));
-    std::this_thread::sleep_until(due);
+// File input at its own pace: a video's frame is due at t0 plus its time
+// after the first frame this run plays (a variable frame rate kept);
+// images, which have no times, at 10 a second (frame i at t0 + i / 10,
+// i counted from the first image this run plays).
+void Capture::pace(Clock::time_point t0) {
+    double after = 0;
+    if (w_.info.fps > 0) {
+        if (captured() == 0) first_us_ = frame_.timestamp_us;
+        after = static_cast<double>(frame_.timestamp_us - first_us_) * 1e-6;
+    } else {
+        after = static_cast<double>(frame_.index - e_.before) / 10.0;
+    }
+    std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(after)));
 }
 
 bool Capture::produceOne(bool pacing, Clock::time_point t0) {

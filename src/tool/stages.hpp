@@ -93,13 +93,14 @@ public:
 
 private:
     bool readNext();
-    void pace(Clock::time_point t0) const;
+    void pace(Clock::time_point t0);
 
     WordsStage& w_;
     const RunEngine& e_;
     FrameRing& ring_;
     int64_t max_frames_;
     vision::Frame frame_;
+    int64_t first_us_ = 0;  // the time stamp of the first frame this run plays (pace)
     vision::FrameWords words_;
     std::string read_error_;
     std::atomic<int64_t> captured_{0};

@@ -302,6 +302,7 @@ public:
             return Status::error(path_ + ": cannot decode video (OpenCV cannot open it)");
         if (!cap_.read(pending_) || pending_.empty())
             return Status::error(path_ + ": cannot decode video (no frame could be decoded)");
+        pending_ms_ = cap_.get(cv::CAP_PROP_POS_MSEC);
         if (const std::string why = frameTooSmall(pending_.cols, pending_.rows); !why.empty())
             return Status::error(path_ + ": " + why + " (every frame of a video has its size)");
         if (Status st = chooseSize(o, pending_.cols, pending_.rows, info_, notes_); !st.ok()) return st.prefixed(path_ + ": ");
@@ -323,20 +324,40 @@ public:
 
     ReadStatus read(Frame& out) override {
         cv::Mat img;
+        double ms = pending_ms_;
         if (!pending_.empty()) img = std::move(pending_), pending_ = cv::Mat();
         else if (!cap_.read(raw_) || raw_.empty()) return endOrCut();
-        else img = raw_;
+        else img = raw_, ms = cap_.get(cv::CAP_PROP_POS_MSEC);
         if (const std::string why = normalise(img, info_.width, info_.height, out.image); !why.empty()) {
             error_ = path_ + ": cannot decode frame " + std::to_string(next_) + ": " + why;
             return ReadStatus::Error;
         }
         out.index = next_;
-        out.timestamp_us = info_.fps > 0 ? static_cast<int64_t>(std::llround(next_ * 1e6 / info_.fps)) : next_;
+        out.timestamp_us = timestampUs(ms);
         ++next_;
         return ReadStatus::Ok;
     }
 
 private:
+    // The frame's presentation time as the decoder gives it (`ms` from the
+    // stream's start), so a variable-frame-rate video (a phone's) keeps its
+    // frames' own times. Where the decoder gives none that follows the last
+    // (OpenCV gives 0 for the frames the decoder holds back to the end of
+    // the stream), the last time plus the last step between two frames (one
+    // nominal period after the first frame; 1 us at an unknown rate): time
+    // stamps always increase.
+    int64_t timestampUs(double ms) {
+        const double us = ms * 1000.0;
+        const bool given = std::isfinite(us) && us < 1e15 && (next_ == 0 ? us >= 0.0 : us > static_cast<double>(last_us_));
+        int64_t t = 0;
+        if (given) t = std::llround(us);
+        else if (next_ > 0 && step_us_ > 0) t = last_us_ + step_us_;
+        else if (next_ > 0) t = last_us_ + (info_.fps > 0 ? std::max<int64_t>(1, std::llround(1e6 / info_.fps)) : 1);
+        if (next_ > 0) step_us_ = t - last_us_;
+        last_us_ = t;
+        return t;
+    }
+
     // The decoder gave no more frames. Short of the count the container
     // gives (beyond the slack of a count estimated from the duration), the
     // file was cut or damaged: an error naming where, not an end that would
@@ -369,6 +390,9 @@ private:
     cv::Mat pending_, raw_;
     int64_t next_ = 0;
     int64_t estimate_ = -1;  // FFmpeg's estimate of the frames, where the container gives no count
+    double pending_ms_ = 0;  // the first frame's presentation time (read by open())
+    int64_t last_us_ = 0;    // the last frame's time stamp
+    int64_t step_us_ = 0;    // and its step from the one before
 };
 
 // Several sources one after the other at the first one's size.
