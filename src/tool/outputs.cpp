@@ -216,7 +216,9 @@ std::string shortLabel(double v, double step, double mag) {
 
 int tickLabelWidth(const std::string& label) { return textWidth(label, 0.42); }
 
-bool tickLabelsFit(const TimeTicks& t, double x0, double x1, int width) {
+bool tickLabelsRead(const TimeTicks& t, double x0, double x1, int width) {
+    for (const std::string& l : t.labels)
+        if (l.size() - (!l.empty() && l.front() == '-' ? 1 : 0) > 9) return false;
     for (std::size_t i = 1; i < t.at.size(); ++i) {
         const double apart = (t.at[i] - t.at[i - 1]) / (x1 - x0) * (width - 1);
         if (apart < (tickLabelWidth(t.labels[i - 1]) + tickLabelWidth(t.labels[i])) / 2.0 + 12) return false;
@@ -255,11 +257,7 @@ TimeTicks timeTicks(double x0, double x1, int width) {
         t.at = std::move(at);
         t.labels = std::move(labels);
         t.origin = origin;
-        // At most nine characters a label (and a sign): fewer ticks need fewer digits.
-        const bool shortEnough = std::all_of(t.labels.begin(), t.labels.end(), [](const std::string& l) {
-            return l.size() - (!l.empty() && l.front() == '-' ? 1 : 0) <= 9;
-        });
-        if (shortEnough && tickLabelsFit(t, x0, x1, width)) break;
+        if (tickLabelsRead(t, x0, x1, width)) break;  // else fewer ticks: fewer digits, more room
     }
     return t;
 }

@@ -120,9 +120,10 @@ struct TimeTicks {
 TimeTicks timeTicks(double x0, double x1, int width);
 // The width in pixels of a tick label as summary.png draws it.
 int tickLabelWidth(const std::string& label);
-// Whether every two neighbouring labels of `t` on the axis from x0 to x1,
-// `width` pixels wide, stand at least 12 pixels apart.
-bool tickLabelsFit(const TimeTicks& t, double x0, double x1, int width);
+// Whether the labels of `t` on the axis from x0 to x1, `width` pixels wide,
+// read: each at most nine characters (and a sign), and every two
+// neighbours at least 12 pixels apart.
+bool tickLabelsRead(const TimeTicks& t, double x0, double x1, int width);
 
 // Rows where the surprise jumps to at least twice the median of the 10 rows
 // before it (after the first frames), strongest jump first, at least
