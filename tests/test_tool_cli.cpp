@@ -127,6 +127,28 @@ TEST(ToolCli, InvalidOptionValuesAreNamed) {
                     std::string(opt) + ": expected 0 or more, found '-3'", t / "o");
 }
 
+// An option missing its value would take the next argument, even another
+// option: `--checkpoint --quiet` wrote a checkpoint named "--quiet" and ran
+// loudly, `-K --out o` said "--out is required". Refused, naming both.
+TEST(ToolCli, AnOptionsValueThatIsAnotherOptionIsRefused) {
+    TempDir t;
+    rost::testing::writeText(t / "w.csv", "0,1,2\n1,2,3\n");
+    const std::string in = (t / "w.csv") + " ";
+    expectError(runRost("refine " + in + "--checkpoint --quiet --out " + (t / "o")),
+                "rost: error: --checkpoint: needs a value; --quiet is an option (for a file of that name, give ./--quiet)",
+                t / "o");
+    EXPECT_FALSE(std::filesystem::exists("--quiet")) << "a checkpoint named after the option";
+    expectError(runRost("refine " + in + "-K --out " + (t / "o")), "--topics: needs a value; --out is an option", t / "o");
+    expectError(runRost("refine " + in + "--out " + (t / "o") + " --seed=-q"), "--seed: needs a value; -q is an option", t / "o");
+    expectError(runRost("merge " + in + "--out --threshold 0.5"), "--out: needs a value; --threshold is an option", t / "o");
+    // A negative number is a value (refused by its range), and a file named
+    // like an option is given with its directory.
+    expectError(runRost("refine " + in + "--out " + (t / "o") + " --alpha -1"), "--alpha = -1, allowed (0, 1000000]", t / "o");
+    const RunResult r = runRost("refine " + in + "-q --no-summary --out " + (t / "o") + " --checkpoint " + (t / "--quiet"));
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(t / "--quiet"));
+}
+
 TEST(ToolCli, UnreadableInputsAreNamed) {
     TempDir t;
     expectError(runRost("run " + (t / "missing.mov") + " --out " + (t / "o")), "missing.mov: cannot open: No such file or directory", t / "o");

@@ -7,6 +7,7 @@
 // (errors and --help are its own) and then becomes `rost-vision`, the same
 // program with the frame sources, the video writer and ROS bags.
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -54,6 +55,27 @@ const CLI::Validator& nonNegative() {
         },
         "");
     return v;
+}
+
+// An option that takes a value takes the next argument whatever it is
+// (CLI11 fills an option's values before it looks at them): `--checkpoint
+// --quiet` wrote a checkpoint named "--quiet" and was not quiet, `-K --out
+// o` said "--out is required". A value that is the name of one of the
+// command's options (alone or as `--name=value`) is refused, naming both;
+// a file named like an option can still be given as ./--name.
+void refuseOptionsAsValues(CLI::App& cmd) {
+    for (CLI::Option* opt : cmd.get_options([](const CLI::Option* o) { return o->nonpositional() && o->get_type_size_max() > 0; })) {
+        CLI::App* owner = &cmd;
+        opt->check(
+            [owner](const std::string& value) -> std::string {
+                if (value.size() < 2 || value[0] != '-' || !(std::isalpha(static_cast<unsigned char>(value[1])) || value[1] == '-'))
+                    return {};
+                const std::string name = value.substr(0, value.find('='));
+                if (owner->get_option_no_throw(name) == nullptr && name != "--help" && name != "-h") return {};
+                return "needs a value; " + name + " is an option (for a file of that name, give ./" + value + ")";
+            },
+            "");
+    }
 }
 
 // `rost run`'s options.
@@ -260,6 +282,7 @@ int main(int argc, char** argv) {
     // ---- cameras
     CLI::App* camCmd = app.add_subcommand("cameras", "list the cameras libcamera can see");
 
+    for (CLI::App* cmd : app.get_subcommands([](const CLI::App*) { return true; })) refuseOptionsAsValues(*cmd);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
