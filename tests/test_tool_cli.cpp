@@ -276,6 +276,21 @@ TEST(ToolCli, BadTopicModelIsNamedWithLineAndColumn) {
                 "tm.csv: no topic lines (expected 1 to K = 2)", t / "o");
 }
 
+// `rost run`'s words are its extractors': a topic model with more words a
+// line than they produce was made with another vocabulary (or other word
+// options), and is refused rather than read as these words.
+TEST(ToolCli, ATopicModelOfAnotherVocabularyIsRefusedByRun) {
+    TempDir t;
+    cv::imwrite(t / "a.png", cv::Mat(64, 64, CV_8UC3, cv::Scalar(10, 20, 30)));
+    std::string row = "1";
+    for (int v = 1; v < 6000; ++v) row += ",1";
+    rost::testing::writeText(t / "wide.csv", row + "\n" + row + "\n");
+    expectError(runRost("run " + (t / "a.png") + " -K 2 --in.topicmodel " + (t / "wide.csv") + " --out " + (t / "o")),
+                "rost: error: --in.topicmodel: " + (t / "wide.csv") + " has 6000 words a line, more than the 5436 the "
+                "extractors produce (ORB 5000 + intensity 256 + hue 180): a topic model of another vocabulary or other "
+                "word options", t / "o");
+}
+
 // A fixed topic model: labels are the given topics' numbers (here the
 // reverse of the word blocks), the model written is the one given, K and V
 // come from the file, and what cannot work is named.

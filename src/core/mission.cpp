@@ -65,6 +65,14 @@ Status fromTopicModel(const MissionOptions& m, const MissionInput& in, Config& c
     TopicModelShape shape;
     if (Status st = readTopicModelShape(m.in_topicmodel, shape); !st.ok()) return st.prefixed(name + ": ");
     if (shape.rows == 0) return {};  // loadTopicModelCsv names the empty file
+    // Words the extractors cannot produce: the model is another vocabulary's
+    // (or other word options'). Fewer columns may be a word stream's model
+    // (`rost refine` sizes V by the largest word id seen).
+    if (in.vocabulary && !m.isGiven("V") && shape.columns > in.V)
+        return Status::error(name + ": " + m.in_topicmodel + " has " + std::to_string(shape.columns) +
+                             " words a line, more than the " + std::to_string(in.V) + " the extractors produce" +
+                             (in.words_detail.empty() ? std::string() : " (" + in.words_detail + ")") +
+                             ": a topic model of another vocabulary or other word options");
     if (!m.isGiven("V")) c.V = std::max(in.V, shape.columns);
     if (!c.fixed) return {};
     const SettingSpec& K = settingSpec("K");
