@@ -98,18 +98,12 @@ bool Capture::readNext() {
     return rs == vision::ReadStatus::Ok;
 }
 
-// File input at its own pace: a video's frame is due at t0 plus its time
-// after the first frame this run plays (a variable frame rate kept);
-// images, which have no times, at 10 a second (frame i at t0 + i / 10,
-// i counted from the first image this run plays).
+// File input at its own pace: a frame is due at t0 plus its time after the
+// first frame this run plays (a video's frames' own times, a variable frame
+// rate kept; images 10 a second, vision::kImagePeriodUs).
 void Capture::pace(Clock::time_point t0) {
-    double after = 0;
-    if (w_.info.fps > 0) {
-        if (captured() == 0) first_us_ = frame_.timestamp_us;
-        after = static_cast<double>(frame_.timestamp_us - first_us_) * 1e-6;
-    } else {
-        after = static_cast<double>(frame_.index - e_.before) / 10.0;
-    }
+    if (captured() == 0) first_us_ = frame_.timestamp_us;
+    const double after = static_cast<double>(frame_.timestamp_us - first_us_) * 1e-6;
     std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(after)));
 }
 

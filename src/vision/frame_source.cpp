@@ -265,7 +265,7 @@ public:
             return ReadStatus::Error;
         }
         out.index = delivered_;  // in delivery order: skipped images leave no gap
-        out.timestamp_us = delivered_++;
+        out.timestamp_us = kImagePeriodUs * delivered_++;
         ++next_;
         return ReadStatus::Ok;
     }
@@ -422,6 +422,7 @@ public:
                 }
                 out.index = next_++;
                 out.timestamp_us = offset_us_ + tmp_.timestamp_us;
+                if (out.index > 0) step_us_ = out.timestamp_us - last_us_;
                 last_us_ = out.timestamp_us;
                 return ReadStatus::Ok;
             }
@@ -430,7 +431,8 @@ public:
                 return s;
             }
             ++cur_;
-            offset_us_ = last_us_ + 1;
+            // The next part starts a step after this one's last frame (the last step between two frames).
+            if (next_ > 0) offset_us_ = last_us_ + (step_us_ > 0 ? step_us_ : kImagePeriodUs);
         }
         return ReadStatus::End;
     }
@@ -449,7 +451,7 @@ private:
     std::vector<std::unique_ptr<FrameSource>> parts_;
     std::size_t cur_ = 0;
     Frame tmp_;
-    int64_t next_ = 0, offset_us_ = 0, last_us_ = 0;
+    int64_t next_ = 0, offset_us_ = 0, last_us_ = 0, step_us_ = 0;
 };
 
 std::unique_ptr<FrameSource> openFiles(std::vector<std::string> files, const std::string& what,

@@ -18,10 +18,15 @@
 
 namespace rost::vision {
 
+// Images carry no time: a sequence of them is timed, and played under
+// `rost run --realtime`, at 10 a second.
+inline constexpr int64_t kImagePeriodUs = 100000;
+
 struct Frame {
     cv::Mat image;               // 8-bit BGR, SourceInfo::width x height
     int64_t index = 0;           // 0, 1, 2, ... in delivery order
-    int64_t timestamp_us = 0;    // from the stream start: file time (index / fps) or sensor time
+    int64_t timestamp_us = 0;    // from the stream start: a video frame's presentation time, sensor
+                                 // time, or (images, which have none) kImagePeriodUs apart
 };
 
 struct SourceInfo {
