@@ -238,6 +238,24 @@ TEST(VisionSources, AVariableFrameRateVideoKeepsItsFramesTimes) {
     EXPECT_EQ(times, rost::testing::kVariableRateClipUs);
 }
 
+// A recording cut before its index (an MP4 or QuickTime file written
+// without faststart keeps its index, the moov box, at the end) cannot be
+// opened at all: the error says it is truncated, not only that OpenCV
+// cannot open it.
+TEST(VisionSources, AVideoCutBeforeItsIndexIsNamedTruncated) {
+    if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) GTEST_SKIP() << "no ffmpeg to encode a clip with";
+    TempDir t;
+    const std::string make = "ffmpeg -v error -f lavfi -i testsrc=size=160x120:rate=25 -t 4 -c:v libx264 -pix_fmt yuv420p '" +
+                             (t / "whole.mp4") + "'";
+    if (std::system(make.c_str()) != 0) GTEST_SKIP() << "ffmpeg cannot encode H.264 here";
+    const std::string whole = rost::testing::readText(t / "whole.mp4");
+    ASSERT_EQ(whole.find("moov"), whole.rfind("moov"));
+    ASSERT_GT(whole.find("moov"), whole.find("mdat")) << "the index must come last for this test";
+    rost::testing::writeText(t / "cut.mp4", whole.substr(0, whole.size() / 2));
+    EXPECT_EQ(openError(t / "cut.mp4"), (t / "cut.mp4") + ": cannot decode video: truncated or damaged (its container's "
+                                                          "boxes run past the end of the file)");
+}
+
 // A whole file that counts more frames than it shows: a clip cut with
 // `ffmpeg -ss 1.3 -c copy` keeps the samples before its start for its edit
 // list (here 185 counted, 102 shown). It is read to its end with a note, not

@@ -298,8 +298,13 @@ public:
         // FFmpeg only: it reads every common container, and OpenCV's other
         // backends (GStreamer, image-sequence patterns) would each try a file
         // FFmpeg refused and fill stderr with their complaints.
-        if (!cap_.open(path_, cv::CAP_FFMPEG) || !cap_.isOpened())
+        if (!cap_.open(path_, cv::CAP_FFMPEG) || !cap_.isOpened()) {
+            // A recording cut before its index (a QuickTime file keeps it at the end) cannot be opened at all.
+            if (containerCountsFrames(path_) && !containerIsWhole(path_))
+                return Status::error(path_ + ": cannot decode video: truncated or damaged (its container's boxes run "
+                                             "past the end of the file)");
             return Status::error(path_ + ": cannot decode video (OpenCV cannot open it)");
+        }
         if (!cap_.read(pending_) || pending_.empty())
             return Status::error(path_ + ": cannot decode video (no frame could be decoded)");
         pending_ms_ = cap_.get(cv::CAP_PROP_POS_MSEC);
