@@ -306,7 +306,8 @@ TEST(FaultsInput, HostileWordStreamsAreRefusedWithLineAndColumnOrRunSafely) {
     EXPECT_EQ(parseWordStream("1,2\n", "1,99999999999,0\n", lim, s).message(),
               "positions.csv:1:3: position (99999999999, 0) outside the frame 256x192");
     EXPECT_EQ(parseWordStream("1,2\n", "1,-1,-1\n", lim, s).message(),
-              "positions.csv:1:3: position (-1, -1) outside the frame 256x192");
+              "positions.csv:1:3: position (-1, -1) has a negative coordinate: positions are pixels from the frame's "
+              "top-left corner, 0 or more");
     EXPECT_EQ(parseWordStream("1,400\n", {}, lim, s).message(), "words.csv:1:3: word id 400 out of range [0, 400)");
     // Empty frames and an enormous frame run through the engine: the empty
     // ones add a step without words, the enormous one is subsampled and counted.

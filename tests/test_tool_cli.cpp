@@ -134,10 +134,11 @@ TEST(ToolCli, AnOptionsValueThatIsAnotherOptionIsRefused) {
     TempDir t;
     rost::testing::writeText(t / "w.csv", "0,1,2\n1,2,3\n");
     const std::string in = (t / "w.csv") + " ";
-    expectError(runRost("refine " + in + "--checkpoint --quiet --out " + (t / "o")),
+    expectError(rost::testing::runShell("cd '" + t.path() + "' && " + tool() + " refine " + in + "--checkpoint --quiet --out " +
+                                        (t / "o")),
                 "rost: error: --checkpoint: needs a value; --quiet is an option (for a file of that name, give ./--quiet)",
                 t / "o");
-    EXPECT_FALSE(std::filesystem::exists("--quiet")) << "a checkpoint named after the option";
+    EXPECT_FALSE(std::filesystem::exists(t / "--quiet")) << "a checkpoint named after the option";
     expectError(runRost("refine " + in + "-K --out " + (t / "o")), "--topics: needs a value; --out is an option", t / "o");
     expectError(runRost("refine " + in + "--out " + (t / "o") + " --seed=-q"), "--seed: needs a value; -q is an option", t / "o");
     expectError(runRost("merge " + in + "--out --threshold 0.5"), "--out: needs a value; --threshold is an option", t / "o");

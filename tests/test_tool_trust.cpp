@@ -901,7 +901,7 @@ TEST(ToolTrust, HostileWordStreamsAndVideosGetOneLineErrorsWithExitCode2) {
     };
     const std::string words = "0,1,2\n1,3,4\n";
     expectError(refineIt(words, "0,0,0,-1,5\n1,0,0,1,1\n", ""),
-                (t / "p.csv") + ":1:7: position (-1, 5) outside the largest frame a model can hold, 65536x65536", t / "o");
+                (t / "p.csv") + ":1:7: position (-1, 5) has a negative coordinate: positions are pixels from the frame's top-left corner, 0 or more", t / "o");
     expectError(refineIt(words, "0,0,0,99999999999,5\n1,0,0,1,1\n", ""),
                 (t / "p.csv") + ":1:7: position (99999999999, 5) outside the largest frame", t / "o");
     expectError(refineIt(words, "0,0,0,5,70000\n1,0,0,1,1\n", "--width 640"),

@@ -162,8 +162,12 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
                 msg += std::to_string(x);
                 msg += ", ";
                 msg += std::to_string(y);
-                msg += ") outside the ";
-                msg += frameText(limits);
+                if (x < 0 || y < 0) {
+                    msg += ") has a negative coordinate: positions are pixels from the frame's top-left corner, 0 or more";
+                } else {
+                    msg += ") outside the ";
+                    msg += frameText(limits);
+                }
                 return Status::error(msg);
             }
             obs.positions[i] = {static_cast<int32_t>(x), static_cast<int32_t>(y)};
