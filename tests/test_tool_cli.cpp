@@ -204,6 +204,17 @@ TEST(ToolCli, NoCameraSaysSoAndWhatItSees) {
     TempDir t;
     const RunResult r = runRost("run camera:7 --out " + (t / "o"));
     expectError(r, "camera:7: no camera found", t / "o");
+    // `rost cameras` lists them on stdout, or says on stderr, as every error, that there is none.
+    const RunResult list = runRost("cameras");
+    if (list.exit_code == 0) {
+        for (const std::string& line : rost::testing::lines(list.out)) EXPECT_EQ(line.rfind("camera:", 0), 0u) << line;
+    } else {
+        EXPECT_EQ(list.exit_code, 2);
+        EXPECT_EQ(list.out, "");
+        EXPECT_TRUE(list.err == "rost: error: cameras: no camera found (libcamera sees no camera)\n" ||
+                    list.err == "rost: error: cameras: this build of rost has no libcamera support\n")
+            << list.err;
+    }
 }
 
 TEST(ToolCli, RefineNamesTheLineAndColumnOfABadWord) {
@@ -349,7 +360,7 @@ TEST(ToolCli, MergeReadsTopicModelsAndCheckpointsAndNamesBadInput) {
     expectError(runRost("merge " + (t / "a/topicmodel.csv") + " " + (t / "nope.csv") + " --out " + (t / "n")),
                 "nope.csv: cannot open", t / "n");
     expectError(runRost("merge " + (t / "a/topicmodel.csv") + " --threshold 2 --out " + (t / "n")),
-                "merge threshold 2 out of range [0, 1]", t / "n");
+                "rost: error: --threshold 2 out of range [0, 1]", t / "n");
     // Its files over one of the models it merges: refused, the model kept.
     const std::string model = rost::testing::readText(t / "a/topicmodel.csv");
     expectError(runRost("merge " + (t / "a.ckpt") + " " + (t / "a/topicmodel.csv") + " --out " + (t / "a")),

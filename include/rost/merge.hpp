@@ -41,6 +41,10 @@ struct MergeOptions {
     double threshold = 0.6;
     // Smoothing of phi_k(v) = (n_k^v + beta) / (n_k + V beta) over the global V.
     double beta = 0.01;
+    // How the face spells them (the tool's "--threshold", the node's
+    // "~threshold"), for the messages.
+    std::string threshold_name = "merge threshold";
+    std::string beta_name = "merge beta";
     // Checks both; the message names the option and its range.
     [[nodiscard]] Status validate() const;
 };

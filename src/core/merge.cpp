@@ -26,8 +26,8 @@ Status MergeOptions::validate() const {
         return s;
     };
     if (!(threshold >= 0.0 && threshold <= 1.0))
-        return Status::error("merge threshold " + number(threshold) + " out of range [0, 1]");
-    if (!(beta > 0.0 && beta <= 1e6)) return Status::error("merge beta " + number(beta) + " out of range (0, 1e6]");
+        return Status::error(threshold_name + " " + number(threshold) + " out of range [0, 1]");
+    if (!(beta > 0.0 && beta <= 1e6)) return Status::error(beta_name + " " + number(beta) + " out of range (0, 1e6]");
     return {};
 }
 

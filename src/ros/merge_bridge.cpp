@@ -9,16 +9,14 @@
 
 namespace rost::bridge {
 
+// The library's check (MergeOptions::validate), in the node's spelling.
 std::string checkMergeOptions(double threshold, double beta) {
-    if (!std::isfinite(threshold) || threshold < 0.0 || threshold > 1.0)
-        return "~threshold = " + std::to_string(threshold) + ": expected a Hellinger distance in [0, 1]";
-    if (!std::isfinite(beta) || beta <= 0.0)
-        return "~beta = " + std::to_string(beta) + ": expected a finite number > 0";
     MergeOptions o;
     o.threshold = threshold;
     o.beta = beta;
-    const Status st = o.validate();
-    return st.ok() ? std::string() : "~threshold, ~beta: " + st.message();
+    o.threshold_name = "~threshold";
+    o.beta_name = "~beta";
+    return o.validate().message();
 }
 
 std::string mergeModels(const std::vector<ModelCounts>& models, double threshold, double beta, MergedModel& out) {

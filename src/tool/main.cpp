@@ -141,10 +141,11 @@ void addRun(CLI::App& app, RunCli& r) {
     runCmd->add_flag("--quiet,-q", run.quiet, "no progress bar and no notes on stderr (errors still)")->group(out);
     runCmd->footer(
         "Writes into DIR: words.csv (timestamp,w1,w2,...), positions.csv (timestamp,x1,y1,...), topics.csv\n"
-        "(timestamp,z1,z2,...: final maximum-likelihood labels), perplexity.csv (frame,instantaneous,final),\n"
-        "surprise.csv (frame,surprise), surprise_cells.csv (frame,cell0,...), frames.csv (words per frame and\n"
-        "extractor), topicmodel.csv (K rows of V counts), overlay.mp4 (cells tinted by dominant topic),\n"
-        "summary.png, run.txt. The timestamp is the input frame index. Files appear only when the run succeeds.");
+        "(timestamp,z1,z2,...: final maximum-likelihood labels), perplexity.csv (frame,instantaneous,final,\n"
+        "plugin,topics), surprise.csv (frame,surprise), surprise_cells.csv (frame,cell0,...), frames.csv\n"
+        "(words per frame and extractor), topicmodel.csv (K rows of V counts), overlay.mp4 (cells tinted by\n"
+        "dominant topic), summary.png, run.txt. The timestamp is the input frame index. Files appear only\n"
+        "when the run succeeds.");
     r.cmd = runCmd;
 }
 

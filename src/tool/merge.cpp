@@ -18,6 +18,8 @@ int mergeCommand(const MergeCliOptions& o) {
     MergeOptions options;
     options.threshold = o.threshold;
     options.beta = o.beta;
+    options.threshold_name = "--threshold";
+    options.beta_name = "--beta";
     if (Status st = options.validate(); !st.ok()) return fail(st.message());
     // The merge's files over one of the models it merges would replace it: refused before reading.
     MissionOptions read;

@@ -86,7 +86,9 @@ SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : 
             e.option = app.add_flag(names, e.flag, help + " (default " + std::string(spec.def) + ")");
         } else {
             e.option = app.add_option(names, e.text, help)->type_name(typeName(spec));
-            if (spec.has(setting_flags::Derived)) e.option->default_str("from the input");
+            // Derived: the input decides, except the threads, which the machine does.
+            if (spec.has(setting_flags::Derived))
+                e.option->default_str(std::string_view(spec.key) == "threads" ? "the cores" : "from the input");
             else if (!spec.def.empty()) e.option->default_str(std::string(spec.def));
         }
         e.option->group(groupTitle(spec.group));

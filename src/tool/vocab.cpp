@@ -131,15 +131,9 @@ int vocabCommand(const VocabOptions& o) {
 }
 
 int camerasCommand() {
-    if (!vision::haveLibcamera()) {
-        std::printf("this build of rost has no libcamera support\n");
-        return kExitError;
-    }
+    if (!vision::haveLibcamera()) return fail("cameras: this build of rost has no libcamera support");
     const auto cams = vision::listCameras();
-    if (cams.empty()) {
-        std::printf("no camera found (libcamera sees none)\n");
-        return kExitError;
-    }
+    if (cams.empty()) return fail("cameras: no camera found (libcamera sees no camera)");
     for (const auto& c : cams) std::printf("camera:%s\n", c.c_str());
     return kExitOk;
 }
