@@ -22,10 +22,10 @@ bool isBool(const py::handle& v) {
 
 // The text form setSetting() parses. Python's own spellings: True/False for a
 // Bool, repr() of a float (shortest round trip), an int's digits.
-std::string valueText(const SettingSpec& spec, const std::string& name, const py::handle& v) {
+std::string valueText(const SettingSpec& spec, const std::string& name, const py::handle& v, const char* what) {
     if (isBool(v)) {
         if (spec.type != SettingType::Bool)
-            throw py::value_error("setting '" + name + "': expected a number, found " + py::repr(v).cast<std::string>());
+            throw py::value_error(std::string(what) + ": " + name + ": expected a number, found " + py::repr(v).cast<std::string>());
         return PyObject_IsTrue(v.ptr()) == 1 ? "true" : "false";
     }
     if (py::isinstance<py::str>(v)) return v.cast<std::string>();
@@ -34,7 +34,7 @@ std::string valueText(const SettingSpec& spec, const std::string& name, const py
     if (!py::hasattr(v, "__index__") && py::hasattr(v, "__float__"))
         return py::repr(py::float_(py::reinterpret_borrow<py::object>(v))).cast<std::string>();
     if (py::hasattr(v, "__index__")) return py::str(py::int_(py::reinterpret_borrow<py::object>(v))).cast<std::string>();  // int, numpy integers
-    throw py::value_error("setting '" + name + "': expected a number, a bool or a string, found " + typeName(v));
+    throw py::value_error(std::string(what) + ": " + name + ": expected a number, a bool or a string, found " + typeName(v));
 }
 
 } // namespace
@@ -58,7 +58,7 @@ void applySettings(Settings& s, const py::kwargs& kwargs, const char* what, bool
                                       "' both set a budget (give one of budget_refines, budget_tokens, budget_ms)");
             budgetKey = name;
         }
-        if (auto p = setSettingText(s, *spec, valueText(*spec, name, v)))
+        if (auto p = setSettingText(s, *spec, valueText(*spec, name, v, what)))
             throw py::value_error(std::string(what) + ": " + p->describe(paramName));
     }
     // Python names a setting by its keyword: eta, cell_space (never strategy.eta or cell.space).

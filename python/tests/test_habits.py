@@ -157,8 +157,10 @@ def test_numpy_scalars_are_numbers():
     assert config.K == 8 and type(config.K) is int
     assert config.alpha == float(np.float32(0.1)) and config.topics_grow is True and config.budget_ms == 2.5
     assert config.replace(topics_grow=np.False_).topics_grow is False
-    with pytest.raises(ValueError, match="expected a number"):
+    with pytest.raises(ValueError, match=r"^rost\.Config: K: expected a number, found (np\.)?True_?$"):
         rost.Config(K=np.True_)
+    with pytest.raises(ValueError, match=r"^rost\.Config: alpha: expected a number, found True$"):
+        rost.Config(alpha=True)
     rng = np.random.default_rng(2)
     model = rost.Model(small_config(seed=np.int32(7)))
     model.add_observation(np.int64(4), *random_observation(rng))

@@ -47,11 +47,19 @@ std::vector<std::string> globFiles(const std::string& pattern) {
     return files;
 }
 
+constexpr const char* kImageExtensions[] = {".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pnm", ".pbm",
+                                            ".bmp", ".tif", ".tiff", ".webp"};
+
 bool isImageFile(const fs::path& p) {
-    static const char* kExt[] = {".png", ".jpg", ".jpeg", ".pgm", ".ppm", ".pnm", ".pbm",
-                                 ".bmp", ".tif", ".tiff", ".webp"};
     const std::string e = lower(p.extension().string());
-    return std::any_of(std::begin(kExt), std::end(kExt), [&](const char* x) { return e == x; });
+    return std::any_of(std::begin(kImageExtensions), std::end(kImageExtensions), [&](const char* x) { return e == x; });
+}
+
+// "png, jpg, ...": the extensions a directory's images are found by.
+std::string imageExtensionsText() {
+    std::string s;
+    for (const char* x : kImageExtensions) (s += s.empty() ? "" : ", ") += x + 1;
+    return s;
 }
 
 // Brings a decoded image to 8-bit BGR at the source's size: empty, or why
@@ -538,7 +546,7 @@ std::unique_ptr<FrameSource> openFrameSource(const std::string& input, const Sou
             return nullptr;
         }
         if (files.empty()) {
-            status = Status::error(input + ": directory holds no images (png, jpg, jpeg, pgm, ppm, bmp, tif, webp)");
+            status = Status::error(input + ": directory holds no images (" + imageExtensionsText() + ")");
             return nullptr;
         }
         std::sort(files.begin(), files.end());
