@@ -1,6 +1,7 @@
 // C++17: rosbag's headers. A bag's image topic as a rost frame source.
 
 #include <algorithm>
+#include <fstream>
 #include <optional>
 
 #include <opencv2/imgproc.hpp>
@@ -18,8 +19,16 @@ bool isImageType(const std::string& type) {
     return type == "sensor_msgs/Image" || type == "sensor_msgs/CompressedImage";
 }
 
-// `topic` (when given) is named in the message.
+// `topic` (when given) is named in the message. A file that does not begin
+// as a bag does is said to be none (rosbag's own "Error reading version
+// line" would be taken for a damaged bag).
 Status openBag(const std::string& path, rosbag::Bag& bag, const std::string& topic = {}) {
+    if (std::ifstream f(path, std::ios::binary); f) {
+        char head[8] = {};
+        f.read(head, sizeof head);
+        if (f.gcount() > 0 && std::string(head, static_cast<std::size_t>(f.gcount())) != std::string("#ROSBAG ", 8))
+            return Status::error(path + ": not a ROS bag (a bag begins with '#ROSBAG V2.0')");
+    }
     try {
         bag.open(path, rosbag::bagmode::Read);
     } catch (const rosbag::BagException& e) {
@@ -85,7 +94,15 @@ Status Source::open(const std::string& path, const std::string& topic, const vis
     try {
         view_.emplace(bag_, rosbag::TopicQuery(topic));
         const auto conns = view_->getConnections();
-        if (conns.empty()) return Status::error(path + ": no topic " + topic + " in the bag");
+        if (conns.empty()) {
+            std::vector<std::string> topics;
+            std::string m = path + ": no topic " + topic + " in the bag";
+            if (Status st = listImageTopics(path, topics); st.ok()) {
+                m += topics.empty() ? " (and no image topic)" : "; its image topics: ";
+                for (std::size_t i = 0; i < topics.size(); ++i) m += (i ? "; " : "") + topics[i];
+            }
+            return Status::error(m);
+        }
         for (const rosbag::ConnectionInfo* c : conns)
             if (!isImageType(c->datatype))
                 return Status::error(path + ": topic " + topic + " carries " + c->datatype +

@@ -171,6 +171,17 @@ def main():
     check(code == 2 and len(err.strip().splitlines()) == 1 and "topic /cam/bayer, message 0" in err and
           "bayer_rggb8" in err, "an encoding rost cannot read: exit 2, " + err.strip())
 
+    # A topic the bag lacks names those it has; a file that is no bag says so
+    # (not "truncated?", as rosbag's own "Error reading version line" was read).
+    code, err = rost_run(bag, "--topic", "/nope", "--out", os.path.join(work, "nope"), "-q")
+    check(code == 2 and len(err.strip().splitlines()) == 1 and "no topic /nope in the bag; its image topics: " in err
+          and "/cam/image_raw (sensor_msgs/Image, %d messages)" % N in err, "a topic the bag lacks: exit 2, " + err.strip())
+    notbag = os.path.join(work, "log.bag")
+    open(notbag, "w").write("garbage\n")
+    code, err = rost_run(notbag, "--out", os.path.join(work, "notbag"), "-q")
+    check(code == 2 and err.strip() == "rost: error: %s: not a ROS bag (a bag begins with '#ROSBAG V2.0')" % notbag,
+          "a file that is no bag: exit 2, " + err.strip())
+
     trunc = os.path.join(work, "truncated.bag")
     data = open(bag, "rb").read()
     open(trunc, "wb").write(data[:len(data) * 2 // 3])
