@@ -52,6 +52,21 @@ TEST(Config, ARingTooLargeNamesEverySettingItsSizeComesFrom) {
         EXPECT_NE(s.message().find(key), std::string::npos) << key << " in: " << s.message();
 }
 
+// The temporal neighbourhood must fit in the ring, strictly: g.time =
+// ring.steps - 1 is the largest taken; ring.steps itself would reach the
+// slot being written (a ring of one step has no temporal neighbours).
+TEST(Config, TheTemporalNeighbourhoodFitsInTheRingAtItsEdge) {
+    rost::Config c;
+    c.ring_steps = 4;
+    c.g_time = 3;
+    EXPECT_TRUE(c.validate().ok()) << c.validate().message();
+    c.g_time = 4;
+    EXPECT_EQ(c.validate().message(), "invalid configuration: g.time = 4, allowed [0, 3]; below ring.steps = 4");
+    c.ring_steps = 1;
+    c.g_time = 1;
+    EXPECT_TRUE(c.validate().ok()) << c.validate().message();
+}
+
 TEST(Config, NanAlphaRejected) {
     rost::Config c;
     c.alpha = std::numeric_limits<double>::quiet_NaN();

@@ -129,6 +129,28 @@ TEST(Merge, ASplitTopicJoinsOneGlobalTopicAndAThresholdOfZeroKeepsTopicsApart) {
     EXPECT_EQ(out.global.K, 5) << "nothing within distance 0";
 }
 
+// A model joins the global topics as the models before it left them: a
+// topic that took a model's counts is compared by its new distribution.
+// A = word 0; B = words 0 and 1 (100 : 60) joins it (distance 0.46 under
+// the threshold 0.5); C = words 0 and 1 evenly is 0.54 from A alone but
+// 0.20 from A + B, so it joins that topic and is not a topic of its own.
+TEST(Merge, AModelIsMatchedToTheGlobalTopicsAsTheModelsBeforeItLeftThem) {
+    const auto one = [](std::vector<int64_t> row) { return rost::TopicCounts{1, 4, std::move(row)}; };
+    const std::vector<rost::TopicCounts> models{one({100, 0, 0, 0}), one({100, 60, 0, 0}), one({100, 100, 0, 0})};
+    rost::MergeOptions o;
+    o.threshold = 0.5;
+    rost::MergedTopics out;
+    ASSERT_TRUE(rost::mergeTopicModels(models, o, out).ok());
+    EXPECT_EQ(out.global.K, 1) << "C opened a topic of its own";
+    EXPECT_EQ(out.lifting[1][0], 0);
+    EXPECT_EQ(out.lifting[2][0], 0);
+    const std::vector<int64_t> ab{200, 60, 0, 0};
+    EXPECT_DOUBLE_EQ(out.distance[2][0], rost::hellingerDistance(models[2].counts, ab, 4, o.beta));
+    EXPECT_LT(out.distance[2][0], 0.25);
+    EXPECT_GT(rost::hellingerDistance(models[2].counts, models[0].counts, 4, o.beta), o.threshold) << "the test's premise";
+    EXPECT_EQ(out.global.counts, (std::vector<int64_t>{300, 160, 0, 0}));
+}
+
 TEST(Merge, BadInputIsNamed) {
     rost::MergedTopics out;
     rost::MergeOptions o;

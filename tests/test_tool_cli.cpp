@@ -150,6 +150,25 @@ TEST(ToolCli, AnOptionsValueThatIsAnotherOptionIsRefused) {
     EXPECT_TRUE(std::filesystem::exists(t / "--quiet"));
 }
 
+// A file the run cannot write whole (here topics.csv past a 100 KiB file
+// size limit, as a full disk would stop it) fails the run naming the file
+// and why; nothing reaches --out.
+TEST(ToolCli, AnOutputFileThatCannotBeWrittenWholeFailsTheRunNamingIt) {
+    TempDir t;
+    std::string words;
+    for (int i = 0; i < 2000; ++i) {
+        words += std::to_string(i);
+        for (int j = 0; j < 60; ++j) (words += ',') += std::to_string((i * 7 + j * 13) % 500);
+        words += '\n';
+    }
+    rost::testing::writeText(t / "w.csv", words);
+    const RunResult r = rost::testing::runShell("(trap '' XFSZ; ulimit -f 100; " + tool() + " refine " + (t / "w.csv") +
+                                                " -K 4 --budget.refines 2 -q --no-summary --out " + (t / "o") + ")");
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("/topics.csv: write failed: File too large"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(t / "o"));
+}
+
 TEST(ToolCli, UnreadableInputsAreNamed) {
     TempDir t;
     expectError(runRost("run " + (t / "missing.mov") + " --out " + (t / "o")), "missing.mov: cannot open: No such file or directory", t / "o");

@@ -137,7 +137,7 @@ def _int64s(values, what):
     if a.size == 0:
         return a.astype(np.int64)
     if a.dtype.kind == "f":
-        bad = np.flatnonzero(~(np.isfinite(a) & (a == np.floor(a)) & (np.abs(a) < 2.0**63)))
+        bad = np.flatnonzero(~(np.isfinite(a) & (a == np.floor(a)) & (a >= -(2.0**63)) & (a < 2.0**63)))
         if bad.size:
             raise ValueError(f"{what}[{bad[0]}] = {a.reshape(-1)[bad[0]]!r} is not a whole number in int64's range")
         return a.astype(np.int64)

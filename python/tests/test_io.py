@@ -66,6 +66,10 @@ def test_writers_write_every_value_exactly_or_refuse_it(tmp_path):
         rost.io.write_perplexity(f, rows)
     with pytest.raises(ValueError, match=r"^timestamp\[1\] = 1\.2 is not a whole number in int64's range$"):
         rost.io.write_surprise(f, rows)
+    # The edge of int64: 2^63 as a float is one past its largest value (it would wrap to -2^63),
+    # -2^63 is its smallest and is written as itself.
+    with pytest.raises(ValueError, match=r"^timestamps\[0\] = 9\.223372036854776e\+18 is not a whole number in int64's range$"):
+        rost.io.write_words(f, [2.0**63], [[1]])
     for bad in (float("nan"), 1e300):
         with pytest.raises(ValueError, match=r"^topics\[1\] = .* is not a whole number in int64's range$"):
             rost.io.write_perplexity(f, dict(rows, timestamp=[0, 1], topics=[4.0, bad]))
@@ -73,6 +77,8 @@ def test_writers_write_every_value_exactly_or_refuse_it(tmp_path):
     # Whole-number floats and uint64 values within int64 are written as the integers they are.
     rost.io.write_words(f, np.array([0.0, 2.0]), [np.array([7, 2**40], np.uint64), np.array([], np.int32)])
     assert f.read_text() == "0,7,1099511627776\n2\n"
+    rost.io.write_words(f, [-(2.0**63)], [[1]])
+    assert f.read_text() == "-9223372036854775808,1\n"
 
 
 def test_topic_model_round_trip_into_a_model(tmp_path):

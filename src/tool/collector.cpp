@@ -38,21 +38,24 @@ Status Collector::streamTo(OutputDir& out, bool words) {
     return {};
 }
 
+// The first file a write or its close failed for, named with its error.
 Status Collector::closeStreams() {
     std::string failed;
+    int error = 0;
     for (Stream* s : {&words_, &positions_, &topics_}) {
         if (!s->file) continue;
-        if (std::fclose(s->file) != 0 && failed.empty()) failed = s->path;
+        const bool closed = std::fclose(s->file) == 0;
+        if ((!closed || s->error != 0) && failed.empty()) failed = s->path, error = s->error != 0 ? s->error : errno;
         s->file = nullptr;
     }
-    if (writeFailed_ && failed.empty()) failed = topics_.path;
-    if (!failed.empty()) return Status::error(failed + ": write failed: " + std::strerror(errno));
+    if (!failed.empty()) return Status::error(failed + ": write failed: " + std::strerror(error));
     return {};
 }
 
 void Collector::takeFinal(const FinalLabels& f) {
     auto put = [&](Stream& s) {
-        if (s.file && std::fwrite(line_.data(), 1, line_.size(), s.file) != line_.size()) writeFailed_ = true;
+        if (s.file && std::fwrite(line_.data(), 1, line_.size(), s.file) != line_.size() && s.error == 0)
+            s.error = errno != 0 ? errno : EIO;
         line_.clear();
     };
     line_.clear();

@@ -64,10 +64,10 @@ private:
     struct Stream {
         std::FILE* file = nullptr;
         std::string path;
+        int error = 0;  // errno of its first failed write
     };
     Stream words_, positions_, topics_;
     std::string line_;  // reused for each line
-    bool writeFailed_ = false;
 };
 
 } // namespace rost::tool
