@@ -279,6 +279,39 @@ TEST(CheckpointResume, CountBudgetRunContinuesBitForBitAsIfNeverStopped) {
     expectResumeBitForBit(grow, nullptr, 27, 60, "growing topics, subtract, 2 threads");
 }
 
+// What a resumed engine reports of the steps still in its window is what
+// the engine that saved it reported: each step's cells' surprise, the
+// labels and the surprise of its observations (none of it is computed
+// again on resume, so a field the checkpoint left out would read 0).
+TEST(CheckpointResume, TheWindowsMeasurementsComeBackAsSaved) {
+    const EngineConfig cfg = baseConfig();
+    const fs::path dir = tempDir("measures");
+    const std::string path = (dir / "m.ckpt").string();
+    const auto frames = stream(cfg, 20, 4);
+    Engine a(cfg);
+    for (const Frame& f : frames) a.processNow(f.view());
+    ASSERT_TRUE(saveCheckpoint(a, path).ok());
+    Status st;
+    auto b = resumeEngine(path, st);
+    ASSERT_TRUE(b) << st.message();
+    const Model &ma = a.model(), &mb = b->model();
+    ASSERT_EQ(ma.oldestStep(), mb.oldestStep());
+    ASSERT_EQ(ma.steps(), mb.steps());
+    bool anySurprise = false;
+    for (int64_t step = ma.oldestStep(); step < ma.oldestStep() + ma.steps(); ++step) {
+        const auto sa = ma.cellSurprise(step), sb = mb.cellSurprise(step);
+        ASSERT_EQ(sa.size(), sb.size());
+        for (std::size_t c = 0; c < sa.size(); ++c) {
+            EXPECT_EQ(bits(sa[c]), bits(sb[c])) << "step " << step << ", cell " << c;
+            anySurprise = anySurprise || sa[c] > 0.0f;
+        }
+    }
+    EXPECT_TRUE(anySurprise) << "the test's premise: cells with surprise in the window";
+    for (uint64_t frame = 0; frame < frames.size(); ++frame)
+        EXPECT_EQ(bits(ma.observationSurprise(frame)), bits(mb.observationSurprise(frame))) << "observation " << frame;
+    fs::remove_all(dir);
+}
+
 TEST(CheckpointResume, ResumingTwiceFromTheSameFileGivesTheSameRun) {
     const EngineConfig cfg = baseConfig();
     const fs::path dir = tempDir("twice");
