@@ -774,6 +774,39 @@ TEST(ToolTrust, ARealtimeRunPlaysAVariableRateVideoAtItsFramesTimes) {
         EXPECT_EQ(rt::fields(rows[1 + i]).at(1), std::to_string(rt::kVariableRateClipUs[i])) << "frame " << i;
 }
 
+// A jump in a video's times (two transport streams joined, the second's
+// clock 60 s on) is played as one frame period, not waited out; a long
+// wait that is the video's own (a frame every 5 s) ends at Ctrl-C.
+TEST(ToolTrust, ARealtimeRunNeitherStallsOnAJumpInItsTimesNorIgnoresCtrlCWhileWaiting) {
+    TempDir t;
+    const std::string clip = "ffmpeg -v error -f lavfi -i testsrc=size=160x120:rate=";
+    const std::string enc = " -c:v libx264 -pix_fmt yuv420p ";
+    const std::string make = "command -v ffmpeg > /dev/null && " + clip + "10 -frames:v 10" + enc + "'" + (t / "a.ts") +
+                             "' && " + clip + "10 -frames:v 10" + enc + "-output_ts_offset 60 '" + (t / "b.ts") +
+                             "' && cat '" + (t / "a.ts") + "' '" + (t / "b.ts") + "' > '" + (t / "ab.ts") + "' && " +
+                             clip + "0.2 -frames:v 3" + enc + "'" + (t / "slow.mp4") + "'";
+    if (std::system((make + " > /dev/null 2>&1").c_str()) != 0) GTEST_SKIP() << "no ffmpeg to encode the clips with";
+    const std::string opts = " --realtime --no-overlay --no-summary -q --budget.refines 2 -K 4";
+    const auto start = std::chrono::steady_clock::now();
+    const RunResult r = rost::testing::runShell("timeout 40 " + std::string(ROST_TOOL) + " run " + (t / "ab.ts") +
+                                                " --out " + (t / "o") + opts);
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(lines(t / "o/frames.csv"), 1 + 20);
+    EXPECT_LT(took, 25.0) << "the 60 s jump between the streams was waited out";
+
+    const pid_t pid = spawnRost({"run", t / "slow.mp4", "--out", t / "s", "--realtime", "--no-overlay", "--no-summary", "-q"},
+                                t / "err.txt");
+    std::this_thread::sleep_for(std::chrono::seconds(2));  // the first frame played, the second due at 5 s
+    const auto signalled = std::chrono::steady_clock::now();
+    ::kill(pid, SIGINT);
+    int status = 0;
+    ASSERT_TRUE(endsWithin(pid, std::chrono::seconds(30), status));
+    const double after = std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 130) << rost::testing::readText(t / "err.txt");
+    EXPECT_LT(after, 2.5) << "Ctrl-C waited for the next frame's time (5 s after the first)";
+}
+
 TEST(ToolTrust, ResumedRefineFindsWhereItsStreamContinuesWhateverItsTimeStamps) {
     TempDir t;
     // Time stamps that are neither increasing nor unique: position in the stream decides.

@@ -47,6 +47,8 @@ TEST(WordStreamCsv, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(parseError("1,2,,3\n"), "words.csv:1:5: empty field");
     EXPECT_EQ(parseError("1,-4\n"), "words.csv:1:3: word id -4 out of range [0, 100)");
     EXPECT_EQ(parseError("1,99999999999999999999\n"), "words.csv:1:3: number '99999999999999999999' out of range");
+    EXPECT_EQ(parseError("1,2\n", "1,700,-3\n"),
+              "positions.csv:1:7: position (700, -3) has a negative coordinate: positions are pixels from the frame's top-left corner, 0 or more");
     EXPECT_EQ(parseError("1,2\n", "1,0,-5\n"), "positions.csv:1:5: position (0, -5) has a negative coordinate: positions are pixels from the frame's top-left corner, 0 or more");
     EXPECT_EQ(parseError("1,2\n", "1,640,0\n"), "positions.csv:1:3: position (640, 0) outside the frame 640x480");
     // One side of the frame given (the other from the data): only it is named.

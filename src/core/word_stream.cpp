@@ -156,7 +156,9 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
             const bool badX = x < 0 || x > std::numeric_limits<int32_t>::max() || (limits.width > 0 && x >= limits.width);
             const bool badY = y < 0 || y > std::numeric_limits<int32_t>::max() || (limits.height > 0 && y >= limits.height);
             if (badX || badY) {
-                const std::size_t col = fieldsOf(line, fields)[badX ? 1 + 2 * i : 2 + 2 * i].column;
+                // The column of the coordinate the message is about: a negative one first.
+                const bool atX = x < 0 || (y >= 0 && badX);
+                const std::size_t col = fieldsOf(line, fields)[atX ? 1 + 2 * i : 2 + 2 * i].column;
                 std::string msg = where(positionsName, number, col);
                 msg += "position (";
                 msg += std::to_string(x);

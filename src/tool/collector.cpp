@@ -22,6 +22,7 @@ Status Collector::streamTo(OutputDir& out, bool words) {
     if (!records_.status().ok()) return records_.status();
     auto open = [&](Stream& s, const char* name) -> Status {
         s.path = out.staged(name);
+        s.shown = out.dir() + "/" + name;
         s.file = std::fopen(s.path.c_str(), "wb");
         if (!s.file) return Status::error(s.path + ": cannot write: " + std::strerror(errno));
         out.track(name);
@@ -45,7 +46,7 @@ Status Collector::closeStreams() {
     for (Stream* s : {&words_, &positions_, &topics_}) {
         if (!s->file) continue;
         const bool closed = std::fclose(s->file) == 0;
-        if ((!closed || s->error != 0) && failed.empty()) failed = s->path, error = s->error != 0 ? s->error : errno;
+        if ((!closed || s->error != 0) && failed.empty()) failed = s->shown, error = s->error != 0 ? s->error : errno;
         s->file = nullptr;
     }
     if (!failed.empty()) return Status::error(failed + ": write failed: " + std::strerror(error));
@@ -54,6 +55,7 @@ Status Collector::closeStreams() {
 
 void Collector::takeFinal(const FinalLabels& f) {
     auto put = [&](Stream& s) {
+        errno = 0;
         if (s.file && std::fwrite(line_.data(), 1, line_.size(), s.file) != line_.size() && s.error == 0)
             s.error = errno != 0 ? errno : EIO;
         line_.clear();

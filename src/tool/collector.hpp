@@ -63,8 +63,9 @@ private:
     MissionRecords records_;
     struct Stream {
         std::FILE* file = nullptr;
-        std::string path;
-        int error = 0;  // errno of its first failed write
+        std::string path;   // where it is written (staged)
+        std::string shown;  // what errors call it: the file in --out
+        int error = 0;      // errno of its first failed write
     };
     Stream words_, positions_, topics_;
     std::string line_;  // reused for each line

@@ -71,8 +71,11 @@ void refuseOptionsAsValues(CLI::App& cmd) {
                 if (value.size() < 2 || value[0] != '-' || !(std::isalpha(static_cast<unsigned char>(value[1])) || value[1] == '-'))
                     return {};
                 const std::string name = value.substr(0, value.find('='));
-                if (owner->get_option_no_throw(name) == nullptr && name != "--help" && name != "-h") return {};
-                return "needs a value; " + name + " is an option (for a file of that name, give ./" + value + ")";
+                const CLI::App* parent = owner->get_parent();
+                if (owner->get_option_no_throw(name) == nullptr && (parent == nullptr || parent->get_option_no_throw(name) == nullptr) &&
+                    name != "--help" && name != "-h")
+                    return {};
+                return "needs a value; " + name + " is an option (a file of that name: ./" + value + ")";
             },
             "");
     }
@@ -129,7 +132,7 @@ void addRun(CLI::App& app, RunCli& r) {
         ->group(bags);
     const std::string rt(rost::settingGroupNames(rost::SettingGroup::Runtime).title);  // with the Runtime settings
     runCmd->add_flag("--realtime", run.realtime,
-                     "run as onboard: a capture thread (a file paced at its frame rate) and the refiner thread; "
+                     "run as onboard: a capture thread (a file paced at its frames' own times) and the refiner thread; "
                      "frames are dropped when the refiner falls behind. Always on for camera:N")
         ->group(rt);
     const char* out = "Output";

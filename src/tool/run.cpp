@@ -7,7 +7,7 @@
 // for bit.
 //
 // With --realtime (always for camera:N) three threads run as onboard:
-//   capture thread: reads frames (a file is paced at its frame rate),
+//   capture thread: reads frames (a file is paced at its frames' times),
 //                   extracts words, tryPush (never waits; a full queue drops);
 //   refiner thread: the engine's;
 //   this thread:    drains the collector's records, writes the overlay,

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "progress.hpp"
 #include "rost/topic_model_csv.hpp"
 
 namespace rost::tool {
@@ -98,13 +99,25 @@ bool Capture::readNext() {
     return rs == vision::ReadStatus::Ok;
 }
 
-// File input at its own pace: a frame is due at t0 plus its time after the
-// first frame this run plays (a video's frames' own times, a variable frame
-// rate kept; images 10 a second, vision::kImagePeriodUs).
+// File input at its own pace: each frame is due its time's step after the
+// one before (a video's frames' own times, a variable frame rate kept;
+// images 10 a second, vision::kImagePeriodUs), the first at t0. A step
+// back in time, or forward by more than 5 s and 10 nominal periods (joined
+// recordings, a stream's clock reset, a bag's paused recorder), is played
+// as one period: a jump in the times never stalls the run. The wait is
+// cut into slices that end on Ctrl-C.
 void Capture::pace(Clock::time_point t0) {
-    if (captured() == 0) first_us_ = frame_.timestamp_us;
-    const double after = static_cast<double>(frame_.timestamp_us - first_us_) * 1e-6;
-    std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(after)));
+    const int64_t period = w_.info.fps > 0 ? std::max<int64_t>(1, std::llround(1e6 / w_.info.fps)) : vision::kImagePeriodUs;
+    if (captured() == 0) {
+        due_ = t0;
+    } else {
+        int64_t step = frame_.timestamp_us - last_us_;
+        if (step < 0 || (step > 5'000'000 && step > 10 * period)) step = period;
+        due_ += std::chrono::microseconds(step);
+    }
+    last_us_ = frame_.timestamp_us;
+    for (Clock::time_point now = Clock::now(); now < due_ && !interrupted(); now = Clock::now())
+        std::this_thread::sleep_until(std::min(due_, now + std::chrono::milliseconds(100)));
 }
 
 bool Capture::produceOne(bool pacing, Clock::time_point t0) {

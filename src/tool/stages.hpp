@@ -100,7 +100,8 @@ private:
     FrameRing& ring_;
     int64_t max_frames_;
     vision::Frame frame_;
-    int64_t first_us_ = 0;  // the time stamp of the first frame this run plays (pace)
+    Clock::time_point due_{};  // when the frame in hand is due (pace)
+    int64_t last_us_ = 0;      // the time stamp of the frame played before it
     vision::FrameWords words_;
     std::string read_error_;
     std::atomic<int64_t> captured_{0};
