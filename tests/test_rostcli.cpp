@@ -520,6 +520,9 @@ TEST_F(RostCli, FlagsGoThroughTheSchema) {
     const std::string help = readText(dir + "/help.txt");
     for (const char* f : {"--in.words", "--out.topics.ml", "--ppx.out", "--grow.topics.size", "--online.mint", "--g.sigma"})
         EXPECT_NE(help.find(f), std::string::npos) << f;
+    // Defaults that are not numbers: the machine's (the schema's Cores) and the input's.
+    EXPECT_NE(help.find("--threads INT=the cores this process may use"), std::string::npos) << help;
+    EXPECT_NE(help.find("--vocabsize INT=the largest word id + 1"), std::string::npos) << help;
 }
 
 // Every setting flag sets its own key: each at a value other than its

@@ -5,6 +5,9 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -139,8 +142,16 @@ TEST(ToolCli, AnOptionsValueThatIsAnotherOptionIsRefused) {
                 "rost: error: --checkpoint: needs a value; --quiet is an option (a file of that name: ./--quiet)",
                 t / "o");
     EXPECT_FALSE(std::filesystem::exists(t / "--quiet")) << "a checkpoint named after the option";
-    expectError(runRost("refine " + in + "-K --out " + (t / "o")), "--topics: needs a value; --out is an option", t / "o");
-    expectError(runRost("refine " + in + "--out " + (t / "o") + " --seed=-q"), "--seed: needs a value; -q is an option", t / "o");
+    // A number's option refuses it before its own range check, and with no
+    // file hint (a number is never a file).
+    for (const auto& [args, said] : std::vector<std::pair<std::string, std::string>>{
+             {"-K --out " + (t / "o"), "--topics: needs a value; --out is an option (see rost --help)"},
+             {"--out " + (t / "o") + " --seed=-q", "--seed: needs a value; -q is an option (see rost --help)"},
+             {"--out " + (t / "o") + " --width --quiet", "--width: needs a value; --quiet is an option (see rost --help)"}}) {
+        const RunResult r = runRost("refine " + in + args);
+        expectError(r, said, t / "o");
+        EXPECT_EQ(r.err, "rost: error: " + said + "\n");
+    }
     expectError(runRost("merge " + in + "--out --threshold 0.5"), "--out: needs a value; --threshold is an option", t / "o");
     // The program's own options too (--version is rost's, not the command's).
     expectError(rost::testing::runShell("cd '" + t.path() + "' && " + tool() + " refine " + in + "--checkpoint --version --out " +
@@ -416,15 +427,17 @@ TEST(ToolCli, EverySettingIsAnOptionWithTheSchemasDefault) {
         if (s.has(rost::setting_flags::Library) || s.key.starts_with("frame.")) continue;
         const std::string option = optionOf(s);
         EXPECT_NE(help.out.find(option), std::string::npos) << "run --help lacks " << option;
-        if (s.type != rost::SettingType::Bool && !s.def.empty() && !s.has(rost::setting_flags::Derived)) {
-            // "  --alpha NUM=0.1   Dirichlet prior ...": the default on the option's line.
+        const bool derived = s.has(rost::setting_flags::Derived);
+        if (s.type != rost::SettingType::Bool && (!s.def.empty() || derived)) {
+            // "  --alpha NUM=0.1   Dirichlet prior ...": the default on the option's line;
+            // a derived setting's is where it comes from (the schema's Cores: the machine).
             std::size_t at = help.out.find("  " + option + " ");
             if (at == std::string::npos) at = help.out.find("  " + option + ",");
             ASSERT_NE(at, std::string::npos) << option;
             const std::string optionLine = help.out.substr(at, help.out.find('\n', at) - at);
             std::string shown = "=";
-            shown += s.def;
-            EXPECT_NE(optionLine.find(shown), std::string::npos) << s.key << " default " << s.def << " in: " << optionLine;
+            shown += derived ? (s.has(rost::setting_flags::Cores) ? "the cores" : "from the input") : s.def;
+            EXPECT_NE(optionLine.find(shown), std::string::npos) << s.key << " default " << shown << " in: " << optionLine;
         }
     }
 }

@@ -238,6 +238,29 @@ TEST(VisionSources, AVariableFrameRateVideoKeepsItsFramesTimes) {
     EXPECT_EQ(times, rost::testing::kVariableRateClipUs);
 }
 
+// Two transport streams joined, the second's clock behind the first's (at
+// 5 frames a second where the first has 10): the frame after the jump is
+// timed one step after the last, and the frames after it keep their own
+// 200 ms steps (not the first part's 100 ms, as when every later frame
+// fell back to the last step), the frames the decoder holds back too.
+TEST(VisionSources, AVideoWhoseClockGoesBackKeepsItsLaterFramesSteps) {
+    if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) GTEST_SKIP() << "no ffmpeg to encode a clip with";
+    TempDir t;
+    const std::string clip = "ffmpeg -v error -f lavfi -i testsrc=size=160x120:rate=";
+    const std::string make = clip + "10 -frames:v 10 -c:v libx264 -pix_fmt yuv420p -output_ts_offset 60 '" + (t / "hi.ts") +
+                             "' && " + clip + "5 -frames:v 6 -c:v libx264 -pix_fmt yuv420p '" + (t / "lo.ts") + "' && cat '" +
+                             (t / "hi.ts") + "' '" + (t / "lo.ts") + "' > '" + (t / "back.ts") + "'";
+    if (std::system(make.c_str()) != 0) GTEST_SKIP() << "ffmpeg cannot encode H.264 here";
+    Status st;
+    auto src = openFrameSource(t / "back.ts", {}, st);
+    ASSERT_TRUE(src) << st.message();
+    std::vector<int64_t> times, expected;
+    for (const Frame& f : readAll(*src)) times.push_back(f.timestamp_us);
+    for (int64_t i = 0; i < 10; ++i) expected.push_back(100000 * i);
+    for (int64_t i = 0; i < 6; ++i) expected.push_back(1000000 + 200000 * i);
+    EXPECT_EQ(times, expected);
+}
+
 // A recording cut before its index (an MP4 or QuickTime file written
 // without faststart keeps its index, the moov box, at the end) cannot be
 // opened at all: the error says it is truncated, not only that OpenCV

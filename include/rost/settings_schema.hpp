@@ -25,8 +25,9 @@
 //   cli      the tool's option names when they are not just "--key"
 //   rostcli  rost-cli's flag names for it (topics.refine.t/txy), "=DEFAULT" after
 //            them where rost-cli's default differs from the schema's ("" : none)
-//   flags    Derived (the tool derives it from the input unless set), Library (the
-//            tool sets it itself: not a tool option), LoOpen (lo excluded)
+//   flags    Derived (the tool derives it from the input unless set; with Cores,
+//            from the cores it may use), Library (the tool sets it itself: not a
+//            tool option), LoOpen (lo excluded)
 //   field    the member of rost::Settings it sets
 //   doc      one line of documentation
 
@@ -90,7 +91,7 @@
       "cell refinements per parallel window (W): 1 is the exact serial Gibbs sampler; results never depend on threads") \
     X("final.sweeps", Integer, Refinement, "0", 0, 1000000, "", "", "-n,--iter=100", 0, final_sweeps, \
       "batch Gibbs sweeps over the window at the end of the stream") \
-    X("threads", Integer, Runtime, "1", 1, 1024, "", "", "--threads", Derived, engine.model.threads, \
+    X("threads", Integer, Runtime, "1", 1, 1024, "", "", "--threads", Derived | Cores, engine.model.threads, \
       "refinement threads; the tool's default is the cores it may use (minus one for capture with --realtime)") \
     X("queue.slots", Integer, Runtime, "8", 1, 65536, "", "--queue.slots,--queue", "", 0, engine.queue_slots, \
       "observations the capture-to-refiner queue holds") \
@@ -167,6 +168,7 @@ namespace setting_flags {
 inline constexpr unsigned Derived = 1u;  // the tool derives it from the input unless it is set
 inline constexpr unsigned Library = 2u;  // the library's and the node's; the tool sets it itself
 inline constexpr unsigned LoOpen = 4u;   // the lower bound is excluded
+inline constexpr unsigned Cores = 8u;    // with Derived: from the machine's cores, not the input
 } // namespace setting_flags
 
 struct SettingSpec {

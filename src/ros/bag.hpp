@@ -26,6 +26,10 @@ inline bool isBagInput(const std::string& input) {
 // line each: "/camera/image_raw (sensor_msgs/Image, 351 messages)".
 Status listImageTopics(const std::string& path, std::vector<std::string>& lines);
 
+// Those lines as an error lists them after its first line, one indented
+// line each ("" for none): the one wording of a bag's topics in every error.
+std::string imageTopicLines(const std::vector<std::string>& lines);
+
 // Stamp and frame of one image message (header stamp; the bag's receive
 // time when the header has none).
 struct ImageStamp {

@@ -98,8 +98,8 @@ Status Source::open(const std::string& path, const std::string& topic, const vis
             std::vector<std::string> topics;
             std::string m = path + ": no topic " + topic + " in the bag";
             if (Status st = listImageTopics(path, topics); st.ok()) {
-                m += topics.empty() ? " (and no image topic)" : "; its image topics: ";
-                for (std::size_t i = 0; i < topics.size(); ++i) m += (i ? "; " : "") + topics[i];
+                m += topics.empty() ? " (and no image topic)" : "; its image topics:";
+                m += imageTopicLines(topics);
             }
             return Status::error(m);
         }
@@ -182,6 +182,12 @@ vision::ReadStatus Source::read(vision::Frame& out) {
 } // namespace
 
 BagFrameSource::~BagFrameSource() = default;
+
+std::string imageTopicLines(const std::vector<std::string>& lines) {
+    std::string out;
+    for (const std::string& l : lines) out += "\n  " + l;
+    return out;
+}
 
 Status listImageTopics(const std::string& path, std::vector<std::string>& lines) {
     lines.clear();

@@ -108,7 +108,7 @@ std::string helpOf(const SettingFlag& f, Command cmd) {
 std::string defaultOf(const SettingFlag& f) {
     const std::string key = f.key;
     if (key == "V") return "the largest word id + 1";
-    if (key == "threads") return "the cores this process may use";
+    if (findSetting(f.key)->has(setting_flags::Cores)) return "the cores this process may use";
     return f.rostcli_default.empty() ? std::string(findSetting(f.key)->def) : f.rostcli_default;
 }
 
@@ -221,7 +221,7 @@ Status applyFlags(const Parsed& p, Command cmd, Settings& s) {
         const bool given = p.setting_opts[i]->count() > 0;
         if (f.spatial && cmd == Command::RefineT) continue;
         std::string value = given ? p.setting_text[i] : f.rostcli_default;
-        if (std::string(f.key) == "threads" && !given)
+        if (findSetting(f.key)->has(setting_flags::Cores) && !given)
             value = std::to_string(usableCores());
         if (findSetting(f.key)->type == SettingType::Bool && given && value.empty()) value = "true";
         if (value.empty()) continue;

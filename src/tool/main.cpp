@@ -61,13 +61,25 @@ const CLI::Validator& nonNegative() {
 // (CLI11 fills an option's values before it looks at them): `--checkpoint
 // --quiet` wrote a checkpoint named "--quiet" and was not quiet, `-K --out
 // o` said "--out is required". A value that is the name of one of the
-// command's options (alone or as `--name=value`) is refused, naming both;
-// a file named like an option can still be given as ./--name.
+// command's options (alone or as `--name=value`) is refused, naming both,
+// before the option's own checks (a transform runs first: `--width --quiet`
+// is not "expected 0 or more"); a file named like an option can still be
+// given to a path option as ./--name, which its error says.
+bool takesAPath(CLI::Option* opt) {
+    try {
+        opt->get_validator(kPathValidator);
+        return true;
+    } catch (const CLI::OptionNotFound&) {
+        return false;
+    }
+}
+
 void refuseOptionsAsValues(CLI::App& cmd) {
     for (CLI::Option* opt : cmd.get_options([](const CLI::Option* o) { return o->nonpositional() && o->get_type_size_max() > 0; })) {
-        CLI::App* owner = &cmd;
-        opt->check(
-            [owner](const std::string& value) -> std::string {
+        const CLI::App* owner = &cmd;
+        const bool path = takesAPath(opt);
+        opt->transform(CLI::Validator(
+            [owner, path](std::string& value) -> std::string {
                 if (value.size() < 2 || value[0] != '-' || !(std::isalpha(static_cast<unsigned char>(value[1])) || value[1] == '-'))
                     return {};
                 const std::string name = value.substr(0, value.find('='));
@@ -75,9 +87,9 @@ void refuseOptionsAsValues(CLI::App& cmd) {
                 if (owner->get_option_no_throw(name) == nullptr && (parent == nullptr || parent->get_option_no_throw(name) == nullptr) &&
                     name != "--help" && name != "-h")
                     return {};
-                return "needs a value; " + name + " is an option (a file of that name: ./" + value + ")";
+                return "needs a value; " + name + " is an option" + (path ? " (a file of that name: ./" + value + ")" : "");
             },
-            "");
+            ""));
     }
 }
 

@@ -86,9 +86,9 @@ SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : 
             e.option = app.add_flag(names, e.flag, help + " (default " + std::string(spec.def) + ")");
         } else {
             e.option = app.add_option(names, e.text, help)->type_name(typeName(spec));
-            // Derived: the input decides, except the threads, which the machine does.
+            // Derived: the input decides, or (Cores) the machine does.
             if (spec.has(setting_flags::Derived))
-                e.option->default_str(std::string_view(spec.key) == "threads" ? "the cores" : "from the input");
+                e.option->default_str(spec.has(setting_flags::Cores) ? "the cores" : "from the input");
             else if (!spec.def.empty()) e.option->default_str(std::string(spec.def));
         }
         e.option->group(groupTitle(spec.group));
@@ -127,8 +127,9 @@ SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : 
 SettingsOptions::~SettingsOptions() = default;
 
 const CLI::Validator& givenPath(PathKind kind) {
-    static const CLI::Validator file = cli::nonEmpty("file"), dir = cli::nonEmpty("directory"),
-                                input = cli::nonEmpty("input");
+    static const CLI::Validator file = cli::nonEmpty("file").name(kPathValidator),
+                                dir = cli::nonEmpty("directory").name(kPathValidator),
+                                input = cli::nonEmpty("input").name(kPathValidator);
     switch (kind) {
         case PathKind::Directory: return dir;
         case PathKind::Input: return input;

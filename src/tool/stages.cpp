@@ -44,7 +44,7 @@ Status WordsStage::openSource(const RunOptions& o, const vision::SourceOptions& 
         if (st = bag::listImageTopics(path, topics); !st.ok()) return st;
         std::string m = path;
         m += topics.empty() ? ": no image topics in the bag" : ": which image topic? give --topic TOPIC, one of:";
-        for (const std::string& t : topics) m += "\n  " + t;
+        m += bag::imageTopicLines(topics);
         return Status::error(m);
     }
     auto b = bag::openBagSource(path, o.topic, so, st);
@@ -107,7 +107,7 @@ bool Capture::readNext() {
 // as one period: a jump in the times never stalls the run. The wait is
 // cut into slices that end on Ctrl-C.
 void Capture::pace(Clock::time_point t0) {
-    const int64_t period = w_.info.fps > 0 ? std::max<int64_t>(1, std::llround(1e6 / w_.info.fps)) : vision::kImagePeriodUs;
+    const int64_t period = vision::nominalPeriodUs(w_.info.fps);
     if (captured() == 0) {
         due_ = t0;
     } else {

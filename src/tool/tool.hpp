@@ -167,7 +167,9 @@ private:
 // unset is refused ("--checkpoint: no file given"), not read as no
 // checkpoint; `rost run "$VIDEO"` with VIDEO unset says "input: no input
 // given", not a missing file of no name.
+// The validator is named kPathValidator: an option that has it takes a path.
 enum class PathKind { File, Directory, Input };
+inline constexpr const char* kPathValidator = "path";
 const CLI::Validator& givenPath(PathKind kind = PathKind::File);
 
 // `rost config`: prints every setting as a configuration file.

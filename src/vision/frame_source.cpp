@@ -354,18 +354,28 @@ public:
 private:
     // The frame's presentation time as the decoder gives it (`ms` from the
     // stream's start), so a variable-frame-rate video (a phone's) keeps its
-    // frames' own times. Where the decoder gives none that follows the last
-    // (OpenCV gives 0 for the frames the decoder holds back to the end of
-    // the stream), the last time plus the last step between two frames (one
-    // nominal period after the first frame; 1 us at an unknown rate): time
-    // stamps always increase.
+    // frames' own times. Where the decoder gives a time that does not follow
+    // the last (a clock that went back: joined recordings; OpenCV's 0 for the
+    // frames the decoder holds back to the end of the stream) or none, the
+    // frame is timed the last step after the last (one nominal period after
+    // the first frame), and the frames after it keep their own steps from
+    // there: time stamps always increase, and a clock that went back costs
+    // one frame's true step, not every later frame's.
     int64_t timestampUs(double ms) {
         const double us = ms * 1000.0;
-        const bool given = std::isfinite(us) && us < 1e15 && (next_ == 0 ? us >= 0.0 : us > static_cast<double>(last_us_));
+        // 0 after the first frame is OpenCV's "no time" for a held-back frame.
+        const bool finite = std::isfinite(us) && std::fabs(us) < 1e15 && (next_ == 0 || us != 0.0);
+        const int64_t given = finite ? std::llround(us) : 0;
         int64_t t = 0;
-        if (given) t = std::llround(us);
-        else if (next_ > 0 && step_us_ > 0) t = last_us_ + step_us_;
-        else if (next_ > 0) t = last_us_ + (info_.fps > 0 ? std::max<int64_t>(1, std::llround(1e6 / info_.fps)) : 1);
+        if (next_ == 0) {
+            offset_us_ = given < 0 ? -given : 0;  // a negative start is the stream's 0
+            t = given + offset_us_;
+        } else if (finite && given + offset_us_ > last_us_) {
+            t = given + offset_us_;
+        } else {
+            t = last_us_ + (step_us_ > 0 ? step_us_ : nominalPeriodUs(info_.fps));
+            if (finite) offset_us_ = t - given;
+        }
         if (next_ > 0) step_us_ = t - last_us_;
         last_us_ = t;
         return t;
@@ -406,6 +416,7 @@ private:
     double pending_ms_ = 0;  // the first frame's presentation time (read by open())
     int64_t last_us_ = 0;    // the last frame's time stamp
     int64_t step_us_ = 0;    // and its step from the one before
+    int64_t offset_us_ = 0;  // added to the decoder's times since its clock last went back
 };
 
 // Several sources one after the other at the first one's size.

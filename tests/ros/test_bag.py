@@ -174,8 +174,11 @@ def main():
     # A topic the bag lacks names those it has; a file that is no bag says so
     # (not "truncated?", as rosbag's own "Error reading version line" was read).
     code, err = rost_run(bag, "--topic", "/nope", "--out", os.path.join(work, "nope"), "-q")
-    check(code == 2 and len(err.strip().splitlines()) == 1 and "no topic /nope in the bag; its image topics: " in err
-          and "/cam/image_raw (sensor_msgs/Image, %d messages)" % N in err, "a topic the bag lacks: exit 2, " + err.strip())
+    # The topics are listed as without --topic: one indented line each.
+    lines = err.strip().splitlines()
+    check(code == 2 and lines[0].endswith("no topic /nope in the bag; its image topics:")
+          and "  /cam/image_raw (sensor_msgs/Image, %d messages)" % N in lines[1:]
+          and all(l.startswith("  /") for l in lines[1:]), "a topic the bag lacks: exit 2, " + err.strip())
     notbag = os.path.join(work, "log.bag")
     open(notbag, "w").write("garbage\n")
     code, err = rost_run(notbag, "--out", os.path.join(work, "notbag"), "-q")

@@ -6,6 +6,8 @@
 // 8-bit BGR frames of one fixed size, which is what a Model's frame geometry
 // needs.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -21,6 +23,13 @@ namespace rost::vision {
 // Images carry no time: a sequence of them is timed, and played under
 // `rost run --realtime`, at 10 a second.
 inline constexpr int64_t kImagePeriodUs = 100000;
+
+// The time between two frames at a source's nominal rate (SourceInfo::fps),
+// in whole microseconds and at least 1; kImagePeriodUs where the rate is
+// unknown (0: image sequences, a container that gives none).
+inline int64_t nominalPeriodUs(double fps) {
+    return fps > 0 ? std::max<int64_t>(1, std::llround(1e6 / fps)) : kImagePeriodUs;
+}
 
 struct Frame {
     cv::Mat image;               // 8-bit BGR, SourceInfo::width x height
