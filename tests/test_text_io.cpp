@@ -23,6 +23,7 @@
 
 #include <unistd.h>
 
+#include "rost/config.hpp"
 #include "rost/text_io.hpp"
 
 #include "aligned_buffer.hpp"
@@ -77,6 +78,18 @@ struct TempDir {
 };
 
 } // namespace
+
+// Counts in messages take their noun's plural unless they are one: "1
+// model", not "1 models" (rost merge of one model), "0 frames".
+TEST(TextMessages, ACountIsPluralUnlessItIsOne) {
+    EXPECT_EQ(text::counted(1, "model"), "1 model");
+    EXPECT_EQ(text::counted(0, "frame"), "0 frames");
+    EXPECT_EQ(text::counted(2, "global topic"), "2 global topics");
+    EXPECT_EQ(text::counted(-1, "step"), "-1 steps");
+    rost::Config c;
+    c.frame_width = c.frame_height = c.cell_space = 64;
+    EXPECT_NE(c.tablesText().find(", 1 cell a step (frame 64x64"), std::string::npos) << c.tablesText();
+}
 
 TEST(TextLines, NumbersCountSkippedLinesAndStripCarriageReturns) {
     EXPECT_EQ(lines("a\n\n# c\nb\r\n\r\nc"), (Strings{"1:a", "4:b", "6:c"}));

@@ -40,6 +40,8 @@ namespace rost::text {
 std::string where(std::string_view name, int line, std::size_t column);
 // "NAME:LINE: ", the prefix of an error about a whole line.
 std::string where(std::string_view name, int line);
+// "1 cell", "0 cells", "12 cells": a count and its noun, plural unless one.
+std::string counted(long long n, std::string_view noun);
 
 // ---- lines ----------------------------------------------------------------------
 

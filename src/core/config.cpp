@@ -1,11 +1,12 @@
 #include "rost/config.hpp"
 
 #include "rost/settings.hpp"
+#include "rost/text_io.hpp"
 
 namespace rost {
 std::string Config::tablesText() const {
     return "K = " + std::to_string(K) + ", V = " + std::to_string(V) + ", ring.steps = " + std::to_string(ring_steps) +
-           ", " + std::to_string(cellsPerStep()) + " cells a step (frame " + std::to_string(frame_width) + "x" +
+           ", " + text::counted(cellsPerStep(), "cell") + " a step (frame " + std::to_string(frame_width) + "x" +
            std::to_string(frame_height) + ", cell.space = " + std::to_string(cell_space) +
            "), cell.capacity = " + std::to_string(cell_capacity) + ", max.words = " + std::to_string(max_words_per_frame);
 }

@@ -30,6 +30,14 @@ std::string where(std::string_view name, int line, std::size_t column) {
     return s;
 }
 
+std::string counted(long long n, std::string_view noun) {
+    std::string s = std::to_string(n);
+    s += ' ';
+    s += noun;
+    if (n != 1) s += 's';
+    return s;
+}
+
 std::string where(std::string_view name, int line) {
     std::string s(name);
     s += ':';

@@ -10,6 +10,7 @@
 #include "progress.hpp"
 #include "rost/merge.hpp"
 #include "rost/mission.hpp"
+#include "rost/text_io.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -50,8 +51,10 @@ int mergeCommand(const MergeCliOptions& o) {
     if (!o.quiet) {
         std::size_t topics = 0;
         for (const auto& l : merged.lifting) topics += l.size();
-        std::fprintf(stderr, "rost merge: %zu models, %zu topics -> %d global topics (V = %d) in %s\n",
-                     models.size(), topics, merged.global.K, merged.global.V, o.out.c_str());
+        const std::string counts = text::counted(static_cast<long long>(models.size()), "model") + ", " +
+                                   text::counted(static_cast<long long>(topics), "topic") + " -> " +
+                                   text::counted(merged.global.K, "global topic");
+        std::fprintf(stderr, "rost merge: %s (V = %d) in %s\n", counts.c_str(), merged.global.V, o.out.c_str());
     }
     return kExitOk;
 }

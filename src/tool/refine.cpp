@@ -13,6 +13,7 @@
 #include "png_file.hpp"
 #include "progress.hpp"
 #include "results.hpp"
+#include "rost/text_io.hpp"
 #include "stages.hpp"
 #include "tool.hpp"
 
@@ -44,8 +45,9 @@ Status writeRefineSummary(const OutputDir& out, const RefineOptions& o, const St
     SummaryInput si;
     si.title = "rost refine: " + o.words;
     char sub[200];
-    std::snprintf(sub, sizeof sub, "K = %d, V = %d, %s, %s, %zu observations", in.ec.model.K, in.ec.model.V,
-                  toString(in.ec.strategy.kind), budgetText(in.ec.budget, " per observation").c_str(), c.rows().size());
+    std::snprintf(sub, sizeof sub, "K = %d, V = %d, %s, %s, %s", in.ec.model.K, in.ec.model.V,
+                  toString(in.ec.strategy.kind), budgetText(in.ec.budget, " per observation").c_str(),
+                  text::counted(static_cast<long long>(c.rows().size()), "observation").c_str());
     si.subtitle = sub;
     si.K = in.ec.model.K;
     si.rows = c.rows();
@@ -132,7 +134,8 @@ int refineCommand(const RefineOptions& o) {
         std::fputs(WordDrops::of(offered, collector).note(in.ec.model).c_str(), stderr);
         std::fputs(out.earlierFilesNote().c_str(), stderr);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-        std::fprintf(stderr, "rost: %zu observations in %.1f s; outputs in %s\n", in.todo().size(), s, o.out.c_str());
+        std::fprintf(stderr, "rost: %s in %.1f s; outputs in %s\n",
+                     text::counted(static_cast<long long>(in.todo().size()), "observation").c_str(), s, o.out.c_str());
     }
     return kExitOk;
 }

@@ -25,6 +25,7 @@
 #include "progress.hpp"
 #include "sinks.hpp"
 #include "stages.hpp"
+#include "rost/text_io.hpp"
 #include "tool.hpp"
 
 namespace rost::tool {
@@ -192,8 +193,8 @@ int runCommand(const RunOptions& o) {
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) std::fputs((drops.note(engine.ec.model) + out.earlierFilesNote()).c_str(), stderr);
     if (!o.quiet)
-        std::fprintf(stderr, "rost: %zu frames in %.1f s (%.1f frames/s); outputs in %s\n", sinks.frames.rows().size(),
-                     seconds, static_cast<double>(sinks.frames.rows().size()) / std::max(1e-9, seconds), o.out.c_str());
+        std::fprintf(stderr, "rost: %s in %.1f s (%.1f frames/s); outputs in %s\n",
+                     text::counted(static_cast<long long>(sinks.frames.rows().size()), "frame").c_str(), seconds, static_cast<double>(sinks.frames.rows().size()) / std::max(1e-9, seconds), o.out.c_str());
     return kExitOk;
 }
 

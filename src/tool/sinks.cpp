@@ -310,9 +310,10 @@ Status writeRunSummary(OutputDir& out, const RunOptions& o, const WordsStage& w,
     si.title = "rost run: ";
     for (std::size_t i = 0; i < o.inputs.size(); ++i) si.title += (i ? " + " : "") + shortName(o.inputs[i]);
     char sub[256];
-    std::snprintf(sub, sizeof sub, "%dx%d, K = %d, V = %d, sampler %s, %s, %zu frames, %.0f words/frame", w.info.width,
+    std::snprintf(sub, sizeof sub, "%dx%d, K = %d, V = %d, sampler %s, %s, %s, %.0f words/frame", w.info.width,
                   w.info.height, e.ec.model.K, e.V, toString(e.ec.strategy.kind),
-                  budgetText(e.ec.budget, " per frame").c_str(), rows.size(), frames.wordsPerFrame());
+                  budgetText(e.ec.budget, " per frame").c_str(),
+                  text::counted(static_cast<long long>(rows.size()), "frame").c_str(), frames.wordsPerFrame());
     si.subtitle = sub;
     si.K = e.ec.model.K;
     si.rows = rows;

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "rost/mission.hpp"
+#include "rost/text_io.hpp"
 #include "stages.hpp"
 
 namespace rost::tool {
@@ -41,9 +42,10 @@ Status StreamStage::open(const RefineOptions& o) {
     skipped = m.skipped;
     engine = std::move(m.engine);
     if (resuming && !o.quiet)
-        std::fprintf(stderr, "rost: resuming %s at observation %llu (time stamp %lld); %zu observations skipped%s\n",
+        std::fprintf(stderr, "rost: resuming %s at observation %llu (time stamp %lld); %s skipped%s\n",
                      o.model.resume.c_str(), static_cast<unsigned long long>(resumed.observations),
-                     static_cast<long long>(resumed.last_timestamp), skipped,
+                     static_cast<long long>(resumed.last_timestamp),
+                     text::counted(static_cast<long long>(skipped), "observation").c_str(),
                      refinementChanged ? "; refinement settings changed (not bit for bit)" : "");
     return {};
 }
