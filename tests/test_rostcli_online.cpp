@@ -183,7 +183,10 @@ TEST_F(RostCliOnline, WritesEachDocumentsLinesAsItsTimeIsUp) {
     ASSERT_EQ(run.wait(), 0) << readText(dir + "/stderr.txt");
     expectOnline(300);
     expectFinal(300);
-    EXPECT_NE(readText(dir + "/topics.log").find("300 documents from <stdin>"), std::string::npos);
+    const std::string log = readText(dir + "/topics.log");
+    EXPECT_NE(log.find("300 documents from <stdin>"), std::string::npos);
+    EXPECT_NE(log.find("\nseed = "), std::string::npos) << log;
+    EXPECT_EQ(log.find("final.sweeps"), std::string::npos) << "--online runs no final sweeps: " << log;
 }
 
 // SIGINT or SIGTERM mid-stream: exit 0, the final files of the documents taken up.

@@ -252,10 +252,13 @@ Status readCorpus(const RunOptions& o, const Settings& s, Corpus& c) {
     return {};
 }
 
-std::string settingsLog(const Settings& s) {
+// The settings that made the model; --online runs no final sweeps (its
+// budget is on its own "online:" line).
+std::string settingsLog(const Settings& s, bool online) {
     std::string out;
     for (const char* key : {"K", "V", "alpha", "beta", "topics.grow", "gamma", "cell.time", "cell.space", "g.time",
                             "g.space", "frame.width", "frame.height", "final.sweeps", "threads", "seed"}) {
+        if (online && std::string_view(key) == "final.sweeps") continue;
         out += key;
         out += " = ";
         out += settingValue(s, key);
@@ -299,7 +302,7 @@ Status runRefine(const RunOptions& o, Settings& s) {
         if (!st.ok()) return st;
         if (!o.online) finalOutputs(o, c, model, out);
         out.log = o.command_line + "\n" + std::to_string(c.docs.size()) + " documents from " + c.words_name + "\n" +
-                  settingsLog(s) + out.log;
+                  settingsLog(s, o.online) + out.log;
         logLine(out, std::string("active topics ") + std::to_string(model.activeTopics()) + " of K = " + std::to_string(model.K()));
         return writeOutputs(o, out, formatTopicModelCsv(model));  // a row per open topic, in label order
     } catch (const std::bad_alloc&) {
