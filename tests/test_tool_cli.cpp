@@ -371,6 +371,16 @@ TEST(ToolCli, AFixedTopicModelLabelsInTheGivenTopicsAndKeepsThem) {
     expectError(runRost(run + " -K 3 --out " + (t / "k")), "-K 3 differs from the 2 topics of", t / "k");
     expectError(runRost("refine " + (t / "words.csv") + " --topicmodel.fixed --out " + (t / "n")),
                 "needs --in.topicmodel FILE", t / "n");
+    // A stream with words beyond the model's 100: another vocabulary's, unless V is given.
+    rost::testing::writeText(t / "wide.csv", words + "20,3,120,7\n");
+    const std::string wide = "refine " + (t / "wide.csv") + " --in.topicmodel " + (t / "tm.csv") + " --topicmodel.fixed";
+    expectError(runRost(wide + " --out " + (t / "w")),
+                "rost: error: --in.topicmodel: " + (t / "tm.csv") + " has 100 words a line, but the input's word ids go up "
+                "to 120: a fixed topic model labels in its own words (a topic model of another vocabulary? -V 121 labels "
+                "the others too, with no counts in it)", t / "w");
+    const RunResult v = runRost(wide + " -V 121 --out " + (t / "w") + " -q");
+    ASSERT_EQ(v.exit_code, 0) << v.err;
+    EXPECT_EQ(rost::testing::readText(t / "w/topicmodel.csv").substr(0, model[0].size() + 1), model[0] + ",");
 }
 
 // rost merge: a mission's checkpoint and its topicmodel.csv are the same

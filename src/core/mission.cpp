@@ -73,6 +73,15 @@ Status fromTopicModel(const MissionOptions& m, const MissionInput& in, Config& c
                              " words a line, more than the " + std::to_string(in.V) + " the extractors produce" +
                              (in.words_detail.empty() ? std::string() : " (" + in.words_detail + ")") +
                              ": a topic model of another vocabulary or other word options");
+    // A fixed model labels in its own words: a word stream's words beyond
+    // them would be labelled by the neighbourhoods alone, with no counts to
+    // go by (a model of another vocabulary, most likely). Giving V accepts it.
+    if (c.fixed && !in.vocabulary && !m.isGiven("V") && in.V > shape.columns)
+        return Status::error(name + ": " + m.in_topicmodel + " has " + std::to_string(shape.columns) +
+                             " words a line, but the input's word ids go up to " + std::to_string(in.V - 1) +
+                             ": a fixed topic model labels in its own words (a topic model of another vocabulary? " +
+                             m.names.given(settingSpec("V"), std::to_string(in.V)) +
+                             " labels the others too, with no counts in it)");
     if (!m.isGiven("V")) c.V = std::max(in.V, shape.columns);
     if (!c.fixed) return {};
     const SettingSpec& K = settingSpec("K");
