@@ -52,6 +52,23 @@ TEST(Config, ARingTooLargeNamesEverySettingItsSizeComesFrom) {
         EXPECT_NE(s.message().find(key), std::string::npos) << key << " in: " << s.message();
 }
 
+// So is a ring whose cells' topic counts are too large (many topics in
+// small cells that hold few words).
+TEST(Config, CellTopicCountsTooLargeNameTheTopicsAndTheGrid) {
+    rost::Config c;
+    c.cell_space = 1;
+    c.cell_capacity = 1;
+    c.K = 1024;
+    c.ring_steps = 2048;
+    const rost::Status s = c.validate();
+    ASSERT_FALSE(s.ok());
+    for (const char* key : {"ring.steps = 2048", "at most 54 for 307200 cells a step", "K = 1024", "cell.space = 1",
+                            "topic counts", "64 GiB"})
+        EXPECT_NE(s.message().find(key), std::string::npos) << key << " in: " << s.message();
+    c.ring_steps = 54;
+    EXPECT_TRUE(c.validate().ok()) << c.validate().message();
+}
+
 // The temporal neighbourhood must fit in the ring, strictly: g.time =
 // ring.steps - 1 is the largest taken; ring.steps itself would reach the
 // slot being written (a ring of one step has no temporal neighbours).

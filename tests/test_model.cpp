@@ -211,6 +211,89 @@ TEST(ModelSurprise, ACellsSurpriseIsItsNewestObservationsWordsAlone) {
     }
 }
 
+// The surprise formula itself (docs/design.md, "Curiosity"), from the
+// model's counts as they stood before the observation was added: a cell's
+// words' mean negative log of p(w) = sum_k phi_k(w) theta(k), phi_k(w) =
+// (n_k^w + beta) / (n_k + V beta), theta(k) = (g_k + alpha) / (g + K alpha),
+// g the topic counts of the cell and its spatial neighbours (Manhattan
+// g.space) in the g.time steps before; the global n_k where those hold none.
+// The observation's surprise is over all its words.
+TEST(ModelSurprise, FollowsItsFormulaFromTheCountsBeforeTheWordsArrive) {
+    rost::Config c;
+    c.K = 3;
+    c.V = 6;
+    c.alpha = 0.3;
+    c.beta = 0.2;
+    c.frame_width = 128;
+    c.frame_height = 64;
+    c.cell_space = 32;  // 4 x 2 cells, row-major
+    c.g_space = 1;
+    c.g_time = 2;
+    c.ring_steps = 8;
+    c.cell_capacity = 64;
+    c.max_words_per_frame = 64;
+    rost::Model m(c);
+    rost::Rng r(21);
+    const int cellsX = 4, cells = 8;
+    auto cellOf = [&](const rost::Position& q) { return q.y / 32 * cellsX + q.x / 32; };
+    std::vector<uint32_t> w;
+    std::vector<rost::Position> p;
+    auto frame = [&](int maxX) {  // 24 words with x < maxX
+        w.resize(24);
+        p.resize(24);
+        for (int i = 0; i < 24; ++i) {
+            w[i] = r.below(6);
+            p[i] = {static_cast<int32_t>(r.below(static_cast<uint32_t>(maxX))), static_cast<int32_t>(r.below(64))};
+        }
+    };
+    for (int f = 0; f < 4; ++f) {  // the left half only: cells 2, 3, 6 and 7's right neighbours stay empty
+        frame(64);
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+        m.refineAll(3);
+    }
+    for (int round = 0; round < 2; ++round) {
+        frame(128);  // the whole frame: cells 3 and 7 have no words around them in the steps before
+        const int64_t step = m.steps();
+        std::vector<double> nll(cells, 0.0);
+        std::vector<int> n(cells, 0);
+        for (std::size_t i = 0; i < w.size(); ++i) {
+            const int cell = cellOf(p[i]);
+            std::vector<double> g(3, 0.0);
+            for (int dt = 1; dt <= c.g_time; ++dt) {
+                for (int other = 0; other < cells; ++other) {
+                    if (std::abs(other % cellsX - cell % cellsX) + std::abs(other / cellsX - cell / cellsX) > c.g_space) continue;
+                    for (int k = 0; k < 3; ++k) g[k] += m.cellHistogram(step - dt, other)[k];
+                }
+            }
+            double gsum = g[0] + g[1] + g[2];
+            if (gsum == 0)
+                for (int k = 0; k < 3; ++k) gsum += (g[k] = m.topicCount(k));
+            double pw = 0.0;
+            for (int k = 0; k < 3; ++k)
+                pw += (m.topicWordCount(k, static_cast<int>(w[i])) + c.beta) / (m.topicCount(k) + c.V * c.beta) *
+                      (g[k] + c.alpha) / (gsum + c.K * c.alpha);
+            nll[cell] -= std::log(pw);
+            ++n[cell];
+        }
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+        double total = 0.0;
+        int words = 0, fallback = 0;
+        for (int cell = 0; cell < cells; ++cell) {
+            ASSERT_EQ(m.cellWordCount(step, cell), static_cast<uint32_t>(n[cell])) << "cell " << cell << " (the layout)";
+            const double expected = n[cell] ? std::exp(nll[cell] / n[cell]) : 0.0;
+            EXPECT_NEAR(m.cellSurprise(step)[cell], expected, 1e-5 * expected) << "round " << round << ", cell " << cell;
+            total += nll[cell];
+            words += n[cell];
+            fallback += round == 0 && (cell % cellsX == 3) && n[cell] > 0;
+        }
+        if (round == 0) {
+            EXPECT_GT(fallback, 0) << "no word took the global mix";
+        }
+        EXPECT_NEAR(m.observationSurprise(m.observations() - 1), std::exp(total / words), 1e-5 * std::exp(total / words));
+        m.refineAll(3);
+    }
+}
+
 TEST(ModelPerplexity, FiniteAndBoundedByVocabularyForUniformModel) {
     rost::Config c = smallConfig();
     rost::Model m(c);

@@ -317,6 +317,16 @@ std::optional<SettingProblem> modelCombinations(const Config& c) {
                               {spec("frame.width"), spec("frame.height"), spec("cell.space"), spec("cell.capacity")},
                               "the ring would need more than 64 GiB; lower {ring.steps} or {cell.capacity}, or raise "
                               "{cell.space}"};
+    // The cells' topic counts (4 bytes a topic), which outgrow the words when
+    // K is above twice cell.capacity.
+    const double countBytes = static_cast<double>(cells) * c.K * 4.0;
+    if (static_cast<double>(c.ring_steps) * countBytes > kMaxBytes)
+        return SettingProblem{spec("ring.steps"), K::Range, n(c.ring_steps),
+                              "at most " + n(kMaxBytes / countBytes) + " for " + n(cells) + " cells a step (" + frameText +
+                                  " in cells of {cell.space} = " + n(c.cell_space) + ") of {K} = " + n(c.K) + " topics",
+                              {spec("frame.width"), spec("frame.height"), spec("cell.space"), spec("K")},
+                              "the cells' topic counts would need more than 64 GiB; lower {ring.steps} or {K}, or raise "
+                              "{cell.space}"};
     // Each observation's kept inputs (word, position, cell slot: 12 bytes).
     const double obsBytes = static_cast<double>(c.cell_time) * c.max_words_per_frame * 12.0;
     if (static_cast<double>(c.ring_steps) * obsBytes > kMaxBytes)
