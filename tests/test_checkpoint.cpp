@@ -876,7 +876,7 @@ TEST(CheckpointErrors, LoadIsRefusedWhileRunningOrWithQueuedObservations) {
     const auto frames = stream(cfg, 2, 1);
     ASSERT_TRUE(e.tryPush(frames[0].view()));
     EXPECT_EQ(loadCheckpoint(good, "run.ckpt", e).message(),
-              "run.ckpt: cannot load a checkpoint while 1 observations are queued");
+              "run.ckpt: cannot load a checkpoint while 1 observation is queued");
     e.processPending();
     ASSERT_TRUE(e.start().ok());
     EXPECT_EQ(loadCheckpoint(good, "run.ckpt", e).message(),

@@ -547,7 +547,7 @@ TEST(ToolCli, VocabTrainsOnTheFramesAskedForAndRunUsesIt) {
     for (const auto& [extra, frames] : {std::pair{"--every 1 --max-frames 3", "from 3 frames (every 1)"},
                                         std::pair{"--every 2 --max-frames 5", "from 3 frames (every 2)"},
                                         std::pair{"--every 4", "from 2 frames (every 4)"},
-                                        std::pair{"--max-frames 1", "from 1 frames (every 1)"}}) {
+                                        std::pair{"--max-frames 1", "from 1 frame (every 1)"}}) {
         const std::string note = vocab("v.rostvoc", extra);
         EXPECT_NE(note.find(frames), std::string::npos) << extra << ": " << note;
     }

@@ -112,7 +112,8 @@ def read_surprise_cells(path):
     cells = len(header) - 1
     bad = np.flatnonzero(counts != cells + 1)
     if bad.size:
-        raise ValueError(f"{path}:{numbers[bad[0]]}: {counts[bad[0]] - 1} cells, expected {cells}")
+        n = counts[bad[0]] - 1
+        raise ValueError(f"{path}:{numbers[bad[0]]}: {n} cell{'' if n == 1 else 's'}, expected {cells}")
     return frames, values
 
 

@@ -141,7 +141,7 @@ ERRORS = {  # reader, file, its text, the error
                      r"surprise.csv:3:3: expected a number, found 'x'"),
     "too many fields": ("read_surprise", "surprise.csv", "frame,surprise\n0,1.5,2\n", r"surprise.csv:2: 3 fields, expected 2"),
     "too few cells": ("read_surprise_cells", "surprise_cells.csv", "frame,cell0,cell1\n# c\n4,0.5,nan\n5,1\n",
-                      r"surprise_cells.csv:4: 1 cells, expected 2"),
+                      r"surprise_cells.csv:4: 1 cell, expected 2"),
     "a count too large": ("read_topicmodel", "topicmodel.csv", "1,2\n3,9223372036854775808\n",
                           r"topicmodel.csv:2:3: number '9223372036854775808' out of range"),
 }

@@ -658,8 +658,9 @@ Status loadCheckpoint(std::span<const uint8_t> bytes, std::string_view name, Eng
     const std::string P = prefix(name);
     if (engine.running()) return Status::error(P + "cannot load a checkpoint into a running engine (stop it first)");
     if (engine.queued() != 0)
-        return Status::error(P + "cannot load a checkpoint while " + std::to_string(engine.queued()) +
-                             " observations are queued");
+        return Status::error(P + "cannot load a checkpoint while " +
+                             text::counted(static_cast<long long>(engine.queued()), "observation") +
+                             (engine.queued() == 1 ? " is queued" : " are queued"));
     Parsed p;
     if (Status st = parseImage(bytes, name, p); !st.ok()) return st;
     if (Status st = checkConfig(p, engine.config(), options, P); !st.ok()) return st;

@@ -177,7 +177,7 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
         ++index;
     }
     if (index != out.observations.size())
-        return Status::error(std::string(positionsName) + ": " + std::to_string(index) + " observations, but " +
+        return Status::error(std::string(positionsName) + ": " + text::counted(static_cast<long long>(index), "observation") + ", but " +
                              std::string(wordsName) + " has " + std::to_string(out.observations.size()));
     return {};
 }

@@ -11,6 +11,7 @@
 #include "progress.hpp"
 #include "rost/mission.hpp"
 #include "rost/random.hpp"
+#include "rost/text_io.hpp"
 #include "rost/word_stream.hpp"
 #include "tool.hpp"
 
@@ -114,10 +115,11 @@ int vocabCommand(const VocabOptions& o) {
     char note[512];
     std::snprintf(note, sizeof note,
                   "k-majority, %u words, seed %llu, %d iterations (%llu changed in the last), mean distance %.2f bits, "
-                  "%zu of %llu ORB descriptors (%d per frame) from %lld frames (every %d)\n",
+                  "%zu of %llu ORB descriptors (%d per frame) from %s (every %d)\n",
                   o.words, static_cast<unsigned long long>(o.seed), rep.iterations,
                   static_cast<unsigned long long>(rep.changed_last), rep.mean_distance, data.size(),
-                  static_cast<unsigned long long>(seen), o.features, static_cast<long long>(framesUsed), o.every);
+                  static_cast<unsigned long long>(seen), o.features,
+                  text::counted(static_cast<long long>(framesUsed), "frame").c_str(), o.every);
     const std::string fullNote = std::string(note) + "inputs: " + inputsNote + "\ncommand: " + o.command_line + "\n";
     vision::Vocabulary v(std::move(centres), fullNote.substr(0, vision::Vocabulary::kMaxNoteBytes));
     st = v.save(o.out);
