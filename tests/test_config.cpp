@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+#include <vector>
 
 #include "rost/config.hpp"
 #include "rost/model.hpp"
@@ -39,34 +40,29 @@ TEST(Config, InvalidValueNamesFieldAndRange) {
 }
 
 // A ring too large for memory is refused naming every setting its size comes
-// from, each as "key = value" (so a Python caller sees its own keyword).
+// from, each as "key = value" (so a Python caller sees its own keyword): by
+// its cells' words, or by their topic counts (many topics in small cells
+// that hold few words), each within its range alone.
 TEST(Config, ARingTooLargeNamesEverySettingItsSizeComesFrom) {
-    rost::Config c;
-    c.cell_space = 1;  // 640 x 480 cells a step: each setting alone is in range
-    c.ring_steps = 4096;
-    c.cell_capacity = 4096;
-    const rost::Status s = c.validate();
-    ASSERT_FALSE(s.ok());
-    for (const char* key : {"ring.steps = 4096", "frame.width = ", "frame.height = ", "cell.space = 1",
-                            "cell.capacity = 4096", "64 GiB"})
-        EXPECT_NE(s.message().find(key), std::string::npos) << key << " in: " << s.message();
-}
-
-// So is a ring whose cells' topic counts are too large (many topics in
-// small cells that hold few words).
-TEST(Config, CellTopicCountsTooLargeNameTheTopicsAndTheGrid) {
-    rost::Config c;
-    c.cell_space = 1;
-    c.cell_capacity = 1;
-    c.K = 1024;
-    c.ring_steps = 2048;
-    const rost::Status s = c.validate();
-    ASSERT_FALSE(s.ok());
-    for (const char* key : {"ring.steps = 2048", "at most 54 for 307200 cells a step", "K = 1024", "cell.space = 1",
-                            "topic counts", "64 GiB"})
-        EXPECT_NE(s.message().find(key), std::string::npos) << key << " in: " << s.message();
-    c.ring_steps = 54;
-    EXPECT_TRUE(c.validate().ok()) << c.validate().message();
+    struct Case {
+        int K, capacity, steps, fits;
+        std::vector<const char*> said;
+    };
+    for (const Case& k : {Case{16, 4096, 4096, 6, {"ring.steps = 4096", "frame.width = ", "frame.height = ", "cell.space = 1",
+                                                     "cell.capacity = 4096", "64 GiB"}},
+                          Case{1024, 1, 2048, 54, {"ring.steps = 2048", "at most 54 for 307200 cells a step", "K = 1024",
+                                                    "cell.space = 1", "topic counts", "64 GiB"}}}) {
+        rost::Config c;
+        c.cell_space = 1;  // 640 x 480 cells a step
+        c.K = k.K;
+        c.cell_capacity = k.capacity;
+        c.ring_steps = k.steps;
+        const rost::Status s = c.validate();
+        ASSERT_FALSE(s.ok()) << "K " << k.K;
+        for (const char* key : k.said) EXPECT_NE(s.message().find(key), std::string::npos) << key << " in: " << s.message();
+        c.ring_steps = k.fits;
+        EXPECT_TRUE(c.validate().ok()) << c.validate().message();
+    }
 }
 
 // The temporal neighbourhood must fit in the ring, strictly: g.time =
