@@ -6,7 +6,9 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <limits>
 #include <tuple>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -14,6 +16,7 @@
 
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/mission.hpp"
+#include "rost/vision/presentation_clock.hpp"
 #include "test_vision_support.hpp"
 
 using namespace rost;
@@ -452,6 +455,44 @@ TEST(VisionSources, JoinedInputsPlayInOrderAtTheFirstSize) {
     // Images have no time: 10 a second, the next input's first a step after the last.
     for (std::size_t i = 0; i < 5; ++i)
         EXPECT_EQ(frames[i].timestamp_us, static_cast<int64_t>(i) * kImagePeriodUs) << "frame " << i;
+}
+
+// A one-frame video joined before images: the images start one frame
+// period of the video (25 fps: 40 ms) after it, not the images' 100 ms.
+TEST(VisionSources, AJoinedOneFrameVideoLeavesItsOwnPeriodBeforeTheNext) {
+    if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) GTEST_SKIP() << "no ffmpeg to encode a clip with";
+    TempDir t, b;
+    const std::string make = "ffmpeg -v error -f lavfi -i testsrc=size=40x30:rate=25 -frames:v 1 -c:v libx264 -pix_fmt yuv420p '" +
+                             (t / "one.mp4") + "'";
+    if (std::system(make.c_str()) != 0) GTEST_SKIP() << "ffmpeg cannot encode H.264 here";
+    for (int i = 0; i < 2; ++i) ASSERT_TRUE(cv::imwrite(b / ("g" + std::to_string(i) + ".png"), patterned(40, 30, i)));
+    Status st;
+    auto src = openFrameSources({t / "one.mp4", b.path()}, {}, st);
+    ASSERT_TRUE(src) << st.message();
+    std::vector<int64_t> times;
+    for (const Frame& f : readAll(*src)) times.push_back(f.timestamp_us);
+    EXPECT_EQ(times, (std::vector<int64_t>{0, 40000, 40000 + kImagePeriodUs}));
+}
+
+// The clock behind a video's time stamps, case by case (rost/vision/presentation_clock.hpp).
+TEST(PresentationClock, KeepsTheDecodersTimesAndStepsOverWhatItCannotUse) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    auto times = [](double fps, std::vector<double> ms) {
+        PresentationClock c(fps);
+        std::vector<int64_t> out;
+        for (double m : ms) out.push_back(c.next(m));
+        return out;
+    };
+    using V = std::vector<int64_t>;
+    EXPECT_EQ(times(25, {0, 33.3, 70}), (V{0, 33300, 70000})) << "a variable rate's own times";
+    EXPECT_EQ(times(25, {40, 80, 120, 0, 0}), (V{40000, 80000, 120000, 160000, 200000})) << "held-back frames' 0";
+    EXPECT_EQ(times(10, {10000, 10100, 10200, 500, 700, 900}), (V{10000000, 10100000, 10200000, 10300000, 10500000, 10700000}))
+        << "a clock that went back: one step, then the frames' own";
+    EXPECT_EQ(times(25, {-50, -10, 30}), (V{0, 40000, 80000})) << "a negative start is 0";
+    EXPECT_EQ(times(25, {0, nan, 1e10, 120}), (V{0, 40000, 80000, 120000})) << "no time, or one past 10^12 us";
+    EXPECT_EQ(times(0, {0, nan}), (V{0, kImagePeriodUs})) << "an unknown rate";
+    EXPECT_EQ(times(1e-9, {0, nan}), (V{0, kImagePeriodUs})) << "a rate below one frame in 10^6 s is unknown";
+    EXPECT_EQ(times(25, {5000, 5000, 5040}), (V{5000000, 5040000, 5080000})) << "a repeated time";
 }
 
 TEST(VisionSources, UnreadableInputsGiveOneLineNamingTheInput) {

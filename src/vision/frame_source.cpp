@@ -1,5 +1,6 @@
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/image_file.hpp"
+#include "rost/vision/presentation_clock.hpp"
 
 #include <fnmatch.h>
 #include <glob.h>
@@ -321,6 +322,7 @@ public:
         if (Status st = chooseSize(o, pending_.cols, pending_.rows, info_, notes_); !st.ok()) return st.prefixed(path_ + ": ");
         info_.fps = cap_.get(cv::CAP_PROP_FPS);
         if (!(info_.fps > 0.0 && info_.fps < 1000.0)) info_.fps = 0.0;
+        clock_ = PresentationClock(info_.fps);
         const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
         // An estimate is no count: the length unknown, as a camera's (planning
         // and progress not misled), and kept to say where decoding fell short of it.
@@ -346,40 +348,12 @@ public:
             return ReadStatus::Error;
         }
         out.index = next_;
-        out.timestamp_us = timestampUs(ms);
+        out.timestamp_us = clock_.next(ms);
         ++next_;
         return ReadStatus::Ok;
     }
 
 private:
-    // The frame's presentation time as the decoder gives it (`ms` from the
-    // stream's start), so a variable-frame-rate video (a phone's) keeps its
-    // frames' own times. Where the decoder gives a time that does not follow
-    // the last (a clock that went back: joined recordings; OpenCV's 0 for the
-    // frames the decoder holds back to the end of the stream) or none, the
-    // frame is timed the last step after the last (one nominal period after
-    // the first frame), and the frames after it keep their own steps from
-    // there: time stamps always increase, and a clock that went back costs
-    // one frame's true step, not every later frame's.
-    int64_t timestampUs(double ms) {
-        const double us = ms * 1000.0;
-        // 0 after the first frame is OpenCV's "no time" for a held-back frame.
-        const bool finite = std::isfinite(us) && std::fabs(us) < 1e15 && (next_ == 0 || us != 0.0);
-        const int64_t given = finite ? std::llround(us) : 0;
-        int64_t t = 0;
-        if (next_ == 0) {
-            offset_us_ = given < 0 ? -given : 0;  // a negative start is the stream's 0
-            t = given + offset_us_;
-        } else if (finite && given + offset_us_ > last_us_) {
-            t = given + offset_us_;
-        } else {
-            t = last_us_ + (step_us_ > 0 ? step_us_ : nominalPeriodUs(info_.fps));
-            if (finite) offset_us_ = t - given;
-        }
-        if (next_ > 0) step_us_ = t - last_us_;
-        last_us_ = t;
-        return t;
-    }
 
     // The decoder gave no more frames. Short of the count the container
     // gives (beyond the slack of a count estimated from the duration), the
@@ -414,9 +388,7 @@ private:
     int64_t next_ = 0;
     int64_t estimate_ = -1;  // FFmpeg's estimate of the frames, where the container gives no count
     double pending_ms_ = 0;  // the first frame's presentation time (read by open())
-    int64_t last_us_ = 0;    // the last frame's time stamp
-    int64_t step_us_ = 0;    // and its step from the one before
-    int64_t offset_us_ = 0;  // added to the decoder's times since its clock last went back
+    PresentationClock clock_;  // the frames' times (set with the rate by open())
 };
 
 // Several sources one after the other at the first one's size.
@@ -454,9 +426,10 @@ public:
                 error_ = parts_[cur_]->error();
                 return s;
             }
+            // The next part starts a step after this one's last frame (the last step between two
+            // frames; a first part of one frame: its nominal period).
+            if (next_ > 0) offset_us_ = last_us_ + (step_us_ > 0 ? step_us_ : nominalPeriodUs(parts_[cur_]->info().fps));
             ++cur_;
-            // The next part starts a step after this one's last frame (the last step between two frames).
-            if (next_ > 0) offset_us_ = last_us_ + (step_us_ > 0 ? step_us_ : kImagePeriodUs);
         }
         return ReadStatus::End;
     }

@@ -26,9 +26,10 @@ inline constexpr int64_t kImagePeriodUs = 100000;
 
 // The time between two frames at a source's nominal rate (SourceInfo::fps),
 // in whole microseconds and at least 1; kImagePeriodUs where the rate is
-// unknown (0: image sequences, a container that gives none).
-inline int64_t nominalPeriodUs(double fps) {
-    return fps > 0 ? std::max<int64_t>(1, std::llround(1e6 / fps)) : kImagePeriodUs;
+// unknown (0: image sequences, a container that gives none) or below one
+// frame in 10^6 s.
+inline int64_t nominalPeriodUs(double fps) noexcept {
+    return fps >= 1e-6 ? std::max<int64_t>(1, std::llround(1e6 / fps)) : kImagePeriodUs;
 }
 
 struct Frame {
