@@ -324,15 +324,11 @@ bool endsWithin(pid_t pid, std::chrono::seconds limit, int& status, int signal =
     return false;
 }
 
-// Whether a run's staging directory (`out`/.rost-partial-*, made once its
-// input is open and before its first frame) appears within `limit`.
-bool stagingAppears(const std::string& out, std::chrono::seconds limit) {
+// Whether `file` (a run's stderr) says `what` within `limit`.
+bool saysWithin(const std::string& file, const std::string& what, std::chrono::seconds limit) {
     const auto until = std::chrono::steady_clock::now() + limit;
-    for (; std::chrono::steady_clock::now() < until; std::this_thread::sleep_for(std::chrono::milliseconds(20))) {
-        std::error_code ec;
-        for (const auto& e : std::filesystem::directory_iterator(out, ec))
-            if (e.path().filename().string().rfind(".rost-partial", 0) == 0) return true;
-    }
+    for (; std::chrono::steady_clock::now() < until; std::this_thread::sleep_for(std::chrono::milliseconds(20)))
+        if (rost::testing::readText(file).find(what) != std::string::npos) return true;
     return false;
 }
 
@@ -807,13 +803,13 @@ TEST(ToolTrust, ARealtimeRunNeitherStallsOnAJumpInItsTimesNorIgnoresCtrlCWhileWa
     EXPECT_EQ(lines(t / "o/frames.csv"), 1 + 20);
     EXPECT_LT(took, 25.0) << "the 60 s jump between the streams was waited out";
 
-    const pid_t pid = spawnRost({"run", t / "slow.mp4", "--out", t / "s", "--realtime", "--no-overlay", "--no-summary", "-q"},
+    const pid_t pid = spawnRost({"run", t / "slow.mp4", "--out", t / "s", "--realtime", "--no-overlay", "--no-summary"},
                                 t / "err.txt");
-    // Signalled 2 s after the run made its outputs' staging directory (a
-    // Release build is waiting 0.5 s after it; a sanitizer's soon after):
-    // the first frame played, the second due 20 s after it.
-    const bool started = stagingAppears(t / "s", std::chrono::seconds(60));
-    std::this_thread::sleep_for(std::chrono::seconds(2));
+    // Signalled 1 s after the run describes its model ("rost: V = ...", the
+    // last of its set-up, the first frame played at once after it): the
+    // second frame is due 20 s after the first.
+    const bool started = saysWithin(t / "err.txt", "rost: V = ", std::chrono::seconds(60));
+    std::this_thread::sleep_for(std::chrono::seconds(1));
     const auto signalled = std::chrono::steady_clock::now();
     ::kill(pid, SIGINT);
     int status = 0;
