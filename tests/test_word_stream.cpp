@@ -59,7 +59,7 @@ TEST(WordStreamCsv, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(rost::parseWordStream("1,2\n", "1,150,3\n", wide, ws).message(),
               "positions.csv:1:3: position (150, 3) outside the frame (x in [0, 100))");
     EXPECT_EQ(parseError("1,2\n", "2,0,0\n"), "positions.csv:1:1: timestamp 2 differs from words.csv's 1 for observation 1");
-    EXPECT_EQ(parseError("1,2\n", "1,0\n"), "positions.csv:1:1: 1 coordinates for 1 words (expected 2)");
+    EXPECT_EQ(parseError("1,2\n", "1,0\n"), "positions.csv:1:1: 1 coordinate for 1 word (expected 2)");
     EXPECT_EQ(parseError("1,2\n2,3\n", "1,0,0\n"), "positions.csv: 1 observation, but words.csv has 2");
 }
 

@@ -147,8 +147,9 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
                                  " differs from " + std::string(wordsName) + "'s " + std::to_string(obs.timestamp) +
                                  " for observation " + std::to_string(index + 1));
         if (values.size() - 1 != 2 * obs.words.size())
-            return Status::error(where(positionsName, number, 1) + std::to_string(values.size() - 1) +
-                                 " coordinates for " + std::to_string(obs.words.size()) + " words (expected " +
+            return Status::error(where(positionsName, number, 1) +
+                                 text::counted(static_cast<long long>(values.size() - 1), "coordinate") + " for " +
+                                 text::counted(static_cast<long long>(obs.words.size()), "word") + " (expected " +
                                  std::to_string(2 * obs.words.size()) + ")");
         obs.positions.resize(obs.words.size());
         for (std::size_t i = 0; i < obs.words.size(); ++i) {

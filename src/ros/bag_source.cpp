@@ -15,6 +15,9 @@ namespace rost::bag {
 
 namespace {
 
+// rost::text::counted's words (its header is C++20; this file is ROS's C++17).
+std::string counted(long long n, const char* noun) { return std::to_string(n) + " " + noun + (n == 1 ? "" : "s"); }
+
 bool isImageType(const std::string& type) {
     return type == "sensor_msgs/Image" || type == "sensor_msgs/CompressedImage";
 }
@@ -137,7 +140,7 @@ Status Source::open(const std::string& path, const std::string& topic, const vis
         return st.prefixed(path + ": topic " + topic + ": ");
     const int w = info_.width, h = info_.height;
     info_.description = "bag " + path + " topic " + topic + " (" + std::to_string(w) + "x" + std::to_string(h) +
-                        ", " + std::to_string(info_.frames) + " frames)";
+                        ", " + counted(info_.frames, "frame") + ")";
     return {};
 }
 
@@ -200,7 +203,7 @@ Status listImageTopics(const std::string& path, std::vector<std::string>& lines)
             if (!isImageType(c->datatype) || std::find(seen.begin(), seen.end(), c->topic) != seen.end()) continue;
             seen.push_back(c->topic);
             rosbag::View one(bag, rosbag::TopicQuery(c->topic));
-            lines.push_back(c->topic + " (" + c->datatype + ", " + std::to_string(one.size()) + " messages)");
+            lines.push_back(c->topic + " (" + c->datatype + ", " + counted(static_cast<long long>(one.size()), "message") + ")");
         }
     } catch (const rosbag::BagException& e) {
         return Status::error(path + ": cannot read the bag: " + e.what());

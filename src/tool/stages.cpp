@@ -5,6 +5,7 @@
 #include <thread>
 
 #include "progress.hpp"
+#include "rost/text_io.hpp"
 #include "rost/topic_model_csv.hpp"
 
 namespace rost::tool {
@@ -80,9 +81,9 @@ Status RunEngine::open(const RunOptions& o, const WordsStage& w, bool realtime) 
 void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime) const {
     const double mib = static_cast<double>(engine->memoryBytes()) / (1024.0 * 1024.0);
     std::fprintf(stderr,
-                 "rost: %s\nrost: V = %d, K = %d, %d cells of %d px, ring of %d steps, max.words %d, %s budget %s, "
+                 "rost: %s\nrost: V = %d, K = %d, %s of %d px, ring of %d steps, max.words %d, %s budget %s, "
                  "model memory %.1f MiB%s\n",
-                 w.info.description.c_str(), V, ec.model.K, ec.model.cellsPerStep(), ec.model.cell_space,
+                 w.info.description.c_str(), V, ec.model.K, text::counted(ec.model.cellsPerStep(), "cell").c_str(), ec.model.cell_space,
                  ec.model.ring_steps, ec.model.max_words_per_frame, toString(ec.strategy.kind),
                  budgetText(ec.budget).c_str(),
                  mib, realtime ? ", realtime" : "");

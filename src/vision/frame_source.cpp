@@ -1,6 +1,7 @@
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/image_file.hpp"
 #include "rost/vision/presentation_clock.hpp"
+#include "rost/text_io.hpp"
 
 #include <fnmatch.h>
 #include <glob.h>
@@ -244,7 +245,7 @@ public:
         if (Status st = chooseSize(o, first.cols, first.rows, info_, notes_); !st.ok()) return st.prefixed(what_ + ": ");
         first_ = noted_ = cv::Size(first.cols, first.rows);
         info_.frames = static_cast<int64_t>(files_.size() - next_);
-        info_.description = what_ + " (" + std::to_string(files_.size()) + " images, " + std::to_string(info_.width) +
+        info_.description = what_ + " (" + text::counted(static_cast<long long>(files_.size()), "image") + ", " + std::to_string(info_.width) +
                             "x" + std::to_string(info_.height) + ")";
         pending_ = first;
         return {};
@@ -333,7 +334,7 @@ public:
         std::snprintf(fps, sizeof fps, "%.3g fps", info_.fps);
         info_.description = "video " + path_ + " (" + std::to_string(pending_.cols) + "x" +
                             std::to_string(pending_.rows) + ", " + fps +
-                            (info_.frames > 0 ? ", " + std::to_string(info_.frames) + " frames" : std::string()) + ")";
+                            (info_.frames > 0 ? ", " + text::counted(info_.frames, "frame") : std::string()) + ")";
         return {};
     }
 
