@@ -41,8 +41,9 @@ TEST(Config, InvalidValueNamesFieldAndRange) {
 
 // A ring too large for memory is refused naming every setting its size comes
 // from, each as "key = value" (so a Python caller sees its own keyword): by
-// its cells' words, or by their topic counts (many topics in small cells
-// that hold few words), each within its range alone.
+// its cells' words, by their topic counts (many topics in small cells that
+// hold few words), or by the two and the observations together (each part
+// within the bound alone); each setting within its range alone.
 TEST(Config, ARingTooLargeNamesEverySettingItsSizeComesFrom) {
     struct Case {
         int K, capacity, steps, fits;
@@ -51,7 +52,9 @@ TEST(Config, ARingTooLargeNamesEverySettingItsSizeComesFrom) {
     for (const Case& k : {Case{16, 4096, 4096, 6, {"ring.steps = 4096", "frame.width = ", "frame.height = ", "cell.space = 1",
                                                      "cell.capacity = 4096", "64 GiB"}},
                           Case{1024, 1, 2048, 54, {"ring.steps = 2048", "at most 54 for 307200 cells a step", "K = 1024",
-                                                    "cell.space = 1", "topic counts", "64 GiB"}}}) {
+                                                    "cell.space = 1", "the cells' topic counts would need more than 64 GiB"}},
+                          Case{16, 8, 3000, 1745, {"ring.steps = 3000", "at most 1745", "cell.capacity = 8", "K = 16",
+                                                   "cell.time = 1", "max.words = 4096", "together", "64 GiB"}}}) {
         rost::Config c;
         c.cell_space = 1;  // 640 x 480 cells a step
         c.K = k.K;

@@ -7,6 +7,7 @@
 #include <optional>
 #include <type_traits>
 
+#include "kernel_tables.hpp"
 #include "rost/word_stream.hpp"
 #include "settings_text.hpp"
 
@@ -317,9 +318,10 @@ std::optional<SettingProblem> modelCombinations(const Config& c) {
                               {spec("frame.width"), spec("frame.height"), spec("cell.space"), spec("cell.capacity")},
                               "the ring would need more than 64 GiB; lower {ring.steps} or {cell.capacity}, or raise "
                               "{cell.space}"};
-    // The cells' topic counts (4 bytes a topic), which outgrow the words when
-    // K is above twice cell.capacity.
-    const double countBytes = static_cast<double>(cells) * c.K * 4.0;
+    // The cells' topic counts (4 bytes a topic, K padded to the kernel's
+    // blocks as they are stored), which outgrow the words when K is above
+    // twice cell.capacity.
+    const double countBytes = static_cast<double>(cells) * kernel::paddedK(c.K) * 4.0;
     if (static_cast<double>(c.ring_steps) * countBytes > kMaxBytes)
         return SettingProblem{spec("ring.steps"), K::Range, n(c.ring_steps),
                               "at most " + n(kMaxBytes / countBytes) + " for " + n(cells) + " cells a step (" + frameText +
@@ -336,6 +338,17 @@ std::optional<SettingProblem> modelCombinations(const Config& c) {
                               {spec("cell.time"), spec("max.words")},
                               "the observations' inputs would need more than 64 GiB; lower {ring.steps}, {cell.time} or "
                               "{max.words}"};
+    // And the three together, each within the bound alone.
+    const double allBytes = stepBytes + countBytes + obsBytes;
+    if (static_cast<double>(c.ring_steps) * allBytes > kMaxBytes)
+        return SettingProblem{spec("ring.steps"), K::Range, n(c.ring_steps),
+                              "at most " + n(kMaxBytes / allBytes) + " for " + n(cells) + " cells a step (" + frameText +
+                                  " in cells of {cell.space} = " + n(c.cell_space) + ") of {cell.capacity} = " +
+                                  n(c.cell_capacity) + " words and {K} = " + n(c.K) + " topics, and {cell.time} = " +
+                                  n(c.cell_time) + " observations of {max.words} = " + n(c.max_words_per_frame),
+                              {spec("frame.width"), spec("frame.height"), spec("cell.space"), spec("cell.capacity"),
+                               spec("K"), spec("cell.time"), spec("max.words")},
+                              "the ring's words, topic counts and observations together would need more than 64 GiB"};
     return std::nullopt;
 }
 } // namespace
