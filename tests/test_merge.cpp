@@ -151,6 +151,20 @@ TEST(Merge, AModelIsMatchedToTheGlobalTopicsAsTheModelsBeforeItLeftThem) {
     EXPECT_EQ(out.global.counts, (std::vector<int64_t>{300, 160, 0, 0}));
 }
 
+// Models of different vocabularies are compared over the larger one (the
+// global set's V): the smaller model's missing words count 0 with their
+// prior beta, as hellingerDistance over V = 4 has them, not a distribution
+// over its own two words alone.
+TEST(Merge, TopicsOfDifferentVocabulariesAreComparedOverTheLargerOne) {
+    const std::vector<rost::TopicCounts> models{{1, 4, {10, 0, 10, 0}}, {1, 2, {10, 0}}};
+    rost::MergeOptions o;
+    o.threshold = 1.0;  // every topic joins: its distance is recorded
+    rost::MergedTopics out;
+    ASSERT_TRUE(rost::mergeTopicModels(models, o, out).ok());
+    ASSERT_EQ(out.lifting[1][0], 0);
+    EXPECT_NEAR(out.distance[1][0], rost::hellingerDistance(models[1].counts, models[0].counts, 4, o.beta), 1e-12);
+}
+
 TEST(Merge, BadInputIsNamed) {
     rost::MergedTopics out;
     rost::MergeOptions o;

@@ -112,6 +112,23 @@ TEST(Mission, ANewMissionTakesFromItsInputWhatTheUserDidNotSet) {
     EXPECT_EQ(plan.config.model.ring_steps, 2048);
 }
 
+// Observations become time steps of cell.time each: 10 observations at
+// cell.time 3 are 4 steps (the last holds one), rounded up, so the last
+// observation has a step of its own; a streamed window keeps one more.
+TEST(Mission, TheRingCountsAPartLastStep) {
+    MissionOptions m;
+    give(m, "cell.time", "3");
+    MissionInput in;
+    in.V = 50;
+    in.length = 10;
+    MissionPlan plan;
+    ASSERT_TRUE(planMission(m, in, plan).ok());
+    EXPECT_EQ(plan.config.model.ring_steps, 5) << "4 steps and one more";
+    in.keep_all = true;
+    ASSERT_TRUE(planMission(m, in, plan).ok());
+    EXPECT_EQ(plan.config.model.ring_steps, 4) << "exactly the input's steps";
+}
+
 // A batch over the whole input (rost-cli's commands): every observation
 // stays refinable, with no 2048-step window, and cell.capacity comes from the
 // busiest cell under the planned geometry, unless the user set them; past

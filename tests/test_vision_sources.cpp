@@ -474,6 +474,30 @@ TEST(VisionSources, AJoinedOneFrameVideoLeavesItsOwnPeriodBeforeTheNext) {
     EXPECT_EQ(times, (std::vector<int64_t>{0, 40000, 40000 + kImagePeriodUs}));
 }
 
+// A frame shrunk on one side and stretched on the other is area-averaged
+// (OpenCV's INTER_AREA): 96 x 16 columns alternating black and white, read
+// at 32 x 32, are greys of 1/3 and 2/3, not every third column sampled
+// (pure black or white, as a linear resize gives).
+TEST(VisionSources, AFrameShrunkOnOneSideIsAveragedThere) {
+    TempDir t;
+    cv::Mat img(16, 96, CV_8UC3, cv::Scalar::all(0));
+    for (int x = 1; x < 96; x += 2) img.col(x).setTo(cv::Scalar::all(255));
+    ASSERT_TRUE(cv::imwrite(t / "stripes.png", img));
+    SourceOptions o;
+    o.width = o.height = 32;
+    Status st;
+    auto src = openFrameSource(t / "stripes.png", o, st);
+    ASSERT_TRUE(src) << st.message();
+    const auto frames = readAll(*src);
+    ASSERT_EQ(frames.size(), 1u);
+    const cv::Mat& f = frames[0].image;
+    ASSERT_EQ(f.size(), cv::Size(32, 32));
+    for (int x = 0; x < 32; ++x) {
+        const int v = f.at<cv::Vec3b>(16, x)[0];
+        EXPECT_TRUE(std::abs(v - 85) <= 1 || std::abs(v - 170) <= 1) << "column " << x << ": " << v;
+    }
+}
+
 // The clock behind a video's time stamps, case by case (rost/vision/presentation_clock.hpp).
 TEST(PresentationClock, KeepsTheDecodersTimesAndStepsOverWhatItCannotUse) {
     const double nan = std::numeric_limits<double>::quiet_NaN();

@@ -146,6 +146,7 @@ TEST(VisionWords, IntensityWordsAreTheBlockMeansAndHueWordsTheBlockHues) {
         const bool left = w.positions[i].x < 32;
         EXPECT_EQ(w.words[i], e->layout().intensity_offset + (left ? redGrey : 100u)) << i;
         EXPECT_EQ(w.positions[i].x % 16, 8) << "block centre";
+        EXPECT_EQ(w.positions[i].y % 16, 8) << "block centre";
     }
     // Hue only where colour is defined: the 4 red blocks, hue 0.
     ASSERT_EQ(w.hue, 4u);
