@@ -619,6 +619,15 @@ TEST_F(RostCli, PerplexityIterHoldsTheCorpusPerplexityEveryPpxRateSweeps) {
         const std::string logged = "sweep " + std::to_string(sweeps[i]) + " perplexity " + values[i] + "\n";
         EXPECT_NE(log.find(logged), std::string::npos) << "expected '" << logged << "' in the log:\n" << log;
     }
+    // The last is the corpus's: every document's perplexity.csv value (its
+    // step's, cell.time 1) weighted by its words, all of them, the last too.
+    std::istringstream per(readText(dir + "/perplexity.csv"));
+    const int words[] = {3, 2, 3};
+    double logSum = 0.0;
+    int d = 0;
+    for (std::string line; std::getline(per, line) && d < 3; ++d) logSum += words[d] * std::log(std::stod(line.substr(line.find(',') + 1)));
+    ASSERT_EQ(d, 3);
+    EXPECT_NEAR(std::stod(values.back()), std::exp(logSum / 8.0), 1e-9 * std::stod(values.back()));
     std::filesystem::remove(dir + "/perplexity.iter.csv");
     r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 2 -n 5 --out.ppx.iter ''");
     ASSERT_EQ(r.status, 0) << r.err;
