@@ -817,6 +817,157 @@ TEST(ExactConditionalInCell, TwoWordSweepFollowsSequentialEq5OnBothKernelPaths) 
     twoWordSweep(SceneSpec{"K33_twoWords_laneOrder", 33, 8, 3, 3, 5, 8, 1, 1, 2, 4, 2, 3, 2, 6, 5, 22});
 }
 
+// A sweep of a cell of many words keeps every count its bookkeeping carries
+// from word to word: after it, n_k^v and n_k hold the rest of the model plus
+// the cell's words at their new labels, the cell's own counts n_c^k hold its
+// labels, the neighbourhood sums n_G^k the neighbours' counts plus the cell's,
+// and the cached reciprocals follow n_k. A count one word leaves wrong skews
+// the conditionals of the words after it by one, which a chi-square test of a
+// few words can miss; this check cannot. Words that keep their topic and words
+// that move both happen (asserted), on both paths, for the register kernel
+// (K = 16), the lane kernel at a known K (64) and at run time (37), and the
+// growth kernel (topics open and close); live and in a parallel window's
+// frozen round (which only reads n_k^v and n_k and lists its moves).
+template <int KP>
+void cellSweepCounts(const int K, const bool grow, const bool frozen) {
+    const int Kp = rost::kernel::paddedK(K), V = 6, n = 40;
+    const int open = grow ? K - 9 : K;  // growth: the top 9 labels start closed
+    for (const Path path : {Path::Simd, Path::Scalar}) {
+        rost::Rng r(static_cast<uint64_t>(500 + K + (grow ? 1 : 0) + (frozen ? 2 : 0)));
+        std::vector<int32_t> restV(V * Kp, 0), restK(Kp, 0), around(Kp, 0);
+        for (int v = 0; v < V; ++v)
+            for (int k = 0; k < open; ++k) restV[v * Kp + k] = static_cast<int32_t>(r.below(4));
+        for (int k = 0; k < open; ++k) {
+            for (int v = 0; v < V; ++v) restK[k] += restV[v * Kp + k];
+            around[k] = restK[k] > 0 ? static_cast<int32_t>(r.below(3)) : 0;
+        }
+        std::vector<uint32_t> words(n);
+        std::vector<uint16_t> z(n);
+        for (int i = 0; i < n; ++i) {
+            words[i] = static_cast<uint32_t>(r.below(V));
+            z[i] = static_cast<uint16_t>(r.below(static_cast<uint64_t>(open)));
+        }
+        // The tables the kernel sees, from the rest of the model and the cell's labels.
+        std::vector<int32_t> nkv = restV, nk = restK, nc(Kp, 0), g(Kp, 0);
+        for (int i = 0; i < n; ++i) {
+            ++nkv[words[i] * static_cast<uint32_t>(Kp) + z[i]];
+            ++nk[z[i]];
+            ++nc[z[i]];
+        }
+        for (int k = 0; k < Kp; ++k) g[k] = around[k] + nc[k];
+        std::vector<float> inv(Kp), dec(Kp), inc(Kp);
+        rost::kernel::Tables t;
+        t.nkv = nkv.data();
+        t.nk = nk.data();
+        t.inv = inv.data();
+        t.dec = dec.data();
+        t.inc = inc.data();
+        t.K = K;
+        t.Kp = Kp;
+        t.active = K;
+        t.grow = grow;
+        t.fresh = grow ? 2.0f / static_cast<float>(V) : 0.f;
+        t.alpha = 0.3f;
+        t.beta = 0.2f;
+        t.vbeta = static_cast<float>(V) * t.beta;
+        rost::kernel::refreshReciprocals(t);
+        if (grow) rost::kernel::updateTopics(t);
+        // The frozen register kernels at a known K read each topic's left-out reciprocals.
+        std::vector<float> left;
+        if (frozen && (KP == 16 || KP == 32)) {
+            left.resize(static_cast<std::size_t>(Kp) * static_cast<std::size_t>(Kp));
+            t.left = left.data();
+            rost::kernel::fillLeft(t);
+        }
+        int kept = 0, moved = 0, opened = 0;
+        for (int sweep = 0; sweep < 30; ++sweep) {
+            const std::vector<uint16_t> before = z;
+            std::vector<bool> wasOpen(K);
+            for (int k = 0; k < K; ++k) wasOpen[k] = nk[k] > 0;
+            rost::detail::CounterRng rng(777, static_cast<uint64_t>(sweep));
+            const std::vector<int32_t> roundV = nkv, roundK = nk;
+            std::vector<uint64_t> moves(n);
+            uint32_t listed = 0;
+            if (frozen) {
+                listed = path == Path::Simd ? rost::kernel::refineCellFrozen<KP, Path::Simd>(
+                                                  t, g.data(), words.data(), z.data(), before.data(), n, rng, moves.data())
+                                            : rost::kernel::refineCellFrozen<KP, Path::Scalar>(
+                                                  t, g.data(), words.data(), z.data(), before.data(), n, rng, moves.data());
+            } else if (path == Path::Simd) {
+                rost::kernel::refineCell<KP, Path::Simd>(t, g.data(), nc.data(), words.data(), z.data(), n, rng);
+            } else {
+                rost::kernel::refineCell<KP, Path::Scalar>(t, g.data(), nc.data(), words.data(), z.data(), n, rng);
+            }
+            std::vector<int32_t> wantV = restV, wantK = restK, wantC(Kp, 0);
+            for (int i = 0; i < n; ++i) {
+                ASSERT_LT(z[i], K);
+                (z[i] == before[i] ? kept : moved) += 1;
+                ++wantV[words[i] * static_cast<uint32_t>(Kp) + z[i]];
+                ++wantK[z[i]];
+                ++wantC[z[i]];
+            }
+            const std::string where = "K = " + std::to_string(K) + (grow ? " (growth)" : "") +
+                                      (frozen ? ", a frozen round" : "") + (path == Path::Simd ? ", simd" : ", scalar") +
+                                      ", sweep " + std::to_string(sweep);
+            if (frozen) {
+                // A round only reads n_k^v and n_k, and lists each word that moved, in order.
+                ASSERT_EQ(nkv, roundV) << where << ": a round wrote n_k^v";
+                ASSERT_EQ(nk, roundK) << where << ": a round wrote n_k";
+                uint32_t m = 0;
+                for (int i = 0; i < n; ++i) {
+                    if (z[i] == before[i]) continue;
+                    ASSERT_LT(m, listed) << where << ": word " << i << "'s move is not listed";
+                    const uint64_t want = words[i] | uint64_t{before[i]} << 32 | uint64_t{z[i]} << 48;
+                    ASSERT_EQ(moves[m], want) << where << ": move " << m << " (word " << i << ")";
+                    ++m;
+                }
+                ASSERT_EQ(listed, m) << where << ": moves listed";
+                // The round's end: the tables take the cell's new labels, and the cell's counts follow nG.
+                nkv = wantV;
+                nk = wantK;
+                nc = wantC;
+                rost::kernel::refreshReciprocals(t);
+                if (grow) rost::kernel::updateTopics(t);
+                if (t.left) rost::kernel::fillLeft(t);
+            }
+            ASSERT_EQ(nkv, wantV) << where << ": n_k^v";
+            ASSERT_EQ(nk, wantK) << where << ": n_k";
+            ASSERT_EQ(nc, wantC) << where << ": the cell's own counts";
+            for (int k = 0; k < Kp; ++k) {
+                ASSERT_EQ(g[k], around[k] + wantC[k]) << where << ": the neighbourhood sum of topic " << k;
+                if (k >= K || (grow && nk[k] == 0)) {
+                    ASSERT_EQ(inv[k], 0.f) << where << ": topic " << k << " is closed";
+                    continue;
+                }
+                ASSERT_EQ(inv[k], rost::kernel::reciprocal(nk[k], t.vbeta)) << where << ", topic " << k;
+                ASSERT_EQ(dec[k], rost::kernel::reciprocal(nk[k] - 1, t.vbeta)) << where << ", topic " << k;
+                ASSERT_EQ(inc[k], rost::kernel::reciprocal(nk[k] + 1, t.vbeta)) << where << ", topic " << k;
+                if (grow && !wasOpen[k]) ++opened;
+            }
+            if (grow) {
+                rost::kernel::Tables check = t;
+                rost::kernel::updateTopics(check);
+                ASSERT_TRUE(check.active == t.active && check.hi == t.hi && check.slot == t.slot)
+                    << where << ": the open topics kept up to date";
+            }
+        }
+        EXPECT_GT(kept, 20) << "K = " << K << ": words that keep their topic (" << moved << " moved)";
+        EXPECT_GT(moved, 20) << "K = " << K << ": words that move";
+        if (grow) {
+            EXPECT_GT(opened, 0) << "K = " << K << ": a closed topic opened";
+        }
+    }
+}
+
+TEST(KernelCounts, ACellSweepOfManyWordsKeepsEveryCountItsLabelsGive) {
+    for (const bool frozen : {false, true}) {
+        cellSweepCounts<16>(16, false, frozen);
+        cellSweepCounts<64>(64, false, frozen);
+        cellSweepCounts<0>(37, false, frozen);
+        cellSweepCounts<rost::kernel::kGrow>(40, true, frozen);
+    }
+}
+
 // The test can fail: the public 2013 code removed the word by subtracting one
 // from EVERY topic's counts (DESIGN.md). With the word currently at z, its
 // weights are (n^v_k + [k=z] - 1 + beta) / (n_k + [k=z] - 1 + V beta) *
