@@ -936,6 +936,25 @@ TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {
                 "--iterations 0: must be at least 1", t / "o");
     expectError(runRost("run " + (t / "clip.avi") + " --out " + (t / "v") + " --out.bag ''"), "--out.bag: no file given",
                 t / "v");
+    // "-", standard input or output to many tools, names no file here: refused, no file or directory "-" made.
+    {
+        const std::string dash = "names no file: the rost tool neither reads standard input nor writes standard output "
+                                 "(./- for a file of that name)";
+        const auto inDir = [&t](const std::string& args) {
+            return rost::testing::runShell("cd '" + t.path() + "' && " + tool() + " " + args);
+        };
+        for (const char* option : {"--checkpoint", "--config", "--in.topicmodel", "--resume"})
+            expectError(inDir(std::string("refine words.csv --out o ") + option + " -"), std::string(option) + ": '-' " + dash,
+                        t / "o");
+        expectError(inDir("refine words.csv --out -"),
+                    "--out: '-' names no directory: the rost tool neither reads standard input nor writes standard "
+                    "output (./- for a directory of that name)",
+                    t / "-");
+        expectError(inDir("refine - --out o"), "words: '-' " + dash, t / "o");
+        expectError(inDir("run clip.avi --out v --out.bag -"),
+                    "--out.bag: '-' " + dash, t / "v");
+        EXPECT_FALSE(std::filesystem::exists(t / "-"));
+    }
     std::filesystem::create_directory(t / "dir.ckpt");
     expectError(runRost(refine(t, "o", "--resume " + (t / "dir.ckpt"))),
                 "--resume: " + (t / "dir.ckpt") + " is a directory, not a checkpoint file", t / "o");

@@ -215,6 +215,15 @@ def test_arguments_are_checked_as_a_user_gives_them(tmp_path):
     assert open(positions, "rb").read() == before
     with pytest.raises(ValueError, match=r"rost\.Mission\.save: path: no file given \(an empty path\)"):
         m.save("")
+    # "-", standard output to the command lines, is refused as they refuse it, not written as a file "-".
+    try:
+        os.chdir(elsewhere)
+        with pytest.raises(RuntimeError, match=r"^rost\.Mission\.save: '-' names no file: this output is written to a "
+                           r"named file, not to standard output \(\./- for a file of that name\)$"):
+            m.save("-")
+        assert not os.path.exists("-")
+    finally:
+        os.chdir(here)
 
 
 def test_ctrl_c_during_the_final_sweeps_stops_them(tmp_path):

@@ -148,6 +148,10 @@ bool sameFile(const std::string& a, const std::string& b) {
 Status checkMissionOutput(const MissionOptions& m, const std::string& name, const std::string& path,
                           MissionOutput kind) {
     if (path.empty()) return {};
+    // "-" is standard output to many tools; a mission's outputs are files written whole and replaced.
+    if (path == "-")
+        return Status::error(name + ": '-' names no file: this output is written to a named file, not to standard "
+                                    "output (./- for a file of that name)");
     if (Status st = probeOutputFile(path); !st.ok()) return st.prefixed(name + ": ");
     return checkMissionOutputOverlap(m, name, path, kind);
 }

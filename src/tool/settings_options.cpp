@@ -126,10 +126,27 @@ SettingsOptions::SettingsOptions(CLI::App& app, ModelOptions& m, Command cmd) : 
 
 SettingsOptions::~SettingsOptions() = default;
 
+namespace {
+
+// A path option's check: "" refused by name (cli::nonEmpty), and "-", which
+// many tools read as standard input or output: the rost tool reads and
+// writes named files only, so "-" would otherwise become a file or directory
+// of that name.
+CLI::Validator namedPath(const std::string& what, const std::string& entry) {
+    const CLI::Validator given = cli::nonEmpty(what);
+    const std::string dash = "'-' names no " + what +
+                             ": the rost tool neither reads standard input nor writes standard output (./- for a " +
+                             entry + " of that name)";
+    return CLI::Validator(
+               [given, dash](std::string& s) { return s == "-" ? dash : given(s); }, "")
+        .name(kPathValidator);
+}
+
+} // namespace
+
 const CLI::Validator& givenPath(PathKind kind) {
-    static const CLI::Validator file = cli::nonEmpty("file").name(kPathValidator),
-                                dir = cli::nonEmpty("directory").name(kPathValidator),
-                                input = cli::nonEmpty("input").name(kPathValidator);
+    static const CLI::Validator file = namedPath("file", "file"),
+                                dir = namedPath("directory", "directory"), input = namedPath("input", "file");
     switch (kind) {
         case PathKind::Directory: return dir;
         case PathKind::Input: return input;
