@@ -192,9 +192,12 @@ int runCommand(const RunOptions& o) {
     if (st.ok()) st = out.commit();
     if (!st.ok()) return fail(st.message());
     if (!o.quiet) std::fputs((drops.note(engine.ec.model) + out.earlierFilesNote()).c_str(), stderr);
-    if (!o.quiet)
+    if (!o.quiet) {
+        const std::size_t frames = sinks.frames.rows().size();
         std::fprintf(stderr, "rost: %s in %.1f s (%.1f frames/s); outputs in %s\n",
-                     text::counted(static_cast<long long>(sinks.frames.rows().size()), "frame").c_str(), seconds, static_cast<double>(sinks.frames.rows().size()) / std::max(1e-9, seconds), o.out.c_str());
+                     text::counted(static_cast<long long>(frames), "frame").c_str(), seconds,
+                     static_cast<double>(frames) / std::max(1e-9, seconds), o.out.c_str());
+    }
     return kExitOk;
 }
 
