@@ -47,6 +47,7 @@
 
 #include "counter_rng.hpp"
 #include "kernel.hpp"
+#include "kernel_fixed.hpp"
 #include "kernel_frozen.hpp"
 #include "rost/model.hpp"
 
@@ -827,13 +828,17 @@ TEST(ExactConditionalInCell, TwoWordSweepFollowsSequentialEq5OnBothKernelPaths) 
 // that move both happen (asserted), on both paths, for the register kernel
 // (K = 16), the lane kernel at a known K (64) and at run time (37), and the
 // growth kernel (topics open and close); live and in a parallel window's
-// frozen round (which only reads n_k^v and n_k and lists its moves).
+// frozen round (which only reads n_k^v and n_k and lists its moves); and the
+// kernel of a fixed topic model (which never writes n_k^v and n_k).
+enum class Sweep { Live, Frozen, Fixed };
+
 template <int KP>
-void cellSweepCounts(const int K, const bool grow, const bool frozen) {
+void cellSweepCounts(const int K, const bool grow, const Sweep mode) {
+    const bool frozen = mode == Sweep::Frozen, fixed = mode == Sweep::Fixed;
     const int Kp = rost::kernel::paddedK(K), V = 6, n = 40;
     const int open = grow ? K - 9 : K;  // growth: the top 9 labels start closed
     for (const Path path : {Path::Simd, Path::Scalar}) {
-        rost::Rng r(static_cast<uint64_t>(500 + K + (grow ? 1 : 0) + (frozen ? 2 : 0)));
+        rost::Rng r(static_cast<uint64_t>(500 + K + (grow ? 1 : 0) + 2 * static_cast<int>(mode)));
         std::vector<int32_t> restV(V * Kp, 0), restK(Kp, 0), around(Kp, 0);
         for (int v = 0; v < V; ++v)
             for (int k = 0; k < open; ++k) restV[v * Kp + k] = static_cast<int32_t>(r.below(4));
@@ -893,6 +898,8 @@ void cellSweepCounts(const int K, const bool grow, const bool frozen) {
                                                   t, g.data(), words.data(), z.data(), before.data(), n, rng, moves.data())
                                             : rost::kernel::refineCellFrozen<KP, Path::Scalar>(
                                                   t, g.data(), words.data(), z.data(), before.data(), n, rng, moves.data());
+            } else if (fixed) {
+                rost::kernel::refineCellFixed(t, g.data(), nc.data(), words.data(), z.data(), n, rng);
             } else if (path == Path::Simd) {
                 rost::kernel::refineCell<KP, Path::Simd>(t, g.data(), nc.data(), words.data(), z.data(), n, rng);
             } else {
@@ -907,7 +914,7 @@ void cellSweepCounts(const int K, const bool grow, const bool frozen) {
                 ++wantC[z[i]];
             }
             const std::string where = "K = " + std::to_string(K) + (grow ? " (growth)" : "") +
-                                      (frozen ? ", a frozen round" : "") + (path == Path::Simd ? ", simd" : ", scalar") +
+                                      (frozen ? ", a frozen round" : "") + (fixed ? ", a fixed model" : "") + (path == Path::Simd ? ", simd" : ", scalar") +
                                       ", sweep " + std::to_string(sweep);
             if (frozen) {
                 // A round only reads n_k^v and n_k, and lists each word that moved, in order.
@@ -929,6 +936,13 @@ void cellSweepCounts(const int K, const bool grow, const bool frozen) {
                 rost::kernel::refreshReciprocals(t);
                 if (grow) rost::kernel::updateTopics(t);
                 if (t.left) rost::kernel::fillLeft(t);
+            }
+            if (fixed) {
+                // A fixed model's counts are the given ones, whatever the cell's labels.
+                ASSERT_EQ(nkv, roundV) << where << ": a fixed model's n_k^v written";
+                ASSERT_EQ(nk, roundK) << where << ": a fixed model's n_k written";
+                wantV = roundV;
+                wantK = roundK;
             }
             ASSERT_EQ(nkv, wantV) << where << ": n_k^v";
             ASSERT_EQ(nk, wantK) << where << ": n_k";
@@ -960,12 +974,14 @@ void cellSweepCounts(const int K, const bool grow, const bool frozen) {
 }
 
 TEST(KernelCounts, ACellSweepOfManyWordsKeepsEveryCountItsLabelsGive) {
-    for (const bool frozen : {false, true}) {
-        cellSweepCounts<16>(16, false, frozen);
-        cellSweepCounts<64>(64, false, frozen);
-        cellSweepCounts<0>(37, false, frozen);
-        cellSweepCounts<rost::kernel::kGrow>(40, true, frozen);
+    for (const Sweep mode : {Sweep::Live, Sweep::Frozen}) {
+        cellSweepCounts<16>(16, false, mode);
+        cellSweepCounts<64>(64, false, mode);
+        cellSweepCounts<0>(37, false, mode);
+        cellSweepCounts<rost::kernel::kGrow>(40, true, mode);
     }
+    cellSweepCounts<0>(16, false, Sweep::Fixed);  // one scalar loop for every K
+    cellSweepCounts<0>(37, false, Sweep::Fixed);
 }
 
 // The test can fail: the public 2013 code removed the word by subtracting one
