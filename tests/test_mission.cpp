@@ -387,3 +387,20 @@ TEST(Mission, AnOutputThatWouldChangeAnInputIsRefusedNamingIt) {
     EXPECT_NE(why(dir + "/no/such/dir/m.ckpt").find("--checkpoint: "), std::string::npos);
     EXPECT_NE(why(dir + "/no/such/dir/m.ckpt"), "ok");
 }
+
+// Two spellings of one path are one file, whether or not it exists yet
+// (two outputs of a run, neither written): relative or absolute, with "./"
+// or "dir/..", from the current directory.
+TEST(Mission, TwoSpellingsOfAFileNotYetWrittenAreOneFile) {
+    TempDir t;
+    std::filesystem::create_directories(t.path + "/sub");
+    const std::filesystem::path here = std::filesystem::current_path();
+    std::filesystem::current_path(t.path);
+    EXPECT_TRUE(sameFile("p.csv", "./p.csv"));
+    EXPECT_TRUE(sameFile("p.csv", "sub/../p.csv"));
+    EXPECT_TRUE(sameFile("p.csv", t.path + "/p.csv"));
+    EXPECT_TRUE(sameFile("new/p.csv", "./new/p.csv")) << "a directory not made yet";
+    EXPECT_FALSE(sameFile("p.csv", "sub/p.csv"));
+    EXPECT_FALSE(sameFile("p.csv", "q.csv"));
+    std::filesystem::current_path(here);
+}

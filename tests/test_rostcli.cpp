@@ -686,4 +686,98 @@ TEST_F(RostCli, InTopicsStartsFromGivenLabels) {
               std::string::npos) << r.err;
 }
 
+// No output may replace an input or another output, however spelled (a link
+// included): refused before anything is opened or read (an online file used
+// to empty its own input before the input was read, and a batch output
+// replaced it). Refining in place, --out.topicmodel over --in.topicmodel and
+// --out.topics over --in.topics, is a rost-cli habit, and taken: the inputs
+// are read whole before anything is written.
+TEST_F(RostCli, AnOutputThatIsAnInputOrAnotherOutputIsRefusedBeforeAnythingIsWritten) {
+    const std::string words = readText(dir + "/words.csv");
+    fs::create_symlink("words.csv", dir + "/link.csv");
+    const std::string replace = ": writing there would replace it";
+    const struct {
+        std::string flags, err;
+    } cases[] = {
+        {"--online -V 40 --online.mint 1 --out.ppx.online words.csv",
+         "--out.ppx.online: words.csv is an input of this run" + replace},
+        {"--online -V 40 --online.mint 1 --out.topics.online ./words.csv",
+         "--out.topics.online: ./words.csv is the same file as the input words.csv" + replace},
+        {"--out.topics words.csv", "--out.topics: words.csv is an input of this run" + replace},
+        {"--logfile link.csv", "--logfile: link.csv is the same file as the input words.csv" + replace},
+        {"--out.topics same.csv --out.topics.ml same.csv",
+         "--out.topics.ml: same.csv is also --out.topics's file: each output needs a file of its own"},
+        {"--ppx.out p.csv --out.ppx.iter ./p.csv",
+         "--out.ppx.iter: ./p.csv is also --ppx.out's file: each output needs a file of its own"},
+    };
+    for (const auto& c : cases) {
+        const Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 4 -n 2 " + c.flags);
+        EXPECT_EQ(r.status, 2) << c.flags;
+        EXPECT_EQ(r.err, "topics.refine.t: " + c.err + "\n") << c.flags;
+        EXPECT_EQ(readText(dir + "/words.csv"), words) << c.flags << ": the input changed";
+        for (const char* f : {"topics.csv", "topics.maxlikelihood.csv", "topicmodel.csv", "perplexity.csv", "topics.log",
+                              "topics.online.csv", "perplexity.online.csv", "same.csv", "p.csv"})
+            EXPECT_FALSE(fs::exists(dir + "/" + f)) << c.flags << ": " << f;
+    }
+    // txy's positions are an input too.
+    writeText(dir + "/w.csv", "0,1,2\n1,3,4\n");
+    writeText(dir + "/pos.csv", "0,0,0,1,1\n1,2,2,3,3\n");
+    Result r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position pos.csv -K 2 -n 1 --out.position pos.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.txy: --out.position: pos.csv is an input of this run" + replace + "\n");
+    // In place: the model and the labels a run starts from are its outputs' defaults.
+    ASSERT_EQ(run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 4 -n 2").status, 0);
+    const std::string model = readText(dir + "/topicmodel.csv"), labels = readText(dir + "/topics.csv");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 4 -n 5 --in.topicmodel topicmodel.csv --in.topics topics.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(readText(dir + "/topicmodel.csv"), model) << "refined in place";
+    EXPECT_NE(readText(dir + "/topics.csv"), labels) << "refined in place";
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 4 -n 1 --in.topics topics.csv --out.topics.ml topics.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: --out.topics.ml: topics.csv is an input of this run" + replace + "\n");
+    // words.bincount: the same rule; a device written through is no file to replace.
+    const std::string ml = readText(dir + "/topics.maxlikelihood.csv");
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i topics.maxlikelihood.csv -o ./topics.maxlikelihood.csv -V 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "words.bincount: -o/--out: ./topics.maxlikelihood.csv is the same file as the input "
+                     "topics.maxlikelihood.csv" + replace + "\n");
+    EXPECT_EQ(readText(dir + "/topics.maxlikelihood.csv"), ml);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 4 -n 1 --out.topics /dev/null --out.topics.ml /dev/null");
+    EXPECT_EQ(r.status, 0) << r.err;
+}
+
+// --online: the online files are opened when their first line is written,
+// so a run refused at its first document leaves an earlier run's as they
+// were (they used to be emptied at the start).
+TEST_F(RostCli, AnOnlineRunThatFailsAtItsFirstDocumentLeavesTheEarlierOnlineFiles) {
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 --online --online.mint 1");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string topics = readText(dir + "/topics.online.csv"), ppx = readText(dir + "/perplexity.online.csv");
+    ASSERT_EQ(std::count(topics.begin(), topics.end(), '\n'), kDocs);
+    writeText(dir + "/bad.csv", "0,1,x\n1,2\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i bad.csv -V 40 -K 4 --online --online.mint 1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: bad.csv:1:5: expected word id (a non-negative integer), found 'x'\n");
+    EXPECT_EQ(readText(dir + "/topics.online.csv"), topics);
+    EXPECT_EQ(readText(dir + "/perplexity.online.csv"), ppx);
+}
+
+// An online write that fails (here a file size limit, as a full disk) is cut
+// back to the last whole line, so a reader never sees half a line; the error
+// names the file.
+TEST_F(RostCli, AnOnlineFileThatCannotBeWrittenKeepsWholeLinesOnly) {
+    const Result r = run(dir, "(trap '' XFSZ; ulimit -f 4; " + bin(ROSTCLI_REFINE_T) +
+                                  " -i words.csv -V 40 -K 4 --online --online.mint 1 --out.ppx.online '')");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: topics.online.csv: write error: File too large\n");
+    const std::string topics = readText(dir + "/topics.online.csv");
+    ASSERT_FALSE(topics.empty());
+    EXPECT_EQ(topics.back(), '\n') << "half a line left: ..." << topics.substr(topics.size() - std::min<std::size_t>(topics.size(), 40));
+    const auto rows = csv(dir + "/topics.online.csv");
+    for (std::size_t d = 0; d < rows.size(); ++d) {
+        EXPECT_EQ(rows[d][0], planted.stamp[d]) << "line " << d + 1;
+        EXPECT_EQ(rows[d].size(), planted.words[d].size() + 1) << "line " << d + 1;
+    }
+}
+
 } // namespace

@@ -139,9 +139,10 @@ bool sameFile(const std::string& a, const std::string& b) {
     if (a == b) return true;  // a FIFO or /dev/stdin, which equivalent() cannot compare
     std::error_code ec;
     if (std::filesystem::equivalent(a, b, ec) && !ec) return true;
-    const std::filesystem::path pa = std::filesystem::weakly_canonical(a, ec);
+    // Made absolute first: weakly_canonical leaves a relative path none of whose parts exists as it is.
+    const std::filesystem::path pa = std::filesystem::weakly_canonical(std::filesystem::absolute(a, ec), ec);
     if (ec) return false;
-    const std::filesystem::path pb = std::filesystem::weakly_canonical(b, ec);
+    const std::filesystem::path pb = std::filesystem::weakly_canonical(std::filesystem::absolute(b, ec), ec);
     return !ec && pa == pb;
 }
 

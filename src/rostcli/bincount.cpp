@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "rost/mission.hpp"
 #include "rost/text_io.hpp"
 #include "rostcli.hpp"
 
@@ -22,8 +23,13 @@ Status bincount(const BincountOptions& o) {
     if (auto p = setSettingText(s, settingSpec("V"), o.V)) return Status::error(p->describe("-V"));
     if (auto p = checkSettings(s)) return Status::error(p->describe(p->spec->key == "V" ? "-V" : p->spec->key));
     const bool toStdout = o.out.empty() || o.out == "-" || o.out == "/dev/stdout";
-    if (!toStdout)
+    if (!toStdout) {
         if (Status st = text::probeOutputFile(o.out); !st.ok()) return st;  // before reading the input
+        // The output replacing its own input (however spelled): refused, as topics.refine.t refuses it.
+        MissionOptions inputs;
+        if (!(o.in.empty() || o.in == "-" || o.in == "/dev/stdin")) inputs.inputs.push_back(o.in);
+        if (Status st = checkMissionOutputOverlap(inputs, "-o/--out", o.out); !st.ok()) return st;
+    }
     const auto bins = static_cast<uint32_t>(s.engine.model.V);
     std::string text, name;
     if (Status st = readInput(o.in, text, name); !st.ok()) return st;

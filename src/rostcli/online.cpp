@@ -202,24 +202,42 @@ private:
     Status failure_;
 };
 
-// An online file, appended to and flushed line by line.
+// An online file, appended to and flushed line by line, a whole line at a
+// time: a write that fails is cut back to the last whole line, so a reader
+// sees whole lines only. It is opened (an earlier run's file of that name
+// replaced) when its first line is written: a run that fails before its
+// first document's time is up leaves the earlier run's file as it was.
 struct LineFile {
-    std::FILE* f = nullptr;
+    int fd = -1;
     std::string path;
+    off_t whole = 0;  // bytes of whole lines written
+
     Status open(const std::string& p) {
         path = p;
-        if (p.empty()) return {};
-        f = std::fopen(p.c_str(), "wb");
-        return f ? Status() : Status::error(p + ": cannot write: " + std::strerror(errno));
+        return {};
     }
     Status write(const std::string& text) {
-        if (!f || text.empty()) return {};
-        if (std::fwrite(text.data(), 1, text.size(), f) != text.size() || std::fflush(f) != 0)
-            return Status::error(path + ": write error: " + std::strerror(errno));
+        if (path.empty() || text.empty()) return {};
+        if (fd < 0 && (fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666)) < 0) {
+            const int err = errno;
+            return Status::fromErrno(err, path + ": cannot write: " + std::strerror(err));
+        }
+        for (std::size_t done = 0; done < text.size();) {
+            const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+            if (n > 0) {
+                done += static_cast<std::size_t>(n);
+                continue;
+            }
+            if (n < 0 && errno == EINTR) continue;
+            const int err = n < 0 ? errno : ENOSPC;
+            if (::ftruncate(fd, whole) == 0) (void)::lseek(fd, whole, SEEK_SET);  // else not a regular file
+            return Status::fromErrno(err, path + ": write error: " + std::strerror(err));
+        }
+        whole += static_cast<off_t>(text.size());
         return {};
     }
     ~LineFile() {
-        if (f) std::fclose(f);
+        if (fd >= 0) ::close(fd);
     }
 };
 

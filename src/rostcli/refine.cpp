@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <new>
 #include <stdexcept>
@@ -227,6 +228,57 @@ Status probeOutputs(const RunOptions& o) {
     return {};
 }
 
+// Standard input, which a run reads as it comes: no file an output could replace.
+bool standardInput(const std::string& path) { return path.empty() || path == "-" || path == "/dev/stdin"; }
+
+// A device or FIFO (/dev/null, /dev/stdout): written through, never replaced,
+// so two outputs may share it.
+bool specialFile(const std::string& path) {
+    std::error_code ec;
+    const std::filesystem::file_status st = std::filesystem::status(path, ec);
+    return !ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st) &&
+           !std::filesystem::is_directory(st);
+}
+
+// No output may replace an input or another output, however spelled (a link
+// included): writing there would lose the input or one of the two files
+// (and the online files are opened while the input is still being read). The
+// one exception is refining in place, a rost-cli habit: the batch outputs
+// --out.topicmodel and --out.topics may be the --in.topicmodel and
+// --in.topics they started from, read whole before anything is written.
+Status checkOutputsApart(const RunOptions& o) {
+    struct Named {
+        const char* flag;
+        const std::string* path;
+        const std::string* mayReplace;  // the input it may replace (refining in place), else null
+    };
+    const std::string* none = nullptr;
+    const bool txy = o.cmd == Command::RefineTxy;
+    const std::array<Named, 9> outs{{{"--out.topics", &o.out_topics, o.online ? none : &o.in_topics},
+                                     {"--out.topics.ml", &o.out_topics_ml, none},
+                                     {"--ppx.out", &o.ppx_out, none},
+                                     {"--out.ppx.iter", o.online ? none : &o.out_ppx_iter, none},
+                                     {"--out.topicmodel", &o.out_topicmodel, &o.in_topicmodel},
+                                     {"--out.position", txy ? &o.out_position : none, none},
+                                     {"--out.topics.online", o.online ? &o.out_topics_online : none, none},
+                                     {"--out.ppx.online", o.online ? &o.out_ppx_online : none, none},
+                                     {"--logfile", &o.logfile, none}}};
+    for (std::size_t i = 0; i < outs.size(); ++i) {
+        const Named& out = outs[i];
+        if (out.path == nullptr || out.path->empty() || specialFile(*out.path)) continue;
+        MissionOptions inputs;
+        if (!standardInput(o.in_words)) inputs.inputs.push_back(o.in_words);
+        for (const std::string* in : {&o.in_position, &o.in_topics, &o.in_topicmodel})
+            if (!in->empty() && in != out.mayReplace) inputs.inputs.push_back(*in);
+        if (Status st = checkMissionOutputOverlap(inputs, out.flag, *out.path); !st.ok()) return st;
+        for (std::size_t j = 0; j < i; ++j)
+            if (outs[j].path != nullptr && !outs[j].path->empty() && sameFile(*out.path, *outs[j].path))
+                return Status::error(std::string(out.flag) + ": " + *out.path + " is also " + outs[j].flag +
+                                     "'s file: each output needs a file of its own");
+    }
+    return {};
+}
+
 // Writes each non-empty path, all or none: every temporary file is written
 // before the first is renamed, so a full disk leaves an earlier run's files
 // as they were (text::writeFilesAtomic); the log last.
@@ -272,6 +324,7 @@ std::string settingsLog(const Settings& s, bool online) {
 Status runRefine(const RunOptions& o, Settings& s) {
     if (o.online && !o.in_topics.empty())
         return Status::error("--in.topics starts a batch from given labels; it cannot be used with --online");
+    if (Status st = checkOutputsApart(o); !st.ok()) return st;
     if (Status st = probeOutputs(o); !st.ok()) return st;
     // topics.refine.t --online reads its input as it arrives: the model is
     // sized before the first document, so V must be given.
