@@ -780,4 +780,26 @@ TEST_F(RostCli, AnOnlineFileThatCannotBeWrittenKeepsWholeLinesOnly) {
     }
 }
 
+// Out of memory reading an input whole (a file or standard input that never
+// ends) is an error naming it, exit 2, not an abort. Under a 700 MB
+// address-space limit (not under the sanitizers, whose shadow memory needs more).
+TEST_F(RostCli, AnInputTooLargeForMemoryIsAnErrorNotAnAbort) {
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "an address-space limit and a sanitizer's shadow memory do not mix";
+#else
+    const struct {
+        std::string cmd, err;
+    } cases[] = {
+        {bin(ROSTCLI_REFINE_T) + " -i /dev/zero -K 2 -n 1", "topics.refine.t: /dev/zero: out of memory reading it whole"},
+        {bin(ROSTCLI_BINCOUNT) + " -V 3 < /dev/zero", "words.bincount: <stdin>: out of memory reading it whole"},
+    };
+    for (const auto& c : cases) {
+        const Result r = run(dir, "(ulimit -v 700000; " + c.cmd + ")");
+        EXPECT_EQ(r.status, 2) << c.cmd << ": " << r.err;
+        EXPECT_EQ(r.err.rfind(c.err + ", after ", 0), 0u) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    }
+#endif
+}
+
 } // namespace

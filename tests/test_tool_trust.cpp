@@ -960,6 +960,36 @@ TEST(ToolTrust, ResumeRefusalsNameTheConfigFileLineAndEmptyOrDirectoryPaths) {
                 "--resume: " + (t / "dir.ckpt") + " is a directory, not a checkpoint file", t / "o");
 }
 
+// Out of memory is an error naming what ran out, exit 2, not an abort, and
+// the run's staging directory goes with it: a word stream that never ends
+// (/dev/zero, read whole) and frames resized beyond the memory there is
+// (OpenCV's allocation). Under a 700 MB address-space limit (not under the
+// sanitizers, whose shadow memory needs more).
+TEST(ToolTrust, RunningOutOfMemoryIsAnErrorNotAnAbort) {
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "an address-space limit and a sanitizer's shadow memory do not mix";
+#else
+    TempDir t;
+    const auto limited = [](const std::string& args) {
+        return rost::testing::runShell("ulimit -v 700000; " + tool() + " " + args);
+    };
+    RunResult r = limited("refine /dev/zero -q --out " + (t / "o"));
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("rost: error: /dev/zero: out of memory reading it whole, after ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(t / "o")) << "nothing left, a staging directory included";
+    std::filesystem::create_directory(t / "frames");
+    for (int i = 0; i < 2; ++i)
+        ASSERT_TRUE(cv::imwrite(t / ("frames/f" + std::to_string(i) + ".png"), cv::Mat(32, 32, CV_8UC3, cv::Scalar(i * 90, 40, 200))));
+    r = limited("run " + (t / "frames") + " --width 30000 --height 30000 --cell.space 4096 --max.words 500 --threads 1 -q --no-overlay "
+                "--no-summary --out " + (t / "v"));
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("rost: error: out of memory: OpenCV: Failed to allocate ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(t / "v")) << "nothing left, a staging directory included";
+#endif
+}
+
 TEST(ToolTrust, HostileWordStreamsAndVideosGetOneLineErrorsWithExitCode2) {
     TempDir t;
     const auto refineIt = [&](const std::string& words, const std::string& positions, const std::string& extra) {

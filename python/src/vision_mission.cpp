@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
 #include "bindings.hpp"
 #include "mission_results.hpp"
 #include "rost/checkpoint.hpp"
@@ -160,6 +162,18 @@ private:
 } // namespace
 
 void bindVisionMission(py::module_& m) {
+    // OpenCV's own errors (out of memory for a huge frame): a MemoryError or a
+    // RuntimeError in one line, "OpenCV: ..." (its short text), not its
+    // multi-line report with its source file.
+    py::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        } catch (const cv::Exception& e) {
+            const bool memory = e.code == cv::Error::StsNoMem;
+            PyErr_SetString(memory ? PyExc_MemoryError : PyExc_RuntimeError,
+                            ((memory ? "out of memory: OpenCV: " : "OpenCV: ") + e.err).c_str());
+        }
+    });
     py::class_<PyFrameMission> c(m, "Mission", R"doc(A mission over frames, by the library's one policy (the rost tool's
 `rost run` is the same session): Mission(inputs, resume=None, topicmodel=None, vocabulary=None,
 width=0, height=0, max_frames=0, **settings). inputs: a video, image files or folders (played one

@@ -484,3 +484,42 @@ def test_settings_too_large_for_memory_raise_memory_error_naming_them():
         assert line.startswith(name + " MemoryError"), line
         assert "K = 1000" in line and "V = 10000000" in line, line
         assert "bad_alloc" not in line, line
+
+
+# Inputs too large for memory: MemoryError naming what ran out, as the tool
+# says it (not an abort, not OpenCV's multi-line report): a word stream that
+# never ends (/dev/zero, read whole), frames resized beyond the memory there is.
+_INPUT_OUT_OF_MEMORY = """
+import mmap, resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+try:
+    mmap.mmap(-1, 1 << 30)
+    print("unenforced")
+    sys.exit(0)
+except (OSError, MemoryError, ValueError):
+    pass
+import rost, rost.vision
+for make in (lambda: rost.Mission("/dev/zero"),
+             lambda: rost.vision.Mission(sys.argv[1], width=30000, height=30000, cell_space=4096, max_words=500,
+                                               threads=1).run()):
+    try:
+        make()
+        print("made")
+    except MemoryError as e:
+        print("MemoryError", e)
+"""
+
+
+def test_inputs_too_large_for_memory_raise_memory_error_naming_them(tmp_path):
+    import sys
+    frames = image_dir(tmp_path, (32, 32))
+    p = subprocess.run([sys.executable, "-c", _INPUT_OUT_OF_MEMORY, str(frames)], stdout=subprocess.PIPE,
+                       stderr=subprocess.PIPE, timeout=120, env=os.environ)
+    out = p.stdout.decode()
+    if "unenforced" in out:
+        pytest.skip("an address-space limit is not enforced here")
+    assert p.returncode == 0, p.stderr.decode()
+    lines = out.strip().splitlines()
+    assert len(lines) == 2, out
+    assert lines[0].startswith("MemoryError rost.Mission: /dev/zero: out of memory reading it whole, after "), lines[0]
+    assert lines[1].startswith("MemoryError out of memory: OpenCV: Failed to allocate "), lines[1]

@@ -13,6 +13,7 @@
 #include <fcntl.h>
 #include <fstream>
 #include <limits>
+#include <new>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -310,9 +311,10 @@ Status readWhole(const std::string& path, Grow&& grow, std::size_t& have) {
             // reading on would wait for the writer again.
             if (n == 0 || std::ferror(f)) break;
         }
-    } catch (...) {  // out of memory
+    } catch (const std::bad_alloc&) {  // a file larger than this machine can hold (or /dev/zero)
         std::fclose(f);
-        throw;
+        return Status::error(StatusKind::OutOfMemory, path + ": out of memory reading it whole, after " +
+                                                          std::to_string(have >> 20) + " MiB");
     }
     const bool failed = std::ferror(f) != 0;
     std::fclose(f);

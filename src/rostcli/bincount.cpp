@@ -3,6 +3,7 @@
 // topic mix of each document). The timestamp is copied as the input wrote it.
 
 #include <cstdio>
+#include <new>
 
 #include <CLI/CLI.hpp>
 
@@ -75,7 +76,13 @@ int wordsBincountMain(int argc, char** argv) {
         std::fprintf(stderr, "words.bincount: %s (see --help)\n", e.what());
         return 2;
     }
-    if (Status st = bincount(o); !st.ok()) {
+    Status st;
+    try {  // one line and exit 2, not an abort
+        st = bincount(o);
+    } catch (const std::bad_alloc&) {
+        st = Status::error(StatusKind::OutOfMemory, "out of memory");
+    }
+    if (!st.ok()) {
         std::fprintf(stderr, "words.bincount: %s\n", st.message().c_str());
         return 2;
     }

@@ -11,6 +11,7 @@
 #include <charconv>
 #include <cstdio>
 #include <deque>
+#include <new>
 #include <thread>
 
 #include <CLI/CLI.hpp>
@@ -285,7 +286,15 @@ int topicsRefineMain(Command cmd, int argc, char** argv) {
         if (i) p.run.command_line += ' ';
         p.run.command_line += argv[i];
     }
-    if (st.ok()) st = runRefine(p.run, s);
+    if (st.ok()) {
+        try {  // what runRefine did not catch where it happened: one line and exit 2, not an abort
+            st = runRefine(p.run, s);
+        } catch (const std::bad_alloc&) {
+            st = Status::error(StatusKind::OutOfMemory, "out of memory");
+        } catch (const std::exception& e) {
+            st = Status::error(e.what());
+        }
+    }
     if (!st.ok()) {
         std::fprintf(stderr, "%s: %s\n", name, st.message().c_str());
         return 2;

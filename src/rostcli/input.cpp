@@ -2,10 +2,12 @@
 // `timestamp,w,w,...` and `timestamp,x,y,x,y,...`. Errors name the file, the
 // line and the column.
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <iterator>
 #include <limits>
+#include <new>
 
 #include "rost/text_io.hpp"
 #include "rostcli.hpp"
@@ -75,7 +77,21 @@ bool nextRow(LineReader& lines, std::string_view delim, Line& line, std::vector<
 Status readInput(const std::string& path, std::string& text, std::string& name) {
     if (path.empty() || path == "-" || path == "/dev/stdin") {
         name = "<stdin>";
-        text.assign(std::istreambuf_iterator<char>(std::cin), std::istreambuf_iterator<char>());
+        std::size_t have = 0;
+        try {
+            text.clear();
+            for (;;) {  // the buffer doubles: what was read so far is known when it no longer can
+                if (have == text.size()) text.resize(std::max<std::size_t>(text.size() * 2, std::size_t{1} << 16));
+                std::cin.read(text.data() + have, static_cast<std::streamsize>(text.size() - have));
+                have += static_cast<std::size_t>(std::cin.gcount());
+                if (!std::cin) break;
+            }
+        } catch (const std::bad_alloc&) {
+            text = std::string();
+            return Status::error(StatusKind::OutOfMemory,
+                                 "<stdin>: out of memory reading it whole, after " + std::to_string(have >> 20) + " MiB");
+        }
+        text.resize(have);
         if (std::cin.bad()) return Status::error("<stdin>: read error");
         return {};
     }

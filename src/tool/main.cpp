@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <new>
 #include <string>
 
 #if ROST_TOOL_LIGHT
@@ -22,6 +23,7 @@
 #endif
 
 #include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
 #include <opencv2/core/utils/logger.hpp>
 
 #include "rost/version.hpp"
@@ -242,6 +244,37 @@ int runVisionProgram(char** argv) {
 
 } // namespace
 
+namespace {
+
+// The parsed command, run (the vision commands are rost-vision's: ROST_TOOL_LIGHT hands them over before).
+int dispatch([[maybe_unused]] RunCli& run, RefineCli& ref, [[maybe_unused]] VocabOptions& voc, ModelOptions& conf,
+             SettingsOptions& confSettings, MergeCliOptions& merge, [[maybe_unused]] CLI::App* vocCmd,
+             [[maybe_unused]] CLI::App* camCmd, CLI::App* mergeCmd, CLI::App* confCmd) {
+#if !ROST_TOOL_LIGHT
+    if (run.cmd->parsed()) {
+        if (const rost::Status st = run.settings->apply(&run.o, nullptr); !st.ok()) return fail(st.message());
+        run.o.overlay = !run.noOverlay;
+        run.o.summary = !run.noSummary;
+        return runCommand(run.o);
+    }
+    if (vocCmd->parsed()) return vocabCommand(voc);
+    if (camCmd->parsed()) return camerasCommand();
+#endif
+    if (ref.cmd->parsed()) {
+        if (const rost::Status st = ref.settings->apply(nullptr, &ref.o); !st.ok()) return fail(st.message());
+        ref.o.summary = !ref.noSummary;
+        return refineCommand(ref.o);
+    }
+    if (mergeCmd->parsed()) return mergeCommand(merge);
+    if (confCmd->parsed()) {
+        if (const rost::Status st = confSettings.apply(nullptr, nullptr); !st.ok()) return fail(st.message());
+        return configCommand(conf);
+    }
+    return kExitError;
+}
+
+} // namespace
+
 int main(int argc, char** argv) {
     // The tool reports problems itself, one line each: keep OpenCV's and
     // FFmpeg's own diagnostics off stderr (FFmpeg reads this when first used).
@@ -309,25 +342,17 @@ int main(int argc, char** argv) {
 #if ROST_TOOL_LIGHT
     if (run.cmd->parsed() || vocCmd->parsed() || camCmd->parsed()) return runVisionProgram(argv);
 #endif
-#if !ROST_TOOL_LIGHT
-    if (run.cmd->parsed()) {
-        if (const rost::Status st = run.settings->apply(&run.o, nullptr); !st.ok()) return fail(st.message());
-        run.o.overlay = !run.noOverlay;
-        run.o.summary = !run.noSummary;
-        return runCommand(run.o);
+    // Whatever a command did not catch where it happened (out of memory in
+    // set-up, OpenCV's own errors) is one line and exit 2, not an abort: the
+    // stack unwinds, so a run's staging directory goes with it.
+    try {
+        return dispatch(run, ref, voc, conf, confSettings, merge, vocCmd, camCmd, mergeCmd, confCmd);
+    } catch (const std::bad_alloc&) {
+        return fail("out of memory (the settings or the input need more than this machine gives)");
+    } catch (const cv::Exception& e) {
+        return fail(std::string(e.code == cv::Error::StsNoMem ? "out of memory: " : "") + "OpenCV: " + e.err);
+    } catch (const std::exception& e) {
+        return fail(e.what());
     }
-    if (vocCmd->parsed()) return vocabCommand(voc);
-    if (camCmd->parsed()) return camerasCommand();
-#endif
-    if (ref.cmd->parsed()) {
-        if (const rost::Status st = ref.settings->apply(nullptr, &ref.o); !st.ok()) return fail(st.message());
-        ref.o.summary = !ref.noSummary;
-        return refineCommand(ref.o);
-    }
-    if (mergeCmd->parsed()) return mergeCommand(merge);
-    if (confCmd->parsed()) {
-        if (const rost::Status st = confSettings.apply(nullptr, nullptr); !st.ok()) return fail(st.message());
-        return configCommand(conf);
-    }
-    return kExitError;
 }
+
