@@ -136,6 +136,9 @@ public:
     void save(const py::object& pathObject) {
         const std::string path = pathArgument(pathObject, "rost.Model.save: path");
         BusyGuard guard(busy_, "rost.Model");
+        // The library's check of a mission's output, as rost.Mission.save's: "-" and a directory refused by name.
+        if (Status st = checkMissionOutput(MissionOptions{}, "rost.Model.save", path); !st.ok())
+            raiseStatus(st, {}, PyExc_RuntimeError);
         // The file holds the Config the user gave (its budget included), so the
         // tool's --resume carries on as configured.
         Engine out(settings_.engine);

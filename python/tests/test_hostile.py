@@ -330,6 +330,47 @@ def test_a_save_into_a_missing_directory_is_file_not_found_error_on_every_face(t
     assert not (tmp_path / "nodir").exists()
 
 
+def test_a_checkpoint_save_is_refused_or_fails_as_the_tool_says_it_on_every_face(tmp_path):
+    """Model.save and Mission.save: '-' (standard output to the command lines) and a directory are
+    refused by name before anything is written; a write the system refuses part-way (a file size
+    limit, as a full disk) is OSError, as rost.io's writers raise it, and leaves no file."""
+    words = tmp_path / "w.csv"
+    words.write_text("0,1,2\n1,3\n")
+    mission = rost.Mission(words)
+    model = rost.Model(rost.Config(V=4))
+    here = os.getcwd()
+    try:
+        os.chdir(tmp_path)
+        for save, name in ((mission.save, "rost.Mission.save"), (model.save, "rost.Model.save")):
+            with pytest.raises(RuntimeError) as e:
+                save("-")
+            assert str(e.value) == name + ": '-' names no file: this output is written to a named file, not to " \
+                                          "standard output (./- for a file of that name)"
+            with pytest.raises(IsADirectoryError) as e:
+                save(tmp_path)
+            assert str(e.value) == name + ": " + str(tmp_path) + ": is a directory, not a file that can be written"
+        assert sorted(os.listdir(tmp_path)) == ["w.csv"], "nothing written"
+    finally:
+        os.chdir(here)
+    import sys
+    script = (
+        "import resource, signal, sys, rost\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (256, 256))\n"
+        "for save in (rost.Mission(sys.argv[1]).save, rost.Model(rost.Config(V=4)).save):\n"
+        "    try:\n"
+        "        save(sys.argv[2])\n"
+        "    except OSError as e:\n"
+        "        print(type(e).__name__, e)\n")
+    r = subprocess.run([sys.executable, "-c", script, str(words), str(tmp_path / "m.ckpt")], capture_output=True,
+                       text=True, timeout=120, env=os.environ)
+    lines = r.stdout.strip().splitlines()
+    assert len(lines) == 2, r.stdout + r.stderr
+    for line in lines:
+        assert line.startswith("OSError ") and "m.ckpt: write failed: File too large" in line, line
+    assert sorted(os.listdir(tmp_path)) == ["w.csv"], "no checkpoint, no temporary file left"
+
+
 def test_an_error_quoting_bytes_of_no_character_is_still_a_message(tmp_path):
     words = tmp_path / "w.csv"
     words.write_bytes(b"0,1,2\n1,3,\xff4\n")
@@ -357,7 +398,9 @@ def test_unwritable_output_python_raises(tmp_path):
     m.add_observation(0, np.arange(10, dtype=np.int32), np.zeros((10, 2), np.int32))
     with pytest.raises(FileNotFoundError) as e:  # as open() raises it, on every face's save
         m.save(str(tmp_path / "no/such/dir/m.ckpt"))
-    assert str(tmp_path / "no/such/dir/m.ckpt") + ": cannot create a temporary file" in str(e.value)
+    # Probed before the state is copied, as rost.Mission.save's and the tool's --checkpoint.
+    assert str(e.value) == ("rost.Model.save: " + str(tmp_path / "no/such/dir/m.ckpt") + ": cannot write in " +
+                            str(tmp_path / "no/such/dir") + ": No such file or directory")
 
 
 # ---- settings ----------------------------------------------------------------------------

@@ -391,9 +391,9 @@ Status writeInPlace(const std::string& path, std::string_view content) {
         return Status::fromErrno(err, path + ": cannot open for writing: " + std::strerror(err));
     }
     const bool ok = writeAll(fd, content);
-    const std::string why = std::strerror(errno);
+    const int err = errno;
     ::close(fd);
-    if (!ok) return Status::error(path + ": write failed: " + why);
+    if (!ok) return Status::fromErrno(err, path + ": write failed: " + std::strerror(err));
     return {};
 }
 
@@ -433,17 +433,17 @@ Status writeTemporary(const std::string& path, std::string_view content, std::st
         return Status::fromErrno(err, path + ": cannot create a temporary file in " + dir + ": " + std::strerror(err));
     }
     if (!writeAll(fd, content)) {
-        const std::string why = std::strerror(errno);
+        const int err = errno;  // a full disk, a file size limit: the system's refusal (OSError in Python)
         ::close(fd);
         ::unlink(tmp.c_str());
-        return Status::error(path + ": write failed: " + why);
+        return Status::fromErrno(err, path + ": write failed: " + std::strerror(err));
     }
     const int synced = ::fsync(fd) == 0 ? 0 : errno;
     const int closed = ::close(fd) == 0 ? 0 : errno;  // closed whether or not fsync failed
     if (synced != 0 || closed != 0) {
-        const std::string why = std::strerror(synced != 0 ? synced : closed);
+        const int err = synced != 0 ? synced : closed;
         ::unlink(tmp.c_str());
-        return Status::error(path + ": flush failed: " + why);
+        return Status::fromErrno(err, path + ": flush failed: " + std::strerror(err));
     }
     return {};
 }
