@@ -67,7 +67,7 @@ class _ROST:
     _spatial = True
 
     def __init__(self, V, K, alpha, beta, gamma, **settings):
-        if gamma < 0:
+        if not gamma >= 0:  # NaN too: it would be neither a fixed K nor growth
             raise ValueError(f"rost.rostpy: gamma = {gamma}: expected 0 (a fixed K) or more (topics grow)")
         self.V, self.K = int(V), int(K)
         self.alpha, self.beta, self.gamma = float(alpha), float(beta), float(gamma)

@@ -89,6 +89,9 @@ def test_gamma_zero_fixes_K_and_gamma_above_lets_topics_grow():
     assert not fixed.model.config.topics_grow and fixed.active_K == 4
     assert grow.model.config.topics_grow and grow.model.config.gamma == 0.5 and grow.active_K < 4
     assert (grow.alpha, grow.beta, grow.gamma, grow.betaV) == (0.1, 0.5, 0.5, 5.0)
+    for bad in (-1.0, float("nan")):  # NaN is neither: refused, as rost.Config and --gamma refuse it
+        with pytest.raises(ValueError, match=r"rost\.rostpy: gamma = %s: expected 0 \(a fixed K\) or more" % bad):
+            rostpy.ROST_t(V=10, K=4, alpha=0.1, beta=0.5, gamma=bad)
 
 
 def test_topic_model_as_lists_of_lists():
