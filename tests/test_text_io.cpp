@@ -89,6 +89,11 @@ TEST(TextMessages, ACountIsPluralUnlessItIsOne) {
     rost::Config c;
     c.frame_width = c.frame_height = c.cell_space = 64;
     EXPECT_NE(c.tablesText().find(", 1 cell a step (frame 64x64"), std::string::npos) << c.tablesText();
+    // The threads are named where they multiply the memory: a copy of the counts each.
+    c.threads = 1;
+    EXPECT_EQ(c.tablesText().find("threads"), std::string::npos) << c.tablesText();
+    c.threads = 8;
+    EXPECT_NE(c.tablesText().find(", threads = 8 (each a copy of the K x V counts)"), std::string::npos) << c.tablesText();
 }
 
 TEST(TextLines, NumbersCountSkippedLinesAndStripCarriageReturns) {

@@ -45,6 +45,14 @@ std::string counted(long long n, std::string_view noun);
 
 // ---- lines ----------------------------------------------------------------------
 
+// A text file's content without the UTF-8 byte order mark some editors and
+// spreadsheets write before the first line: it belongs to no line. Each
+// reader of a whole file takes it off its start only (one in the middle of a
+// file, as `cat` of two such files leaves, stays an error in its line).
+constexpr std::string_view withoutByteOrderMark(std::string_view text) noexcept {
+    return text.starts_with("\xEF\xBB\xBF") ? text.substr(3) : text;
+}
+
 // Which lines a LineReader passes over (each format says which it skips).
 struct LineRules {
     bool skip_empty = true;     // a line with nothing on it (once the trailing '\r' is gone)

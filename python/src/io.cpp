@@ -34,7 +34,7 @@ class TextFile {
 public:
     explicit TextFile(std::string path) : path_(std::move(path)) {
         if (Status st = text::readFile(path_, content_); !st.ok()) raiseFileError(st);
-        lines_ = std::make_unique<text::LineReader>(content_, path_, kRules);
+        lines_ = std::make_unique<text::LineReader>(text::withoutByteOrderMark(content_), path_, kRules);
     }
 
     // The next line's fields as strings; an empty list at the end.

@@ -371,6 +371,46 @@ def test_a_checkpoint_save_is_refused_or_fails_as_the_tool_says_it_on_every_face
     assert sorted(os.listdir(tmp_path)) == ["w.csv"], "no checkpoint, no temporary file left"
 
 
+BOM = b"\xef\xbb\xbf"  # the UTF-8 byte order mark Windows editors and spreadsheets write first
+
+
+def test_a_byte_order_mark_before_the_first_line_is_read_past_by_every_face(tmp_path):
+    """A words, positions, topic model or settings file that starts with a UTF-8 byte order mark
+    reads as the same file without it on every face (rost-cli's took it into the first timestamp,
+    the others refused it); one in the middle of a file (`cat` of two such files) stays an error
+    naming its line where timestamps are numbers."""
+    (tmp_path / "w.csv").write_bytes(BOM + b"0,1,2\n1,3,4\n")
+    (tmp_path / "p.csv").write_bytes(BOM + b"0,1,1,2,2\n1,3,3,4,4\n")
+    (tmp_path / "plain.csv").write_bytes(b"0,1,2\n1,3,4\n")
+    (tmp_path / "tm.csv").write_bytes(BOM + b"1,0,0,0,1\n0,1,1,1,0\n")
+    (tmp_path / "k.conf").write_bytes(BOM + b"K = 2\n")
+    stamps, words = rost.io.read_words(tmp_path / "w.csv")
+    assert list(stamps) == [0, 1] and [list(w) for w in words] == [[1, 2], [3, 4]]
+    m = rost.Mission(tmp_path / "w.csv", positions=tmp_path / "p.csv", topicmodel=tmp_path / "tm.csv")
+    assert m.config.V == 5, "V from the topic model's columns"
+    code, err = tool(tmp_path, "refine", "w.csv", "--positions", "p.csv", "--config", "k.conf", "--in.topicmodel",
+                     "tm.csv", "--out", "o", "-q", "--no-summary")
+    assert code == 0, err
+    assert [l.split(",")[0] for l in (tmp_path / "o" / "topics.csv").read_text().splitlines()] == ["0", "1"]
+    code, err = refine_t(tmp_path, "-i", "w.csv", "-K", "2", "-n", "1", "--in.topicmodel", "tm.csv")
+    assert code == 0, err
+    assert (tmp_path / "topics.csv").read_bytes().startswith(b"0,"), "the first timestamp is 0, not BOM + 0"
+    p = subprocess.run([os.path.join(CLI_DIR, "topics.refine.t"), "-V", "5", "-K", "2", "--online", "--online.mint",
+                        "1"], cwd=tmp_path, input=BOM + b"0,1,2\n1,3\n", capture_output=True, timeout=120)
+    assert p.returncode == 0, p.stderr.decode()
+    assert (tmp_path / "topics.online.csv").read_bytes().startswith(b"0,")
+    p = subprocess.run([os.path.join(CLI_DIR, "words.bincount"), "-V", "5"], input=BOM + b"0,1,1\n", capture_output=True,
+                       timeout=120)
+    assert p.stdout == b"0,0,2,0,0,0\n", p.stdout + p.stderr
+    # In the middle: an error naming its line where timestamps are numbers (rost-cli's are text,
+    # copied as written, so there it is part of the line's timestamp).
+    (tmp_path / "mid.csv").write_bytes(b"0,1,2\n" + BOM + b"1,3,4\n")
+    needle = "mid.csv:2:1: expected "
+    refused(*tool(tmp_path, "refine", "mid.csv", "--out", "om"), needle, out=tmp_path / "om")
+    with pytest.raises(ValueError, match=needle):
+        rost.Mission(tmp_path / "mid.csv")
+
+
 def test_an_error_quoting_bytes_of_no_character_is_still_a_message(tmp_path):
     words = tmp_path / "w.csv"
     words.write_bytes(b"0,1,2\n1,3,\xff4\n")

@@ -8,7 +8,9 @@ std::string Config::tablesText() const {
     return "K = " + std::to_string(K) + ", V = " + std::to_string(V) + ", ring.steps = " + std::to_string(ring_steps) +
            ", " + text::counted(cellsPerStep(), "cell") + " a step (frame " + std::to_string(frame_width) + "x" +
            std::to_string(frame_height) + ", cell.space = " + std::to_string(cell_space) +
-           "), cell.capacity = " + std::to_string(cell_capacity) + ", max.words = " + std::to_string(max_words_per_frame);
+           "), cell.capacity = " + std::to_string(cell_capacity) + ", max.words = " + std::to_string(max_words_per_frame) +
+           // Each refiner thread past the first keeps its own copy of the word-topic counts (K x V).
+           (threads > 1 ? ", threads = " + std::to_string(threads) + " (each a copy of the K x V counts)" : "");
 }
 
 Status Config::validate() const {

@@ -58,7 +58,7 @@ Status parseSettingsText(std::string_view content, std::string_view name, Settin
     ParseState ps;
     // Every line: blank lines and comments are the grammar's to skip ('#'
     // starts a comment anywhere on a line).
-    text::LineReader lines(content, name, text::kEveryLine);
+    text::LineReader lines(text::withoutByteOrderMark(content), name, text::kEveryLine);
     text::Line l;
     while (lines.next(l)) {
         std::string_view line = l.text;

@@ -66,7 +66,7 @@ Status parseTopicModelCsv(std::string_view csv, int K, int V, std::vector<int32_
     const auto k = static_cast<std::size_t>(K), vocab = static_cast<std::size_t>(V);
     std::vector<int32_t> out(k * vocab, 0);
     std::vector<text::Field> fields;
-    text::LineReader lines(csv, name);
+    text::LineReader lines(text::withoutByteOrderMark(csv), name);
     text::Line line;
     std::size_t topic = 0, columns = 0;
     while (lines.next(line)) {
@@ -87,7 +87,7 @@ Status parseTopicModelCsv(std::string_view csv, int K, int V, std::vector<int32_
 TopicModelShape topicModelShapeOf(std::string_view csv, const std::string& name) {
     TopicModelShape shape;
     std::vector<text::Field> fields;
-    text::LineReader lines(csv, name);
+    text::LineReader lines(text::withoutByteOrderMark(csv), name);
     for (text::Line line; lines.next(line); ++shape.rows) {
         if (shape.rows > 0) continue;
         text::splitFields(line.text, ",", fields);

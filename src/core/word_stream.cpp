@@ -98,7 +98,7 @@ Status parseWords(std::string_view wordsText, const WordStreamLimits& limits, Wo
                   std::string_view wordsName) {
     std::vector<int64_t> values;
     std::vector<Field> fields;
-    LineReader lines(wordsText, {}, kStreamLines);
+    LineReader lines(text::withoutByteOrderMark(wordsText), {}, kStreamLines);
     Line line;
     while (lines.next(line)) {
         const int number = line.number;
@@ -131,7 +131,7 @@ Status parsePositions(std::string_view positionsText, const WordStreamLimits& li
                       std::string_view positionsName, std::string_view wordsName) {
     std::vector<int64_t> values;
     std::vector<Field> fields;
-    LineReader plines(positionsText, {}, kStreamLines);
+    LineReader plines(text::withoutByteOrderMark(positionsText), {}, kStreamLines);
     Line line;
     std::size_t index = 0;
     while (plines.next(line)) {
@@ -301,14 +301,14 @@ struct PositionsTail {
     void operator()() noexcept {
         try {
             read = readFile(*path, text);
-            if (read.ok()) pieces.cut(text.view());
+            if (read.ok()) pieces.cut(text::withoutByteOrderMark(text.view()));
         } catch (...) {
             readFailed = true;
         }
         readDone.count_down();
         if (readFailed || !read.ok()) return;
         try {
-            pieces.parse(text.view(), false);
+            pieces.parse(text::withoutByteOrderMark(text.view()), false);
         } catch (...) {
             parseFailed = true;
         }
@@ -367,7 +367,7 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     tail.readDone.wait();
     if (tail.readFailed) throw std::bad_alloc();
     if (!tail.read.ok()) return tail.read;
-    const std::string_view text = tail.text.view();
+    const std::string_view text = text::withoutByteOrderMark(tail.text.view());
     if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty()) {
         tail.pieces.abandon();
         return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");

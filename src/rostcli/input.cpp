@@ -128,7 +128,7 @@ Status parseDocuments(std::string_view text, std::string_view name, std::string_
     out.words_name = std::string(name);
     const int64_t hi = wordLimit(V);
     std::vector<Field> fields;
-    LineReader lines(text, name, kLines);
+    LineReader lines(text::withoutByteOrderMark(text), name, kLines);
     Line line;
     for (Status separated; nextRow(lines, delim, line, fields, separated);) {
         if (!separated.ok()) return separated;
@@ -152,7 +152,7 @@ Status parseDocumentLine(std::string_view text, int number, std::string_view nam
                          Document& d, bool& got) {
     got = false;
     std::vector<Field> fields;
-    LineReader lines(text, name, kLines);
+    LineReader lines(number == 1 ? text::withoutByteOrderMark(text) : text, name, kLines);  // the stream's start
     Line line;
     Status separated;
     if (!nextRow(lines, delim, line, fields, separated)) return {};  // a blank line
@@ -171,7 +171,7 @@ Status readSideFile(std::string_view text, std::string_view name, std::string_vi
                     std::size_t perWord, const char* noun, const char* expect, Corpus& corpus, Take take) {
     std::vector<Field> fields;
     std::size_t index = 0;
-    LineReader lines(text, name, kLines);
+    LineReader lines(text::withoutByteOrderMark(text), name, kLines);
     Line line;
     for (Status separated; nextRow(lines, delim, line, fields, separated);) {
         if (!separated.ok()) return separated;
