@@ -126,6 +126,11 @@ TEST(ConfigFile, ErrorsNameTheFileLineAndKey) {
     EXPECT_EQ(parseError("K = 1.5\n"), "rost.conf:1: key 'K': expected an integer, found '1.5'");
     EXPECT_EQ(parseError("K = 99999999999\n"), "rost.conf:1: key 'K' = 99999999999, allowed [1, 1024]");
     EXPECT_EQ(parseError("seed = -1\n"), "rost.conf:1: key 'seed': expected a non-negative integer, found '-1'");
+    // Past what the type holds: the range, as any value out of it (not "expected ... integer").
+    EXPECT_EQ(parseError("seed = 18446744073709551616\n"), "rost.conf:1: key 'seed' = 18446744073709551616, allowed [0, 2^64-1]");
+    EXPECT_EQ(parseError("K = 99999999999999999999\n"), "rost.conf:1: key 'K' = 99999999999999999999, allowed [1, 1024]");
+    EXPECT_EQ(parseError("budget.refines = 99999999999999999999\n"),
+              "rost.conf:1: key 'budget.refines' = 99999999999999999999, allowed [0, 1099511627776]");
     EXPECT_EQ(parseError("thread.fifo = maybe\n"), "rost.conf:1: key 'thread.fifo': expected true or false, found 'maybe'");
     EXPECT_EQ(parseError("sampler = best\n"),
               "rost.conf:1: key 'sampler': expected one of now, uniform, agep, exp, uni+now, agep+now, uni+exp, "

@@ -39,13 +39,17 @@ namespace {
 
 // ---- text forms of values ----------------------------------------------------
 
+// Why `s` is not an integer of type T: "" when it is (then in `out`); a
+// number too large for T says so rather than "expected ...".
 template <typename T>
-bool parseInteger(std::string_view s, T& out) {
+std::string integerProblem(std::string_view s, T& out, const char* expected) {
     T v{};
     const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
-    if (ec != std::errc() || ptr != s.data() + s.size()) return false;
+    if (ec == std::errc::result_out_of_range && ptr == s.data() + s.size())
+        return std::is_unsigned_v<T> ? "integer out of range (at most 2^64 - 1)" : "integer out of range";
+    if (ec != std::errc() || ptr != s.data() + s.size()) return expected;
     out = v;
-    return true;
+    return {};
 }
 
 bool parseDouble(std::string_view s, double& out) {
@@ -114,11 +118,11 @@ struct Codec<SettingType::Integer> {
     static std::string set(const SettingSpec&, std::string_view s, F& f) {
         if constexpr (std::is_same_v<F, uint64_t>) {
             uint64_t v = 0;
-            if (!parseInteger(s, v)) return "expected a non-negative integer";
+            if (std::string why = integerProblem(s, v, "expected a non-negative integer"); !why.empty()) return why;
             f = v;
         } else {
             long long v = 0;
-            if (!parseInteger(s, v)) return "expected an integer";
+            if (std::string why = integerProblem(s, v, "expected an integer"); !why.empty()) return why;
             if (v < static_cast<long long>(std::numeric_limits<F>::min()) ||
                 v > static_cast<long long>(std::numeric_limits<F>::max()))
                 return "integer out of range";
@@ -181,7 +185,7 @@ struct BudgetCodec {
             b = Budget::time(ms);
         } else {
             uint64_t n = 0;
-            if (!parseInteger(s, n)) return "expected a non-negative integer";
+            if (std::string why = integerProblem(s, n, "expected a non-negative integer"); !why.empty()) return why;
             b = Budget{K, n, 0.0};
         }
         return {};
