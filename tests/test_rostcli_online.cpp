@@ -259,3 +259,58 @@ TEST_F(RostCliOnline, ABadLineInAFileComesAfterTheDocumentsBeforeIt) {
 }
 
 } // namespace
+
+namespace {
+
+// Runs topics.refine.t in `dir` with `args`; its exit status, stderr in err.txt.
+int refineT(const std::string& dir, const std::string& args) {
+    const std::string cmd = "cd '" + dir + "' && '" + ROSTCLI_REFINE_T + "' " + args + " 2>err.txt";
+    const int rc = std::system(cmd.c_str());
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+} // namespace
+
+// An online document may hold max.words words (the schema's 4096): that
+// many are taken, one more is refused naming the line and the bound.
+TEST_F(RostCliOnline, ADocumentOfMaxWordsIsTakenAndOneMoreIsRefused) {
+    const auto doc = [](int stamp, int words) {
+        std::string line = std::to_string(stamp);
+        for (int w = 0; w < words; ++w) line += "," + std::to_string(w % 10);
+        return line + "\n";
+    };
+    std::ofstream(dir + "/full.csv") << doc(0, 4096) << doc(1, 3);
+    EXPECT_EQ(refineT(dir, "-i full.csv -V 10 -K 2 --online --online.mint 1"), 0) << readText(dir + "/err.txt");
+    EXPECT_EQ(lines(dir + "/topics.online.csv").size(), 2u);
+    std::ofstream(dir + "/over.csv") << doc(0, 3) << doc(1, 4097);
+    EXPECT_EQ(refineT(dir, "-i over.csv -V 10 -K 2 --online --online.mint 1"), 2);
+    EXPECT_EQ(readText(dir + "/err.txt"),
+              "topics.refine.t: over.csv:2: 4097 words, more than the 4096 an online document may hold (the schema's "
+              "max.words)\n");
+}
+
+// The final topics.csv holds each document's Gibbs sample, those that left
+// the window before the end (sampled as they left) as much as the rest, and
+// topics.maxlikelihood.csv their maximum-likelihood labels: over 300
+// documents of random words (a window of 256 steps) in 20 topics, the two
+// differ in the documents that left, as a sample and its mode do.
+TEST_F(RostCliOnline, DocumentsThatLeftTheWindowKeepTheirSampleApartFromTheirMaximumLikelihoodLabels) {
+    std::string text;
+    uint64_t x = 12345;
+    for (int d = 0; d < 300; ++d) {
+        text += std::to_string(d);
+        for (int w = 0; w < 12; ++w) {
+            x = x * 6364136223846793005ull + 1442695040888963407ull;
+            text += "," + std::to_string((x >> 33) % 30);
+        }
+        text += "\n";
+    }
+    std::ofstream(dir + "/random.csv") << text;
+    ASSERT_EQ(refineT(dir, "-i random.csv -V 30 -K 20 --online --online.mint 1"), 0) << readText(dir + "/err.txt");
+    const auto sample = lines(dir + "/topics.csv"), ml = lines(dir + "/topics.maxlikelihood.csv");
+    ASSERT_EQ(sample.size(), 300u);
+    ASSERT_EQ(ml.size(), 300u);
+    int differ = 0;
+    for (std::size_t d = 0; d < 300 - 256; ++d) differ += sample[d] != ml[d];
+    EXPECT_GT(differ, 0) << "the documents that left the window: topics.csv holds their maximum-likelihood labels";
+}

@@ -181,6 +181,23 @@ def test_a_directory_where_a_file_is_expected(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["words.csv"] and not os.listdir(d)
 
 
+def test_values_past_int32_are_refused_not_wrapped(tmp_path):
+    """read_words/read_positions return int32: 2^31 - 1 and -2^31 are read back exactly, one past
+    either is refused naming the line (it would wrap to the other end)."""
+    f = tmp_path / "w.csv"
+    f.write_text("0,2147483647,0\n1,5\n")
+    assert [list(w) for w in rost.io.read_words(f)[1]] == [[2147483647, 0], [5]]
+    f.write_text("0,1\n1,2147483648\n")
+    with pytest.raises(ValueError, match=r"w\.csv:2: a value does not fit in int32"):
+        rost.io.read_words(f)
+    p = tmp_path / "p.csv"
+    p.write_text("0,-2147483648,1\n")
+    assert rost.io.read_positions(p)[1][0].tolist() == [[-2147483648, 1]]
+    p.write_text("0,-2147483649,1\n")
+    with pytest.raises(ValueError, match=r"p\.csv:1: a value does not fit in int32"):
+        rost.io.read_positions(p)
+
+
 def test_a_failed_write_leaves_the_old_file(tmp_path):
     f = tmp_path / "words.csv"
     rost.io.write_words(f, [0], [np.array([1, 2], np.int32)])
