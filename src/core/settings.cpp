@@ -40,13 +40,14 @@ namespace {
 // ---- text forms of values ----------------------------------------------------
 
 // Why `s` is not an integer of type T: "" when it is (then in `out`); a
-// number too large for T says so rather than "expected ...".
+// number too large for T is "integer out of range", which setSettingText
+// words as the setting's range, rather than "expected ...".
 template <typename T>
 std::string integerProblem(std::string_view s, T& out, const char* expected) {
     T v{};
     const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
     if (ec == std::errc::result_out_of_range && ptr == s.data() + s.size())
-        return std::is_unsigned_v<T> ? "integer out of range (at most 2^64 - 1)" : "integer out of range";
+        return "integer out of range";
     if (ec != std::errc() || ptr != s.data() + s.size()) return expected;
     out = v;
     return {};

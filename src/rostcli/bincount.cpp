@@ -28,7 +28,7 @@ Status bincount(const BincountOptions& o) {
         if (Status st = text::probeOutputFile(o.out); !st.ok()) return st;  // before reading the input
         // The output replacing its own input (however spelled): refused, as topics.refine.t refuses it.
         MissionOptions inputs;
-        if (!(o.in.empty() || o.in == "-" || o.in == "/dev/stdin")) inputs.inputs.push_back(o.in);
+        if (!isStandardInput(o.in)) inputs.inputs.push_back(o.in);
         if (Status st = checkMissionOutputOverlap(inputs, "-o/--out", o.out); !st.ok()) return st;
     }
     const auto bins = static_cast<uint32_t>(s.engine.model.V);

@@ -74,8 +74,10 @@ bool nextRow(LineReader& lines, std::string_view delim, Line& line, std::vector<
 
 } // namespace
 
+bool isStandardInput(const std::string& path) { return path.empty() || path == "-" || path == "/dev/stdin"; }
+
 Status readInput(const std::string& path, std::string& text, std::string& name) {
-    if (path.empty() || path == "-" || path == "/dev/stdin") {
+    if (isStandardInput(path)) {
         name = "<stdin>";
         std::size_t have = 0;
         try {

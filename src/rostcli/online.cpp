@@ -125,7 +125,7 @@ public:
     Status open(const RunOptions& o, uint32_t V, int max_words, Corpus& c) {
         o_ = &o, V_ = V, max_words_ = static_cast<std::size_t>(max_words), c_ = &c;
         const std::string& path = o.in_words;
-        if (path.empty() || path == "-" || path == "/dev/stdin") {
+        if (isStandardInput(path)) {
             c.words_name = "<stdin>";
             fd_ = 0;
             return {};

@@ -228,9 +228,6 @@ Status probeOutputs(const RunOptions& o) {
     return {};
 }
 
-// Standard input, which a run reads as it comes: no file an output could replace.
-bool standardInput(const std::string& path) { return path.empty() || path == "-" || path == "/dev/stdin"; }
-
 // A device or FIFO (/dev/null, /dev/stdout): written through, never replaced,
 // so two outputs may share it.
 bool specialFile(const std::string& path) {
@@ -267,7 +264,7 @@ Status checkOutputsApart(const RunOptions& o) {
         const Named& out = outs[i];
         if (out.path == nullptr || out.path->empty() || specialFile(*out.path)) continue;
         MissionOptions inputs;
-        if (!standardInput(o.in_words)) inputs.inputs.push_back(o.in_words);
+        if (!isStandardInput(o.in_words)) inputs.inputs.push_back(o.in_words);
         for (const std::string* in : {&o.in_position, &o.in_topics, &o.in_topicmodel})
             if (!in->empty() && in != out.mayReplace) inputs.inputs.push_back(*in);
         if (Status st = checkMissionOutputOverlap(inputs, out.flag, *out.path); !st.ok()) return st;

@@ -51,6 +51,9 @@ struct Corpus {
     int32_t max_x = 0, max_y = 0;
 };
 
+// Whether an input path names standard input ("", "-" and "/dev/stdin"):
+// read as it comes, no file an output could replace.
+bool isStandardInput(const std::string& path);
 // The whole of a file, or of standard input for "", "-" and "/dev/stdin".
 // `name` receives what messages call it.
 Status readInput(const std::string& path, std::string& text, std::string& name);
