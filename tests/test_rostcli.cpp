@@ -465,6 +465,19 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position long.csv -V 40 -K 4");
     EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err, "topics.refine.txy: long.csv:3:1: a position line beyond the 2 documents of w.csv\n");
+    // A file name, or a word, with a newline, an escape or a C1 control is printed escaped, on one line.
+    const std::string odd = "b\na\x1b[2J\xC2\x9B" "d";
+    writeText(dir + "/" + odd + ".csv", "0,1,2\n1,3,x\x1b\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i '" + odd + ".csv' -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: b\\x0aa\\x1b[2J\\u009bd.csv:2:5: expected word id (a non-negative integer), found 'x\\x1b'\n");
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i '" + odd + ".csv' -V 40 -o h.csv --in.words.delim '\x1b'");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "words.bincount: b\\x0aa\\x1b[2J\\u009bd.csv: no words in its 2 documents (each line is "
+                     "timestamp\\x1bword\\x1bword...)\n");
+    r = run(dir, bin(ROSTCLI_BINCOUNT) + " -V 40 '" + odd + "'");  // an argument CLI11 refuses, quoted in its error
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "words.bincount: The following argument was not expected: b\\x0aa\\x1b[2J\\u009bd (see --help)\n");
     for (const char* f : {"topics.csv", "topics.maxlikelihood.csv", "topicmodel.csv", "perplexity.csv", "topics.log"})
         EXPECT_FALSE(fs::exists(dir + "/" + f)) << f;
     // An empty -i (a script's unset variable) is refused, not read as standard input.

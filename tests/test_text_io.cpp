@@ -176,6 +176,11 @@ TEST(TextNumbers, ErrorsNameFileLineAndColumn) {
               "n:1:1: expected x, found '" + std::string(31, 'a') + "'");
     const std::string wave = std::string(30, 'a') + "\xF0\x9F\x8C\x8A";
     EXPECT_EQ(text::printable(wave, 32), std::string(30, 'a'));
+    // Uncut, as the faces print their errors: the C1 controls (U+009B is a terminal's control
+    // sequence introducer) are written \u0080..\u009f, the characters after them kept.
+    EXPECT_EQ(text::printable("a\nb\x1b[31m\xC2\x9B\xC2\x80\xC2\x9F\xC2\xA0\xC3\xA9\\z"),
+              "a\\x0ab\\x1b[31m\\u009b\\u0080\\u009f\xC2\xA0\xC3\xA9\\z");
+    EXPECT_EQ(text::printable(std::string(5000, 'p')), std::string(5000, 'p'));
     // A number out of range is quoted the same way.
     const std::string big = std::string(25, '9') + "\xFF\x1b";
     int64_t bigValue = 0;

@@ -130,6 +130,25 @@ TEST(ToolCli, InvalidOptionValuesAreNamed) {
                     std::string(opt) + ": expected 0 or more, found '-3'", t / "o");
 }
 
+// A file name is printed as the errors quote text (rost::text::printable):
+// a newline, an escape or a C1 control in it stays one line on stderr and
+// cannot drive the terminal; a note naming a path alike.
+TEST(ToolCli, AFileNameWithControlCharactersIsPrintedEscapedOnOneLine) {
+    TempDir t;
+    const std::string odd = "a\nb\x1b[31m\xC2\x9B" "c";
+    const std::string shown = "a\\x0ab\\x1b[31m\\u009bc";
+    const RunResult bad = runRost("refine '" + (t / odd) + ".csv' --out " + (t / "o"));
+    expectError(bad, shown + ".csv: cannot open: No such file or directory", t / "o");
+    EXPECT_EQ(bad.err.find('\x1b'), std::string::npos) << bad.err;
+    rost::testing::writeText(t / "w.csv", "0,1,2\n1,2,3\n");
+    const RunResult r = runRost("refine " + (t / "w.csv") + " --no-summary --out '" + (t / odd) + "'");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("; outputs in " + t.path() + "/" + shown + "\n"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(r.err.find('\x1b'), std::string::npos) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(t / (odd + "/topics.csv")));
+}
+
 // An option missing its value would take the next argument, even another
 // option: `--checkpoint --quiet` wrote a checkpoint named "--quiet" and ran
 // loudly, `-K --out o` said "--out is required". Refused, naming both.

@@ -136,9 +136,12 @@ NumberError toUnsigned(std::string_view text, uint64_t& out) noexcept;
 NumberError toDouble(std::string_view text, double& out) noexcept;
 
 // Text as an error quotes it: at most `cut` bytes (cut between two
-// characters), control bytes and bytes of no UTF-8 character written \xNN, a
-// byte-order mark \ufeff: a message that a terminal and Python show as it is.
-std::string printable(std::string_view text, std::size_t cut);
+// characters), control bytes and bytes of no UTF-8 character written \xNN,
+// the C1 controls (U+0080..U+009F) \u0080..\u009f, a byte-order mark \ufeff:
+// a message that a terminal and Python show as it is. Each face prints its
+// errors and notes through it (uncut), so a file name with a newline or an
+// escape in it is one line on stderr and cannot drive the terminal.
+std::string printable(std::string_view text, std::size_t cut = std::string_view::npos);
 
 // "NAME:LINE:COL: expected WHAT, found 'TEXT'" at the field's column, the
 // field's text cut after `cut` characters (printable).

@@ -23,6 +23,7 @@
 #include "rost/position.hpp"
 #include "rost/settings.hpp"
 #include "rost/status.hpp"
+#include "rost/text_io.hpp"
 
 namespace rost::python {
 

@@ -22,7 +22,7 @@ namespace {
 [[noreturn]] void raiseFileError(const Status& st) { raiseStatus(st, {}, PyExc_OSError); }
 
 void checkContent(const Status& st) {
-    if (!st.ok()) throw py::value_error(st.message());
+    if (!st.ok()) throw py::value_error(text::printable(st.message()));
 }
 
 // Lines that are blank (spaces and tabs) or start with '#' are skipped, as

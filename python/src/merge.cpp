@@ -74,7 +74,7 @@ void bindMerge(py::module_& m) {
         o.threshold = threshold;
         o.beta = beta;
         PyMerged out;
-        if (Status st = mergeTopicModels(in, o, out.merged); !st.ok()) throw py::value_error(st.message());
+        if (Status st = mergeTopicModels(in, o, out.merged); !st.ok()) throw py::value_error(text::printable(st.message()));
         return out;
     }, py::arg("models"), py::kw_only(), py::arg("threshold") = MergeOptions{}.threshold,
        py::arg("beta") = MergeOptions{}.beta,

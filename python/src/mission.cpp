@@ -131,7 +131,7 @@ void raiseStatus(const Status& st, const std::string& prefix, PyObject* otherwis
     case StatusKind::OutOfMemory: type = PyExc_MemoryError; break;
     case StatusKind::Invalid: break;
     }
-    throw StatusError(type, prefix + st.message());
+    throw StatusError(type, prefix + text::printable(st.message()));
 }
 
 std::unique_ptr<Engine> makeEngine(const EngineConfig& cfg) {
@@ -193,7 +193,7 @@ MissionOptions missionOptions(const py::kwargs& settings, const char* what, cons
 }
 
 MissionResults::MissionResults(Engine& engine) : engine_(engine), records_(engine, 4) {
-    if (!records_.status().ok()) throw std::runtime_error(records_.status().message());
+    if (!records_.status().ok()) throw std::runtime_error(text::printable(records_.status().message()));
     const uint64_t first = engine.model().observations();
     records_.setFirstObservation(first);
     records_.setFinalSink(

@@ -159,7 +159,7 @@ public:
         if (Status st = checkMission(mission, plan); !st.ok()) raiseStatus(st);
         MissionInput in;
         in.threads = plan.checkpoint.config.model.threads;  // the checkpoint's unless `threads` is given
-        if (Status st = planMission(mission, in, plan); !st.ok()) throw py::value_error(st.message());
+        if (Status st = planMission(mission, in, plan); !st.ok()) throw py::value_error(text::printable(st.message()));
         Settings s;
         s.engine = plan.config;
         auto m = std::make_unique<PyModel>(s);
@@ -185,7 +185,7 @@ public:
         const std::string bytes = state[1].cast<py::bytes>();
         const std::span<const uint8_t> view(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
         if (Status st = loadCheckpoint(view, "pickled rost.Model", *m->engine_); !st.ok())
-            throw py::value_error(st.message());
+            throw py::value_error(text::printable(st.message()));
         m->reindex();
         return m;
     }

@@ -60,7 +60,7 @@ PyVocabulary loadVocabulary(const std::string& path) {
 PyVocabulary defaultVocabulary() {
     Status st;
     auto v = vision::defaultVocabulary(st);
-    if (!v) throw std::runtime_error(st.message());
+    if (!v) throw std::runtime_error(text::printable(st.message()));
     return {std::move(v)};
 }
 
@@ -100,7 +100,7 @@ PyVocabulary train(const py::iterable& frames, uint32_t words, int features, int
         py::gil_scoped_release nogil;
         st = vision::trainKMajority(data, o, centres);
     }
-    if (!st.ok()) throw py::value_error("rost.vision.Vocabulary.train: " + st.message());
+    if (!st.ok()) throw py::value_error("rost.vision.Vocabulary.train: " + text::printable(st.message()));
     const std::string note = "trained from Python (rost.vision.Vocabulary.train): " + std::to_string(data.size()) +
                              " ORB descriptors of " + std::to_string(n) + " frames, seed " + std::to_string(seed);
     return {std::make_shared<const Vocabulary>(std::move(centres), note)};
@@ -112,10 +112,10 @@ public:
         Settings s;
         applySettings(s, kw, "rost.vision.WordExtractor", true);
         const vision::ExtractorConfig cfg = vision::ExtractorConfig::from(s.words);
-        if (Status st = cfg.validate(); !st.ok()) throw py::value_error("rost.vision.WordExtractor: " + st.message());
+        if (Status st = cfg.validate(); !st.ok()) throw py::value_error("rost.vision.WordExtractor: " + text::printable(st.message()));
         std::shared_ptr<const Vocabulary> v;
         if (Status st = vision::unusedVocabulary(cfg, "vocabulary"); !st.ok() && !vocabulary.is_none())
-            throw py::value_error("rost.vision.WordExtractor: " + st.message());  // before a path is read
+            throw py::value_error("rost.vision.WordExtractor: " + text::printable(st.message()));  // before a path is read
         if (vocabulary.is_none()) {
             if (cfg.orb) v = defaultVocabulary().vocabulary;
         } else if (py::isinstance<PyVocabulary>(vocabulary)) {
@@ -125,7 +125,7 @@ public:
         }
         Status st;
         ex_ = vision::WordExtractor::create(cfg, v, st);
-        if (!ex_) throw py::value_error("rost.vision.WordExtractor: " + st.message());
+        if (!ex_) throw py::value_error("rost.vision.WordExtractor: " + text::printable(st.message()));
     }
 
     py::tuple operator()(const py::handle& frame) {

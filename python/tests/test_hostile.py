@@ -253,6 +253,26 @@ def test_unwritable_vocabulary_fails_before_the_training(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["in", "taken"]
 
 
+def test_a_file_name_with_control_characters_is_escaped_in_the_message_on_every_face(tmp_path):
+    """A newline, an escape or a C1 control in a path is written as the tool prints it
+    (\\x0a, \\x1b, \\u009b): one line, that cannot drive a terminal when printed."""
+    nope = str(tmp_path / "no\npe\x1b7\x9b")
+    shown = str(tmp_path / "no\\x0ape\\x1b7\\u009b")
+    gone = shown + ": cannot open: No such file or directory"
+    cases = [
+        (lambda: rost.Mission(nope), "rost.Mission: " + gone),
+        (lambda: rost.Model.load(nope), "rost.Model.load: " + gone),
+        (lambda: rost.io.read_words(nope), gone),
+        (lambda: rost.vision.Vocabulary.load(nope), "vocabulary " + gone),
+        (lambda: rost.merge_topic_models([nope]), gone),
+        (lambda: rost.vision.Mission(nope + ".mov"), "rost.vision.Mission: " + shown + ".mov: cannot open: No such file or directory"),
+    ]
+    for make, message in cases:
+        with pytest.raises(FileNotFoundError) as e:
+            make()
+        assert str(e.value) == message
+
+
 def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
     """The one Python exception for a missing input, whichever face reads it: the library
     says what is missing where it opens the file (StatusKind), in the message the tool prints."""

@@ -126,8 +126,10 @@ std::size_t utf8Sequence(std::string_view s, std::size_t i) {
 // \xNN (a NUL would end the line on a terminal, an escape would drive it) and
 // a byte-order mark \ufeff (it would look like nothing: '0' that is not 0);
 // a byte of no UTF-8 character \xNN too (Python could not make it text,
-// and a terminal would show it as a box).
+// and a terminal would show it as a box); a C1 control \u0080..\u009f (U+009B
+// is a terminal's control sequence introducer, as ESC [ is).
 std::string cutText(std::string_view s, std::size_t cut) {
+    static constexpr char kHex[] = "0123456789abcdef";
     // Between two characters: not inside a multi-byte one (at most 3 bytes back).
     for (std::size_t back = 0; cut < s.size() && back < 3 && (static_cast<unsigned char>(s[cut]) & 0xC0) == 0x80; ++back)
         --cut;
@@ -140,11 +142,16 @@ std::string cutText(std::string_view s, std::size_t cut) {
         if (c == 0xEF && s.substr(i, 3) == "\xEF\xBB\xBF") {
             out += "\\ufeff";
             i += 2;
+        } else if (c == 0xC2 && seq == 2 && static_cast<unsigned char>(s[i + 1]) < 0xA0) {  // a C1 control: \u0080..\u009f
+            const auto d = static_cast<unsigned char>(s[i + 1]);
+            out += "\\u00";
+            out += kHex[d >> 4];
+            out += kHex[d & 15];
+            ++i;
         } else if (seq > 1) {  // a character, whole
             out.append(s.substr(i, seq));
             i += seq - 1;
         } else if (c < 0x20 || c == 0x7F || seq == 0) {  // a control byte, or a byte of no character: \xNN
-            static constexpr char kHex[] = "0123456789abcdef";
             out += "\\x";
             out += kHex[c >> 4];
             out += kHex[c & 15];

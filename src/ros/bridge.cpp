@@ -13,6 +13,7 @@
 #include "rost/engine.hpp"
 #include "rost/mission.hpp"
 #include "rost/settings.hpp"
+#include "rost/text_io.hpp"
 #include "rost/vision/frame_source.hpp"
 #include "rost/vision/mission.hpp"
 #include "rost/vision/words.hpp"
@@ -38,6 +39,8 @@ std::string closestParam(const std::string& name) {
     const SettingSpec* near = closestSetting(name);
     return near ? paramName(*near) : std::string();
 }
+
+std::string printable(const std::string& text) { return rost::text::printable(text); }
 
 struct NodeSettings::Impl {
     Settings settings;

@@ -34,6 +34,11 @@ std::vector<ParamSpec> settingParams();
 // The parameter an unknown name most likely meant ("etta" -> "eta"); "" if none.
 std::string closestParam(const std::string& name);
 
+// Text as rost's errors print it (rost::text::printable): control bytes and
+// bytes of no UTF-8 character escaped, so a path or a frame_id sent by
+// another node is one line in the log and cannot drive a terminal.
+std::string printable(const std::string& text);
+
 // Every setting of rost in one value (rost::Settings), set by key or parameter name.
 class NodeSettings {
 public:

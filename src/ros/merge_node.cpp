@@ -89,7 +89,7 @@ bool MergeNode::readParams() {
         return false;
     }
     if (const std::string err = rost::bridge::checkMergeOptions(threshold_, beta_); !err.empty()) {
-        ROS_FATAL("rost_merge: %s", err.c_str());
+        ROS_FATAL("rost_merge: %s", rost::bridge::printable(err).c_str());
         return false;
     }
     return true;
@@ -147,7 +147,7 @@ void MergeNode::merge() {
     }
     rost::bridge::MergedModel merged;
     if (const std::string err = rost::bridge::mergeModels(models, threshold_, beta_, merged); !err.empty()) {
-        ROS_ERROR_THROTTLE(5.0, "rost_merge: the merge failed: %s", err.c_str());
+        ROS_ERROR_THROTTLE(5.0, "rost_merge: the merge failed: %s", rost::bridge::printable(err).c_str());
         return;
     }
     rost_msgs::TopicModel global;

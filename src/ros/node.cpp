@@ -65,12 +65,12 @@ bool Node::readSettings() {
             budget = p.param;
         }
         if (const std::string err = settings_.set(p.key, text); !err.empty()) {
-            ROS_FATAL("rost: %s", err.c_str());
+            ROS_FATAL("rost: %s", rost::bridge::printable(err).c_str());
             return false;
         }
     }
     if (const std::string err = settings_.validate(); !err.empty()) {
-        ROS_FATAL("rost: %s", err.c_str());
+        ROS_FATAL("rost: %s", rost::bridge::printable(err).c_str());
         return false;
     }
     warnUnknownParams();
@@ -198,7 +198,7 @@ bool Node::init() {
     std::string err;
     pipeline_ = rost::bridge::Pipeline::create(settings_, options_, err);
     if (!pipeline_) {
-        ROS_FATAL("rost: %s", err.c_str());
+        ROS_FATAL("rost: %s", rost::bridge::printable(err).c_str());
         return false;
     }
     if (pipeline_->sizeGiven() && !ensureEngine(0, 0)) return false;
@@ -234,7 +234,7 @@ void Node::shutdown() {
     }
     if (pipeline_ && ready_.load(std::memory_order_acquire) && !options_.checkpoint.empty()) {
         if (const std::string err = pipeline_->saveCheckpoint(); !err.empty())
-            ROS_ERROR("rost: final checkpoint: %s", err.c_str());
+            ROS_ERROR("rost: final checkpoint: %s", rost::bridge::printable(err).c_str());
     }
     pipeline_.reset();
 }
@@ -249,8 +249,8 @@ void Node::badImage(const std::string& why, const std_msgs::Header& header) {
     if (it != bad_logged_.end() && (now - it->second).toSec() < 5.0) return;
     bad_logged_[why] = now;
     ROS_ERROR("rost: topic %s, message seq %u (stamp %u.%09u, frame_id '%s'): %s; skipping it",
-              topic_.c_str(), header.seq, header.stamp.sec, header.stamp.nsec, header.frame_id.c_str(),
-              why.c_str());
+              topic_.c_str(), header.seq, header.stamp.sec, header.stamp.nsec, rost::bridge::printable(header.frame_id).c_str(),
+              rost::bridge::printable(why).c_str());
 }
 
 void Node::onImage(const sensor_msgs::ImageConstPtr& msg) {
@@ -320,7 +320,7 @@ bool Node::ensureEngine(int width, int height) {
         return true;
     }
     failed_.store(true, std::memory_order_release);
-    ROS_FATAL("rost: %s", err.c_str());
+    ROS_FATAL("rost: %s", rost::bridge::printable(err).c_str());
     ros::shutdown();
     return false;
 }
@@ -454,7 +454,7 @@ bool Node::onGetModel(rost_msgs::GetTopicModel::Request&, rost_msgs::GetTopicMod
     if (!ready_.load(std::memory_order_acquire)) return false;  // no model before the first image
     std::vector<int32_t> counts;
     if (const std::string err = pipeline_->getTopicModel(counts); !err.empty()) {
-        ROS_ERROR("rost: get_topic_model: %s", err.c_str());
+        ROS_ERROR("rost: get_topic_model: %s", rost::bridge::printable(err).c_str());
         return false;
     }
     res.K = pipeline_->K();

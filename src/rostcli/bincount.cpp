@@ -73,7 +73,7 @@ int wordsBincountMain(int argc, char** argv) {
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "words.bincount: %s (see --help)\n", e.what());
+        std::fprintf(stderr, "words.bincount: %s (see --help)\n", text::printable(e.what()).c_str());
         return 2;
     }
     Status st;
@@ -83,7 +83,7 @@ int wordsBincountMain(int argc, char** argv) {
         st = Status::error(StatusKind::OutOfMemory, "out of memory");
     }
     if (!st.ok()) {
-        std::fprintf(stderr, "words.bincount: %s\n", st.message().c_str());
+        std::fprintf(stderr, "words.bincount: %s\n", text::printable(st.message()).c_str());
         return 2;
     }
     return 0;

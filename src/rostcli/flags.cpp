@@ -17,6 +17,7 @@
 #include <CLI/CLI.hpp>
 
 #include "cli_given.hpp"
+#include "rost/text_io.hpp"
 #include "rostcli.hpp"
 
 namespace rost::cli {
@@ -274,7 +275,7 @@ int topicsRefineMain(Command cmd, int argc, char** argv) {
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "%s: %s (see --help)\n", name, e.what());
+        std::fprintf(stderr, "%s: %s (see --help)\n", name, text::printable(e.what()).c_str());
         return 2;
     }
     Settings s;
@@ -296,7 +297,7 @@ int topicsRefineMain(Command cmd, int argc, char** argv) {
         }
     }
     if (!st.ok()) {
-        std::fprintf(stderr, "%s: %s\n", name, st.message().c_str());
+        std::fprintf(stderr, "%s: %s\n", name, text::printable(st.message()).c_str());
         return 2;
     }
     return 0;

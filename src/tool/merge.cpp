@@ -54,7 +54,7 @@ int mergeCommand(const MergeCliOptions& o) {
         const std::string counts = text::counted(static_cast<long long>(models.size()), "model") + ", " +
                                    text::counted(static_cast<long long>(topics), "topic") + " -> " +
                                    text::counted(merged.global.K, "global topic");
-        std::fprintf(stderr, "rost merge: %s (V = %d) in %s\n", counts.c_str(), merged.global.V, o.out.c_str());
+        std::fprintf(stderr, "rost merge: %s (V = %d) in %s\n", counts.c_str(), merged.global.V, text::printable(o.out).c_str());
     }
     return kExitOk;
 }

@@ -8,6 +8,7 @@
 
 #include "rost/config_file.hpp"
 #include "rost/settings.hpp"
+#include "rost/text_io.hpp"
 #include "rost/word_stream.hpp"
 #include "tool.hpp"
 
@@ -43,7 +44,7 @@ int toolThreads(const ModelOptions& m, bool realtime) {
 }
 
 int fail(const std::string& message) {
-    std::fprintf(stderr, "rost: error: %s\n", message.c_str());
+    std::fprintf(stderr, "rost: error: %s\n", text::printable(message).c_str());
     return kExitError;
 }
 

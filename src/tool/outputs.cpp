@@ -11,6 +11,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "rost/text_io.hpp"
 #include "rost/word_stream.hpp"
 
 namespace fs = std::filesystem;
@@ -95,7 +96,7 @@ std::string OutputDir::earlierFilesNote() const {
         names += name;
     }
     if (names.empty()) return {};
-    return "rost: note: not written by this run, kept from before in " + dir_ + ":" + names + "\n";
+    return "rost: note: not written by this run, kept from before in " + text::printable(dir_) + ":" + names + "\n";
 }
 
 void OutputDir::abandon() noexcept {

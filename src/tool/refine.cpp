@@ -135,7 +135,7 @@ int refineCommand(const RefineOptions& o) {
         std::fputs(out.earlierFilesNote().c_str(), stderr);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         std::fprintf(stderr, "rost: %s in %.1f s; outputs in %s\n",
-                     text::counted(static_cast<long long>(in.todo().size()), "observation").c_str(), s, o.out.c_str());
+                     text::counted(static_cast<long long>(in.todo().size()), "observation").c_str(), s, text::printable(o.out).c_str());
     }
     return kExitOk;
 }

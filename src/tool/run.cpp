@@ -196,7 +196,7 @@ int runCommand(const RunOptions& o) {
         const std::size_t frames = sinks.frames.rows().size();
         std::fprintf(stderr, "rost: %s in %.1f s (%.1f frames/s); outputs in %s\n",
                      text::counted(static_cast<long long>(frames), "frame").c_str(), seconds,
-                     static_cast<double>(frames) / std::max(1e-9, seconds), o.out.c_str());
+                     static_cast<double>(frames) / std::max(1e-9, seconds), text::printable(o.out).c_str());
     }
     return kExitOk;
 }

@@ -24,7 +24,7 @@ Status WordsStage::open(const RunOptions& o) {
 }
 
 void WordsStage::printNotes() const {
-    for (const std::string& n : source->takeNotes()) std::fprintf(stderr, "rost: %s\n", n.c_str());
+    for (const std::string& n : source->takeNotes()) std::fprintf(stderr, "rost: %s\n", text::printable(n).c_str());
 }
 
 // A bag (its image topic, read with rosbag) or the vision library's sources.
@@ -83,12 +83,12 @@ void RunEngine::describe(const RunOptions& o, const WordsStage& w, bool realtime
     std::fprintf(stderr,
                  "rost: %s\nrost: V = %d, K = %d, %s of %d px, ring of %d steps, max.words %d, %s budget %s, "
                  "model memory %.1f MiB%s\n",
-                 w.info.description.c_str(), V, ec.model.K, text::counted(ec.model.cellsPerStep(), "cell").c_str(), ec.model.cell_space,
+                 text::printable(w.info.description).c_str(), V, ec.model.K, text::counted(ec.model.cellsPerStep(), "cell").c_str(), ec.model.cell_space,
                  ec.model.ring_steps, ec.model.max_words_per_frame, toString(ec.strategy.kind),
                  budgetText(ec.budget).c_str(),
                  mib, realtime ? ", realtime" : "");
     if (resuming)
-        std::fprintf(stderr, "rost: resuming %s at observation %llu (frame %lld)%s%s\n", o.model.resume.c_str(),
+        std::fprintf(stderr, "rost: resuming %s at observation %llu (frame %lld)%s%s\n", text::printable(o.model.resume).c_str(),
                      static_cast<unsigned long long>(resumed.observations), static_cast<long long>(resumed.last_timestamp),
                      w.live ? "; camera frames are numbered after it" : "; earlier frames are skipped",
                      refinementChanged ? "; refinement settings changed (not bit for bit)" : "");

@@ -43,7 +43,7 @@ Status StreamStage::open(const RefineOptions& o) {
     engine = std::move(m.engine);
     if (resuming && !o.quiet)
         std::fprintf(stderr, "rost: resuming %s at observation %llu (time stamp %lld); %s skipped%s\n",
-                     o.model.resume.c_str(), static_cast<unsigned long long>(resumed.observations),
+                     text::printable(o.model.resume).c_str(), static_cast<unsigned long long>(resumed.observations),
                      static_cast<long long>(resumed.last_timestamp),
                      text::counted(static_cast<long long>(skipped), "observation").c_str(),
                      refinementChanged ? "; refinement settings changed (not bit for bit)" : "");

@@ -127,7 +127,7 @@ int vocabCommand(const VocabOptions& o) {
     if (!o.quiet) {
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         std::fprintf(stderr, "rost vocab: %s: %u words, %d iterations, mean distance %.2f bits, %.1f s\n",
-                     o.out.c_str(), v.size(), rep.iterations, rep.mean_distance, s);
+                     text::printable(o.out).c_str(), v.size(), rep.iterations, rep.mean_distance, s);
     }
     return kExitOk;
 }
