@@ -461,6 +461,13 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position short.csv -V 40 -K 4");
     EXPECT_EQ(r.status, 2);
     EXPECT_EQ(r.err, "topics.refine.txy: short.csv:2:1: 1 position lines for the 2 documents of w.csv\n");
+    // A side file that cannot be read is named by its flag (a line of one by its place).
+    r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position . -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.txy: --in.position: .: is a directory, not a file\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i w.csv --in.topics gone.csv -V 40 -K 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: --in.topics: gone.csv: cannot open: No such file or directory\n");
     writeText(dir + "/long.csv", "0,1,2\n1,3,4,5,6\n2,7,8\n");
     r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position long.csv -V 40 -K 4");
     EXPECT_EQ(r.status, 2);

@@ -285,6 +285,11 @@ TEST(ToolCli, RefineNamesTheLineAndColumnOfABadWord) {
     expectError(runRost("refine " + (t / "w3.csv") + " --positions " + (t / "p2.csv") + " --out " + (t / "o")), "p2.csv:2",
                 t / "o");
     expectError(runRost("refine " + (t / "nothere.csv") + " --out " + (t / "o")), "nothere.csv", t / "o");
+    // A positions file that cannot be read is named by its option; a line of one by its place (above).
+    const RunResult gone = runRost("refine " + (t / "w3.csv") + " --positions " + (t / "nothere.csv") + " --out " + (t / "o"));
+    expectError(gone, "--positions: " + (t / "nothere.csv") + ": cannot open: No such file or directory", t / "o");
+    expectError(runRost("refine " + (t / "w3.csv") + " --positions " + t.path() + " --out " + (t / "o")),
+                "rost: error: --positions: " + t.path() + ": is a directory, not a file", t / "o");
 }
 
 TEST(ToolCli, RefineRunsAWordStreamWithoutPositionsAndWritesItsOutputs) {

@@ -284,7 +284,7 @@ def test_a_missing_input_file_is_file_not_found_error_on_every_face(tmp_path):
     gone = nope + ": cannot open: No such file or directory"
     cases = [
         (lambda: rost.Mission(nope), "rost.Mission: " + gone),
-        (lambda: rost.Mission(words, positions=nope), "rost.Mission: " + gone),
+        (lambda: rost.Mission(words, positions=nope), "rost.Mission: positions: " + gone),
         (lambda: rost.Mission(words, resume=nope), "rost.Mission: resume: " + gone),
         (lambda: rost.Mission(words, topicmodel=nope), "rost.Mission: topicmodel: " + gone),
         (lambda: rost.vision.Mission(nope + ".mov"),

@@ -293,7 +293,7 @@ Status readCorpus(const RunOptions& o, const Settings& s, Corpus& c) {
     if (Status st = parseDocuments(text, name, o.delim, V, c); !st.ok()) return st;
     if (o.cmd == Command::RefineTxy) {
         if (o.in_position.empty()) return Status::error("topics.refine.txy needs word positions: --in.position FILE");
-        if (Status st = readInput(o.in_position, text, name); !st.ok()) return st;
+        if (Status st = readInput(o.in_position, text, name); !st.ok()) return st.prefixed("--in.position: ");
         if (Status st = parsePositions(text, name, o.delim, c); !st.ok()) return st;
     } else {
         for (Document& d : c.docs) d.positions.assign(d.words.size(), Position{0, 0});
@@ -335,7 +335,7 @@ Status runRefine(const RunOptions& o, Settings& s) {
     if (Status st = fitModel(o, stream ? nullptr : &c, s); !st.ok()) return st;
     if (!o.in_topics.empty()) {  // the labels to start from, once K is known
         std::string text, name;
-        if (Status st = readInput(o.in_topics, text, name); !st.ok()) return st;
+        if (Status st = readInput(o.in_topics, text, name); !st.ok()) return st.prefixed("--in.topics: ");
         if (Status st = parseInitialTopics(text, name, topicsDelimiter(text, o.delim), s.engine.model.K, c); !st.ok())
             return st;
     }
