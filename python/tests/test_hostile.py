@@ -422,13 +422,24 @@ def test_a_byte_order_mark_before_the_first_line_is_read_past_by_every_face(tmp_
     p = subprocess.run([os.path.join(CLI_DIR, "words.bincount"), "-V", "5"], input=BOM + b"0,1,1\n", capture_output=True,
                        timeout=120)
     assert p.stdout == b"0,0,2,0,0,0\n", p.stdout + p.stderr
-    # In the middle: an error naming its line where timestamps are numbers (rost-cli's are text,
-    # copied as written, so there it is part of the line's timestamp).
+    # In the middle: an error naming its line on every face (rost-cli's timestamps are text, copied
+    # as written: a mark there is refused by name rather than copied into the timestamp).
     (tmp_path / "mid.csv").write_bytes(b"0,1,2\n" + BOM + b"1,3,4\n")
     needle = "mid.csv:2:1: expected "
     refused(*tool(tmp_path, "refine", "mid.csv", "--out", "om"), needle, out=tmp_path / "om")
     with pytest.raises(ValueError, match=needle):
         rost.Mission(tmp_path / "mid.csv")
+    said = "mid.csv:2:1: a byte-order mark before the timestamp '1' (two files joined?)\n"
+    code, err = refine_t(tmp_path, "-i", "mid.csv", "-V", "5", "-K", "2", "-n", "1", "--out.topics", "mid_topics.csv")
+    assert (code, err) == (2, "topics.refine.t: " + said)
+    assert not (tmp_path / "mid_topics.csv").exists()
+    p = subprocess.run([os.path.join(CLI_DIR, "topics.refine.t"), "-V", "5", "-K", "2", "--online", "--online.mint", "1",
+                        "--out.topics.online", "mid_online.csv"], cwd=tmp_path, input=b"0,1,2\n" + BOM + b"1,3\n",
+                       capture_output=True, timeout=120)
+    assert p.returncode == 2 and p.stderr.decode() == "topics.refine.t: <stdin>:2:1: " + said.split(": ", 1)[1], p.stderr
+    p = subprocess.run([os.path.join(CLI_DIR, "words.bincount"), "-V", "5", "-i", "mid.csv"], cwd=tmp_path,
+                       capture_output=True, timeout=120)
+    assert p.returncode == 2 and p.stderr.decode() == "words.bincount: " + said, p.stderr
 
 
 def test_an_error_quoting_bytes_of_no_character_is_still_a_message(tmp_path):

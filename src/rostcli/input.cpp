@@ -106,6 +106,11 @@ namespace {
 // One document from a line split into `fields` (word ids below `hi`).
 Status takeDocument(const std::vector<Field>& fields, std::string_view name, int number, int64_t hi, Document& d) {
     if (fields[0].text.empty()) return Status::error(where(name, number, fields[0].column) + "empty timestamp");
+    // A byte-order mark after the file's start (`cat` of two files that each begin with one) is
+    // no part of a time stamp: refused in its line, as the tool's readers refuse it.
+    if (fields[0].text.starts_with("\xEF\xBB\xBF"))
+        return Status::error(where(name, number, fields[0].column) + "a byte-order mark before the timestamp '" +
+                             text::printable(fields[0].text.substr(3), 32) + "' (two files joined?)");
     d.timestamp = std::string(fields[0].text);
     d.line = number;
     d.words.clear();
