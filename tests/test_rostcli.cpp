@@ -503,6 +503,30 @@ TEST_F(RostCli, ErrorsNameFileLineAndColumnAndLeaveNoOutputs) {
     EXPECT_FALSE(fs::exists(dir + "/h.csv"));
 }
 
+// A batch keeps every word: a document (or a time step of them) that is more than a
+// cell can hold is refused naming the lines that ask for it, not only the setting.
+TEST_F(RostCli, ADocumentTooLargeForACellIsNamedByItsLines) {
+    std::string big = "0,1,2\n1";
+    for (int i = 0; i < 1100000; ++i) big += ",3";
+    writeText(dir + "/big.csv", big + "\n");
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i big.csv -V 5 -K 2 -n 1");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: the model this input needs: cell.capacity = 1100000, allowed [1, 1048576] "
+                     "(big.csv:2: a document of 1100000 words)\n");
+    std::string steps = "0,1\n";  // a document of one word, then 7 of 300000: the second time step is the busiest
+    for (int t = 1; t <= 7; ++t) {
+        steps += std::to_string(t);
+        for (int i = 0; i < 300000; ++i) steps += ",3";
+        steps += "\n";
+    }
+    writeText(dir + "/steps.csv", steps);
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i steps.csv -V 5 -K 2 -n 1 --cell.time 4");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: the model this input needs: cell.capacity = 1200000, allowed [1, 1048576] "
+                     "(steps.csv:5-8: the documents of one time step, --cell.time 4; a smaller one splits them)\n");
+    EXPECT_FALSE(fs::exists(dir + "/topics.csv"));
+}
+
 // Flags: schema ranges with the schema's words, rost-cli flags rost cannot
 // reproduce refused by name, spatial flags accepted by topics.refine.t.
 TEST_F(RostCli, FlagsGoThroughTheSchema) {

@@ -38,8 +38,9 @@ Status set(Settings& s, std::string_view key, const std::string& value) {
     return setSetting(s, key, value);
 }
 
-// The largest number of words any one cell of any time step receives.
-uint32_t busiestCell(const Corpus& c, const Config& m) {
+// The largest number of words any one cell of any time step receives; `at`:
+// the first document of that time step (for messages).
+uint32_t busiestCell(const Corpus& c, const Config& m, std::size_t& at) {
     std::vector<uint32_t> count(static_cast<std::size_t>(m.cellsPerStep()), 0);
     uint32_t most = 0;
     const std::size_t ct = static_cast<std::size_t>(m.cell_time);
@@ -48,7 +49,7 @@ uint32_t busiestCell(const Corpus& c, const Config& m) {
         for (std::size_t d = first; d < std::min(first + ct, c.docs.size()); ++d) {
             for (const Position& p : c.docs[d].positions) {
                 const int cell = (p.y / m.cell_space) * m.gridWidth() + p.x / m.cell_space;
-                most = std::max(most, ++count[static_cast<std::size_t>(cell)]);
+                if (++count[static_cast<std::size_t>(cell)] > most) most = count[static_cast<std::size_t>(cell)], at = first;
             }
         }
     }
@@ -56,16 +57,38 @@ uint32_t busiestCell(const Corpus& c, const Config& m) {
 }
 
 // The words a refine.t time step holds (all its documents: one cell per step).
-uint32_t busiestStep(const Corpus& c, const Config& m) {
+uint32_t busiestStep(const Corpus& c, const Config& m, std::size_t& at) {
     uint32_t most = 0;
     const std::size_t ct = static_cast<std::size_t>(m.cell_time);
     for (std::size_t first = 0; first < c.docs.size(); first += ct) {
         uint32_t n = 0;
         for (std::size_t d = first; d < std::min(first + ct, c.docs.size()); ++d)
             n += static_cast<uint32_t>(c.docs[d].words.size());
-        most = std::max(most, n);
+        if (n > most) most = n, at = first;
     }
     return most;
+}
+
+// A batch's model setting out of range because of its input (the longest
+// document: max.words; the busiest cell: cell.capacity), with the place in
+// the input that asks for it: "words.csv:2 (a document of 1100000 words)".
+std::string batchProblem(const SettingProblem& p, const Corpus& c, std::size_t busiest, int cellTime) {
+    std::string text = "the model this input needs: " + problemText(p);
+    const std::string_view key = p.spec->key;
+    if (key != "max.words" && key != "cell.capacity") return text;
+    std::size_t at = busiest;
+    if (key == "max.words")
+        at = static_cast<std::size_t>(std::max_element(c.docs.begin(), c.docs.end(), [](const Document& a, const Document& b) {
+                                           return a.words.size() < b.words.size();
+                                       }) - c.docs.begin());
+    if (at >= c.docs.size()) return text;
+    const Document& d = c.docs[at];
+    const Document& last = c.docs[std::min(at + static_cast<std::size_t>(std::max(cellTime, 1)), c.docs.size()) - 1];
+    text += " (" + c.words_name + ":" + std::to_string(d.line);
+    if (key == "max.words" || &last == &d)
+        return text + ": a document of " + text::counted(static_cast<long long>(d.words.size()), "word") + ")";
+    return text + "-" + std::to_string(last.line) + ": the documents of one time step, --cell.time " +
+           std::to_string(cellTime) + "; a smaller one splits them)";
 }
 
 // The model for the input, by the library's mission session (rost/mission.hpp),
@@ -88,7 +111,13 @@ Status fitModel(const RunOptions& o, const Corpus* stream, Settings& s) {
     mission.settings = s;
     mission.given = o.given;
     mission.in_topicmodel = o.in_topicmodel;  // V holds its columns too
-    mission.names.problem = [](const SettingProblem& p) { return "the model this input needs: " + problemText(p); };
+    std::size_t busiest = 0;  // the first document of the busiest time step (batch)
+    if (stream == nullptr)
+        mission.names.problem = [](const SettingProblem& p) { return "the model this input needs: " + problemText(p); };
+    else
+        mission.names.problem = [stream, &busiest, &s](const SettingProblem& p) {
+            return batchProblem(p, *stream, busiest, s.engine.model.cell_time);
+        };
     MissionInput in;
     if (stream == nullptr) {
         // Online, a cell keeps room for its documents' most words (max.words each) from the start.
@@ -112,8 +141,8 @@ Status fitModel(const RunOptions& o, const Corpus* stream, Settings& s) {
         in.length = static_cast<int64_t>(c.docs.size());
         in.max_words = std::max<std::size_t>(c.longest, 1);
         in.keep_all = true;
-        in.busiest_cell = [&c, &o](const Config& m) -> uint64_t {
-            return o.cmd == Command::RefineT ? busiestStep(c, m) : busiestCell(c, m);
+        in.busiest_cell = [&c, &o, &busiest](const Config& m) -> uint64_t {
+            return o.cmd == Command::RefineT ? busiestStep(c, m, busiest) : busiestCell(c, m, busiest);
         };
     }
     in.threads = s.engine.model.threads;  // rost-cli's: every usable core unless --threads
