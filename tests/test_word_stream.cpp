@@ -106,6 +106,15 @@ TEST(WordStreamCsv, EnormousObservationIsRejected) {
     const rost::Status st = rost::parseWordStream("7,1,2,3,4\n", {}, l, s);
     ASSERT_FALSE(st.ok());
     EXPECT_EQ(st.message(), "words.csv:1:1: 4 words in one observation, at most 3");
+    // Exactly max.words is an observation like any other, on the serial and the two-thread path.
+    for (int threads : {1, 2}) {
+        l.threads = threads;
+        ASSERT_TRUE(rost::parseWordStream("7,1,2,3\n8,4\n", "7,0,0,1,1,2,2\n8,3,3\n", l, s).ok()) << threads;
+        ASSERT_EQ(s.observations.size(), 2u);
+        EXPECT_EQ(s.observations[0].words, (std::vector<uint32_t>{1, 2, 3}));
+        EXPECT_EQ(rost::parseWordStream("7,1,2\n8,4,5,6,7\n", "", l, s).message(),
+                  "words.csv:2:1: 4 words in one observation, at most 3");
+    }
 }
 
 TEST(WordStreamCsv, MissingFileNamesThePath) {
