@@ -1032,6 +1032,10 @@ TEST(TopicModelCsv, ErrorsNameFileLineAndColumn) {
     EXPECT_EQ(err("1,2,99999999999999999999\n4,5,6\n"),
               "topicmodel.csv:1:5: count '99999999999999999999' out of range [0, 2^31)");
     EXPECT_EQ(err("2000000000,2000000000,0\n4,5,6\n"), "topicmodel.csv:1:12: topic 0's total count exceeds 2^31 - 1");
+    // The count's own edges: 2^31 - 1 is a count, 2^31 is not.
+    EXPECT_EQ(err("2147483647,0,0\n4,5,6\n"), "ok");
+    EXPECT_EQ(c[0], 2147483647);
+    EXPECT_EQ(err("0,2147483648,0\n4,5,6\n"), "topicmodel.csv:1:3: count '2147483648' out of range [0, 2^31)");
     EXPECT_EQ(err("1.5,2,3\n4,5,6\n"), "topicmodel.csv:1:1: expected a count, found '1.5'");
 
     const fs::path dir = tempDir("topics_err");

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -648,6 +649,30 @@ TEST(Replay, RecordsPerplexitySurpriseAndFinalLabelsForEveryObservation) {
     }
     EXPECT_TRUE(std::isnan(r.observations[0].surprise) || r.observations[0].surprise > 0);
     EXPECT_EQ(r.counters.ingested, frames.size());
+}
+
+// The engine's own hooks stay called during a replay (which adds its own
+// beside them): every observation reaches the observation hook once, and
+// the eviction hook once (as it leaves the ring, or from the window at the
+// end), in order; both are the engine's again afterwards.
+TEST(Replay, TheEnginesOwnHooksSeeEveryObservationOnce) {
+    EngineConfig c = engineConfig(Budget::steps(2));
+    const auto frames = makeStream(c.model, 3 * c.model.ring_steps / 2, 50, 11);
+    for (const bool threaded : {false, true}) {
+        Engine engine(c);
+        std::vector<uint64_t> observed, evicted;
+        engine.setObservationHook([&](const ObservationResult& r, const Model&) { observed.push_back(r.sequence); });
+        engine.setEvictionHook([&](const WindowObservation& w, const Model&) { evicted.push_back(w.observation); });
+        ReplayResult r;
+        ReplayOptions o;
+        o.threaded = threaded;
+        ASSERT_TRUE(replay(engine, toStream(frames), o, r).ok());
+        std::vector<uint64_t> all(frames.size());
+        std::iota(all.begin(), all.end(), uint64_t{0});
+        EXPECT_EQ(observed.size(), frames.size()) << threaded;
+        EXPECT_EQ(evicted, all) << threaded;
+        EXPECT_TRUE(static_cast<bool>(engine.evictionHook())) << "the engine's hook, given back";
+    }
 }
 
 TEST(Replay, LearnsTheStreamsStructureAndMoreBudgetLowersPerplexity) {

@@ -569,6 +569,33 @@ TEST(ParallelMeasure, TwoThreadsMeasuringAtOnceGetTheSerialBits) {
     b.join();
     EXPECT_EQ(wrong.load(), 0);
     EXPECT_GT(m.poolJobs(), 0u);
+    // Labels and samples too, from two threads of different steps at once: their serial path's
+    // cache of neighbourhood sums is claimed by one call, the other sums on its own stack.
+    // (ThreadSanitizer reported the shared cache as a race before.)
+    std::vector<std::vector<uint16_t>> wantLabels, wantSamples;
+    for (uint64_t f = 0; f < m.observations(); ++f) {
+        std::vector<uint16_t> l(m.observationSize(f)), z(m.observationSize(f));
+        serial.observationLabels(f, l);
+        m.observationSamples(f, z);
+        wantLabels.push_back(std::move(l));
+        wantSamples.push_back(std::move(z));
+    }
+    auto labelAll = [&](uint64_t first) {
+        std::vector<uint16_t> l, z;
+        for (int rep = 0; rep < 30; ++rep)
+            for (uint64_t i = 0; i < m.observations(); ++i) {
+                const uint64_t f = (first + i) % m.observations();
+                l.assign(m.observationSize(f), 0);
+                z.assign(m.observationSize(f), 0);
+                m.observationLabels(f, l);
+                m.observationSamples(f, z);
+                if (l != wantLabels[f] || z != wantSamples[f]) ++wrong;
+            }
+    };
+    std::thread c1(labelAll, 0), c2(labelAll, m.observations() / 2);
+    c1.join();
+    c2.join();
+    EXPECT_EQ(wrong.load(), 0);
 }
 
 // The final pass's measurements of many observations at once (a task an

@@ -527,6 +527,18 @@ TEST_F(RostCli, ADocumentTooLargeForACellIsNamedByItsLines) {
     EXPECT_FALSE(fs::exists(dir + "/topics.csv"));
 }
 
+// words.bincount -o /dev/stdout (or -) writes to the standard output it was
+// given, as rost-cli did: a script's `>> all.csv` appends, and replaces nothing.
+TEST_F(RostCli, BincountToStandardOutputAppendsWhereTheShellSaysSo) {
+    writeText(dir + "/w.csv", "0,1,1,2\n1,3\n");
+    for (const char* out : {"/dev/stdout", "-"}) {
+        writeText(dir + "/all.csv", "earlier\n");
+        const Result r = run(dir, bin(ROSTCLI_BINCOUNT) + " -i w.csv -V 4 -o " + out + " >> all.csv");
+        ASSERT_EQ(r.status, 0) << out << ": " << r.err;
+        EXPECT_EQ(readText(dir + "/all.csv"), "earlier\n0,0,2,1,0\n1,0,0,0,1\n") << out;
+    }
+}
+
 // Flags: schema ranges with the schema's words, rost-cli flags rost cannot
 // reproduce refused by name, spatial flags accepted by topics.refine.t.
 TEST_F(RostCli, FlagsGoThroughTheSchema) {

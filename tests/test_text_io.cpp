@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <chrono>
 #include <csignal>
 #include <cmath>
 #include <cstdint>
@@ -421,6 +422,20 @@ TEST(TextFiles, ADeviceOrFifoIsWrittenInPlaceNotReplaced) {
     ASSERT_EQ(::stat(fifo.c_str(), &st), 0);
     EXPECT_TRUE(S_ISFIFO(st.st_mode)) << "the FIFO was replaced by a file";
     EXPECT_EQ(d.names(), Strings{"pipe"});  // no temporary file left
+    // A FIFO no process reads is an error at once, not a wait for a reader that may never come
+    // (alone, and among other files: those are not written either).
+    const auto started = std::chrono::steady_clock::now();
+    ::alarm(20);  // a wait for a reader ends the test binary (SIGALRM), not the suite's time
+    const Status alone = text::writeFileAtomic(fifo, "1,2\n");
+    EXPECT_EQ(alone.message(), fifo + ": cannot open for writing: a FIFO that no process reads (start its reader first)");
+    EXPECT_EQ(alone.kind(), rost::StatusKind::OsError);
+    const std::string other = (d.path / "other.csv").string();
+    const std::vector<text::FileToWrite> both{{other, "x\n"}, {fifo, "1,2\n"}};
+    EXPECT_FALSE(text::writeFilesAtomic(both).ok());
+    ::alarm(0);
+    EXPECT_FALSE(std::filesystem::exists(other)) << "a file renamed before the FIFO failed";
+    EXPECT_EQ(d.names(), Strings{"pipe"});
+    EXPECT_LT(std::chrono::steady_clock::now() - started, std::chrono::seconds(20));
 }
 
 // What `write` returns when run in a forked child whose files may not grow

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <sched.h>
+
 #include <cstdio>
 
 #include <cmath>
@@ -195,6 +197,31 @@ TEST_F(ToolEndToEnd, SameSeedGivesIdenticalFilesAndAnotherSeedDifferentLabels) {
         EXPECT_EQ(readText(t / "a" + "/" + f), readText(t / "b" + "/" + f)) << f;
     EXPECT_EQ(readText(t / "a/words.csv"), readText(t / "c/words.csv")) << "words do not depend on the seed";
     EXPECT_NE(readText(t / "a/topics.csv"), readText(t / "c/topics.csv"));
+}
+
+// Without --threads a run refines on the CPUs the process may use (its
+// affinity, which the child inherits), a realtime one leaving one to the
+// capture thread; run.txt says how many it took.
+TEST_F(ToolEndToEnd, ThreadsFollowTheCpusTheProcessMayUseLessOneForARealtimeCapture) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    ASSERT_EQ(::sched_getaffinity(0, sizeof set, &set), 0);
+    const int cpus = CPU_COUNT(&set);
+    if (cpus > 16) GTEST_SKIP() << cpus << " CPUs: past the schema's thread limit this test does not model";
+    TempDir t;
+    const auto threadsOf = [&](const std::string& dir) {
+        for (const auto& l : lines(readText(dir + "/run.txt"))) {
+            const std::size_t at = l.find(", threads ");
+            if (at != std::string::npos) return std::atoi(l.c_str() + at + 10);
+        }
+        return -1;
+    };
+    const std::string common = " run '" + mire_ + "' --max-frames 3 --no-overlay --no-summary -q --out ";
+    ASSERT_EQ(runShell(tool() + common + (t / "offline")).exit_code, 0);
+    EXPECT_EQ(threadsOf(t / "offline"), cpus);
+    const RunResult rt = runShell(tool() + common + (t / "realtime") + " --realtime");
+    ASSERT_EQ(rt.exit_code, 0) << rt.err;
+    EXPECT_EQ(threadsOf(t / "realtime"), std::max(cpus - 1, 1));
 }
 
 TEST_F(ToolEndToEnd, OutputsFeedRefineAndTheTopicModelLoadsBack) {

@@ -469,6 +469,20 @@ TEST(ToolTrust, ACheckpointMergesThroughAFifo) {
     EXPECT_EQ(rost::testing::readText(t / "m/lifting.csv"), rost::testing::readText(t / "d/lifting.csv"));
 }
 
+// A checkpoint to a FIFO no process reads: its writer waited for a reader
+// for ever, and Ctrl-C or SIGTERM only restarted the wait. Now the save
+// fails at once, the run ends naming it (exit 2) and leaves no outputs.
+// (`timeout` turns a hang back into a failure here rather than a stuck suite.)
+TEST(ToolTrust, ACheckpointToAFifoNoProcessReadsFailsTheRunAtOnce) {
+    TempDir t;
+    writeStream(t);
+    const std::string fifo = t / "ckpt";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    const RunResult r = rost::testing::runShell("timeout -s KILL 120 " + tool() + " " + refine(t, "o", "--checkpoint " + fifo));
+    expectError(r, "--checkpoint: " + fifo + ": cannot open for writing: a FIFO that no process reads (start its reader first)",
+                t / "o");
+}
+
 // A checkpoint (or a bag) written over an input of the same run would replace
 // it: refused by name, however the path is spelled, before anything is read.
 TEST(ToolTrust, ACheckpointOverAnInputIsRefusedAndTheInputKept) {

@@ -136,6 +136,7 @@ private:
     // Per-buffer sequence numbers: odd while the writer fills that buffer.
     alignas(kCacheLine) std::atomic<uint64_t> bseq_[2] = {0, 0};
     std::unique_ptr<std::atomic<uint64_t>[]> buf_[2];
+    static_assert(std::atomic<uint64_t>::is_always_lock_free, "the snapshot seqlock needs lock-free 64-bit atomics");
 };
 
 } // namespace rost

@@ -57,6 +57,21 @@ def test_push_never_blocks_and_counts_drops():
     assert c["ingested"] == accepted.count(True)
 
 
+def test_a_full_queue_under_drop_oldest_counts_the_oldest_dropped():
+    """drop="oldest" (the default): a full queue discards its oldest observation, counted as
+    dropped_oldest, never as dropped_newest (each counter is its own, from the engine's)."""
+    rng = np.random.default_rng(2)
+    engine = rost.Engine(small_config(budget_refines=2000, queue_slots=2, drop="oldest"))
+    data = [random_observation(rng) for _ in range(50)]
+    with engine:
+        accepted = [engine.push(t, w, p) for t, (w, p) in enumerate(data)]
+    c = engine.counters()
+    assert c["pushed"] == 50
+    assert c["dropped_newest"] == accepted.count(False)
+    assert c["dropped_oldest"] > 0, c
+    assert c["ingested"] + c["dropped_oldest"] + c["dropped_newest"] == 50, c
+
+
 def test_push_checks_its_arrays_like_add_observation():
     engine = rost.Engine(small_config())
     with pytest.raises(TypeError, match="int32"):
@@ -65,7 +80,12 @@ def test_push_checks_its_arrays_like_add_observation():
         engine.push(0, np.array([40], np.int32))
     with pytest.raises(ValueError, match=r"positions\[0\]"):
         engine.push(0, np.array([1], np.int32), np.array([[500, 0]], np.int32))
+    # The frame's edges: x = width and y = height are outside it, width - 1 and height - 1 inside.
+    for x, y in ((128, 0), (0, 128)):
+        with pytest.raises(ValueError, match=r"positions\[0\] = \(%d, %d\)" % (x, y)):
+            engine.push(0, np.array([1], np.int32), np.array([[x, y]], np.int32))
     assert engine.counters()["pushed"] == 0
+    assert engine.push(0, np.array([1], np.int32), np.array([[127, 127]], np.int32))
 
 
 def test_start_twice_is_an_error_and_stop_is_idempotent():

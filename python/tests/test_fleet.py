@@ -182,3 +182,20 @@ def test_a_mission_the_tool_refuses_fails_naming_it(tmp_path):
     (tmp_path / "broken.csv").write_text("0,1,2\n1,2,x\n")
     with pytest.raises(RuntimeError, match=r"mission .*broken failed \(exit 2\): .*broken\.csv:2"):
         rost.fleet.run({"good": tmp_path / "good.csv", "broken": tmp_path / "broken.csv"}, tmp_path / "out", K=2)
+
+
+def test_lift_topics_refuses_a_label_outside_the_lifting_naming_the_file(tmp_path):
+    """A topics.csv of another model (a label k >= K of the lifting, or negative) is refused
+    with ValueError naming the file and the observation, not numpy's IndexError, and writes nothing."""
+    topics = tmp_path / "topics.csv"
+    out = tmp_path / "lifted.csv"
+    rost.io.write_topics(topics, [0, 1], [np.array([0, 1], np.int32), np.array([2, 1], np.int32)])
+    rost.fleet.lift_topics(topics, [5, 6, 7], out)
+    assert [list(l) for l in rost.io.read_topics(out)[1]] == [[5, 6], [7, 6]]
+    out.unlink()
+    for lifting, t in (([5, 6], 1), ([5], 0)):
+        with pytest.raises(ValueError, match=r"topics\.csv: observation %d: a label outside the model's %d topics"
+                           % (t, len(lifting))) as e:
+            rost.fleet.lift_topics(topics, lifting, out)
+        assert type(e.value) is ValueError
+    assert not out.exists()

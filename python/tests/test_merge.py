@@ -34,6 +34,16 @@ def test_topics_of_the_same_words_meet_and_counts_add_up(tmp_path):
     assert m.lifting_csv(["a", "b"]).splitlines()[:2] == ["model,local,global", "a,0,0"]
 
 
+def test_counts_of_any_integer_dtype_are_taken():
+    """Counts as numpy keeps them: signed or unsigned, 8 to 64 bits, give the same merge."""
+    a, b = planted([0, 1, 2], seed=1), planted([2, 0, 1, 3], seed=2)
+    want = rost.merge_topic_models([a, b])
+    for dtype in (np.uint32, np.uint16, np.int32, np.uint64):
+        m = rost.merge_topic_models([a.astype(dtype), b.astype(dtype)])
+        assert (m.global_counts == want.global_counts).all(), dtype
+        assert [list(l) for l in m.lifting] == [list(l) for l in want.lifting], dtype
+
+
 def test_the_same_bytes_as_rost_merge(tmp_path):
     tool = os.environ.get("ROST_TOOL")
     if not tool:

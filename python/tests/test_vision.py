@@ -125,6 +125,14 @@ def test_frames_too_small_raise_naming_the_size(shape):
     assert len(words) > 0 and positions.shape == (len(words), 2)
 
 
+def test_a_frame_of_65535_pixels_a_side_is_taken_and_one_more_refused():
+    extractor = rost.vision.WordExtractor()
+    words, positions = extractor(np.full((16, 65535), 100, np.uint8))
+    assert len(words) > 0 and positions[:, 0].max() < 65535
+    with pytest.raises(ValueError, match=r"frame: \(16, 65536\) is empty or larger than 65535 pixels a side"):
+        extractor(np.zeros((16, 65536), np.uint8))
+
+
 def test_vocabulary_training_defaults_are_the_tools():
     # One set of defaults (the library's KMajorityOptions, which `rost vocab` uses): 40 iterations.
     doc = rost.vision.Vocabulary.train.__doc__

@@ -780,6 +780,7 @@ bool CheckpointWriter::capture() noexcept {
     if (!ok) {  // not reached: the state's size is fixed by the configuration
         failed_.fetch_add(1, std::memory_order_relaxed);
         state_.store(kIdle, std::memory_order_release);
+        state_.notify_all();  // a flush() waiting on kFilling sees it end
         return false;
     }
     captured_.fetch_add(1, std::memory_order_relaxed);

@@ -334,7 +334,7 @@ private:
     void finalTask(int worker, uint64_t first, uint32_t i, double* perplexity, uint16_t* labels,
                    std::size_t stride) const noexcept;
     // G(c) of a cell of `step`, cached for the current output call (epoch).
-    const int32_t* cachedNeighbourhood(int64_t step, int cell) const noexcept;
+    const int32_t* cachedNeighbourhood(int64_t step, int cell, bool own, int32_t* local) const noexcept;
     template <typename F>
     void forEachInput(uint64_t frame, F&& f) const noexcept;
 
@@ -380,11 +380,15 @@ private:
     AlignedBuffer<int32_t> scratch_g_;       // Kp
     AlignedBuffer<double> scratch_ll_;       // per cell (surprise)
     AlignedBuffer<uint32_t> scratch_wn_;     // per cell (surprise word counts)
-    // Output-side cache of neighbourhood sums (cells x Kp) for const output
-    // functions; like everything else, a Model is used by one thread at a time.
+    // Output-side cache of neighbourhood sums (cells x Kp) for the const
+    // label outputs. Two threads may measure at once (model.hpp): a call claims
+    // the cache with out_cache_busy_ (one exchange, never a wait); one that
+    // finds it taken sums each word's neighbourhood on its own stack instead,
+    // with the same bits.
     mutable AlignedBuffer<int32_t> out_g_;
     mutable AlignedBuffer<uint64_t> out_g_epoch_;
     mutable uint64_t out_epoch_ = 0;
+    mutable std::atomic<bool> out_cache_busy_{false};
 
     Rng rng_;
     kernel::Path path_ = kernel::Path::Simd;

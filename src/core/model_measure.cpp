@@ -124,7 +124,13 @@ int ModelCore::mlTopic(uint32_t v, int z, const int32_t* nG, const Reciprocals& 
     return best;
 }
 
-const int32_t* ModelCore::cachedNeighbourhood(int64_t step, int cell) const noexcept {
+// The neighbourhood sums of `cell` at `step`: from the output cache when this
+// call holds it (`own`: epoch bumped by the caller), else computed into `local`.
+const int32_t* ModelCore::cachedNeighbourhood(int64_t step, int cell, bool own, int32_t* local) const noexcept {
+    if (!own) {
+        neighbourhood(step, cell, local, false);
+        return local;
+    }
     int32_t* g = out_g_.data() + static_cast<std::size_t>(cell) * Kp_;
     if (out_g_epoch_[cell] != out_epoch_) {
         neighbourhood(step, cell, g, false);
@@ -233,15 +239,19 @@ void ModelCore::observationLabels(uint64_t frame, std::span<uint16_t> out) const
     const std::size_t slot = slotOf(step);
     Reciprocals r;
     reciprocals(r);
-    ++out_epoch_;
+    const bool own = !out_cache_busy_.exchange(true, std::memory_order_acquire);
+    if (own) ++out_epoch_;
+    alignas(64) int32_t local[kMaxKp];
     forEachInput(frame, [&](uint32_t i, std::size_t at) {
         if (i >= out.size()) return;
         const uint32_t s = in_slot_[at];
         const bool dropped = (s & kDropped) != 0;
         const uint32_t cell = dropped ? (s & ~kDropped) : s / static_cast<uint32_t>(cap_);
         const int z = dropped ? -1 : cell_z_[slot * cells_ * cap_ + s];
-        out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], z, cachedNeighbourhood(step, static_cast<int>(cell)), r));
+        out[i] = static_cast<uint16_t>(
+            mlTopic(in_word_[at], z, cachedNeighbourhood(step, static_cast<int>(cell), own, local), r));
     });
+    if (own) out_cache_busy_.store(false, std::memory_order_release);
     renumber(frame, out);
 }
 
@@ -259,17 +269,20 @@ void ModelCore::observationSamples(uint64_t frame, std::span<uint16_t> out) cons
     const std::size_t slot = slotOf(step);
     Reciprocals r;
     reciprocals(r);
-    ++out_epoch_;
+    const bool own = !out_cache_busy_.exchange(true, std::memory_order_acquire);
+    if (own) ++out_epoch_;
+    alignas(64) int32_t local[kMaxKp];
     forEachInput(frame, [&](uint32_t i, std::size_t at) {
         if (i >= out.size()) return;
         const uint32_t s = in_slot_[at];
         if (s & kDropped) {
             const int cell = static_cast<int>(s & ~kDropped);
-            out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], -1, cachedNeighbourhood(step, cell), r));
+            out[i] = static_cast<uint16_t>(mlTopic(in_word_[at], -1, cachedNeighbourhood(step, cell, own, local), r));
         } else {
             out[i] = cell_z_[slot * cells_ * cap_ + s];
         }
     });
+    if (own) out_cache_busy_.store(false, std::memory_order_release);
     renumber(frame, out);
 }
 

@@ -89,6 +89,8 @@ private:
     const uint64_t capacity_;
     alignas(kRingCacheLine) std::atomic<uint64_t> published_{0};
     alignas(kRingCacheLine) std::atomic<uint64_t> released_{0};
+    // Lock-free is the ring's promise: a target without 64-bit atomics (armv6) fails here, by name.
+    static_assert(std::atomic<uint64_t>::is_always_lock_free, "the SPSC ring needs lock-free 64-bit atomics");
     struct alignas(kRingCacheLine) ProducerSide {
         uint64_t published = 0;  // the producer's own count (== published_)
         uint64_t released = 0;   // its copy of released_

@@ -142,7 +142,7 @@ std::string cutText(std::string_view s, std::size_t cut) {
         if (c == 0xEF && s.substr(i, 3) == "\xEF\xBB\xBF") {
             out += "\\ufeff";
             i += 2;
-        } else if (c == 0xC2 && seq == 2 && static_cast<unsigned char>(s[i + 1]) < 0xA0) {  // a C1 control: \u0080..\u009f
+        } else if (c == 0xC2 && seq == 2 && static_cast<unsigned char>(s[i + 1]) < 0xA0) {  // C1: \u0080..\u009f
             const auto d = static_cast<unsigned char>(s[i + 1]);
             out += "\\u00";
             out += kHex[d >> 4];
@@ -391,12 +391,26 @@ bool isDeviceOrFifo(const std::string& path) {
     return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
 }
 
-Status writeInPlace(const std::string& path, std::string_view content) {
-    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+// A FIFO is opened without waiting: one no process reads is an error now,
+// not a wait for a reader that may never come (an open blocked there is
+// restarted after Ctrl-C, so the tool could not be stopped); once open, its
+// writes wait for the reader as a pipe's do.
+Status openInPlace(const std::string& path, int& fd) {
+    fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | O_NONBLOCK);
     if (fd < 0) {
         const int err = errno;
+        if (err == ENXIO)
+            return Status::fromErrno(err, path + ": cannot open for writing: a FIFO that no process reads (start its "
+                                              "reader first)");
         return Status::fromErrno(err, path + ": cannot open for writing: " + std::strerror(err));
     }
+    const int flags = ::fcntl(fd, F_GETFL);
+    if (flags >= 0) (void)::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);  // blocking writes, as a pipe's
+    return {};
+}
+
+// Writes `content` through `fd` (openInPlace's) and closes it.
+Status writeThrough(int fd, const std::string& path, std::string_view content) {
     const bool ok = writeAll(fd, content);
     const int err = errno;
     ::close(fd);
@@ -515,7 +529,11 @@ Status linkTarget(const std::string& path, std::string& target) {
 }
 
 Status writeFileAtomic(const std::string& path, std::string_view content) {
-    if (isDeviceOrFifo(path)) return writeInPlace(path, content);
+    if (isDeviceOrFifo(path)) {
+        int fd = -1;
+        if (Status st = openInPlace(path, fd); !st.ok()) return st;
+        return writeThrough(fd, path, content);
+    }
     std::string target;
     if (Status st = linkTarget(path, target); !st.ok()) return st;
     std::string dir, tmp;
@@ -526,26 +544,28 @@ Status writeFileAtomic(const std::string& path, std::string_view content) {
 Status writeFilesAtomic(std::span<const FileToWrite> files) {
     struct Staged {
         const FileToWrite* file;
-        std::string dir, tmp;  // tmp empty: a device or FIFO, written in place at the end
+        std::string dir, tmp;  // tmp empty: a device or FIFO, opened now (fd) and written through at the end
         std::string target;    // the file replaced (linkTarget)
+        int fd = -1;
     };
     std::vector<Staged> staged;
     staged.reserve(files.size());
     const auto dropTemporaries = [&] {
-        for (const Staged& s : staged)
+        for (const Staged& s : staged) {
             if (!s.tmp.empty()) ::unlink(s.tmp.c_str());
+            if (s.fd >= 0) ::close(s.fd);
+        }
     };
     for (const FileToWrite& f : files) {
-        Staged s{&f, {}, {}, {}};
-        if (Status st = linkTarget(f.path, s.target); !st.ok()) {
+        Staged s{&f, {}, {}, {}, -1};
+        Status st = linkTarget(f.path, s.target);
+        // A device or FIFO is opened before anything is renamed: one that cannot be (a FIFO
+        // no process reads) leaves every file as it was.
+        if (st.ok())
+            st = isDeviceOrFifo(f.path) ? openInPlace(f.path, s.fd) : writeTemporary(s.target, f.content, s.dir, s.tmp);
+        if (!st.ok()) {
             dropTemporaries();
             return st;
-        }
-        if (!isDeviceOrFifo(f.path)) {
-            if (Status st = writeTemporary(s.target, f.content, s.dir, s.tmp); !st.ok()) {
-                dropTemporaries();
-                return st;
-            }
         }
         staged.push_back(std::move(s));
     }
@@ -557,9 +577,15 @@ Status writeFilesAtomic(std::span<const FileToWrite> files) {
         if (!st.ok()) result = st;
         s.tmp.clear();
     }
-    for (const Staged& s : staged)
-        if (result.ok() && s.dir.empty())
-            if (Status st = writeInPlace(s.file->path, s.file->content); !st.ok()) result = st;
+    for (Staged& s : staged) {
+        if (s.fd < 0) continue;
+        if (result.ok()) {
+            if (Status st = writeThrough(s.fd, s.file->path, s.file->content); !st.ok()) result = st;
+        } else {
+            ::close(s.fd);
+        }
+        s.fd = -1;
+    }
     return result;
 }
 

@@ -224,7 +224,9 @@ void WorkerPool::run(Job& job, uint32_t count, const uint32_t* cuts) noexcept {
     const auto n = static_cast<uint64_t>(workers_);
     for (uint64_t w = 0; w < n; ++w) {
         const uint64_t lo = cuts ? cuts[w] : count * w / n, hi = cuts ? cuts[w + 1] : count * (w + 1) / n;
-        ranges_[w].word.store(gen | (hi << 20) | lo, std::memory_order_relaxed);
+        // Release: a worker's claim (an acquire CAS) that matches this job's tag, even one
+        // that read a generation 2^24 jobs old, is then ordered after job_ and count_.
+        ranges_[w].word.store(gen | (hi << 20) | lo, std::memory_order_release);
     }
     generation_.store(g, std::memory_order_release);
     generation_.notify_all();

@@ -111,6 +111,8 @@ private:
     std::unique_ptr<uint8_t[]> partBegun_;  // whether a worker has begun the job run in parts
     alignas(64) std::atomic<uint32_t> done_{0};  // tasks done
     std::atomic<bool> stop_{false};
+    static_assert(std::atomic<uint64_t>::is_always_lock_free && std::atomic<uint32_t>::is_always_lock_free,
+                  "the worker pool needs lock-free 32- and 64-bit atomics");
     Job* job_ = nullptr;
     uint32_t count_ = 0;
     uint64_t jobs_ = 0;

@@ -31,6 +31,7 @@ namespace rost::cli {
 namespace {
 
 std::atomic<int> g_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free, "a signal handler may touch only lock-free atomics");
 extern "C" void onStopSignal(int sig) { g_signal.store(sig, std::memory_order_relaxed); }
 
 // SIGINT and SIGTERM end the stream (once: a second one kills as by default).

@@ -49,7 +49,8 @@ uint32_t busiestCell(const Corpus& c, const Config& m, std::size_t& at) {
         for (std::size_t d = first; d < std::min(first + ct, c.docs.size()); ++d) {
             for (const Position& p : c.docs[d].positions) {
                 const int cell = (p.y / m.cell_space) * m.gridWidth() + p.x / m.cell_space;
-                if (++count[static_cast<std::size_t>(cell)] > most) most = count[static_cast<std::size_t>(cell)], at = first;
+                const uint32_t inCell = ++count[static_cast<std::size_t>(cell)];
+                if (inCell > most) most = inCell, at = first;
             }
         }
     }
@@ -78,9 +79,10 @@ std::string batchProblem(const SettingProblem& p, const Corpus& c, std::size_t b
     if (key != "max.words" && key != "cell.capacity") return text;
     std::size_t at = busiest;
     if (key == "max.words")
-        at = static_cast<std::size_t>(std::max_element(c.docs.begin(), c.docs.end(), [](const Document& a, const Document& b) {
-                                           return a.words.size() < b.words.size();
-                                       }) - c.docs.begin());
+        at = static_cast<std::size_t>(
+            std::max_element(c.docs.begin(), c.docs.end(),
+                             [](const Document& a, const Document& b) { return a.words.size() < b.words.size(); }) -
+            c.docs.begin());
     if (at >= c.docs.size()) return text;
     const Document& d = c.docs[at];
     const Document& last = c.docs[std::min(at + static_cast<std::size_t>(std::max(cellTime, 1)), c.docs.size()) - 1];

@@ -15,6 +15,7 @@ bool stderrIsTerminal() noexcept { return ::isatty(STDERR_FILENO) == 1; }
 
 namespace {
 std::atomic<bool> g_interrupted{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "a signal handler may touch only lock-free atomics");
 extern "C" void onInterrupt(int) { g_interrupted.store(true, std::memory_order_relaxed); }
 } // namespace
 
