@@ -179,8 +179,7 @@ struct Pair {
     }
 };
 
-// The ring's sections are copied sparsely (Filler::fillRing); every other
-// section is copied whole.
+// The ring's sections are copied sparsely (Filler::fillRing); every other section whole.
 constexpr std::string_view kRingSections[] = {
     "ring.slot_step", "ring.cell_n",    "ring.cell_words", "ring.cell_z", "ring.n_ck",         "ring.cell_surprise",
     "ring.in_word",   "ring.in_pos",    "ring.in_slot",    "ring.in_n",   "ring.obs_surprise",

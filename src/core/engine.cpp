@@ -739,6 +739,7 @@ void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock:
 void Engine::refinerMain() noexcept {
     applyToCurrentThread(cfg_.thread);  // set-up: may allocate, logs fallbacks once
     refiner_->ready.store(true, std::memory_order_release);
+    refiner_->ready.notify_all();  // start() waits on it (set-up: one futex wake)
     int idle = 0;
     for (;;) {
         const int req = stop_request_.load(std::memory_order_acquire);
@@ -777,7 +778,7 @@ Status Engine::start() {
     }
     // Return only once the thread has applied its settings, so every set-up
     // allocation has happened by the time start() returns.
-    while (!refiner_->ready.load(std::memory_order_acquire)) std::this_thread::yield();
+    refiner_->ready.wait(false, std::memory_order_acquire);  // not a yield spin: a higher-priority caller
     return {};
 }
 

@@ -44,7 +44,17 @@ int toolThreads(const ModelOptions& m, bool realtime) {
 }
 
 int fail(const std::string& message) {
-    std::fprintf(stderr, "rost: error: %s\n", text::printable(message).c_str());
+    // Printable, but for the indented lines of a list an error ends with (a
+    // bag's image topics: "\n  /cam/image_raw (...)").
+    std::string shown;
+    for (std::size_t at = 0;;) {
+        const std::size_t next = message.find("\n  ", at);
+        shown += text::printable(std::string_view(message).substr(at, next - at));
+        if (next == std::string::npos) break;
+        shown += "\n  ";
+        at = next + 3;
+    }
+    std::fprintf(stderr, "rost: error: %s\n", shown.c_str());
     return kExitError;
 }
 
