@@ -129,6 +129,39 @@ TEST(WordStreamCsv, MissingFileNamesThePath) {
     EXPECT_NE(both.message().find("/nonexistent/words.csv: cannot open"), std::string::npos) << both.message();
 }
 
+// `unread` says which file could not be read, on one thread and on two, so
+// that a face names it by its option; a bad line of a file read is None.
+TEST(WordStreamCsv, AFailedReadSaysWhichFileItWas) {
+    const auto dir = std::filesystem::temp_directory_path() / ("rost_word_stream_unread_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const std::string wp = (dir / "w.csv").string(), bad = (dir / "bad.csv").string();
+    const std::string missing = (dir / "nope.csv").string(), pp = (dir / "p.csv").string();
+    ASSERT_TRUE(rost::writeFileAtomic(wp, "1,2,3\n").ok());
+    ASSERT_TRUE(rost::writeFileAtomic(pp, "1,0,0,1,1\n").ok());
+    ASSERT_TRUE(rost::writeFileAtomic(bad, "1,0,0,x,1\n").ok());
+    for (const int threads : {1, 2}) {
+        rost::WordStreamLimits l = limits();
+        l.threads = threads;
+        struct Case {
+            std::string words, positions;
+            rost::WordStreamFile unread;
+        };
+        const Case cases[] = {{missing, pp, rost::WordStreamFile::Words},
+                              {wp, missing, rost::WordStreamFile::Positions},
+                              {wp, dir.string(), rost::WordStreamFile::Positions},  // a directory
+                              {wp, bad, rost::WordStreamFile::None},                // read, then refused
+                              {wp, pp, rost::WordStreamFile::None}};
+        for (const Case& c : cases) {
+            rost::WordStream s;
+            auto unread = rost::WordStreamFile::Words;  // overwritten on every call
+            const rost::Status st = rost::readWordStream(c.words, c.positions, l, s, &unread);
+            EXPECT_EQ(unread, c.unread) << threads << " threads: " << c.words << " " << c.positions << ": " << st.message();
+            EXPECT_EQ(st.ok(), c.words == wp && c.positions == pp) << st.message();
+        }
+    }
+    std::filesystem::remove_all(dir);
+}
+
 TEST(WordStreamCsv, WriterOutputParsesBackAndAtomicWriteReplaces) {
     std::string words, pos;
     const uint32_t w[] = {4, 5, 6};

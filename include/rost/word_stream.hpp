@@ -50,9 +50,15 @@ Status parseWordStream(std::string_view wordsText, std::string_view positionsTex
                        WordStream& out, std::string_view wordsName = "words.csv",
                        std::string_view positionsName = "positions.csv");
 
-// Reads the files (positionsPath may be empty) and parses them.
+// Which file a failed readWordStream could not read (open, read, or hold in
+// memory), so that a caller can name it by the option that gave it; None
+// when both were read (a parse error names its own file, line and column).
+enum class WordStreamFile : uint8_t { None, Words, Positions };
+
+// Reads the files (positionsPath may be empty) and parses them. `unread`,
+// when given, says which file could not be read.
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
-                      const WordStreamLimits& limits, WordStream& out);
+                      const WordStreamLimits& limits, WordStream& out, WordStreamFile* unread = nullptr);
 
 // The file functions moved to the text I/O layer (rost/text_io.hpp); named
 // here too for the callers that know them from this header.

@@ -34,12 +34,11 @@ Status readStream(const MissionOptions& m, const StreamMissionInput& in, StreamM
         limits.max_words = static_cast<uint32_t>(settingSpec("max.words").hi);
     limits.threads = in.read_threads;
     WordStream& ws = out.stream;
-    if (Status st = readWordStream(in.words, in.positions, limits, ws); !st.ok()) {
+    WordStreamFile unread = WordStreamFile::None;
+    if (Status st = readWordStream(in.words, in.positions, limits, ws, &unread); !st.ok()) {
         // The positions file could not be read (missing, a directory, out of memory): named by
         // the face's option, as a starting topic model is; a line of it is named by its place.
-        const bool positionsUnread = st.kind() != StatusKind::Invalid && !in.positions.empty() &&
-                                     in.positions != in.words && st.message().starts_with(in.positions + ": ");
-        return positionsUnread ? st.prefixed(m.names.positions + ": ") : st;
+        return unread == WordStreamFile::Positions ? st.prefixed(m.names.positions + ": ") : st;
     }
     if (ws.observations.empty()) return Status::error(in.words + ": no observations (the file has no data lines)");
     if (std::all_of(ws.observations.begin(), ws.observations.end(), [](const auto& ob) { return ob.words.empty(); }))

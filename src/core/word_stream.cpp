@@ -322,14 +322,20 @@ bool regularFiles(const std::string& a, const std::string& b) {
     return ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 && S_ISREG(sa.st_mode) && S_ISREG(sb.st_mode);
 }
 
+// A failed read of `file`, told to the caller when it asked (`unread`).
+Status unreadFile(Status st, WordStreamFile file, WordStreamFile* unread) {
+    if (unread != nullptr) *unread = file;
+    return st;
+}
+
 Status readSerially(const std::string& wordsPath, const std::string& positionsPath, const WordStreamLimits& limits,
-                    WordStream& out) {
+                    WordStream& out, WordStreamFile* unread) {
     text::FileBytes words, positions;
     Status st = readFile(wordsPath, words);
-    if (!st.ok()) return st;
+    if (!st.ok()) return unreadFile(st, WordStreamFile::Words, unread);
     if (!positionsPath.empty()) {
         st = readFile(positionsPath, positions);
-        if (!st.ok()) return st;
+        if (!st.ok()) return unreadFile(st, WordStreamFile::Positions, unread);
         if (positions.view().find_first_not_of(" \t\r\n") == std::string_view::npos && !words.empty())
             return Status::error(positionsPath + ": empty, but " + wordsPath + " is not");
     }
@@ -339,9 +345,10 @@ Status readSerially(const std::string& wordsPath, const std::string& positionsPa
 } // namespace
 
 Status readWordStream(const std::string& wordsPath, const std::string& positionsPath,
-                      const WordStreamLimits& limits, WordStream& out) {
+                      const WordStreamLimits& limits, WordStream& out, WordStreamFile* unread) {
+    if (unread != nullptr) *unread = WordStreamFile::None;
     if (positionsPath.empty() || limits.threads < 2 || !regularFiles(wordsPath, positionsPath))
-        return readSerially(wordsPath, positionsPath, limits, out);
+        return readSerially(wordsPath, positionsPath, limits, out, unread);
     // Two threads: beside this one the positions file is read; here the
     // words file is read and its words parsed; then both parse pieces of the
     // positions until none is left (PositionPieces). The result and the
@@ -354,11 +361,11 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     try {
         thread = std::jthread(std::ref(tail));
     } catch (const std::system_error&) {  // no thread to be had
-        return readSerially(wordsPath, positionsPath, limits, out);
+        return readSerially(wordsPath, positionsPath, limits, out, unread);
     }
     text::FileBytes words;
     Status st = readFile(wordsPath, words);
-    if (!st.ok()) return st;
+    if (!st.ok()) return unreadFile(st, WordStreamFile::Words, unread);
     // Parsed before the positions are known, aside: `out` and the errors are
     // then as the serial path leaves and reports them (its read and
     // emptiness errors before the words' error, `out` untouched by them).
@@ -366,7 +373,7 @@ Status readWordStream(const std::string& wordsPath, const std::string& positions
     const Status wordsParsed = parseWords(words.view(), limits, parsed, wordsPath);
     tail.readDone.wait();
     if (tail.readFailed) throw std::bad_alloc();
-    if (!tail.read.ok()) return tail.read;
+    if (!tail.read.ok()) return unreadFile(tail.read, WordStreamFile::Positions, unread);
     const std::string_view text = text::withoutByteOrderMark(tail.text.view());
     if (text.find_first_not_of(" \t\r\n") == std::string::npos && !words.empty()) {
         tail.pieces.abandon();
