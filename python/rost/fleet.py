@@ -25,6 +25,7 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 import uuid
 
 import numpy as np
@@ -36,7 +37,8 @@ __all__ = ["run", "find_tool", "lift_topics", "mission_command", "settings_text"
 
 # Names become directory names and CSV fields: a letter or digit, then letters, digits, '_', '.', '-'.
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*\Z")
-_RESERVED = ("merged",)
+# Names the fleet writes beside the missions' directories.
+_RESERVED = ("merged", "fleet.conf", "fleet.conf.tmp")
 
 
 def find_tool(tool=None):
@@ -73,7 +75,8 @@ def settings_text(**settings):
 def _check_name(name):
     if not isinstance(name, str) or not _NAME.match(name) or name in _RESERVED:
         raise ValueError(f"rost.fleet: bad mission name {name!r}: a letter or digit, then letters, digits, "
-                         f"'_', '.' or '-' (it names a directory and a CSV field), and not {_RESERVED[0]!r}")
+                         f"'_', '.' or '-' (it names a directory and a CSV field), and not "
+                         f"{', '.join(repr(r) for r in _RESERVED)}")
 
 
 def _input(name, source):
@@ -101,29 +104,36 @@ def _input(name, source):
 def mission_command(tool, name, source, out_dir, config_file, extra=()):
     """The tool's argument list for one mission, writing into out_dir."""
     command, args = _input(name, source)
-    return [tool, command, *args, "--out", os.fspath(out_dir), "--config", os.fspath(config_file), "-q", *extra]
+    return [tool, command, *args, "--out", os.fspath(out_dir), "--config", os.fspath(config_file), *extra]
 
 
 def _run_tool(argv):
-    """One mission (a Dask task, or a call here): runs the tool; raises naming the mission."""
+    """One mission (a Dask task, or a call here): runs the tool; raises naming the mission.
+    Returns the tool's notes (its `rost: note:` lines: words dropped, a cap reached, ...)."""
     done = subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, check=False)
     if done.returncode != 0:
         out = argv[argv.index("--out") + 1]
         raise RuntimeError(f"rost.fleet: mission {out} failed (exit {done.returncode}): {done.stderr.strip()}\n"
                            f"  command: {' '.join(argv)}")
-    return argv[argv.index("--out") + 1]
+    return [line[len("rost: "):] for line in done.stderr.splitlines() if line.startswith("rost: note: ")]
 
 
 def _run_all(commands, names, client, stage):
     """Runs the commands in order here, or as Dask tasks. Keys name the mission and stage, and a
     token of this call: Dask takes a task whose key it holds already for that task, so another
-    fleet's mission of the same name (on a shared client or scheduler) would not run."""
+    fleet's mission of the same name (on a shared client or scheduler) would not run.
+    Returns each mission's notes, and prints them on stderr in mission order, naming it."""
     if client is None:
-        return [_run_tool(c) for c in commands]
-    token = uuid.uuid4().hex[:12]
-    keys = [f"rost-fleet-{stage}-{n}-{token}" for n in names]
-    futures = client.map(_run_tool, commands, key=keys, pure=False)
-    return client.gather(futures)
+        notes = [_run_tool(c) for c in commands]
+    else:
+        token = uuid.uuid4().hex[:12]
+        keys = [f"rost-fleet-{stage}-{n}-{token}" for n in names]
+        notes = client.gather(client.map(_run_tool, commands, key=keys, pure=False))
+    where = "" if stage == "mission" else f" ({stage})"
+    for name, lines in zip(names, notes):
+        for line in lines:
+            print(f"rost.fleet: mission {name}{where}: {line}", file=sys.stderr)
+    return dict(zip(names, notes))
 
 
 def _merge(paths, threshold, beta):
@@ -153,13 +163,17 @@ def lift_topics(topics_csv, lifting, out_csv):
     _io.write_topics(out_csv, timestamps, lifted)
 
 
-def _prepare(missions, out, tool, settings):
-    """Checks every mission before anything runs; writes out/fleet.conf."""
+def _prepare(missions, out, tool, settings, threshold, merge_beta):
+    """Checks every mission and setting (the merge's too) before anything runs; writes out/fleet.conf."""
     if not hasattr(missions, "items") or not missions:
         raise ValueError("rost.fleet: missions: expected a non-empty mapping of names to inputs")
     for name, source in missions.items():
         _check_name(name)
         _input(name, source)
+    try:  # the merge's own checks, on a one-word model, before hours of missions
+        _merge([np.ones((1, 1), dtype=np.int64)], threshold, merge_beta)
+    except (ValueError, TypeError) as e:
+        raise type(e)(f"rost.fleet: threshold={threshold!r}, merge_beta={merge_beta!r}: {e}") from e
     tool = find_tool(tool)
     out = os.path.abspath(os.fspath(out))
     text = settings_text(**settings)
@@ -176,12 +190,19 @@ def run(missions, out, client=None, *, threshold=0.6, merge_beta=0.01, fixed=Fal
     order the merge takes them. settings: rost.Config keywords (K=6, final_sweeps=50).
     threshold, merge_beta: the merge's Hellinger threshold and smoothing (rost merge's --threshold,
     --beta). Returns a dict: global_counts (G x V int64), lifting and distance (name -> array),
-    topicmodel and lifting_csv (paths), missions, topics_global and, with fixed, fixed (name -> path)."""
-    tool, out, config_file = _prepare(missions, out, tool, settings)
+    topicmodel and lifting_csv (paths), missions, topics_global, notes (name -> the tool's notes,
+    also printed on stderr naming the mission) and, with fixed (or topics_grow, which labels every
+    mission again in the global topics), fixed (name -> path) and notes_fixed."""
+    tool, out, config_file = _prepare(missions, out, tool, settings, threshold, merge_beta)
+    # With topics_grow a topic that closes renumbers those above it from then on, and rows of
+    # topics.csv written earlier keep the numbers of their time (docs/design.md): lifting them
+    # through the final model's numbering could name another topic. So every mission is then
+    # labelled again in the global topics, and that labelling is topics.global.csv.
+    grows = bool(settings.get("topics_grow"))
     names = list(missions)
     dirs = [os.path.join(out, n) for n in names]
     commands = [mission_command(tool, n, missions[n], d, config_file) for n, d in zip(names, dirs)]
-    _run_all(commands, names, client, "mission")
+    notes = _run_all(commands, names, client, "mission")
 
     merged = _merge([os.path.join(d, "topicmodel.csv") for d in dirs], threshold, merge_beta)
     topicmodel = os.path.join(out, "merged", "topicmodel.csv")
@@ -193,16 +214,22 @@ def run(missions, out, client=None, *, threshold=0.6, merge_beta=0.01, fixed=Fal
         "lifting": {n: np.asarray(a) for n, a in zip(names, merged.lifting)},
         "distance": {n: np.asarray(a) for n, a in zip(names, merged.distance)},
         "topicmodel": topicmodel, "lifting_csv": lifting_csv,
-        "missions": dict(zip(names, dirs)), "topics_global": {},
+        "missions": dict(zip(names, dirs)), "topics_global": {}, "notes": notes,
     }
     for n, d in zip(names, dirs):
         result["topics_global"][n] = os.path.join(d, "topics.global.csv")
-        lift_topics(os.path.join(d, "topics.csv"), result["lifting"][n], result["topics_global"][n])
-    if fixed:
+        if not grows:
+            lift_topics(os.path.join(d, "topics.csv"), result["lifting"][n], result["topics_global"][n])
+    if fixed or grows:
         G = result["global_counts"].shape[0]
-        pinned = ["-K", str(G), "--in.topicmodel", topicmodel, "--topicmodel.fixed"]
+        # The global model is held fixed: it neither grows nor loses a topic.
+        pinned = ["-K", str(G), "--in.topicmodel", topicmodel, "--topicmodel.fixed", "--topics.grow=false"]
         fixed_dirs = [os.path.join(d, "fixed") for d in dirs]
         commands = [mission_command(tool, n, missions[n], d, config_file, pinned) for n, d in zip(names, fixed_dirs)]
-        _run_all(commands, names, client, "fixed")
+        result["notes_fixed"] = _run_all(commands, names, client, "fixed")
         result["fixed"] = dict(zip(names, fixed_dirs))
+        if grows:
+            for n, d in zip(names, fixed_dirs):
+                shutil.copyfile(os.path.join(d, "topics.csv"), result["topics_global"][n] + ".tmp")
+                os.replace(result["topics_global"][n] + ".tmp", result["topics_global"][n])
     return result

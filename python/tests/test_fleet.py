@@ -142,7 +142,7 @@ def test_bad_missions_are_refused_naming_them_before_anything_runs(tmp_path):
     with pytest.raises(FileNotFoundError, match=r"mission 'b': no such input: .*nowhere\.mov"):
         rost.fleet.run({"a": good, "b": tmp_path / "nowhere.mov"}, out, K=6, **tool)
     assert not out.exists(), "nothing was written"
-    for bad in ("", "a/b", "../up", "merged", "x,y", ".hidden", 3):
+    for bad in ("", "a/b", "../up", "merged", "fleet.conf", "fleet.conf.tmp", "x,y", ".hidden", 3):
         with pytest.raises(ValueError, match="bad mission name"):
             rost.fleet.run({"a": good, bad: good}, out, **tool)
     (tmp_path / "dive.bag").write_bytes(b"")
@@ -158,7 +158,60 @@ def test_bad_missions_are_refused_naming_them_before_anything_runs(tmp_path):
         rost.fleet.run({"a": good}, out, bogus=1, **tool)
     with pytest.raises(FileNotFoundError, match="the rost tool was not found: '/no/such/rost'"):
         rost.fleet.run({"a": good}, out, tool="/no/such/rost")
+    # The merge's settings are checked before the missions run (not after hours of them).
+    with pytest.raises(ValueError, match=r"threshold=2\.0, merge_beta=0\.01: .*threshold 2 out of range \[0, 1\]"):
+        rost.fleet.run({"a": good}, out, threshold=2.0, **tool)
+    with pytest.raises(ValueError, match=r"merge_beta=-1\.0: .*beta"):
+        rost.fleet.run({"a": good}, out, merge_beta=-1.0, **tool)
     assert not out.exists()
+
+
+def _regimes(path, frames=150, scenes=3, words=60, seed=3):
+    """A word stream whose parts use words 0-9, 10-19, ... (`scenes` scenes in turn)."""
+    rng = np.random.default_rng(seed)
+    with open(path, "w") as f:
+        for t in range(frames):
+            base = 10 * (scenes * t // frames)
+            f.write(",".join(map(str, [t, *(base + rng.integers(0, 10, words))])) + "\n")
+    return path
+
+
+@needs_tool
+def test_with_growth_the_global_labels_are_the_missions_labelled_again(tmp_path):
+    """With topics_grow and a window shorter than the mission, a topic that closes renumbers those
+    above it, and rows written before keep their old numbers: lifted through the final model they
+    named another topic (every frame of the three scenes read as the last scene's). The fleet then
+    labels every mission again in the global topics (the relabelling needs topics.grow off: the
+    global model is fixed), and topics.global.csv is that labelling."""
+    regimes = _regimes(tmp_path / "regimes.csv")
+    plain = _regimes(tmp_path / "plain.csv", frames=50, scenes=1)  # words 0-9 only: the first scene
+    r = rost.fleet.run({"a": regimes, "b": plain}, tmp_path / "season", K=10, topics_grow=True, ring_steps=20,
+                       eviction="subtract", threads=1, final_sweeps=5)
+    assert sorted(r["fixed"]) == ["a", "b"]
+    _, a_rows = rost.io.read_topics(r["topics_global"]["a"])
+    _, b_rows = rost.io.read_topics(r["topics_global"]["b"])
+    first_scene = np.bincount(np.concatenate(b_rows)).argmax()
+    assert np.mean(np.concatenate(b_rows) == first_scene) > 0.9
+    # The regimes mission's first scene (words 0-9) is the plain mission's topic; its last is not.
+    assert np.mean(np.concatenate(a_rows[:40]) == first_scene) > 0.9, a_rows[:3]
+    assert np.mean(np.concatenate(a_rows[110:]) == first_scene) < 0.1, a_rows[-3:]
+    for n in ("a", "b"):
+        assert pathlib.Path(r["topics_global"][n]).read_bytes() == \
+            (pathlib.Path(r["fixed"][n]) / "topics.csv").read_bytes()
+
+
+@needs_tool
+def test_the_tools_notes_are_kept_and_printed_naming_the_mission(tmp_path, capfd):
+    """A word-stream mission has one cell a frame: words past cell.capacity are subsampled out,
+    and the tool says so. The fleet runs the tool without -q and keeps and prints its notes."""
+    rng = np.random.default_rng(1)
+    with open(tmp_path / "w.csv", "w") as f:
+        for t in range(5):
+            f.write(",".join(map(str, [t, *rng.integers(0, 50, 1000)])) + "\n")
+    r = rost.fleet.run({"dense": tmp_path / "w.csv"}, tmp_path / "season", K=4, threads=1)
+    assert len(r["notes"]["dense"]) == 1 and "of the words were dropped (3720 of 5000" in r["notes"]["dense"][0], r
+    err = capfd.readouterr().err
+    assert "rost.fleet: mission dense: note: 74.4 % of the words were dropped" in err, err
 
 
 def test_each_input_becomes_the_tools_command(tmp_path):
@@ -171,7 +224,7 @@ def test_each_input_becomes_the_tools_command(tmp_path):
     assert cmd(str(tmp_path / "frames"))[:3] == ["/t/rost", "run", str(tmp_path / "frames")]
     bag = cmd((tmp_path / "d.bag", "/camera/image"))
     assert bag[:5] == ["/t/rost", "run", str(tmp_path / "d.bag"), "--topic", "/camera/image"]
-    assert bag[5:] == ["--out", "/o/m", "--config", str(conf), "-q"]
+    assert bag[5:] == ["--out", "/o/m", "--config", str(conf)]  # not -q: the tool's notes are relayed
     text = rost.fleet.settings_text(K=6, final_sweeps=50, topics_grow=True, alpha=0.25, budget_ms=None)
     assert text == "K = 6\nfinal.sweeps = 50\ntopics.grow = true\nalpha = 0.25\n"
 
