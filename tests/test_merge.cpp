@@ -60,7 +60,7 @@ TEST(Merge, AssignmentIsOptimalForSquareAndRectangularMatrices) {
 
 TEST(Merge, HellingerDistanceIsZeroForOneDistributionAndNearOneForDisjointWords) {
     const std::vector<int64_t> a{1000, 2000, 0, 0}, b{10, 20, 0, 0}, c{0, 0, 3000, 500};
-    EXPECT_NEAR(rost::hellingerDistance(a, a, 4, 0.01), 0.0, 1e-7);
+    EXPECT_EQ(rost::hellingerDistance(a, a, 4, 0.01), 0.0) << "exactly: --threshold 0 joins only identical topics";
     EXPECT_LT(rost::hellingerDistance(a, b, 4, 0.01), 0.05) << "the same shape, fewer words";
     EXPECT_GT(rost::hellingerDistance(a, c, 4, 0.01), 0.99);
     EXPECT_DOUBLE_EQ(rost::hellingerDistance(a, c, 4, 0.01), rost::hellingerDistance(c, a, 4, 0.01));
@@ -127,6 +127,14 @@ TEST(Merge, ASplitTopicJoinsOneGlobalTopicAndAThresholdOfZeroKeepsTopicsApart) {
     strict.threshold = 0.0;
     ASSERT_TRUE(rost::mergeTopicModels(models, strict, out).ok());
     EXPECT_EQ(out.global.K, 5) << "nothing within distance 0";
+    // ... but identical topics are at exactly 0: a model merged with itself at
+    // threshold 0 gives its own topics (1 - sum sqrt(p q) left about 1e-16
+    // there, and some topic of the copy opened a global topic of its own).
+    const std::vector<rost::TopicCounts> same{planted({0, 1, 2, 3}, 80, 3), planted({0, 1, 2, 3}, 80, 3)};
+    ASSERT_TRUE(rost::mergeTopicModels(same, strict, out).ok());
+    EXPECT_EQ(out.global.K, 4);
+    EXPECT_EQ(out.lifting[1], out.lifting[0]);
+    for (double d : out.distance[1]) EXPECT_EQ(d, 0.0);
 }
 
 // A model joins the global topics as the models before it left them: a
@@ -194,6 +202,14 @@ TEST(Merge, BadInputIsNamed) {
     big.counts = {1000000000, 1, 1, 1000000000};
     EXPECT_TRUE(rost::mergeTopicModels(std::vector<rost::TopicCounts>{big, big}, {}, out).ok());
     EXPECT_EQ(out.global.at(0, 0), 2000000000);
+    // A count no topicmodel.csv holds is refused as given: sums of counts near
+    // 2^63 wrapped to negative (or zero) counts that were written out.
+    big.counts = {int64_t{1} << 62, 1, 1, 2147483647};
+    EXPECT_EQ(rost::mergeTopicModels(std::vector<rost::TopicCounts>{big, big}, {}, out).message(),
+              "model 0: count of topic 0, word 0 is 4611686018427387904, more than a topic model file holds (2^31 - 1)");
+    big.counts = {2147483647, 1, 1, 2147483648};
+    EXPECT_EQ(rost::mergeTopicModels(std::vector<rost::TopicCounts>{big}, {}, out).message(),
+              "model 0: count of topic 1, word 1 is 2147483648, more than a topic model file holds (2^31 - 1)");
     rost::TopicCounts empty;
     empty.K = 2;
     empty.V = 3;

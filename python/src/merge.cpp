@@ -1,6 +1,8 @@
 // rost.merge_topic_models: the library's merge of topic models into one
 // global set (rost/merge.hpp; docs/fleet.md), for rost.fleet and scripts.
 
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,16 @@ TopicCounts topicCounts(const py::handle& model, std::size_t index) {
     if (!a || a.ndim() != 2 || (a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
         throw py::type_error("models[" + std::to_string(index) +
                              "]: expected a path or a 2-D integer numpy array (K x V counts)");
+    // Unsigned counts past int64 would be cast to negative ones: named as they are.
+    if (a.dtype().kind() == 'u' && a.size() > 0) {
+        const auto u = py::array_t<uint64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+        for (py::ssize_t i = 0; i < u.size(); ++i)
+            if (u.data()[i] > static_cast<uint64_t>(std::numeric_limits<int32_t>::max()))
+                throw py::value_error("model " + std::to_string(index) + ": count of topic " +
+                                      std::to_string(i / a.shape(1)) + ", word " + std::to_string(i % a.shape(1)) +
+                                      " is " + std::to_string(u.data()[i]) +
+                                      ", more than a topic model file holds (2^31 - 1)");
+    }
     const auto counts = py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
     TopicCounts c;
     c.K = static_cast<int>(a.shape(0));

@@ -70,5 +70,17 @@ def test_bad_input_is_named(tmp_path):
         bad = planted([0])
         bad[0, 3] = -1
         rost.merge_topic_models([bad])
+    # Counts past what a topicmodel.csv holds are named as given: uint64 ones were cast to
+    # negative int64, and int64 sums near 2^63 wrapped.
+    with pytest.raises(ValueError, match=r"model 0: count of topic 0, word 0 is 18446744073709551615, more than"):
+        rost.merge_topic_models([np.array([[2**64 - 1, 2, 3]], dtype=np.uint64)])
+    with pytest.raises(ValueError, match=r"model 1: count of topic 0, word 0 is 4611686018427387904, more than"):
+        rost.merge_topic_models([np.array([[1, 1]]), np.array([[2**62, 1]])])
+    assert rost.merge_topic_models([np.array([[2**31 - 1, 1]], dtype=np.uint64)]).global_counts[0, 0] == 2**31 - 1
+    # A checkpoint of a growing model that holds no word has no open topic: named as the file.
+    empty = tmp_path / "empty.ckpt"
+    rost.Model(rost.Config(K=4, V=3, topics_grow=True)).save(str(empty))
+    with pytest.raises(ValueError, match=r"empty\.ckpt: a model with topics\.grow that holds no word"):
+        rost.merge_topic_models([planted([0]), empty])
     with pytest.raises(ValueError, match="names: 1 names for 2 models"):
         rost.merge_topic_models([planted([0]), planted([1])]).lifting_csv(["x"])

@@ -34,7 +34,7 @@ Status MergeOptions::validate() const {
 namespace {
 
 // sqrt(phi_k(v)) of one topic over V words (row: its counts, words past
-// row.size() count 0): the Hellinger distance is sqrt(1 - <a, b>).
+// row.size() count 0): the Hellinger distance is sqrt(|a - b|^2 / 2).
 void sqrtPhi(std::span<const int64_t> row, int V, double beta, std::vector<double>& out) {
     double n = 0.0;
     for (int64_t c : row) n += static_cast<double>(c);
@@ -44,10 +44,14 @@ void sqrtPhi(std::span<const int64_t> row, int V, double beta, std::vector<doubl
         out[v] = std::sqrt((static_cast<double>(row[v]) + beta) * norm);
 }
 
+// H^2 = 1 - sum_v sqrt(p_v q_v) = sum_v (sqrt(p_v) - sqrt(q_v))^2 / 2 for two
+// distributions. The second is summed: it is exactly 0 for one distribution,
+// where 1 minus the first's sum leaves a rounding of about 1e-16 (H about
+// 1e-8: a topic was not "identical" to itself at --threshold 0).
 double distanceOf(const std::vector<double>& a, const std::vector<double>& b) {
-    double bc = 0.0;
-    for (std::size_t v = 0; v < a.size(); ++v) bc += a[v] * b[v];
-    return std::sqrt(std::max(0.0, 1.0 - bc));
+    double sq = 0.0;
+    for (std::size_t v = 0; v < a.size(); ++v) sq += (a[v] - b[v]) * (a[v] - b[v]);
+    return std::sqrt(std::min(1.0, 0.5 * sq));
 }
 
 Status checkModel(const TopicCounts& m, std::size_t index) {
@@ -56,10 +60,15 @@ Status checkModel(const TopicCounts& m, std::size_t index) {
     if (m.counts.size() != static_cast<std::size_t>(m.K) * static_cast<std::size_t>(m.V))
         return Status::error(what + ": " + std::to_string(m.counts.size()) + " counts, expected K x V = " +
                              std::to_string(static_cast<int64_t>(m.K) * m.V));
+    // A count past what a topicmodel.csv holds would make its sum one too (and
+    // sums of counts near 2^63 wrap): refused here, naming it.
     for (std::size_t i = 0; i < m.counts.size(); ++i)
-        if (m.counts[i] < 0)
+        if (m.counts[i] < 0 || m.counts[i] > std::numeric_limits<int32_t>::max())
             return Status::error(what + ": count of topic " + std::to_string(i / static_cast<std::size_t>(m.V)) +
-                                 ", word " + std::to_string(i % static_cast<std::size_t>(m.V)) + " is negative");
+                                 ", word " + std::to_string(i % static_cast<std::size_t>(m.V)) +
+                                 (m.counts[i] < 0 ? " is negative"
+                                                  : " is " + std::to_string(m.counts[i]) +
+                                                        ", more than a topic model file holds (2^31 - 1)"));
     return {};
 }
 
@@ -244,6 +253,9 @@ Status readTopicCounts(const std::string& path, TopicCounts& out) {
             ++out.K;
             for (int v = 0; v < m.V(); ++v) out.counts.push_back(m.topicWordCount(k, v));
         }
+        // With growth only the open topics are kept (as its topicmodel.csv has them): none
+        // when the model holds no word, which is named here, not as "model i: K ... 1".
+        if (out.K == 0) return Status::error(path + ": a model with topics.grow that holds no word (no open topic)");
         return {};
     }
     const TopicModelShape shape = topicModelShapeOf(bytes, path);  // the file read once (a FIFO can be)
