@@ -393,6 +393,14 @@ TEST(ToolCli, AFixedTopicModelLabelsInTheGivenTopicsAndKeepsThem) {
     EXPECT_EQ(all, 600);
     EXPECT_GE(right, 590) << "labels in the given topics";
     expectError(runRost(run + " -K 3 --out " + (t / "k")), "-K 3 differs from the 2 topics of", t / "k");
+    // A merge of many models can hold more topics than a model: the file is named, not -K.
+    std::string many;
+    for (int k = 0; k < 1025; ++k) many += given.substr(0, given.find('\n') + 1);
+    rost::testing::writeText(t / "many.csv", many);
+    expectError(runRost("refine " + (t / "words.csv") + " --in.topicmodel " + (t / "many.csv") +
+                        " --topicmodel.fixed --out " + (t / "m")),
+                "--in.topicmodel: " + (t / "many.csv") + " has 1025 topics (lines), more than the 1024 a model holds",
+                t / "m");
     expectError(runRost("refine " + (t / "words.csv") + " --topicmodel.fixed --out " + (t / "n")),
                 "needs --in.topicmodel FILE", t / "n");
     // A stream with words beyond the model's 100: another vocabulary's, unless V is given.
@@ -436,6 +444,18 @@ TEST(ToolCli, MergeReadsTopicModelsAndCheckpointsAndNamesBadInput) {
                 "--out: " + (t / "a/topicmodel.csv") + " is an input of this run");
     EXPECT_EQ(rost::testing::readText(t / "a/topicmodel.csv"), model);
     EXPECT_FALSE(std::filesystem::exists(t / "a/lifting.csv"));
+    // More global topics than a model holds: written, and a note says that a fixed model can't use them.
+    for (const int topics : {1024, 1025}) {  // topics of one word each: each opens a global topic
+        std::string wide;
+        for (int k = 0; k < topics; ++k)
+            for (int v = 0; v < 1025; ++v) wide += (v == k ? "5" : "0") + std::string(v == 1024 ? "\n" : ",");
+        rost::testing::writeText(t / "wide.csv", wide);
+        const RunResult w = runRost("merge " + (t / "wide.csv") + " --out " + (t / "w"));
+        ASSERT_EQ(w.exit_code, 0) << w.err;
+        EXPECT_EQ(w.err.find("rost: note: 1025 global topics, more than the 1024 a model holds: "
+                             "--topicmodel.fixed cannot label in them") != std::string::npos, topics == 1025) << w.err;
+        EXPECT_EQ(w.err.find("rost: note:") != std::string::npos, topics == 1025) << w.err;
+    }
 }
 
 // The option that sets a setting: "--key" unless the schema names others ("-K,--topics").

@@ -85,6 +85,11 @@ Status fromTopicModel(const MissionOptions& m, const MissionInput& in, Config& c
     if (!m.isGiven("V")) c.V = std::max(in.V, shape.columns);
     if (!c.fixed) return {};
     const SettingSpec& K = settingSpec("K");
+    // K comes from the file: more lines than a model holds are the file's, not an option's.
+    if (!m.isGiven("K") && shape.rows > static_cast<int64_t>(K.hi))
+        return Status::error(name + ": " + m.in_topicmodel + " has " + std::to_string(shape.rows) +
+                             " topics (lines), more than the " + std::to_string(static_cast<int64_t>(K.hi)) +
+                             " a model holds (a merge of many models? merge at a higher threshold)");
     if (!m.isGiven("K")) c.K = shape.rows;
     if (c.K != shape.rows)
         return Status::error(m.names.given(K, std::to_string(c.K)) + " differs from the " + std::to_string(shape.rows) +

@@ -55,6 +55,13 @@ int mergeCommand(const MergeCliOptions& o) {
                                    text::counted(static_cast<long long>(topics), "topic") + " -> " +
                                    text::counted(merged.global.K, "global topic");
         std::fprintf(stderr, "rost merge: %s (V = %d) in %s\n", counts.c_str(), merged.global.V, text::printable(o.out).c_str());
+        // --in.topicmodel ... --topicmodel.fixed takes K from the file's lines, at most K's bound.
+        const auto most = static_cast<int>(settingSpec("K").hi);
+        if (merged.global.K > most)
+            std::fprintf(stderr,
+                         "rost: note: %d global topics, more than the %d a model holds: --topicmodel.fixed cannot "
+                         "label in them (a higher --threshold joins more)\n",
+                         merged.global.K, most);
     }
     return kExitOk;
 }
