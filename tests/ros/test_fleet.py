@@ -68,7 +68,7 @@ def mapped(cells, lifting, vehicle):
 
 def run():
     import rospy
-    from rost_msgs.msg import FrameTopics, TopicLifting, TopicModel
+    from rost_msgs.msg import FrameTopics, TopicLifting, TopicModel, VehicleLifting
     from rost_msgs.srv import GetTopicModel
     bags = {v: os.path.join(work, v + ".bag") for v in VEHICLES}
     bag_bytes = {v: write_bag(bags[v], "/%s/camera" % v, 1000 * i) for i, v in enumerate(VEHICLES)}
@@ -167,6 +167,14 @@ def run():
     for p in list(nodes.values()) + [merger]:
         check(p.poll() is None, "every node still runs")
 
+    # A lifting that names global topic G (out of [0, G)) is refused, said in the log; the node runs on.
+    bad_lifting = rospy.Publisher("/rost_merge/lifting", TopicLifting, queue_size=1, latch=True)
+    wait_until(lambda: bad_lifting.get_num_connections() > 0, 15)
+    bad_lifting.publish(TopicLifting(G=lift.G, vehicles=[VehicleLifting(vehicle="auv2", global_=[lift.G] * K)]))
+    refused = "the lifting of vehicle 'auv2' has %d topics (K = %d) into G = %d: ignored" % (K, K, lift.G)
+    check(wait_until(lambda: refused in procs.log("auv2.log"), 15) and nodes["auv2"].poll() is None,
+          "auv2 refused a lifting naming global topic G = %d, and runs on" % lift.G)
+
     # The bytes a merge round sends against the words it summarises (4 bytes a word id).
     words = sum(sum(final[v].counts) for v in VEHICLES)
     sent = sum(size(final[v]) for v in VEHICLES) + size(g) + size(lift)
@@ -176,7 +184,7 @@ def run():
 
     Procs.stop(nodes["auv2"])
     log = procs.log("auv2.log")
-    check(log.count("carries the local labels until one comes") == 1 and "labels in the fleet's" in log,
+    check(log.count("carries the local labels until one comes") == 1 and log.count("labels in the fleet's") == 1,
           "auv2 said once that it published local labels, and when the lifting came")
 
     # Bad parameters: exit 2, named.
