@@ -1,4 +1,4 @@
-// summary.png's canvas (src/tool/outputs.hpp, Picture): drawn where its
+// The overlay's tint (src/tool/sinks.hpp) and summary.png's canvas (src/tool/outputs.hpp, Picture): drawn where its
 // pixels were allocated, a mapping of their own, not in memory from malloc.
 
 #include <gtest/gtest.h>
@@ -22,6 +22,35 @@
 namespace {
 
 using rost::tool::FrameRow;
+
+// The overlay's tint on a grid of 3 x 2 cells whose image is cut at the
+// right and bottom edges: each cell is blended toward its own topic's colour
+// (x is the cell's column, y its row: a square grid could not tell them
+// apart), a cell without words and the pixels past the grid keep theirs.
+TEST(ToolOverlay, EachCellOfANonSquareGridIsTintedWithItsOwnTopic) {
+    constexpr int kSpace = 8, kGridW = 3;
+    cv::Mat img(14, 22, CV_8UC3, cv::Scalar(40, 120, 200));  // the last column and row of cells cut short
+    const cv::Mat before = img.clone();
+    rost::ObservationRecord r;
+    const uint16_t none = rost::ObservationRecord::kNoTopic;
+    r.dominant = {0, none, 1, 2, 3, none};  // row 0: topics 0, -, 1; row 1: 2, 3, -
+    rost::tool::tintCells(img, r, kSpace, kGridW);
+    auto blended = [&](int y, int x, int topic) {
+        const cv::Scalar c = rost::tool::topicColour(topic);
+        cv::Vec3b want;
+        for (int ch = 0; ch < 3; ++ch)
+            want[ch] = static_cast<uint8_t>((before.at<cv::Vec3b>(y, x)[ch] * (256 - 97) + static_cast<int>(c[ch]) * 97) >> 8);
+        return want;
+    };
+    for (int y = 0; y < img.rows; ++y)
+        for (int x = 0; x < img.cols; ++x) {
+            const std::size_t cell = static_cast<std::size_t>(y / kSpace * kGridW + x / kSpace);
+            const cv::Vec3b got = img.at<cv::Vec3b>(y, x);
+            const cv::Vec3b want = r.dominant[cell] == none ? before.at<cv::Vec3b>(y, x) : blended(y, x, r.dominant[cell]);
+            ASSERT_EQ(got, want) << "pixel (" << x << ", " << y << ") of cell " << cell;
+        }
+    for (int k = 0; k < 4; ++k) ASSERT_NE(blended(0, 0, k), before.at<cv::Vec3b>(0, 0)) << "the test's premise: topic " << k;
+}
 
 // summary.png's thumbnails, their pool sized for the frames the input said it
 // had: an input of more (a container's count of 1 for 79 frames) fills the

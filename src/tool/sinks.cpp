@@ -14,10 +14,7 @@
 
 namespace rost::tool {
 
-namespace {
-
 void tintCells(cv::Mat& img, const ObservationRecord& r, int cellSpace, int gridW) {
-    // Blend in place (38% topic colour), without temporaries.
     constexpr int kAlpha = 97;  // of 256
     for (std::size_t c = 0; c < r.dominant.size(); ++c) {
         if (r.dominant[c] == ObservationRecord::kNoTopic) continue;
@@ -37,6 +34,8 @@ void tintCells(cv::Mat& img, const ObservationRecord& r, int cellSpace, int grid
         }
     }
 }
+
+namespace {
 
 void tint(cv::Mat& img, const ObservationRecord& r, int cellSpace, int gridW) {
     tintCells(img, r, cellSpace, gridW);

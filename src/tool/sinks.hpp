@@ -21,6 +21,11 @@
 
 namespace rost::tool {
 
+// Blends each cell of `img` (cells of cellSpace pixels, gridW to a row, cut at
+// the image's edges) 38 % toward its dominant topic's colour; a cell without
+// words is left as it is. In place, without temporaries.
+void tintCells(cv::Mat& img, const ObservationRecord& r, int cellSpace, int gridW);
+
 // The overlay video: each ingested frame tinted with its cells' dominant topics.
 class OverlaySink {
 public:
