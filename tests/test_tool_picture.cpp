@@ -1,5 +1,5 @@
-// The overlay's tint (src/tool/sinks.hpp) and summary.png's canvas (src/tool/outputs.hpp, Picture): drawn where its
-// pixels were allocated, a mapping of their own, not in memory from malloc.
+// The overlay's tint (src/tool/sinks.hpp), summary.png's thumbnails and time axis, and its canvas
+// (src/tool/outputs.hpp, Picture): drawn where its pixels were allocated, a mapping of their own, not in memory from malloc.
 
 #include <gtest/gtest.h>
 
