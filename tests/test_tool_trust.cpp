@@ -432,6 +432,45 @@ TEST(ToolTrust, CtrlCEndsAMergeBlockedReadingAFifo) {
     }
 }
 
+// Whether process `pid` waits in the kernel at `channel` (/proc/PID/wchan),
+// checked every 10 ms for up to `limit`. False where /proc does not say.
+bool waitsAt(pid_t pid, const std::string& channel, std::chrono::seconds limit) {
+    const std::string path = "/proc/" + std::to_string(pid) + "/wchan";
+    for (const auto until = std::chrono::steady_clock::now() + limit; std::chrono::steady_clock::now() < until;
+         std::this_thread::sleep_for(std::chrono::milliseconds(10)))
+        if (rost::testing::readText(path) == channel) return true;
+    return false;
+}
+
+// rost refine and rost merge of a FIFO whose writer never comes, Ctrl-C
+// while they wait in open() for it: exit 130 at once, nothing written (the
+// refine's open was restarted after the signal and waited for ever).
+TEST(ToolTrust, CtrlCEndsAWaitForAFifosWriterThatNeverComes) {
+    for (const std::string command : {"refine", "merge"}) {
+        SCOPED_TRACE(command);
+        TempDir t;
+        const std::string pipe = t / "words.csv";
+        ASSERT_EQ(::mkfifo(pipe.c_str(), 0600), 0);
+        const pid_t pid = spawnRost({command, pipe, "--out", t / "o"}, t / "err.txt");
+        ASSERT_GE(pid, 0);
+        // In open(), waiting for a writer: the kernel's "wait_for_partner" (a second where /proc does not say).
+        if (!waitsAt(pid, "wait_for_partner", std::chrono::seconds(30)))
+            std::this_thread::sleep_for(std::chrono::seconds(1));
+        ::kill(pid, SIGINT);
+        int status = 0;
+        const bool ended = endsWithin(pid, std::chrono::seconds(10), status);
+        if (!ended) {
+            ::kill(pid, SIGKILL);
+            ::waitpid(pid, &status, 0);
+        }
+        ASSERT_TRUE(ended) << "Ctrl-C did not end a " << command << " waiting for its FIFO's writer";
+        ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+        EXPECT_EQ(WEXITSTATUS(status), 130);
+        EXPECT_EQ(rost::testing::readText(t / "err.txt"), "rost: interrupted; no outputs written\n");
+        EXPECT_FALSE(std::filesystem::exists(t / "o"));
+    }
+}
+
 // A checkpoint merged through a FIFO: read once, as a topic model's CSV is
 // (it was opened a second time to be loaded, and the merge hung).
 TEST(ToolTrust, ACheckpointMergesThroughAFifo) {

@@ -28,16 +28,20 @@ int abandonedRun() {
 
 InterruptScope::InterruptScope(Reads reads) noexcept {
     g_interrupted.store(false, std::memory_order_relaxed);  // an earlier command's (tests run several in one process)
+    ::sigaction(SIGINT, nullptr, &old_int_);
+    ::sigaction(SIGTERM, nullptr, &old_term_);
+    this->reads(reads);
+}
+
+void InterruptScope::reads(Reads reads) noexcept {
     struct sigaction on {};
     on.sa_handler = onInterrupt;
     sigemptyset(&on.sa_mask);
     on.sa_flags = reads == Reads::Restarted ? SA_RESTART : 0;
-    for (const auto& [sig, old] : {std::pair{SIGINT, &old_int_}, std::pair{SIGTERM, &old_term_}}) {
-        ::sigaction(sig, nullptr, old);
+    for (const auto& [sig, old] : {std::pair{SIGINT, &old_int_}, std::pair{SIGTERM, &old_term_}})
         // A signal ignored on entry stays ignored (a shell's `rost refine ... &`
         // ignores SIGINT, so that Ctrl-C at the terminal ends only the foreground).
         if (old->sa_handler != SIG_IGN) ::sigaction(sig, &on, nullptr);
-    }
 }
 
 InterruptScope::~InterruptScope() {

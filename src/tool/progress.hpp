@@ -47,12 +47,14 @@ bool stderrIsTerminal() noexcept;
 // input files (rost merge: a checkpoint's engine starts pool threads, which
 // wait in calls that retry) asks for Reads::Interrupted: a read blocked on
 // a FIFO or a pipe then fails, and the command, seeing interrupted(),
-// exits 130 rather than waiting for a writer.
+// exits 130 rather than waiting for a writer. `reads(Reads::Restarted)`
+// changes that once the inputs are read (rost refine), the flag kept.
 class InterruptScope {
 public:
     enum class Reads : uint8_t { Restarted, Interrupted };
     explicit InterruptScope(Reads reads = Reads::Restarted) noexcept;
     ~InterruptScope();
+    void reads(Reads reads) noexcept;
     InterruptScope(const InterruptScope&) = delete;
     InterruptScope& operator=(const InterruptScope&) = delete;
 

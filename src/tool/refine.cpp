@@ -90,9 +90,10 @@ Status writeRefineOutputs(OutputDir& out, const RefineOptions& o, const StreamSt
 
 int refineCommand(const RefineOptions& o) {
     const auto started = std::chrono::steady_clock::now();
-    // Ctrl-C or SIGTERM from here on: exit 130, the staging directory removed
-    // (the reading and set-up run to their end first; they take moments).
-    InterruptScope interrupts;
+    // Ctrl-C or SIGTERM from here on: exit 130, the staging directory removed.
+    // While the inputs are read a blocked read or open fails at once (a FIFO
+    // whose writer never comes); after, the run's calls restart.
+    InterruptScope interrupts(InterruptScope::Reads::Interrupted);
     // Outputs first: an unwritable one fails before the input is read (nothing written).
     OutputDir out;
     if (Status st = out.open(o.out); !st.ok()) return fail(st.message());
@@ -107,7 +108,10 @@ int refineCommand(const RefineOptions& o) {
         return fail(st.message());
     // word stream -> engine -> sinks
     StreamStage in;
-    if (Status st = in.open(o); !st.ok()) return fail(st.message());
+    const Status opened = in.open(o);
+    if (interrupted()) return abandonedRun();
+    if (!opened.ok()) return fail(opened.message());
+    interrupts.reads(InterruptScope::Reads::Restarted);
     Collector collector(*in.engine, 4);
     collector.setFirstObservation(in.resumed.observations);
     if (Status st = collector.streamTo(out, false); !st.ok()) return fail(st.message());
