@@ -125,6 +125,16 @@ void MergeNode::onModel(std::size_t topic, const rost_msgs::TopicModelConstPtr& 
                                msg->vehicle.c_str());
             return;
         }
+    // One vehicle, one entry in the lifting: a name that came first on another topic of ~models
+    // (two rost_nodes given one ~vehicle) would give the lifting two entries of that name, and
+    // each node would take the last. The first topic keeps it.
+    for (const auto& entry : latest_)
+        if (entry.first.second == msg->vehicle && entry.first.first != topic) {
+            ROS_ERROR_THROTTLE(5.0, "rost_merge: vehicle '%s' on %s came first on %s: ignored (give each rost_node "
+                                    "its own ~vehicle)", msg->vehicle.c_str(), topics_[topic].c_str(),
+                               topics_[entry.first.first].c_str());
+            return;
+        }
     if (latest_.find({topic, msg->vehicle}) == latest_.end())
         ROS_INFO("rost_merge: vehicle '%s' on %s (K = %d, V = %d)", msg->vehicle.c_str(), topics_[topic].c_str(),
                  msg->K, msg->V);

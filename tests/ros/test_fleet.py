@@ -167,6 +167,18 @@ def run():
     for p in list(nodes.values()) + [merger]:
         check(p.poll() is None, "every node still runs")
 
+    # A vehicle's name on a second topic of ~models (two nodes given one ~vehicle) is refused, said in
+    # the merge node's log: the lifting keeps one entry a vehicle.
+    impostor = rospy.Publisher("/auv2/rost/topic_model", TopicModel, queue_size=1, latch=True)
+    wait_until(lambda: impostor.get_num_connections() > 0, 15)
+    impostor.publish(TopicModel(vehicle="auv1", K=final["auv1"].K, V=final["auv1"].V, counts=final["auv1"].counts,
+                                topic_weights=final["auv1"].topic_weights))
+    dup = "vehicle 'auv1' on /auv2/rost/topic_model came first on /auv1/rost/topic_model: ignored"
+    check(wait_until(lambda: dup in procs.log("merge.log"), 15), "the merge node refused a second 'auv1'")
+    time.sleep(1.0)  # a merge round or two (~period 0.4 s)
+    check(all([e.vehicle for e in l.vehicles] == list(VEHICLES) for l in liftings[-2:]),
+          "every lifting has one entry a vehicle: %s" % [[e.vehicle for e in l.vehicles] for l in liftings[-2:]])
+
     # A lifting that names global topic G (out of [0, G)) is refused, said in the log; the node runs on.
     bad_lifting = rospy.Publisher("/rost_merge/lifting", TopicLifting, queue_size=1, latch=True)
     wait_until(lambda: bad_lifting.get_num_connections() > 0, 15)
