@@ -18,7 +18,10 @@ Writes out/<name>/ (the tool's files), out/<name>/topics.global.csv (topics.csv 
 lifted to its global topic; -1 for a label whose topic holds no word), out/merged/topicmodel.csv
 and out/merged/lifting.csv (`model,local,global`, the mission names in `model`); with
 fixed=True also out/<name>/fixed/: the mission labelled again in the global topics
-(`--in.topicmodel out/merged/topicmodel.csv --topicmodel.fixed`).
+(`--in.topicmodel out/merged/topicmodel.csv --topicmodel.fixed`). With topics_grow=True that
+relabelling always runs and is topics.global.csv: a topic that closes renumbers those above it,
+so rows written before would not lift through the final numbering. The tool's notes are printed
+on stderr naming the mission.
 """
 
 import os
