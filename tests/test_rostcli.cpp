@@ -571,6 +571,18 @@ TEST_F(RostCli, FlagsGoThroughTheSchema) {
                                          " --grow.topics.size=false --add.to.topicmodel=false");
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(csv(dir + "/topics.csv").size(), static_cast<std::size_t>(kDocs));
+    // The spellings of a boolean rost-cli's scripts use: each taken where the flag's one value is.
+    for (const std::string yes : {"true", "1", "yes", "on"}) {
+        r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 2 -n 1 --retime " + yes);
+        EXPECT_EQ(r.status, 0) << yes << ": " << r.err;
+    }
+    for (const std::string no : {"false", "0", "no", "off"}) {
+        r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 2 -n 1 --out.intermediate.topics " + no);
+        EXPECT_EQ(r.status, 0) << no << ": " << r.err;
+    }
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -K 2 -n 1 --out.intermediate.topics nope");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("--out.intermediate.topics is supported only as false"), std::string::npos) << r.err;
     r = run(dir, bin(ROSTCLI_REFINE_T) + " --help > help.txt");
     EXPECT_EQ(r.status, 0);
     const std::string help = readText(dir + "/help.txt");
@@ -715,6 +727,33 @@ TEST_F(RostCli, FractionalPositionsArePlacedAtTheirFloor) {
     const Result r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position neg.csv -V 5 -K 3 -n 2");
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("neg.csv:1:7: expected x (a non-negative number), found '-0.5'"), std::string::npos) << r.err;
+}
+
+// Positions are taken up to the largest frame, y as far as x: a frame taller
+// than wide (y past every x) is sized by its y; a coordinate of 65536 (or
+// 65536.0) is named by file, line and column, 65535.5 placed at 65535.
+TEST_F(RostCli, PositionsAreTakenUpToTheLargestFrameAndNamedPastIt) {
+    writeText(dir + "/w.csv", "0,1,2\n1,3\n");
+    writeText(dir + "/tall.csv", "0,0,5,1,9\n1,0,7\n");
+    Result r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w.csv --in.position tall.csv -K 2 --threads 1");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/topics.position.csv"), "0,0,5,1,9\n1,0,7\n");
+    writeText(dir + "/w1.csv", "0,1\n");
+    const std::pair<std::string, std::string> past[] = {
+        {"0,65536,0", "q.csv:1:3: x 65536 out of range [0, 65536)"},
+        {"0,65536.0,0", "q.csv:1:3: expected x (a non-negative number), found '65536.0'"},
+        {"0,0,65536", "q.csv:1:5: y 65536 out of range [0, 65536)"},
+        {"0,0,65536.0", "q.csv:1:5: expected y (a non-negative number), found '65536.0'"}};
+    for (const auto& [line, error] : past) {
+        writeText(dir + "/q.csv", line + "\n");
+        r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w1.csv --in.position q.csv -K 2 --threads 1");
+        EXPECT_EQ(r.status, 2) << line;
+        EXPECT_EQ(r.err, "topics.refine.txy: " + error + "\n") << line;
+    }
+    writeText(dir + "/q.csv", "0,0,65535.5\n");
+    r = run(dir, bin(ROSTCLI_REFINE_TXY) + " -i w1.csv --in.position q.csv -K 2 --threads 1 --cell.space 64");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(readText(dir + "/topics.position.csv"), "0,0,65535\n");
 }
 
 // --in.topics starts a batch from given labels (a topics.csv): with no

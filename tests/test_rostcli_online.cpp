@@ -289,6 +289,21 @@ TEST_F(RostCliOnline, ADocumentOfMaxWordsIsTakenAndOneMoreIsRefused) {
               "max.words)\n");
 }
 
+// A last line without '\n' is a document too, however short: a bare time
+// stamp of one character (a document without words) as much as a longer one.
+TEST_F(RostCliOnline, ALastLineWithoutANewlineIsADocumentHoweverShort) {
+    for (const std::string& last : {std::string("5"), std::string("5,1"), std::string("15")}) {
+        SCOPED_TRACE(last);
+        std::ofstream(dir + "/tail.csv") << "0,1,2\n" << last;
+        ASSERT_EQ(refineT(dir, "-i tail.csv -V 3 -K 2 --online --online.mint 5"), 0) << readText(dir + "/err.txt");
+        for (const char* file : {"topics.csv", "topics.online.csv", "topics.maxlikelihood.csv"}) {
+            const auto got = lines(dir + "/" + file);
+            ASSERT_EQ(got.size(), 2u) << file;
+            EXPECT_EQ(got[1].substr(0, got[1].find(',')), last.substr(0, last.find(','))) << file;
+        }
+    }
+}
+
 // The final topics.csv holds each document's Gibbs sample, those that left
 // the window before the end (sampled as they left) as much as the rest, and
 // topics.maxlikelihood.csv their maximum-likelihood labels: over 300

@@ -236,4 +236,20 @@ TEST(VisionPixelFormat, InvalidViewsAreRefusedNotReadPastTheirEnd) {
     bad.planes[0].bytes = W * H - 1;
     EXPECT_FALSE(convertToBgr(bad, out, s));
     EXPECT_TRUE(convertToBgr(v, out, s));
+    // A chroma stride below its row (W bytes of interleaved U and V for NV12 and NV21, W / 2
+    // for each of YUV420's planes): rows that overlap are refused, the row itself taken.
+    for (const PixelFormat f : {PixelFormat::NV12, PixelFormat::NV21, PixelFormat::YUV420}) {
+        ImageView ok;
+        ASSERT_TRUE(describeContiguous(f, W, H, W, buf.data(), buf.size(), ok).ok());
+        const std::size_t row = f == PixelFormat::YUV420 ? W / 2 : W;
+        EXPECT_EQ(ok.planes[1].stride, row) << static_cast<int>(f);
+        EXPECT_TRUE(convertToBgr(ok, out, s)) << static_cast<int>(f);
+        for (std::size_t p = 1; p < (f == PixelFormat::YUV420 ? 3u : 2u); ++p) {
+            bad = ok;
+            bad.planes[p].stride = row - 1;
+            EXPECT_FALSE(convertToBgr(bad, out, s)) << static_cast<int>(f) << " plane " << p;
+            bad.planes[p].stride = row / 2;
+            EXPECT_FALSE(convertToBgr(bad, out, s)) << static_cast<int>(f) << " plane " << p;
+        }
+    }
 }

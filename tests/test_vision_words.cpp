@@ -163,6 +163,37 @@ TEST(VisionWords, IntensityWordsAreTheBlockMeansAndHueWordsTheBlockHues) {
         EXPECT_EQ(w.words[i] - e->layout().hue_offset, w.positions[i].x < 32 ? 60u : 120u);
 }
 
+// Hue is taken where colour is defined: saturation and value at least
+// hue_min_saturation and hue_min_value (32 each), the bounds included.
+TEST(VisionWords, HueWordsStartAtTheirSaturationAndValueBounds) {
+    ExtractorConfig c;
+    c.orb = false;
+    c.intensity = false;
+    Status st;
+    auto e = WordExtractor::create(c, nullptr, st);
+    ASSERT_TRUE(e) << st.message();
+    ASSERT_EQ(c.hue_min_saturation, 32);
+    ASSERT_EQ(c.hue_min_value, 32);
+    // BGR: (223, 223, 255) is saturation 32 at value 255, (224, 224, 255) 31;
+    // (0, 0, 32) is value 32 at saturation 255, (0, 0, 31) value 31. Hue 0 (red).
+    const std::pair<cv::Scalar, uint32_t> cases[] = {{cv::Scalar(223, 223, 255), 4u},
+                                                     {cv::Scalar(224, 224, 255), 0u},
+                                                     {cv::Scalar(0, 0, 32), 4u},
+                                                     {cv::Scalar(0, 0, 31), 0u}};
+    for (const auto& [colour, words] : cases) {
+        const cv::Mat img(32, 32, CV_8UC3, colour);
+        cv::Mat hsv;
+        cv::cvtColor(img, hsv, cv::COLOR_BGR2HSV);
+        const cv::Vec3b at = hsv.at<cv::Vec3b>(0, 0);
+        ASSERT_EQ(at[0], 0) << "the test's premise: red";
+        ASSERT_EQ(std::min(at[1], at[2]), words ? 32 : 31) << "the test's premise: " << colour;
+        FrameWords w;
+        ASSERT_TRUE(e->extract(img, w));
+        EXPECT_EQ(w.hue, words) << colour;
+        for (uint32_t i = 0; i < w.size(); ++i) EXPECT_EQ(w.words[i], e->layout().hue_offset) << colour;
+    }
+}
+
 TEST(VisionWords, GreyFramesGiveNoHueWordsAndGreyInputEqualsItsColourCopy) {
     Status st;
     auto e = WordExtractor::create({}, vocabulary(), st);

@@ -251,4 +251,8 @@ def test_lift_topics_refuses_a_label_outside_the_lifting_naming_the_file(tmp_pat
                            % (t, len(lifting))) as e:
             rost.fleet.lift_topics(topics, lifting, out)
         assert type(e.value) is ValueError
+    # A negative label (numpy would read lifting[-1] as the last topic's) is refused too.
+    topics.write_text("0,0,1\n1,-1,2\n")
+    with pytest.raises(ValueError, match=r"topics\.csv: observation 1: a label outside the model's 3 topics"):
+        rost.fleet.lift_topics(topics, [5, 6, 7], out)
     assert not out.exists()

@@ -226,3 +226,26 @@ def test_a_refused_add_leaves_no_empty_time_step():
     rostpy.parallel_refine(x, 1)
     assert list(x.model.timestamps()) == [0, 1], "two time steps: t = 0 and t = 3, nothing between"
     assert list(x.model.words(1)) == [5]
+
+
+def test_a_step_or_cell_past_the_models_sizes_is_refused_naming_both():
+    """Once the model is made (max_words and cell_capacity sized from what came before), a time step
+    of more than max_words words, or a cell of more than cell_capacity, is refused with ValueError
+    naming both sizes; up to them is taken."""
+    x = rostpy.ROST_txy(V=20, K=3, alpha=0.1, beta=0.5, gamma=0)
+    x.add_observation([0, 0, 0], [1, 2])
+    x.add_observation([0, 4, 4], [1, 2])  # a 5 x 5 grid
+    rostpy.parallel_refine(x, 1)
+    c = x.model.config
+    assert (c.max_words, c.cell_capacity) == (256, 64), "the test's premise"
+    refused = r"a time step of more than max_words = 256 words or a cell of more than cell_capacity = 64"
+    for cx in range(4):  # 4 cells of 60 words: 240 in the step
+        x.add_observation([1, cx, 0], list(range(20)) * 3)
+    with pytest.raises(ValueError, match=refused):  # a fifth: 300 words in the step, each cell under 64
+        x.add_observation([1, 4, 0], list(range(20)) * 3)
+    x.add_observation([1, 4, 0], list(range(16)))  # 256 words: taken
+    with pytest.raises(ValueError, match=refused):  # 65 words in one cell
+        x.add_observation([2, 0, 0], list(range(13)) * 5)
+    x.add_observation([2, 0, 0], list(range(16)) * 4)  # 64: taken
+    rostpy.parallel_refine(x, 1)
+    assert [len(x.model.words(t)) for t in range(3)] == [4, 256, 64]

@@ -65,6 +65,14 @@ def test_settings_and_grey_and_strided_frames(diver_frames):
     assert p[:, 1].max() < rows.shape[0]
     with pytest.raises(ValueError, match="not contiguous"):
         thumbs_only(frame[:, ::2])
+    # Rows closer than a row's bytes (overlapping views) and rows upside down (a negative stride,
+    # which a cv::Mat would take as a huge one) are refused too, not read.
+    img = np.ascontiguousarray(frame[:64, :96])
+    overlapping = np.lib.stride_tricks.as_strided(img, shape=(64, 96, 3), strides=(96, 3, 1))
+    for bad in (overlapping, img[::-1]):
+        with pytest.raises(ValueError, match="not contiguous within a row"):
+            thumbs_only(bad)
+    thumbs_only(np.lib.stride_tricks.as_strided(img, shape=(32, 96, 3), strides=(2 * 288, 3, 1)))  # a row's bytes apart or more: taken
     with pytest.raises(TypeError, match="uint8"):
         thumbs_only(frame.astype(np.float32))
     with pytest.raises(ValueError, match="shape"):
