@@ -66,7 +66,7 @@ std::string topicsLine(const Model& m) {
         std::snprintf(g, sizeof g, "%.3g", m.learnedGamma());
         (s += ", learned ") += g;
     }
-    s += "; " + std::to_string(m.growthMovesAccepted()) + " split and merge moves accepted)";
+    s += "; " + std::to_string(m.growthMovesAccepted()) + " split and merge moves accepted by this run)";
     if (m.topicCapReached()) s += "; the cap was reached: no new topic could open (raise -K)";
     return s + "\n";
 }
