@@ -25,11 +25,12 @@ TopicCounts topicCounts(const py::handle& model, std::size_t index) {
     if (!a || a.ndim() != 2 || (a.dtype().kind() != 'i' && a.dtype().kind() != 'u'))
         throw py::type_error("models[" + std::to_string(index) +
                              "]: expected a path or a 2-D integer numpy array (K x V counts)");
-    // Unsigned counts past int64 would be cast to negative ones: named as they are.
+    // Unsigned counts past int64 would be cast to negative ones: named as they are here. The
+    // rest go to the library, whose checkModel refuses a count past what a topic model holds.
     if (a.dtype().kind() == 'u' && a.size() > 0) {
         const auto u = py::array_t<uint64_t, py::array::c_style | py::array::forcecast>::ensure(a);
         for (py::ssize_t i = 0; i < u.size(); ++i)
-            if (u.data()[i] > static_cast<uint64_t>(std::numeric_limits<int32_t>::max()))
+            if (u.data()[i] > static_cast<uint64_t>(std::numeric_limits<int64_t>::max()))
                 throw py::value_error("model " + std::to_string(index) + ": count of topic " +
                                       std::to_string(i / a.shape(1)) + ", word " + std::to_string(i % a.shape(1)) +
                                       " is " + std::to_string(u.data()[i]) +
