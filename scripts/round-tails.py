@@ -21,7 +21,7 @@ with the sampler and count a cell picked twice as one task.
 
 Usage: scripts/round-tails.py WORDS.csv POSITIONS.csv [--width 640]
        [--height 480] [--cell 64] [--overhead 20] [--pair 0.8] [--steps 3]
-       [--rounds 4000] [--seed 1]
+       [--rounds 4000] [--seed 1] [--last-singly]
 """
 
 import argparse
@@ -43,18 +43,19 @@ def cells_of(words_csv, positions_csv, width, height, cell, capacity):
     return steps, gw
 
 
-def round_end(tasks, cells, overhead, pair):
-    """Two workers of equal speed: the time the round's last task ends."""
+def round_end(tasks, cells, overhead, pair, last_singly=False):
+    """Two workers of equal speed: the time the round's last task ends
+    (last_singly: an owner takes its last two cells one at a time)."""
     owned = [[], []]
     for c, w in sorted(tasks, key=lambda t: min(t[1], 63)):
         owned[c * 2 // cells].append(w)
     front, end, t = [0, 0], [len(owned[0]), len(owned[1])], [0.0, 0.0]
     while True:
         k = 0 if t[0] <= t[1] else 1
-        if end[k] - front[k] >= 2:
+        if end[k] - front[k] >= (3 if last_singly else 2):
             t[k] += overhead + pair * (owned[k][front[k]] + owned[k][front[k] + 1])
             front[k] += 2
-        elif end[k] - front[k] == 1:
+        elif end[k] - front[k] >= 1:
             t[k] += overhead + owned[k][front[k]]
             front[k] += 1
         elif end[1 - k] > front[1 - k]:
@@ -77,6 +78,7 @@ def main():
     ap.add_argument("--steps", type=int, default=3)
     ap.add_argument("--rounds", type=int, default=4000)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--last-singly", action="store_true", help="an owner takes its last two cells one at a time")
     a = ap.parse_args()
     steps, gw = cells_of(a.words, a.positions, a.width, a.height, a.cell, a.capacity)
     cells = len(steps[0])
@@ -93,7 +95,7 @@ def main():
                  if w and (s + c % gw + c // gw) % 2 == colour]
         # One thread's time for the round: pairs throughout.
         one = sum(a.overhead / 2 + a.pair * w for _, w in tasks)
-        end = round_end(tasks, cells, a.overhead, a.pair)
+        end = round_end(tasks, cells, a.overhead, a.pair, a.last_singly)
         tails.append(end - one / 2)
         work += one
         ends += end
