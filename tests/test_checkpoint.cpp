@@ -422,6 +422,70 @@ TEST(CheckpointResume, PeriodicWriterOnARunningEngineResumesBitForBit) {
     fs::remove_all(dir);
 }
 
+// The end of a mission: a periodic image may still be being written when the
+// engine stops (its fsync takes milliseconds), and a capture() then is
+// skipped; finish() waits it out, so the file holds the state at the end.
+TEST(CheckpointWriterImage, FinishWritesTheFinalStateEvenWhileAPeriodicWriteIsInProgress) {
+    const EngineConfig cfg = baseConfig();
+    const fs::path dir = tempDir("finish");
+    const std::string path = (dir / "run.ckpt").string();
+    Engine e(cfg);
+    Status st;
+    auto w = CheckpointWriter::create(e, path, st);
+    ASSERT_TRUE(w) << st.message();
+    e.captureCheckpoints(w.get(), 40);
+    for (const Frame& f : stream(cfg, 40, 21)) e.processNow(f.view());  // the 40th captures and wakes the writer
+    e.finalPass(1);  // the state moves on while that image may still be written
+    ASSERT_TRUE(w->finish().ok());
+    std::string data;
+    ASSERT_TRUE(readFile(path, data).ok());
+    const std::vector<uint8_t> file(data.begin(), data.end()), now = stateOf(e);
+    EXPECT_TRUE(file == now) << "sections differ: " << differingSections(file, now);
+    EXPECT_EQ(w->stats().written, 2u);
+    w.reset();
+    fs::remove_all(dir);
+}
+
+// A running engine's state read from another thread would be torn (a file
+// that does not load): encodeCheckpoint and capture() refuse it there, and
+// take it on the refiner thread (an observation hook) and once stopped.
+TEST(CheckpointWriterImage, ARunningEngineIsSavedOnlyFromItsRefinerThread) {
+    EngineConfig cfg = baseConfig();
+    const fs::path dir = tempDir("running");
+    const std::string path = (dir / "run.ckpt").string();
+    Engine e(cfg);
+    Status st;
+    auto w = CheckpointWriter::create(e, path, st);
+    ASSERT_TRUE(w) << st.message();
+    std::atomic<int> inHook{0};
+    e.setObservationHook([&](const ObservationResult&, const Model&) {
+        std::vector<uint8_t> bytes;  // the hook may allocate: its own choice
+        if (encodeCheckpoint(e, bytes).ok() && e.onRefinerThread()) inHook.fetch_add(1);
+    });
+    ASSERT_TRUE(e.start().ok());
+    EXPECT_FALSE(e.onRefinerThread());
+    std::vector<uint8_t> bytes;
+    const Status refused = encodeCheckpoint(e, bytes);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.message().find("cannot save a running engine"), std::string::npos) << refused.message();
+    EXPECT_FALSE(saveCheckpoint(e, path).ok());
+    EXPECT_FALSE(fs::exists(path));
+    EXPECT_FALSE(w->capture());
+    EXPECT_EQ(w->stats().failed, 1u);
+    EXPECT_EQ(w->stats().captured, 0u);
+    EXPECT_FALSE(w->finish().ok());
+    for (const Frame& f : stream(cfg, 6, 22)) ASSERT_TRUE(e.pushWait(f.view()));
+    e.stop();
+    EXPECT_EQ(inHook.load(), 6);
+    ASSERT_TRUE(encodeCheckpoint(e, bytes).ok());
+    ASSERT_TRUE(w->finish().ok());
+    CheckpointInfo info;
+    ASSERT_TRUE(readCheckpointInfo(path, info).ok());
+    EXPECT_EQ(info.observations, 6u);
+    w.reset();
+    fs::remove_all(dir);
+}
+
 TEST(CheckpointWriterImage, IncrementalCapturesEqualAFreshEncodingEveryTime) {
     // The writer refreshes its image incrementally (steps already captured
     // keep their words); after every capture the file must be exactly what

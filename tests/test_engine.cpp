@@ -310,9 +310,16 @@ TEST(EngineHooks, EvictionHookSeesEveryObservationOnceWhileStillInTheWindow) {
         EXPECT_EQ(seen.size(), w.observation) << "in order";
         seen.push_back(static_cast<int>(w.observation));
     });
-    const auto frames = makeStream(c.model, 51, 60, 7);
-    for (const Frame& f : frames) e.processNow(f.view());
+    const auto frames = makeStream(c.model, 71, 60, 7);
+    for (std::size_t i = 0; i < 51; ++i) e.processNow(frames[i].view());
     EXPECT_EQ(seen.size(), 51u - 9u);  // the last 4 full steps and the newest half step remain
+    e.flushWindowToEvictionHook();
+    ASSERT_EQ(seen.size(), 51u);
+    // Observations added after a flush: those flushed do not come again as
+    // they leave the ring (the hook's "in order" check sees a second visit),
+    // nor at a second flush.
+    for (std::size_t i = 51; i < frames.size(); ++i) e.processNow(frames[i].view());
+    e.flushWindowToEvictionHook();
     e.flushWindowToEvictionHook();
     ASSERT_EQ(seen.size(), frames.size());
 }
@@ -515,6 +522,10 @@ TEST(EngineInput, SubsamplesAnOversizeObservationUniformlyInInputOrderAndCountsT
         const ObservationResult r = e.processNow({f, words, pos});
         ASSERT_TRUE(r.add.ok());
         ASSERT_EQ(e.model().observationSize(static_cast<uint64_t>(f)), 512u);
+        // The observation's own result counts the words subsampled away, as the counters do.
+        ASSERT_EQ(r.add.kept, 512u);
+        ASSERT_EQ(r.add.dropped_frame, 2048u - 512u);
+        ASSERT_EQ(r.add.dropped_cell, 0u);
         std::vector<uint32_t> kept(512);
         e.model().observationWords(static_cast<uint64_t>(f), kept);
         for (std::size_t i = 1; i < kept.size(); ++i) ASSERT_LT(kept[i - 1], kept[i]) << "input order";

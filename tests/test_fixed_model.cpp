@@ -10,7 +10,10 @@
 #include <string>
 #include <vector>
 
+#include "rost/config_file.hpp"
+#include "rost/engine.hpp"
 #include "rost/model.hpp"
+#include "rost/settings.hpp"
 #include "synthetic.hpp"
 
 namespace {
@@ -247,7 +250,24 @@ TEST(FixedTopicModel, IsRefusedWithTopicsThatGrow) {
     c.grow = true;
     const rost::Status st = c.validate();
     ASSERT_FALSE(st.ok());
-    EXPECT_NE(st.message().find("topicmodel.fixed = true with topics.grow = true"), std::string::npos) << st.message();
+    const std::string want = "topics.grow = true, allowed false with topicmodel.fixed = true; a fixed topic model opens no topics";
+    EXPECT_NE(st.message().find(want), std::string::npos) << st.message();
+    // Every check of the settings finds it, not only Config::validate (an
+    // engine's, a settings file's), each naming both settings.
+    rost::EngineConfig e;
+    e.model = c;
+    const auto p = rost::checkEngineSettings(e);
+    ASSERT_TRUE(p.has_value());
+    EXPECT_NE(p->describe(p->spec->key).find(want), std::string::npos) << p->describe(p->spec->key);
+    rost::Settings s;
+    s.engine = e;
+    const rost::Status sv = s.validate();
+    ASSERT_FALSE(sv.ok());
+    EXPECT_NE(sv.message().find(want), std::string::npos) << sv.message();
+    rost::EngineConfig parsed;
+    const rost::Status pt = rost::parseConfigText("topics.grow = on\ntopicmodel.fixed = yes\n", "fixed.conf", parsed);
+    ASSERT_FALSE(pt.ok());
+    EXPECT_NE(pt.message().find(want), std::string::npos) << pt.message();
 }
 
 } // namespace

@@ -155,7 +155,7 @@ struct CheckpointSlot {
 //   engine.captureCheckpoints(writer.get(), N);   // the refiner calls captureEvery(N, r)
 //   // (or, from an observation hook: writer->captureEvery(N, r))
 //   engine.start(); ...; engine.stop();
-//   writer->capture(); Status st = writer->flush();   // the final state
+//   Status st = writer->finish();   // the final state, written
 class CheckpointWriter {
 public:
     // Sizes the image for `engine` and copies its whole state into it
@@ -170,7 +170,9 @@ public:
     // Copies the engine's state into the image and hands it to the writer
     // thread. Call on the refining thread (observation hook) or while the
     // engine is not running. False when skipped because the previous image
-    // is still being written. No allocation, no lock; at most a futex wake.
+    // is still being written (a periodic capture: the next one is due
+    // soon), or when called from another thread while the engine runs
+    // (counted in stats().failed). No allocation, no lock; at most a futex wake.
     bool capture() noexcept;
     // capture() after every `every`-th observation taken up (r.observation + 1
     // a multiple of `every`); false when no capture was due or it was skipped.
@@ -183,6 +185,12 @@ public:
 
     // Waits until no image is pending; the status of the last write.
     Status flush();
+    // The engine's state now, written (set-up code, the engine stopped: the
+    // end of a mission): waits out a write in progress (a periodic image
+    // captured earlier), captures, and waits for this write; its status.
+    // A capture() right after stop() may be skipped while an earlier image
+    // is still being written, leaving an older state in the file.
+    Status finish();
 
     struct Stats {
         uint64_t captured = 0;         // images copied

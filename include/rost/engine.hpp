@@ -267,6 +267,9 @@ public:
     // Signals the refiner and joins it. Idempotent.
     void stop(StopMode mode = StopMode::Drain);
     bool running() const noexcept { return running_.load(std::memory_order_acquire); }
+    // True on this engine's refiner thread while it runs (its hooks run
+    // there): where the state may be read while running (rost/checkpoint.hpp).
+    bool onRefinerThread() const noexcept;
 
     // ---- producer (one thread at a time) ------------------------------------
     // Copies the observation into a free slot and publishes it. Never blocks,
@@ -318,8 +321,12 @@ public:
     // (e.g. to record final labels at the end of a stream).
     void visitWindow(const EvictionHook& visit) const;
     // Same, with the eviction hook: after this, every ingested observation
-    // has passed through the eviction hook exactly once.
-    void flushWindowToEvictionHook() const;
+    // has passed through the eviction hook exactly once. The observations it
+    // flushed do not go through the hook again when they later leave the
+    // ring (observations added after a flush, a second replay() on the same
+    // engine), nor at a second flush; a restored state (applyState) starts
+    // this afresh.
+    void flushWindowToEvictionHook();
 
     // ---- checkpoint support (rost/checkpoint.hpp) ---------------------------
     // The engine's whole state as one layout (rost/state_layout.hpp): the
@@ -369,6 +376,7 @@ private:
     uint64_t checkpoint_every_ = 0;
     ObservationHook on_observation_;
     EvictionHook on_evict_;
+    uint64_t evicted_through_ = 0;  // observations before it have been through on_evict_ (flushed)
     std::thread thread_;
     std::atomic<bool> running_{false};
     alignas(kCacheLine) std::atomic<int> stop_request_{0};  // 0 none, 1 drain, 2 discard

@@ -565,6 +565,11 @@ void restoreLayout(const StateLayout& layout, const Parsed& p, const uint8_t* by
 // ---- public API -----------------------------------------------------------------------
 
 Status encodeCheckpoint(Engine& engine, std::vector<uint8_t>& out) {
+    // Another thread's copy of a running engine's state would be torn (a
+    // file that does not load): refused, as loading into a running engine is.
+    if (engine.running() && !engine.onRefinerThread())
+        return Status::error("checkpoint: cannot save a running engine from outside its refiner thread (stop it "
+                             "first, or save in an observation hook)");
     std::vector<detail::CheckpointSlot> slots;
     if (Status st = buildImage(engine, out, slots); !st.ok()) return st;
     if (!fillImage(engine, out.data(), slots, true)) return Status::error("checkpoint: the engine's state changed size");
@@ -766,6 +771,10 @@ CheckpointWriter::~CheckpointWriter() {
 }
 
 bool CheckpointWriter::capture() noexcept {
+    if (engine_.running() && !engine_.onRefinerThread()) {  // a torn image: refused, counted as failed
+        failed_.fetch_add(1, std::memory_order_relaxed);
+        return false;
+    }
     uint32_t s = kIdle;
     if (!state_.compare_exchange_strong(s, kFilling, std::memory_order_acquire, std::memory_order_relaxed)) {
         skipped_.fetch_add(1, std::memory_order_relaxed);
@@ -826,6 +835,14 @@ Status CheckpointWriter::flush() {
     }
     std::lock_guard<std::mutex> lock(error_mutex_);
     return last_error_.empty() ? Status{} : Status::error(last_error_);
+}
+
+Status CheckpointWriter::finish() {
+    if (engine_.running())
+        return Status::error("checkpoint: finish() called while the engine is running (stop it first): " + path_);
+    (void)flush();  // a periodic save still in progress: superseded by this one
+    if (!capture()) return Status::error("checkpoint: the engine's state could not be captured: " + path_);
+    return flush();
 }
 
 void CheckpointWriter::invalidate() noexcept { full_.store(true, std::memory_order_relaxed); }

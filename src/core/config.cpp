@@ -16,9 +16,6 @@ std::string Config::tablesText() const {
 Status Config::validate() const {
     // The ranges are the settings schema's, checked by one generic check (rost/settings.hpp).
     if (auto p = checkModelSettings(*this)) return Status::error("invalid configuration: " + p->describe(p->spec->key));
-    if (fixed && grow)
-        return Status::error("invalid configuration: topicmodel.fixed = true with topics.grow = true: a fixed topic model "
-                             "opens no topics (K is the given model's rows)");
     return {};
 }
 

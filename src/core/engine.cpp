@@ -671,6 +671,9 @@ bool Engine::takeUpOne(ObservationResult* out) noexcept {
     r.surprise = m.observationSurprise(r.observation);
     bump(refiner_->ingested);
     bump(refiner_->words_dropped_cell, r.add.dropped_cell + r.add.dropped_frame);
+    // The producer subsampled the words past max_words_per_frame (counters().words_truncated):
+    // the observation's own result says so too.
+    r.add.dropped_frame += it.truncated;
     refineAndPublish(r, t0, deadline);
     afterObservation(r);
     if (out) *out = r;
@@ -704,7 +707,7 @@ void Engine::beforeObservation(ObservationResult& r) noexcept {
     for (uint64_t f = static_cast<uint64_t>(gone) * ct; f < static_cast<uint64_t>(gone + 1) * ct; ++f) {
         const std::size_t w = f % R.win_cap;
         const WindowObservation leaving{f, R.win_seq[w], R.win_ts[w], gone};
-        if (on_evict_) on_evict_(leaving, m);
+        if (on_evict_ && f >= evicted_through_) on_evict_(leaving, m);
         if (pub_) publishFinal(leaving);
     }
 }
@@ -736,7 +739,16 @@ void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock:
     r.elapsed_ns = (t1 - t0).count();
 }
 
+namespace {
+// The engine whose refiner thread this is (set as it starts: its first use
+// of the thread-local, which may allocate, is set-up).
+thread_local const Engine* t_refining = nullptr;
+} // namespace
+
+bool Engine::onRefinerThread() const noexcept { return t_refining == this; }
+
 void Engine::refinerMain() noexcept {
+    t_refining = this;
     applyToCurrentThread(cfg_.thread);  // set-up: may allocate, logs fallbacks once
     refiner_->ready.store(true, std::memory_order_release);
     refiner_->ready.notify_all();  // start() waits on it (set-up: one futex wake)
@@ -833,7 +845,18 @@ void Engine::visitWindow(const EvictionHook& visit) const {
     }
 }
 
-void Engine::flushWindowToEvictionHook() const { visitWindow(on_evict_); }
+void Engine::flushWindowToEvictionHook() {
+    if (!on_evict_) return;
+    const Model& m = *model_;
+    const uint64_t frames = m.observations();
+    if (frames == 0) return;
+    const auto ct = static_cast<uint64_t>(m.config().cell_time);
+    for (uint64_t f = std::max(static_cast<uint64_t>(m.oldestStep()) * ct, evicted_through_); f < frames; ++f) {
+        const std::size_t w = f % refiner_->win_cap;
+        on_evict_(WindowObservation{f, refiner_->win_seq[w], refiner_->win_ts[w], m.stepOfObservation(f)}, m);
+    }
+    evicted_through_ = frames;
+}
 
 // ---- checkpoint support -------------------------------------------------------
 
@@ -869,6 +892,7 @@ void Engine::describeState(StateLayout& out) noexcept {
 Status Engine::applyState() {
     if (running()) return Status::error("engine: cannot restore state while running");
     if (queue_->size() != 0) return Status::error("engine: cannot restore state while observations are queued");
+    evicted_through_ = 0;  // the restored window's observations have not been flushed
     Refiner& R = *refiner_;
     const EngineStateCounters& c = R.saved_counters;
     R.ingested.store(c.ingested, std::memory_order_relaxed);

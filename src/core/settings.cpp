@@ -295,6 +295,9 @@ std::optional<SettingProblem> modelCombinations(const Config& c) {
     using K = SettingProblem::Kind;
     const auto& spec = [](std::string_view key) { return &specNamed(key); };
     const auto n = [](auto v) { return formatInteger(static_cast<long long>(v)); };
+    if (c.fixed && c.grow)
+        return SettingProblem{spec("topics.grow"), K::Range, "true", "false with {topicmodel.fixed} = true",
+                              {spec("topicmodel.fixed")}, "a fixed topic model opens no topics (K is the given model's rows)"};
     if (c.g_time >= c.ring_steps && c.ring_steps > 1)
         return SettingProblem{spec("g.time"), K::Range, n(c.g_time), "[0, " + n(c.ring_steps - 1) + "]",
                               {spec("ring.steps")}, "below {ring.steps} = " + n(c.ring_steps)};

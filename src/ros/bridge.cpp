@@ -276,9 +276,7 @@ std::string Pipeline::saveCheckpoint() {
     if (!m.checkpoints) return "no ~checkpoint parameter: nowhere to save";
     const bool was = m.engine->running();
     m.engine->stop(Engine::StopMode::Drain);
-    (void)m.checkpoints->flush();  // a periodic save in progress: its status is superseded by this one
-    m.checkpoints->capture();
-    const Status st = m.checkpoints->flush();
+    const Status st = m.checkpoints->finish();  // a periodic save in progress is superseded by this one
     if (was)
         if (Status s2 = m.engine->start(); !s2.ok()) return s2.message();
     return st.ok() ? std::string() : st.message() + " (" + m.options.checkpoint + ")";

@@ -164,9 +164,7 @@ Status attachCheckpoints(Engine& engine, const ModelOptions& m, std::unique_ptr<
 }
 
 Status finishCheckpoints(CheckpointWriter& writer) {
-    (void)writer.flush();  // a periodic save still in progress
-    writer.capture();
-    const Status st = writer.flush();
+    const Status st = writer.finish();
     return st.ok() ? st : Status::error("--checkpoint: " + st.message());
 }
 
