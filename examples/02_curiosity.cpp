@@ -115,8 +115,14 @@ int main(int argc, char** argv) {
     long n = 0;
     while (n < maxFrames && source->read(frame) == rost::vision::ReadStatus::Ok) {
         extractor->extract(frame.image, words);
-        if (!engine->tryPush({frame.index, words.words, words.positions}))
-            std::printf("frame %4lld: dropped, the refiner is behind\n", static_cast<long long>(frame.index));
+        // Under the default DropPolicy::DropOldest a full queue drops its
+        // oldest frame and takes this one (tryPush is then true): the
+        // counters say a frame was dropped.
+        const uint64_t droppedBefore = engine->counters().dropped();
+        const bool taken = engine->tryPush({frame.index, words.words, words.positions});
+        if (!taken || engine->counters().dropped() > droppedBefore)
+            std::printf("frame %4lld: %s dropped, the refiner is behind\n", static_cast<long long>(frame.index),
+                        taken ? "an older frame" : "this frame");
         react();
         ++n;
     }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <cstring>
 #include <stdexcept>
@@ -114,18 +115,14 @@ TEST(EngineConfig, CreateReturnsNullWithTheMessageAndTheConstructorThrows) {
 // settings the tables grow with, not "std::bad_alloc". In a child process
 // limited to 1 GiB of address space (not under the sanitizers, whose shadow
 // memory needs more).
-TEST(EngineConfig, TablesThatDoNotFitInMemoryAreRefusedNamingTheirSettings) {
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-    GTEST_SKIP() << "an address-space limit and a sanitizer's shadow memory do not mix";
-#else
-    EngineConfig c;
-    c.model.K = 1024;
-    c.model.V = 1000000;  // n_kv alone is 4 GB
-    ASSERT_TRUE(c.validate().ok());
+#if !defined(__SANITIZE_THREAD__) && !defined(__SANITIZE_ADDRESS__)
+// Engine::create's message for `c` in a child process limited to 1 GiB of
+// address space; "unenforced" where the limit is not (an emulator).
+std::string createMessageIn1GiB(const EngineConfig& c) {
     int fds[2];
-    ASSERT_EQ(::pipe(fds), 0);
+    if (::pipe(fds) != 0) return "no pipe";
     const pid_t pid = ::fork();
-    ASSERT_GE(pid, 0);
+    if (pid < 0) return "no fork";
     if (pid == 0) {
         ::close(fds[0]);
         const rlimit lim{1ul << 30, 1ul << 30};
@@ -149,9 +146,31 @@ TEST(EngineConfig, TablesThatDoNotFitInMemoryAreRefusedNamingTheirSettings) {
     int status = 0;
     ::waitpid(pid, &status, 0);
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the child ended otherwise: " << status;
+    return msg;
+}
+#endif
+
+TEST(EngineConfig, TablesThatDoNotFitInMemoryAreRefusedNamingTheirSettings) {
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+    GTEST_SKIP() << "an address-space limit and a sanitizer's shadow memory do not mix";
+#else
+    EngineConfig c;
+    c.model.K = 1024;
+    c.model.V = 1000000;  // n_kv alone is 4 GB
+    ASSERT_TRUE(c.validate().ok());
+    std::string msg = createMessageIn1GiB(c);
     if (msg == "unenforced") GTEST_SKIP() << "an address-space limit is not enforced here (an emulator)";
-    EXPECT_EQ(msg, "engine: not enough memory for the model's tables: " + c.model.tablesText() + "; lower one of them");
+    EXPECT_EQ(msg, "engine: not enough memory for the model's tables: " + c.model.tablesText() + ", queue.slots = 8" +
+                       "; lower one of them");
     EXPECT_NE(msg.find("K = 1024, V = 1000000, ring.steps = "), std::string::npos) << msg;
+    // A queue of many slots, each max.words words (12 bytes a word), is
+    // what does not fit: named too.
+    EngineConfig q;
+    q.queue_slots = 65536;
+    q.model.max_words_per_frame = 4194304;
+    ASSERT_TRUE(q.validate().ok());
+    msg = createMessageIn1GiB(q);
+    EXPECT_NE(msg.find("max.words = 4194304, queue.slots = 65536; lower one of them"), std::string::npos) << msg;
 #endif
 }
 
@@ -292,6 +311,30 @@ TEST(EngineDeterminism, ThreadedReplayMatchesSynchronousBitForBitUnderStepAndTok
         EXPECT_EQ(threaded.counters.ingested, frames.size());
         EXPECT_EQ(sync.counters.tokens, threaded.counters.tokens);
     }
+}
+
+// What a rejected observation's error says, each its own words.
+TEST(EngineInput, EachAddErrorHasItsOwnText) {
+    EXPECT_STREQ(toString(AddError::None), "ok");
+    EXPECT_STREQ(toString(AddError::SizeMismatch), "words and positions (or the given labels) differ in length");
+    EXPECT_STREQ(toString(AddError::WordOutOfRange), "word id out of range");
+    EXPECT_STREQ(toString(AddError::PositionOutOfRange), "position outside the frame");
+    EXPECT_STREQ(toString(AddError::LabelOutOfRange), "initial label out of range");
+}
+
+// processNow is synchronous mode's: on a running engine it processes and
+// queues nothing, and says so by step -1 without an error of the model's.
+TEST(EngineSync, ProcessNowOnARunningEngineTakesNothing) {
+    Engine e(engineConfig(Budget::steps(1)));
+    const auto frames = makeStream(e.config().model, 2, 40, 3);
+    ASSERT_TRUE(e.start().ok());
+    const ObservationResult r = e.processNow(frames[0].view());
+    EXPECT_EQ(r.step, -1);
+    EXPECT_TRUE(r.add.ok());
+    EXPECT_EQ(e.queued(), 0u);
+    e.stop();
+    EXPECT_EQ(e.counters().ingested, 0u);
+    EXPECT_EQ(e.processNow(frames[1].view()).step, 0);  // stopped: synchronous mode again
 }
 
 // ---- hooks and perplexity --------------------------------------------------------
@@ -619,6 +662,48 @@ TEST(ThreadSettings, PinningToAMissingCpuFallsBackWithAMessageNamingTheCpu) {
     t.join();
     EXPECT_FALSE(report.pinned);
     EXPECT_NE(report.message.find("CPU 1000"), std::string::npos) << report.message;
+}
+
+// Each fallback is a line of the report, and stderr says each once a
+// process (ctest runs every test in a process of its own). Priority 0 is no
+// SCHED_FIFO priority, so FIFO falls back with privileges too.
+TEST(ThreadSettings, FallbacksAreReportedLineByLineAndLoggedOnceAProcess) {
+    ThreadSettings s;
+    s.cpu = 100000;
+    s.fifo = true;
+    s.priority = 0;
+    std::fflush(stderr);
+    char path[] = "/tmp/rost_fallbacks_XXXXXX";
+    const int fd = ::mkstemp(path);
+    ASSERT_GE(fd, 0);
+    const int saved = ::dup(2);
+    ::dup2(fd, 2);
+    ThreadSettingsReport first, second;
+    std::thread t([&] {
+        first = applyToCurrentThread(s);
+        second = applyToCurrentThread(s);
+    });
+    t.join();
+    std::fflush(stderr);
+    ::dup2(saved, 2);
+    ::close(saved);
+    std::string logged;
+    char buf[1024];
+    ::lseek(fd, 0, SEEK_SET);
+    for (ssize_t n; (n = ::read(fd, buf, sizeof buf)) > 0;) logged.append(buf, static_cast<std::size_t>(n));
+    ::close(fd);
+    ::unlink(path);
+    EXPECT_FALSE(first.pinned || first.fifo);
+    EXPECT_NE(first.message.find("it runs on any CPU\nSCHED_FIFO priority 0 not permitted"), std::string::npos)
+        << first.message;
+    EXPECT_EQ(second.message, first.message);
+    const auto count = [&](const std::string& what) {
+        std::size_t n = 0;
+        for (std::size_t at = logged.find(what); at != std::string::npos; at = logged.find(what, at + 1)) ++n;
+        return n;
+    };
+    EXPECT_EQ(count("rost: could not pin the refiner thread to CPU 100000"), 1u) << logged;
+    EXPECT_EQ(count("rost: SCHED_FIFO priority 0 not permitted"), 1u) << logged;
 }
 
 TEST(ThreadSettings, OnboardRequestsFifoPinningAndLockedMemory) {

@@ -618,7 +618,11 @@ TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     oneCell.frame_width = 1;
     oneCell.frame_height = 1;
     oneCell.cell_capacity = 4096;
-    for (const Config& base : {d.config(), twoPerStep, growing, oneCell}) {
+    Config full = d.config();  // observations of exactly max.words inputs: the measure's buffers to their last word
+    full.max_words_per_frame = static_cast<int>(
+        std::min_element(d.words.begin(), d.words.end(), [](const auto& a, const auto& b) { return a.size() < b.size(); })
+            ->size());
+    for (const Config& base : {d.config(), twoPerStep, growing, oneCell, full}) {
         std::vector<uint64_t> reference;  // one thread, one measurement at a time
         for (const int threads : {1, 2, 3}) {
             Config c = base;

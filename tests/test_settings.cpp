@@ -216,6 +216,15 @@ TEST(Settings, ErrorsNameTheKeyAndWhatWasExpected) {
               "f:1: unknown key 'cell_space' (did you mean 'cell.space'?)");
     EXPECT_EQ(parseSettingsText("thumb.cell = 0\n", "f", s).message(),
               "f:1: key 'thumb.cell': invalid configuration: thumb.cell = 0, allowed [1, 256]");
+    // A combination whose blamed key the text does not set: the file is still named.
+    EXPECT_EQ(parseSettingsText("max.words = 4000000\ncell.time = 1000\n", "rost.conf", s).message(),
+              "rost.conf: invalid configuration: ring.steps = 256, allowed at most 1 with cell.time = 1000 and "
+              "max.words = 4000000; the observations' inputs would need more than 64 GiB; lower ring.steps, "
+              "cell.time or max.words");
+    // A UTF-8 byte order mark before the first key is read past, as in every text file.
+    Settings bom;
+    ASSERT_TRUE(parseSettingsText("\xEF\xBB\xBFK = 12\n", "rost.conf", bom).ok());
+    EXPECT_EQ(bom.engine.model.K, 12);
     EXPECT_EQ(settingRange(*findSetting("q")), "(0, 1]");
     EXPECT_EQ(settingRange(*findSetting("drop")), "newest|oldest");
 }

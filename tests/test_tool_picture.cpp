@@ -16,6 +16,7 @@
 
 #include "aligned_buffer.hpp"
 #include "outputs.hpp"
+#include "results.hpp"
 #include "sinks.hpp"
 #include "test_deadline.hpp"
 
@@ -206,6 +207,28 @@ TEST(ToolSummary, TheCanvasIsDrawnInAMappingOfItsOwn) {
     EXPECT_FALSE(small.pixels.mapped());
     EXPECT_EQ(static_cast<const void*>(small.image.data), static_cast<const void*>(small.pixels.data()));
     EXPECT_EQ(small.image.size(), cv::Size(5, 4));
+}
+
+// run.txt's lines: words dropped for both reasons at once, and the topics
+// of a growing model before any move (no gamma learned yet).
+TEST(ToolResults, RunTxtNamesBothDropsAndALearnedGammaOnlyOnceOneIsLearned) {
+    rost::Config c;
+    c.max_words_per_frame = 3000;
+    c.cell_capacity = 8;
+    const rost::tool::WordDrops both{1000, 30, 20};
+    EXPECT_EQ(both.line(c), "words dropped: 50 of 1000 (5 %): 30 beyond max.words = 3000, 20 beyond cell.capacity = 8; "
+                            "uniformly subsampled\n");
+    EXPECT_NE(both.note(c).find("a larger --max.words and a larger --cell.capacity keeps them"), std::string::npos)
+        << both.note(c);
+    rost::Config g;
+    g.V = 20;
+    g.K = 12;
+    g.grow = true;
+    g.gamma = 0.5;
+    const rost::Model m(g);
+    ASSERT_EQ(m.learnedGamma(), 0.0);
+    EXPECT_EQ(rost::tool::topicsLine(m), "topics: 0 open of at most K = 12 (topics.grow, gamma = 0.5 at the start; 0 "
+                                         "split and merge moves accepted by this run)\n");
 }
 
 } // namespace

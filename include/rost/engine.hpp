@@ -294,7 +294,8 @@ public:
     // ---- readers (any thread) -----------------------------------------------
     // Copies the newest published results into `out` (sized for this
     // engine's Config by Snapshot::reserve / makeSnapshot). Never blocks the
-    // refiner. False when nothing was published yet or `out` is too small.
+    // refiner. False when nothing was published yet or `out` was not sized
+    // for this engine (its K and cells a step must be this engine's).
     bool readSnapshot(Snapshot& out) const noexcept;
     Snapshot makeSnapshot() const { return Snapshot(cfg_.model); }  // allocates: set-up only
     // Counters right now (each field read atomically; fields may be from
@@ -305,6 +306,8 @@ public:
     // Pushes `obs` and processes it on the calling thread: ingest, budget,
     // publish, hooks. Same path and results as the refiner thread. Returns
     // the observation's result (add.error set when the model rejected it).
+    // Not while the engine runs (tryPush is the way in then): nothing is
+    // processed or queued, and the result has step -1 with add.error None.
     ObservationResult processNow(const ObservationView& obs) noexcept;
     // Processes observations queued by tryPush() on the calling thread.
     // Returns how many were taken up.

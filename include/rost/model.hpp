@@ -29,7 +29,7 @@ class ModelCore;
 
 enum class AddError : uint8_t {
     None,
-    SizeMismatch,        // words and positions differ in length
+    SizeMismatch,        // words and positions (or the given initial labels) differ in length
     WordOutOfRange,      // a word id >= V
     PositionOutOfRange,  // a position outside [0, width) x [0, height)
     LabelOutOfRange,     // a given initial label >= K (addObservation with labels)

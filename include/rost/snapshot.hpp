@@ -60,7 +60,9 @@ public:
     double perplexity = std::numeric_limits<double>::quiet_NaN();  // of its step, after its budget
     double surprise = std::numeric_limits<double>::quiet_NaN();    // Model::observationSurprise
     // Instantaneous perplexity of the previous time step: computed just
-    // before the first observation of `step` was added (paper section VII).
+    // before the first observation of `step` was added (paper section VII),
+    // and published with that observation only: with cell.time > 1 a later
+    // observation of the same step has -1 and NaN here.
     int64_t previous_step = -1;
     double previous_perplexity = std::numeric_limits<double>::quiet_NaN();
     double previous_plugin = std::numeric_limits<double>::quiet_NaN();  // plug-in, same step and instant

@@ -303,8 +303,10 @@ std::unique_ptr<Engine> Engine::create(const EngineConfig& cfg, Status& status) 
     try {
         return std::make_unique<Engine>(cfg);
     } catch (const std::bad_alloc&) {  // valid settings this machine cannot hold: named, to lower one
+        // The queue's slots each hold max.words inputs: named with the tables.
         status = Status::error(StatusKind::OutOfMemory, "engine: not enough memory for the model's tables: " +
-                                                            cfg.model.tablesText() + "; lower one of them");
+                                                            cfg.model.tablesText() + ", queue.slots = " +
+                                                            std::to_string(cfg.queue_slots) + "; lower one of them");
         return nullptr;
     } catch (const std::exception& e) {
         status = Status::error(std::string("engine: ") + e.what());

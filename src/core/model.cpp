@@ -15,7 +15,7 @@ namespace rost {
 const char* toString(AddError e) noexcept {
     switch (e) {
     case AddError::None: return "ok";
-    case AddError::SizeMismatch: return "words and positions differ in length";
+    case AddError::SizeMismatch: return "words and positions (or the given labels) differ in length";
     case AddError::WordOutOfRange: return "word id out of range";
     case AddError::PositionOutOfRange: return "position outside the frame";
     case AddError::LabelOutOfRange: return "initial label out of range";
