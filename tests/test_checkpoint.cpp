@@ -422,6 +422,28 @@ TEST(CheckpointResume, PeriodicWriterOnARunningEngineResumesBitForBit) {
     fs::remove_all(dir);
 }
 
+// A state restored into an engine that had flushed its window: the
+// restored window's observations go through the eviction hook as they
+// leave the ring, though the engine's earlier flush had covered their
+// numbers.
+TEST(CheckpointLoad, ARestoredWindowGoesThroughTheEvictionHookAfterAFlush) {
+    const EngineConfig cfg = baseConfig();  // ring of 6 steps, cell.time 1
+    const auto frames = stream(cfg, 15, 23);
+    Engine e(cfg);
+    std::vector<uint64_t> seen;
+    e.setEvictionHook([&](const WindowObservation& w, const Model&) { seen.push_back(w.observation); });
+    for (int f = 0; f < 8; ++f) e.processNow(frames[static_cast<std::size_t>(f)].view());
+    std::vector<uint8_t> at8;
+    ASSERT_TRUE(encodeCheckpoint(e, at8).ok());
+    for (int f = 8; f < 12; ++f) e.processNow(frames[static_cast<std::size_t>(f)].view());
+    e.flushWindowToEvictionHook();
+    ASSERT_EQ(seen.size(), 12u);  // 0..11, each once
+    ASSERT_TRUE(loadCheckpoint(at8, "at8.ckpt", e).ok());
+    seen.clear();
+    for (int f = 8; f < 11; ++f) e.processNow(frames[static_cast<std::size_t>(f)].view());
+    EXPECT_EQ(seen, (std::vector<uint64_t>{2, 3, 4})) << "the restored window's oldest left the ring unseen";
+}
+
 // The end of a mission: a periodic image may still be being written when the
 // engine stops (its fsync takes milliseconds), and a capture() then is
 // skipped; finish() waits it out, so the file holds the state at the end.

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "engine_refiner.hpp"
 #include "observation_queue.hpp"
 #include "predictor.hpp"
 #include "rost/checkpoint.hpp"
@@ -246,42 +247,6 @@ Status EngineConfig::validate() const {
 }
 
 // ---- Engine -------------------------------------------------------------------
-
-// Refiner-side state: written only by the thread that refines (the refiner
-// thread, or the caller in synchronous mode).
-struct Engine::Refiner {
-    explicit Refiner(const Config& cfg)
-        : staging(cfg), win_cap(static_cast<std::size_t>(cfg.ring_steps) * static_cast<std::size_t>(cfg.cell_time)),
-          win_ts(win_cap), win_seq(win_cap) {}
-
-    Snapshot staging;
-    std::size_t win_cap;
-    AlignedBuffer<int64_t> win_ts;   // time stamp of each observation in the window (frame % win_cap)
-    AlignedBuffer<uint64_t> win_seq; // its producer sequence number
-
-    // Time-budget predictors: running averages of the cost of a token and of
-    // a publication, so the last cell started still ends before the deadline
-    // (a cell is started only if 1.5x its predicted cost fits).
-    double ns_per_token = 40.0;
-    double publish_ns = 0.0;  // set from the budget in Engine(); measured after the first publication
-    uint64_t token_samples = 0;
-    uint64_t publish_samples = 0;
-    uint64_t next_sequence = 0;    // producer sequence after the last observation taken up (checkpoints)
-    uint64_t truncated_taken = 0;  // words subsampled away at push from the observations taken up (checkpoints)
-    // The counters and predictors as describeState() lists them (copied there, applied by applyState()).
-    EngineStateCounters saved_counters;
-    EngineStatePredictors saved_predictors;
-
-    alignas(kCacheLine) std::atomic<uint64_t> ingested{0};
-    std::atomic<uint64_t> rejected{0};
-    std::atomic<uint64_t> words_dropped_cell{0};
-    std::atomic<uint64_t> refinements{0};
-    std::atomic<uint64_t> tokens{0};
-    std::atomic<uint64_t> overruns{0};
-    std::atomic<int64_t> max_overrun_ns{0};
-    std::atomic<uint64_t> published{0};
-    alignas(kCacheLine) std::atomic<bool> ready{false};
-};
 
 Engine::Engine(const EngineConfig& cfg) : cfg_(cfg) {
     if (Status s = cfg.validate(); !s.ok()) throw std::invalid_argument(s.message());
@@ -858,61 +823,6 @@ void Engine::flushWindowToEvictionHook() {
         on_evict_(WindowObservation{f, refiner_->win_seq[w], refiner_->win_ts[w], m.stepOfObservation(f)}, m);
     }
     evicted_through_ = frames;
-}
-
-// ---- checkpoint support -------------------------------------------------------
-
-void Engine::describeState(StateLayout& out) noexcept {
-    Refiner& R = *refiner_;
-    // Producer-side losses as of the last observation taken up (the
-    // producer may be ahead, and what it queued since is not in the state):
-    // sequence numbers skipped before next_sequence were dropped.
-    EngineStateCounters& c = R.saved_counters;
-    c.ingested = R.ingested.load(std::memory_order_relaxed);
-    c.rejected = R.rejected.load(std::memory_order_relaxed);
-    const uint64_t takenUp = c.ingested + c.rejected;
-    const uint64_t drops = R.next_sequence > takenUp ? R.next_sequence - takenUp : 0;
-    c.dropped_oldest = std::min(drops, queue_->droppedOldest());
-    c.dropped_newest = drops - c.dropped_oldest;
-    c.words_dropped_cell = R.words_dropped_cell.load(std::memory_order_relaxed);
-    c.refinements = R.refinements.load(std::memory_order_relaxed);
-    c.tokens = R.tokens.load(std::memory_order_relaxed);
-    c.overruns = R.overruns.load(std::memory_order_relaxed);
-    c.max_overrun_ns = static_cast<uint64_t>(R.max_overrun_ns.load(std::memory_order_relaxed));
-    c.published = R.published.load(std::memory_order_relaxed);
-    c.words_truncated = R.truncated_taken;
-    c.next_sequence = R.next_sequence;
-    R.saved_predictors = {R.ns_per_token, R.publish_ns};
-
-    model_->describeState(out);
-    out.addBytes("engine.counters", 0, &R.saved_counters, sizeof R.saved_counters, sizeof(uint64_t));
-    out.addBytes("engine.predictors", 0, &R.saved_predictors, sizeof R.saved_predictors, sizeof(double));
-    out.add("engine.window.timestamp", 0, R.win_ts.data(), R.win_ts.size());
-    out.add("engine.window.sequence", 0, R.win_seq.data(), R.win_seq.size());
-}
-
-Status Engine::applyState() {
-    if (running()) return Status::error("engine: cannot restore state while running");
-    if (queue_->size() != 0) return Status::error("engine: cannot restore state while observations are queued");
-    evicted_through_ = 0;  // the restored window's observations have not been flushed
-    Refiner& R = *refiner_;
-    const EngineStateCounters& c = R.saved_counters;
-    R.ingested.store(c.ingested, std::memory_order_relaxed);
-    R.rejected.store(c.rejected, std::memory_order_relaxed);
-    R.words_dropped_cell.store(c.words_dropped_cell, std::memory_order_relaxed);
-    R.refinements.store(c.refinements, std::memory_order_relaxed);
-    R.tokens.store(c.tokens, std::memory_order_relaxed);
-    R.overruns.store(c.overruns, std::memory_order_relaxed);
-    R.max_overrun_ns.store(static_cast<int64_t>(c.max_overrun_ns), std::memory_order_relaxed);
-    R.published.store(c.published, std::memory_order_relaxed);
-    R.next_sequence = c.next_sequence;
-    R.truncated_taken = c.words_truncated;
-    queue_->restoreProducer(c.next_sequence, c.dropped_newest, c.dropped_oldest, c.words_truncated);
-    R.ns_per_token = R.saved_predictors.ns_per_token;
-    R.publish_ns = R.saved_predictors.publish_ns;
-    R.token_samples = R.publish_samples = 1;  // restored averages, not first samples
-    model_->stateRestored();
-    return {};
 }
 
 } // namespace rost
