@@ -196,7 +196,7 @@ public:
         uint64_t captured = 0;         // images copied
         uint64_t skipped = 0;          // captures skipped: the writer was busy
         uint64_t written = 0;          // files written
-        uint64_t failed = 0;           // writes that failed (see flush())
+        uint64_t failed = 0;           // writes that failed (see flush()), and captures refused (capture())
         int64_t last_capture_ns = 0;   // refiner stall of the last capture
         int64_t max_capture_ns = 0;    // largest refiner stall
         int64_t last_write_ns = 0;     // writer thread: checksums + write + fsync + rename

@@ -328,7 +328,7 @@ public:
     // flushed do not go through the hook again when they later leave the
     // ring (observations added after a flush, a second replay() on the same
     // engine), nor at a second flush; a restored state (applyState) starts
-    // this afresh.
+    // this afresh. Not while the engine runs (nothing happens then).
     void flushWindowToEvictionHook();
 
     // ---- checkpoint support (rost/checkpoint.hpp) ---------------------------
@@ -381,6 +381,7 @@ private:
     EvictionHook on_evict_;
     uint64_t evicted_through_ = 0;  // observations before it have been through on_evict_ (flushed)
     std::thread thread_;
+    std::atomic<std::thread::id> refiner_thread_{};  // onRefinerThread(): set by the thread as it starts
     std::atomic<bool> running_{false};
     alignas(kCacheLine) std::atomic<int> stop_request_{0};  // 0 none, 1 drain, 2 discard
 };

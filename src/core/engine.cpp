@@ -706,16 +706,15 @@ void Engine::refineAndPublish(ObservationResult& r, Clock::time_point t0, Clock:
     r.elapsed_ns = (t1 - t0).count();
 }
 
-namespace {
-// The engine whose refiner thread this is (set as it starts: its first use
-// of the thread-local, which may allocate, is set-up).
-thread_local const Engine* t_refining = nullptr;
-} // namespace
-
-bool Engine::onRefinerThread() const noexcept { return t_refining == this; }
+// The refiner thread's id, set as it starts and cleared once it is joined
+// (no thread-local: in a shared library its access after a dlopen may allocate).
+static_assert(std::atomic<std::thread::id>::is_always_lock_free, "the refiner's id is read on the realtime path");
+bool Engine::onRefinerThread() const noexcept {
+    return refiner_thread_.load(std::memory_order_acquire) == std::this_thread::get_id();
+}
 
 void Engine::refinerMain() noexcept {
-    t_refining = this;
+    refiner_thread_.store(std::this_thread::get_id(), std::memory_order_release);
     applyToCurrentThread(cfg_.thread);  // set-up: may allocate, logs fallbacks once
     refiner_->ready.store(true, std::memory_order_release);
     refiner_->ready.notify_all();  // start() waits on it (set-up: one futex wake)
@@ -765,6 +764,7 @@ void Engine::stop(StopMode mode) {
     if (!thread_.joinable()) return;
     stop_request_.store(mode == StopMode::Drain ? 1 : 2, std::memory_order_release);
     thread_.join();
+    refiner_thread_.store(std::thread::id(), std::memory_order_release);
     running_.store(false, std::memory_order_release);
 }
 
@@ -813,7 +813,7 @@ void Engine::visitWindow(const EvictionHook& visit) const {
 }
 
 void Engine::flushWindowToEvictionHook() {
-    if (!on_evict_) return;
+    if (!on_evict_ || running()) return;  // the refiner reads evicted_through_ while it runs
     const Model& m = *model_;
     const uint64_t frames = m.observations();
     if (frames == 0) return;

@@ -1,4 +1,5 @@
 #include "rost/realtime.hpp"
+#include "realtime_log.hpp"
 
 #include <atomic>
 #include <cerrno>
@@ -21,6 +22,16 @@ namespace {
 std::atomic<bool> g_logged_fifo{false};
 std::atomic<bool> g_logged_pin{false};
 std::atomic<bool> g_logged_lock{false};
+
+} // namespace
+
+void detail::forgetLoggedFallbacks() noexcept {
+    g_logged_fifo.store(false);
+    g_logged_pin.store(false);
+    g_logged_lock.store(false);
+}
+
+namespace {
 
 void logOnce(std::atomic<bool>& flag, const std::string& line) {
     if (!flag.exchange(true)) std::fprintf(stderr, "rost: %s\n", line.c_str());
