@@ -444,18 +444,38 @@ TEST(CheckpointLoad, ARestoredWindowGoesThroughTheEvictionHookAfterAFlush) {
     EXPECT_EQ(seen, (std::vector<uint64_t>{2, 3, 4})) << "the restored window's oldest left the ring unseen";
 }
 
+// An engine of baseConfig() and its periodic writer into a fresh directory,
+// which goes when the test ends (the writer first: it may hold a temporary file).
+struct EngineWithWriter {
+    explicit EngineWithWriter(const std::string& name)
+        : dir(tempDir(name)), path((dir / "run.ckpt").string()), cfg(baseConfig()), e(cfg) {
+        Status st;
+        w = CheckpointWriter::create(e, path, st);
+        why = st.message();
+    }
+    ~EngineWithWriter() {
+        w.reset();
+        fs::remove_all(dir);
+    }
+    fs::path dir;
+    std::string path;
+    EngineConfig cfg;
+    Engine e;
+    std::unique_ptr<CheckpointWriter> w;
+    std::string why;  // create()'s error, if any
+};
+
 // The end of a mission: a periodic image may still be being written when the
 // engine stops (its fsync takes milliseconds), and a capture() then is
 // skipped; finish() waits it out, so the file holds the state at the end.
 TEST(CheckpointWriterImage, FinishWritesTheFinalStateEvenWhileAPeriodicWriteIsInProgress) {
-    const EngineConfig cfg = baseConfig();
-    const fs::path dir = tempDir("finish");
-    const std::string path = (dir / "run.ckpt").string();
-    Engine e(cfg);
-    Status st;
-    auto w = CheckpointWriter::create(e, path, st);
-    ASSERT_TRUE(w) << st.message();
-    e.captureCheckpoints(w.get(), 40);
+    EngineWithWriter ew("finish");
+    ASSERT_TRUE(ew.w) << ew.why;
+    const EngineConfig& cfg = ew.cfg;
+    const std::string& path = ew.path;
+    Engine& e = ew.e;
+    CheckpointWriter* w = ew.w.get();
+    e.captureCheckpoints(w, 40);
     for (const Frame& f : stream(cfg, 40, 21)) e.processNow(f.view());  // the 40th captures and wakes the writer
     // At once, while that image is (most likely) still being checksummed,
     // written and fsync'ed: a capture() here would be skipped.
@@ -473,21 +493,18 @@ TEST(CheckpointWriterImage, FinishWritesTheFinalStateEvenWhileAPeriodicWriteIsIn
     const std::vector<uint8_t> after(data.begin(), data.end()), moved = stateOf(e);
     EXPECT_FALSE(moved == now) << "the final pass changed nothing";
     EXPECT_TRUE(after == moved) << "sections differ: " << differingSections(after, moved);
-    w.reset();
-    fs::remove_all(dir);
 }
 
 // A running engine's state read from another thread would be torn (a file
 // that does not load): encodeCheckpoint and capture() refuse it there, and
 // take it on the refiner thread (an observation hook) and once stopped.
 TEST(CheckpointWriterImage, ARunningEngineIsSavedOnlyFromItsRefinerThread) {
-    EngineConfig cfg = baseConfig();
-    const fs::path dir = tempDir("running");
-    const std::string path = (dir / "run.ckpt").string();
-    Engine e(cfg);
-    Status st;
-    auto w = CheckpointWriter::create(e, path, st);
-    ASSERT_TRUE(w) << st.message();
+    EngineWithWriter ew("running");
+    ASSERT_TRUE(ew.w) << ew.why;
+    const EngineConfig& cfg = ew.cfg;
+    const std::string& path = ew.path;
+    Engine& e = ew.e;
+    CheckpointWriter* w = ew.w.get();
     std::atomic<int> inHook{0};
     e.setObservationHook([&](const ObservationResult&, const Model&) {
         std::vector<uint8_t> bytes;  // the hook may allocate: its own choice
@@ -499,7 +516,9 @@ TEST(CheckpointWriterImage, ARunningEngineIsSavedOnlyFromItsRefinerThread) {
     const Status refused = encodeCheckpoint(e, bytes);
     ASSERT_FALSE(refused.ok());
     EXPECT_NE(refused.message().find("cannot save a running engine"), std::string::npos) << refused.message();
-    EXPECT_FALSE(saveCheckpoint(e, path).ok());
+    const Status refusedSave = saveCheckpoint(e, path);
+    EXPECT_TRUE(refusedSave.message().starts_with(path + ": checkpoint: cannot save a running engine"))
+        << refusedSave.message();
     EXPECT_FALSE(fs::exists(path));
     EXPECT_FALSE(w->capture());
     EXPECT_EQ(w->stats().failed, 1u);
@@ -513,8 +532,6 @@ TEST(CheckpointWriterImage, ARunningEngineIsSavedOnlyFromItsRefinerThread) {
     CheckpointInfo info;
     ASSERT_TRUE(readCheckpointInfo(path, info).ok());
     EXPECT_EQ(info.observations, 6u);
-    w.reset();
-    fs::remove_all(dir);
 }
 
 TEST(CheckpointWriterImage, IncrementalCapturesEqualAFreshEncodingEveryTime) {

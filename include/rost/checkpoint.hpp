@@ -102,7 +102,7 @@ struct CheckpointLoadOptions {
 Status encodeCheckpoint(Engine& engine, std::vector<uint8_t>& out);
 // encodeCheckpoint, then written atomically (temporary file in the same
 // directory, fsync, rename, directory fsync): a crash leaves the previous
-// file or the new one, never a torn one.
+// file or the new one, never a torn one. Every error names `path`.
 Status saveCheckpoint(Engine& engine, const std::string& path);
 
 // Checks the header, every checksum and the configuration section, without

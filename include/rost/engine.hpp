@@ -362,6 +362,8 @@ private:
     uint64_t spend(const Budget& budget, std::chrono::steady_clock::time_point deadline, bool newest,
                    uint64_t* tokens_out, uint64_t* rounds_out = nullptr) noexcept;
     class TimeControl;
+    // The window's observations from `first` on (the oldest in the window at the earliest).
+    void visitWindowFrom(uint64_t first, const EvictionHook& visit) const;
     void publish(const ObservationResult& r) noexcept;
 
     EngineConfig cfg_;

@@ -592,7 +592,7 @@ Status encodeCheckpoint(Engine& engine, std::vector<uint8_t>& out) {
 
 Status saveCheckpoint(Engine& engine, const std::string& path) {
     std::vector<uint8_t> image;
-    if (Status st = encodeCheckpoint(engine, image); !st.ok()) return st;
+    if (Status st = encodeCheckpoint(engine, image); !st.ok()) return st.prefixed(path + ": ");
     return writeFileAtomic(path, std::string_view(reinterpret_cast<const char*>(image.data()), image.size()));
 }
 

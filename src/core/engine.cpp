@@ -801,28 +801,24 @@ uint64_t Engine::finalPass(int sweeps, const std::atomic<bool>* stop) noexcept {
 }
 
 void Engine::visitWindow(const EvictionHook& visit) const {
-    if (!visit) return;
-    const Model& m = *model_;
-    const uint64_t frames = m.observations();
-    if (frames == 0) return;
-    const auto ct = static_cast<uint64_t>(m.config().cell_time);
-    for (uint64_t f = static_cast<uint64_t>(m.oldestStep()) * ct; f < frames; ++f) {
-        const std::size_t w = f % refiner_->win_cap;
-        visit(WindowObservation{f, refiner_->win_seq[w], refiner_->win_ts[w], m.stepOfObservation(f)}, m);
-    }
+    if (visit) visitWindowFrom(0, visit);
 }
 
 void Engine::flushWindowToEvictionHook() {
     if (!on_evict_ || running()) return;  // the refiner reads evicted_through_ while it runs
+    visitWindowFrom(evicted_through_, on_evict_);
+    evicted_through_ = model_->observations();
+}
+
+void Engine::visitWindowFrom(uint64_t first, const EvictionHook& visit) const {
     const Model& m = *model_;
     const uint64_t frames = m.observations();
     if (frames == 0) return;
     const auto ct = static_cast<uint64_t>(m.config().cell_time);
-    for (uint64_t f = std::max(static_cast<uint64_t>(m.oldestStep()) * ct, evicted_through_); f < frames; ++f) {
+    for (uint64_t f = std::max(static_cast<uint64_t>(m.oldestStep()) * ct, first); f < frames; ++f) {
         const std::size_t w = f % refiner_->win_cap;
-        on_evict_(WindowObservation{f, refiner_->win_seq[w], refiner_->win_ts[w], m.stepOfObservation(f)}, m);
+        visit(WindowObservation{f, refiner_->win_seq[w], refiner_->win_ts[w], m.stepOfObservation(f)}, m);
     }
-    evicted_through_ = frames;
 }
 
 } // namespace rost
