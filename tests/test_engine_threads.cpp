@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -258,6 +259,39 @@ TEST(EngineThreads, StopDiscardLeavesQueuedObservationsAccountedFor) {
     ASSERT_TRUE(e.start().ok());
     e.stop(Engine::StopMode::Drain);
     EXPECT_EQ(e.counters().ingested, 64u);
+}
+
+// stop(Discard) does not wait out the count budget of the observation in
+// hand: its refinement starts no further window (10^12 step draws would take
+// days), it is still published, the queued ones stay queued, and a later
+// refinement of the stopped engine gets its whole budget again.
+TEST(EngineThreads, StopDiscardCutsTheCountBudgetInHandShort) {
+    constexpr uint64_t kDays = 1'000'000'000'000;
+    EngineConfig c = threadedConfig(Budget::steps(kDays));
+    Engine e(c);
+    const auto frames = makeStream(c.model, 3, 100, 28);
+    for (const Frame& f : frames) ASSERT_TRUE(e.tryPush(f.view()));
+    ASSERT_TRUE(e.start().ok());
+    while (e.counters().ingested == 0) std::this_thread::sleep_for(1ms);
+    std::this_thread::sleep_for(20ms);  // well into the budget
+    std::atomic<bool> stopped{false};
+    std::thread watchdog([&] {  // a stop that waits the budget out fails here, not at ctest's timeout
+        for (int i = 0; i < 600 && !stopped.load(); ++i) std::this_thread::sleep_for(100ms);
+        if (stopped.load()) return;
+        std::fprintf(stderr, "stop(Discard) still waiting after 60 s: the count budget in hand was not cut short\n");
+        std::_Exit(1);
+    });
+    e.stop(Engine::StopMode::Discard);
+    stopped.store(true);
+    watchdog.join();
+    const EngineCounters k = e.counters();
+    EXPECT_EQ(k.ingested, 1u);
+    EXPECT_EQ(e.queued(), 2u);
+    EXPECT_EQ(k.published, 1u);
+    EXPECT_GT(k.refinements, 0u);
+    EXPECT_LT(k.refinements, kDays);
+    // Stopped, the engine's own calls are not cut short.
+    EXPECT_EQ(e.refineExtra(Budget::steps(40)), 40u);
 }
 
 TEST(EngineThreads, SynchronousCallsAreRefusedWhileRunningAndStartTwiceIsAnError) {

@@ -262,7 +262,8 @@ public:
     Status start();
     enum class StopMode : uint8_t {
         Drain,    // the refiner first takes up every queued observation, each with its budget
-        Discard,  // the refiner stops after the observation in hand; queued ones stay queued
+        Discard,  // the observation in hand's refinement is cut short at its next window (it
+                  // is still published); queued ones stay queued
     };
     // Signals the refiner and joins it. Idempotent.
     void stop(StopMode mode = StopMode::Drain);
@@ -386,6 +387,7 @@ private:
     std::atomic<std::thread::id> refiner_thread_{};  // onRefinerThread(): set by the thread as it starts
     std::atomic<bool> running_{false};
     alignas(kCacheLine) std::atomic<int> stop_request_{0};  // 0 none, 1 drain, 2 discard
+    std::atomic<bool> cut_short_{false};  // stop(Discard): the refinement in hand starts no further window
 };
 
 } // namespace rost

@@ -160,7 +160,8 @@ stop(). A context manager: `with rost.Engine(cfg) as e:` starts and stops it.)do
              py::arg("config") = py::none())
         .def("start", &PyEngine::start, "Starts the refiner thread.")
         .def("stop", &PyEngine::stop, py::arg("drain") = true,
-             "Stops the refiner (drain: after refining every queued observation). Releases the interpreter lock.")
+             "Stops the refiner (drain: after refining every queued observation; else the observation in "
+             "hand's refinement is cut short and the rest stay queued). Releases the interpreter lock.")
         .def("push", &PyEngine::push, py::arg("t"), py::arg("words"), py::arg("positions") = py::none(),
              "Queues observation t (int32 words, (N, 2) int32 positions). Never blocks; False when it was dropped; "
              "RuntimeError after stop() (until start()).")

@@ -551,6 +551,7 @@ uint64_t Engine::spend(const Budget& budget, Clock::time_point deadline, bool ne
         break;
     case BudgetKind::Time: limits.control = &time; break;
     }
+    limits.stop = &cut_short_;  // stop(Discard): a count budget is not waited out
     const RefineCount rc = m.refine(picker, limits);
     const uint64_t draws = budget.kind == BudgetKind::Time ? rc.started : rc.steps;
     bump(R.refinements, draws);
@@ -762,8 +763,10 @@ Status Engine::start() {
 
 void Engine::stop(StopMode mode) {
     if (!thread_.joinable()) return;
+    if (mode == StopMode::Discard) cut_short_.store(true, std::memory_order_relaxed);
     stop_request_.store(mode == StopMode::Drain ? 1 : 2, std::memory_order_release);
     thread_.join();
+    cut_short_.store(false, std::memory_order_relaxed);
     refiner_thread_.store(std::thread::id(), std::memory_order_release);
     running_.store(false, std::memory_order_release);
 }
