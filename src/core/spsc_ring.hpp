@@ -2,7 +2,8 @@
 
 // The library's one single-producer single-consumer ring (internal, not
 // installed): the engine's ObservationQueue, the rost tool's record and frame
-// rings and the libcamera source's completed-request ring are built on it.
+// rings, rost-cli's --online record rings and the libcamera source's
+// completed-request ring are built on it.
 //
 // Protocol. Two monotone 64-bit counters, each on its own cache line:
 //   published_  slots the producer has filled (written by the producer only)

@@ -25,6 +25,7 @@
 #include "rost/engine.hpp"
 #include "rost/text_io.hpp"
 #include "rostcli.hpp"
+#include "spsc_ring.hpp"
 
 namespace rost::cli {
 
@@ -63,32 +64,28 @@ struct LabelRecord {
     std::vector<uint16_t> ml, sample;
 };
 
-// Single producer (the refiner), single consumer (this thread); a full ring
-// drops the record and counts it.
+// Single producer (the refiner), single consumer (this thread), on the
+// library's SPSC ring (its two counters on cache lines of their own); a full
+// ring drops the record and counts it.
 class RecordRing {
 public:
-    RecordRing(std::size_t slots, std::size_t words) : slots_(slots) {
-        for (LabelRecord& r : slots_) r.ml.resize(words), r.sample.resize(words);
-    }
+    RecordRing(std::size_t slots, std::size_t words) : ring_(slots, [words](LabelRecord& r) {
+        r.ml.resize(words);
+        r.sample.resize(words);
+    }) {}
     LabelRecord* beginPush() noexcept {
-        const uint64_t h = head_.load(std::memory_order_relaxed);
-        if (h - tail_.load(std::memory_order_acquire) == slots_.size()) {
-            lost_.fetch_add(1, std::memory_order_relaxed);
-            return nullptr;
-        }
-        return &slots_[h % slots_.size()];
+        LabelRecord* r = ring_.beginPush();
+        if (!r) lost_.fetch_add(1, std::memory_order_relaxed);
+        return r;
     }
-    void commitPush() noexcept { head_.store(head_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
-    const LabelRecord* front() const noexcept {
-        const uint64_t t = tail_.load(std::memory_order_relaxed);
-        return t == head_.load(std::memory_order_acquire) ? nullptr : &slots_[t % slots_.size()];
-    }
-    void pop() noexcept { tail_.store(tail_.load(std::memory_order_relaxed) + 1, std::memory_order_release); }
+    void commitPush() noexcept { ring_.commitPush(); }
+    const LabelRecord* front() noexcept { return ring_.front(); }
+    void pop() noexcept { ring_.pop(); }
     uint64_t lost() const noexcept { return lost_.load(std::memory_order_relaxed); }
 
 private:
-    std::vector<LabelRecord> slots_;
-    std::atomic<uint64_t> head_{0}, tail_{0}, lost_{0};
+    SpscRing<LabelRecord> ring_;
+    std::atomic<uint64_t> lost_{0};
 };
 
 // Copies observation `frame`'s labels (ML; the Gibbs sample too when `sample`) into a record.
