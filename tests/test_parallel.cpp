@@ -23,6 +23,7 @@
 #include "synthetic.hpp"
 #include "test_deadline.hpp"
 #include "test_engine_support.hpp"
+#include "measure.hpp"
 #include "worker_pool.hpp"
 
 namespace rost {
@@ -606,6 +607,20 @@ TEST(ParallelMeasure, TwoThreadsMeasuringAtOnceGetTheSerialBits) {
 // stream (steps of one cell, which the per-cell measurements leave
 // serial), and with a stride shorter than an observation (its first labels
 // only, the rest of the buffer untouched). One pool job a call.
+// The workers' grouping scratch lies in one buffer, a stride each: every word
+// a worker uses lies inside its own stride, which starts on a cache line
+// (the overlap a stride one word short makes is a race the test below sees
+// only at times, and only when (cells + max.words) is a multiple of 8).
+TEST(ParallelMeasure, EachWorkersGroupingScratchFitsItsStride) {
+    for (std::size_t cells = 1; cells <= 96; ++cells)
+        for (std::size_t maxWords = 1; maxWords <= 96; ++maxWords) {
+            const std::size_t stride = detail::measureGroupStride(cells, maxWords);
+            ASSERT_GE(stride, (cells + 1) + cells + maxWords + maxWords) << cells << " cells, max.words " << maxWords;
+            ASSERT_EQ(stride % 16, 0u) << cells << " cells, max.words " << maxWords;
+            ASSERT_LT(stride, (cells + 1) + cells + maxWords + maxWords + 16) << "more than a line's rounding";
+        }
+}
+
 TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     const syn::Data d = measureData();
     Config twoPerStep = d.config();
@@ -622,7 +637,11 @@ TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     full.max_words_per_frame = static_cast<int>(
         std::min_element(d.words.begin(), d.words.end(), [](const auto& a, const auto& b) { return a.size() < b.size(); })
             ->size());
-    for (const Config& base : {d.config(), twoPerStep, growing, oneCell, full}) {
+    // And (cells + max.words) a multiple of 8, where a worker's grouping scratch
+    // (2 cells + 1 + 2 max.words words) would fill its 16-word stride to the last word.
+    Config edge = full;
+    edge.max_words_per_frame -= (Model(edge).cellsPerStep() + edge.max_words_per_frame) % 8;
+    for (const Config& base : {d.config(), twoPerStep, growing, oneCell, full, edge}) {
         std::vector<uint64_t> reference;  // one thread, one measurement at a time
         for (const int threads : {1, 2, 3}) {
             Config c = base;

@@ -12,6 +12,15 @@
 
 namespace rost {
 
+namespace detail {
+// A worker's grouping scratch in finalMeasurements: cell_begin (cells + 1),
+// cursor (cells), input_cell and by_cell (max.words each), rounded up so that
+// each worker's part starts on a cache line of its own (16 words).
+constexpr std::size_t measureGroupStride(std::size_t cells, std::size_t maxWords) noexcept {
+    return (2 * cells + 1 + 2 * maxWords + 15) / 16 * 16;
+}
+} // namespace detail
+
 // Sized when the model has workers (construction, setThreads): nothing here
 // allocates afterwards.
 struct ModelCore::Measure {
@@ -39,8 +48,7 @@ struct ModelCore::Measure {
         cursor.reset(cells);
         input_cell.reset(maxWords);
         by_cell.reset(maxWords);
-        // Each worker's part starts on a cache line of its own.
-        group_stride = (2 * cells + 1 + 2 * maxWords + 15) / 16 * 16;
+        group_stride = detail::measureGroupStride(cells, maxWords);
         worker_groups.reset(workers * group_stride);
     }
     ModelCore::CellGroups groups() noexcept {
