@@ -65,7 +65,7 @@
     X("frame.height", Integer, Model, "480", 1, 65536, "", "", "", Derived, engine.model.frame_height, \
       "frame height in pixels; positions lie in [0, height) (the tool: from the input)") \
     X("ring.steps", Integer, Model, "256", 1, 67108864, "", "", "", Derived, engine.model.ring_steps, \
-      "time steps kept refinable (the tool: the whole input when its length is known, up to 2048)") \
+      "time steps kept refinable (the tool: the whole input and a step more when its length is known, up to 2048)") \
     X("cell.capacity", Integer, Model, "256", 1, 1048576, "", "", "", 0, engine.model.cell_capacity, \
       "words a cell holds; more are uniformly subsampled") \
     X("max.words", Integer, Model, "4096", 1, 4194304, "", "", "", Derived, engine.model.max_words_per_frame, \

@@ -143,7 +143,7 @@ struct SourceOptions {
 
 // Opens INPUT, one of:
 //   camera:N          the N-th camera libcamera lists (N from 0)
-//   a directory       its image files (png, jpg, jpeg, pgm, ppm, pnm, bmp, tif, tiff, webp), sorted by name
+//   a directory       its image files (png, jpg, jpeg, pbm, pgm, ppm, pnm, bmp, tif, tiff, webp), sorted by name
 //   a glob pattern    (contains *, ? or [) the matching files, sorted by name
 //   any other file    a video OpenCV can decode (or a single image)
 // On failure returns nullptr and a one-line status naming the input and the
