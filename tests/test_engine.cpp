@@ -20,6 +20,7 @@
 
 #include "rost/engine.hpp"
 #include "observation_queue.hpp"
+#include "spsc_ring.hpp"
 #include "predictor.hpp"
 #include "realtime_log.hpp"
 #include "rost/realtime.hpp"
@@ -614,6 +615,46 @@ TEST(EngineDrop, DropOldestKeepsTheFreshestObservationsAndCountsTheDiscarded) {
     EXPECT_EQ(seq, (std::vector<uint64_t>{6, 7, 8, 9})) << "the newest four were kept";
     const EngineCounters k = e.counters();
     EXPECT_EQ(k.ingested + k.dropped(), k.pushed);
+}
+
+// The library's SPSC ring, slot by slot: a full ring refuses, a pop frees
+// exactly the slot read, slots come back in order and are reused in place.
+TEST(SpscRing, APopFreesTheSlotReadAndSlotsAreReusedInOrder) {
+    SpscRing<int> ring(2, [](int& v) { v = -1; });
+    int* a = ring.beginPush();
+    ASSERT_NE(a, nullptr);
+    *a = 10;
+    ring.commitPush();
+    int* b = ring.beginPush();
+    ASSERT_NE(b, nullptr);
+    EXPECT_NE(a, b);
+    *b = 11;
+    ring.commitPush();
+    EXPECT_EQ(ring.beginPush(), nullptr) << "a full ring took a third slot";
+    ASSERT_NE(ring.front(), nullptr);
+    EXPECT_EQ(*ring.front(), 10);
+    ring.pop();
+    int* c = ring.beginPush();
+    ASSERT_NE(c, nullptr) << "the slot read and popped did not come back to the producer";
+    EXPECT_EQ(c, a);
+    *c = 12;
+    ring.commitPush();
+    EXPECT_EQ(ring.beginPush(), nullptr);
+    for (const int want : {11, 12}) {
+        ASSERT_NE(ring.front(), nullptr);
+        EXPECT_EQ(*ring.front(), want);
+        ring.pop();
+    }
+    EXPECT_EQ(ring.front(), nullptr);
+    for (int i = 0; i < 10; ++i) {  // round and round, one at a time
+        int* s = ring.beginPush();
+        ASSERT_NE(s, nullptr);
+        *s = 100 + i;
+        ring.commitPush();
+        ASSERT_NE(ring.front(), nullptr);
+        EXPECT_EQ(*ring.front(), 100 + i);
+        ring.pop();
+    }
 }
 
 TEST(ObservationQueue, DropOldestDropsTheNewestInsteadWhileTheConsumerIsReadingTheOldest) {

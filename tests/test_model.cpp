@@ -48,6 +48,40 @@ void randomFrame(rost::Rng& r, const rost::Config& c, uint32_t n, std::vector<ui
 // refinements of cells, steps and batch sweeps, under both eviction
 // policies and several cell.time values: every count table must match the
 // labels after every operation.
+// Rng::state() and setState() carry the whole generator: another Rng given
+// the state draws what this one draws, word for word.
+TEST(RngState, SetStateCarriesEveryWord) {
+    rost::Rng a(7);
+    for (int i = 0; i < 10; ++i) (void)a.next();
+    rost::Rng b(99);
+    b.setState(a.state());
+    for (int i = 0; i < 1000; ++i) ASSERT_EQ(a.next(), b.next()) << "draw " << i;
+    const rost::Rng::State s = a.state();
+    rost::Rng c(1);
+    c.setState(s);
+    for (int w = 0; w < 4; ++w) EXPECT_EQ(c.stateWords()[static_cast<std::size_t>(w)], s.s[w]) << "word " << w;
+}
+
+// A layout holds kMaxSections; one more marks it overflowed (the extra one
+// unlisted), and clear() makes it empty and whole again.
+TEST(StateLayoutSections, OverflowIsMarkedAndClearedWithTheSections) {
+    rost::StateLayout layout;
+    int32_t values[rost::StateLayout::kMaxSections + 1] = {};
+    for (std::size_t i = 0; i < rost::StateLayout::kMaxSections; ++i) layout.add("s", 1, &values[i], 1);
+    EXPECT_FALSE(layout.overflowed());
+    EXPECT_EQ(layout.size(), rost::StateLayout::kMaxSections);
+    layout.add("extra", 1, &values[rost::StateLayout::kMaxSections], 1);
+    EXPECT_TRUE(layout.overflowed());
+    EXPECT_EQ(layout.size(), rost::StateLayout::kMaxSections);
+    EXPECT_EQ(layout.find("extra"), nullptr);
+    layout.clear();
+    EXPECT_FALSE(layout.overflowed()) << "a cleared layout still said it overflowed";
+    EXPECT_EQ(layout.size(), 0u);
+    layout.add("again", 1, &values[0], 1);
+    ASSERT_NE(layout.find("again"), nullptr);
+    EXPECT_EQ(layout.find("again")->bytes, sizeof(int32_t));
+}
+
 TEST(ModelInvariants, HoldAfterEveryOperationInRandomSequences) {
     for (auto policy : {rost::EvictionPolicy::Keep, rost::EvictionPolicy::Subtract})
         for (int cellTime : {1, 3}) {
