@@ -142,6 +142,81 @@ public:
     int64_t t_;
 };
 
+// A word stream of one cell a step (frame 1 x 1), `steps` steps of `words`
+// words each, refined in windows of `window` cell refinements.
+std::unique_ptr<Model> oneCellModel(int window, int threads, int steps, int words) {
+    Config c = smallConfig();
+    c.frame_width = 1;
+    c.frame_height = 1;
+    c.cell_capacity = words;
+    c.max_words_per_frame = words;
+    c.refine_window = window;
+    c.threads = threads;
+    auto m = std::make_unique<Model>(c);
+    for (int t = 0; t < steps; ++t) {
+        std::vector<uint32_t> w(static_cast<std::size_t>(words));
+        for (int i = 0; i < words; ++i) w[static_cast<std::size_t>(i)] = static_cast<uint32_t>((t * 7 + i * 3) % c.V);
+        const std::vector<Position> at(w.size());
+        EXPECT_TRUE(m->addObservation(w, at).ok());
+    }
+    return m;
+}
+
+// Always the same step.
+class SameStep final : public StepPicker {
+public:
+    explicit SameStep(int64_t t) : t_(t) {}
+    int64_t next() noexcept override { return t_; }
+    int64_t t_;
+};
+
+// Refuses every round (a deadline already passed when the window is full).
+class NoRound final : public RefineControl {
+public:
+    bool beforeRound(uint64_t) noexcept override { return false; }
+};
+
+// A window's counts: a cell picked k times is refined k times (k x its words
+// in the tokens); a step draw counts as started only when a cell of it was
+// refined, and each refinement counts its own from the first draw.
+TEST(ParallelRefine, AWindowCountsRepeatedPicksAndOnlyStepsItRefined) {
+    for (const int threads : {1, 2}) {
+        constexpr int kWords = 30;
+        const std::unique_ptr<Model> model = oneCellModel(4, threads, 3, kWords);
+        Model& m = *model;
+        SameStep same(1);
+        RefineLimits four;
+        four.steps = 4;
+        const uint64_t before = m.tokensRefined();
+        const RefineCount rc = m.refine(same, four);
+        EXPECT_EQ(rc.steps, 4u) << threads << " threads";
+        EXPECT_EQ(rc.tokens, 4u * kWords) << "a cell picked 4 times in one window, " << threads << " threads";
+        EXPECT_EQ(m.tokensRefined() - before, rc.tokens);
+        EXPECT_EQ(rc.started, 4u);
+        // Refinements of one step each, one after another: each started once.
+        for (int i = 0; i < 3; ++i) {
+            Sweep sweep(m);
+            RefineLimits one;
+            one.steps = 1;
+            const RefineCount r1 = m.refine(sweep, one);
+            EXPECT_EQ(r1.steps, 1u);
+            EXPECT_EQ(r1.started, 1u) << "refinement " << i << ", " << threads << " threads";
+            EXPECT_EQ(r1.tokens, static_cast<uint64_t>(kWords));
+        }
+        // Steps drawn, but no round allowed: none started.
+        NoRound none;
+        RefineLimits refused;
+        refused.steps = 4;
+        refused.control = &none;
+        Sweep sweep(m);
+        const RefineCount r0 = m.refine(sweep, refused);
+        EXPECT_EQ(r0.rounds, 0u);
+        EXPECT_EQ(r0.tokens, 0u);
+        EXPECT_EQ(r0.started, 0u) << "steps counted as started with no cell of them refined, " << threads << " threads";
+        EXPECT_TRUE(m.checkInvariants());
+    }
+}
+
 TEST(ParallelRefine, CountsAreConsistentAfterEveryRound) {
     for (const int window : {2, 16, 256}) {
         Model m(gridConfig(3, window));
