@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <sched.h>
+
 #include <atomic>
 #include <bit>
 #include <chrono>
@@ -822,6 +824,49 @@ struct CountJob final : detail::WorkerPool::Job {
         for (int i = 0; i < 2000; ++i) x = x * 1.0000001;
     }
 };
+
+// Pinned workers (thread.cpu = C): worker N on CPU (C - N) modulo the
+// machine's CPUs, the CPUs below the refiner's, wrapping round.
+TEST(WorkerPool, PinnedWorkersTakeTheCpusBelowTheRefinersOwn) {
+    using detail::WorkerPool;
+    EXPECT_EQ(WorkerPool::workerCpu(5, 1, 8), 4);
+    EXPECT_EQ(WorkerPool::workerCpu(5, 3, 8), 2);
+    EXPECT_EQ(WorkerPool::workerCpu(1, 2, 8), 7);
+    EXPECT_EQ(WorkerPool::workerCpu(0, 9, 8), 7);
+    EXPECT_EQ(WorkerPool::workerCpu(3, 0, 4), 3);
+    EXPECT_EQ(WorkerPool::workerCpu(3, 1, 0), -1) << "no CPU count: left unpinned";
+}
+
+// And the threads are where it says: each worker's affinity is its one CPU.
+struct AffinityJob final : detail::WorkerPool::Job {
+    std::atomic<int> cpuOf[3] = {-2, -2, -2};  // -2: took no task; -1: not pinned to one CPU
+    void task(int worker, uint32_t) noexcept override {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        int seen = -1;
+        if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) == 1)
+            for (int c = 0; c < CPU_SETSIZE; ++c)
+                if (CPU_ISSET(c, &set)) seen = c;
+        cpuOf[worker].store(seen);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));  // room for every worker to take one
+    }
+};
+
+TEST(WorkerPool, PinnedWorkersRunOnTheirCpus) {
+    const int n = static_cast<int>(std::thread::hardware_concurrency());
+    cpu_set_t allowed;
+    CPU_ZERO(&allowed);
+    ASSERT_EQ(sched_getaffinity(0, sizeof allowed, &allowed), 0);
+    if (n < 2 || CPU_COUNT(&allowed) < n) GTEST_SKIP() << "needs every CPU of the machine";
+    detail::WorkerPool pool(3);
+    ThreadSettings s;
+    s.cpu = n - 1;
+    pool.applySettings(s);
+    AffinityJob job;
+    for (int i = 0; i < 200 && (job.cpuOf[1].load() == -2 || job.cpuOf[2].load() == -2); ++i) pool.run(job, 16);
+    for (int w = 1; w < 3; ++w)
+        EXPECT_EQ(job.cpuOf[w].load(), detail::WorkerPool::workerCpu(n - 1, w, n)) << "worker " << w;
+}
 
 TEST(WorkerPool, EveryTaskRunsExactlyOnceAlsoWithMoreThreadsThanCores) {
     detail::WorkerPool pool(8);

@@ -15,6 +15,10 @@ namespace {
 // two observations.
 constexpr int kSpinIterations = 2048;
 constexpr uint64_t kField = (uint64_t{1} << 20) - 1;
+// A range word's top 24 bits: the job's generation, so that a claim can tell
+// this job's word from a later one's (the one definition both sides use).
+constexpr int kTagShift = 40;
+constexpr uint64_t tagOf(uint32_t generation) noexcept { return generation & 0xFFFFFFu; }
 
 inline void cpuRelax() noexcept {
 #if defined(__x86_64__) || defined(__i386__)
@@ -86,7 +90,7 @@ void WorkerPool::workerMain(int index, const ThreadSettings* settings, uint32_t 
         s.lock_memory = false;  // the process's memory is the engine's to lock
         if (s.cpu >= 0) {
             const int n = static_cast<int>(std::thread::hardware_concurrency());
-            s.cpu = n > 0 ? ((s.cpu - index) % n + n) % n : -1;
+            s.cpu = workerCpu(s.cpu, index, n);
         }
         try {
             (void)applyToCurrentThread(s);
@@ -114,7 +118,7 @@ bool WorkerPool::claimFront(std::atomic<uint64_t>& word, uint64_t c) noexcept {
 }
 
 uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
-    const uint64_t gen = generation & 0xFFFFFFu;
+    const uint64_t gen = tagOf(generation);
     uint32_t ran = 0;
     bool begun = false;
     // Its own range from the front, then the others' from the back.
@@ -122,7 +126,7 @@ uint32_t WorkerPool::runTasks(int worker, uint32_t generation) noexcept {
         std::atomic<uint64_t>& word = ranges_[static_cast<std::size_t>((worker + i) % workers_)].word;
         uint64_t c = word.load(std::memory_order_acquire);
         for (;;) {
-            if ((c >> 40) != gen) return ran;  // a later job's word: this one is over
+            if ((c >> kTagShift) != gen) return ran;  // a later job's word: this one is over
             const uint64_t end = (c >> 20) & kField, next = c & kField;
             if (next >= end) break;
             // A successful claim of a task not yet done pins the job: the
@@ -220,7 +224,7 @@ void WorkerPool::run(Job& job, uint32_t count, const uint32_t* cuts) noexcept {
     count_ = count;
     done_.store(0, std::memory_order_relaxed);
     const uint32_t g = generation_.load(std::memory_order_relaxed) + 1;
-    const uint64_t gen = static_cast<uint64_t>(g & 0xFFFFFFu) << 40;
+    const uint64_t gen = tagOf(g) << kTagShift;
     const auto n = static_cast<uint64_t>(workers_);
     for (uint64_t w = 0; w < n; ++w) {
         const uint64_t lo = cuts ? cuts[w] : count * w / n, hi = cuts ? cuts[w + 1] : count * (w + 1) / n;

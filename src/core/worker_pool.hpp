@@ -70,6 +70,11 @@ public:
     // worker N pinned to CPU (cpu - N) modulo the CPUs of the machine (the
     // refiner keeps `cpu`). Set-up code.
     void applySettings(const ThreadSettings& settings);
+    // The CPU worker `index` is pinned to with thread.cpu = `cpu` on a
+    // machine of `cpus` CPUs: the CPUs below the refiner's, wrapping round.
+    static int workerCpu(int cpu, int index, int cpus) noexcept {
+        return cpus > 0 ? ((cpu - index) % cpus + cpus) % cpus : -1;
+    }
 
     // Runs tasks 0..count-1 of the job on the workers and the caller (worker
     // 0); returns when all are done. A job of 2^20 tasks or more runs in
