@@ -448,7 +448,6 @@ bool Engine::pushWait(const ObservationView& obs, std::chrono::nanoseconds timeo
 }
 
 bool Engine::canPush() noexcept { return queue_->hasSpace(); }
-
 uint32_t Engine::queued() const noexcept { return queue_->size(); }
 
 bool Engine::readSnapshot(Snapshot& out) const noexcept { return publisher_->read(out); }
@@ -803,9 +802,7 @@ uint64_t Engine::finalPass(int sweeps, const std::atomic<bool>* stop) noexcept {
     return t;
 }
 
-void Engine::visitWindow(const EvictionHook& visit) const {
-    if (visit) visitWindowFrom(0, visit);
-}
+void Engine::visitWindow(const EvictionHook& visit) const { if (visit) visitWindowFrom(0, visit); }
 
 void Engine::flushWindowToEvictionHook() {
     if (!on_evict_ || running()) return;  // the refiner reads evicted_through_ while it runs
