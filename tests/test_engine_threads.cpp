@@ -268,6 +268,7 @@ TEST(EngineThreads, StopDiscardLeavesQueuedObservationsAccountedFor) {
 TEST(EngineThreads, StopDiscardCutsTheCountBudgetInHandShort) {
     constexpr uint64_t kDays = 1'000'000'000'000;
     EngineConfig c = threadedConfig(Budget::steps(kDays));
+    c.model.refine_window = 1;  // a window a cell: the stop is seen after one cell
     Engine e(c);
     const auto frames = makeStream(c.model, 3, 100, 28);
     for (const Frame& f : frames) ASSERT_TRUE(e.tryPush(f.view()));
@@ -288,10 +289,13 @@ TEST(EngineThreads, StopDiscardCutsTheCountBudgetInHandShort) {
     EXPECT_EQ(k.ingested, 1u);
     EXPECT_EQ(e.queued(), 2u);
     EXPECT_EQ(k.published, 1u);
-    EXPECT_GT(k.refinements, 0u);
+    EXPECT_GT(k.tokens, 0u) << "nothing was refined before the stop";
     EXPECT_LT(k.refinements, kDays);
-    // Stopped, the engine's own calls are not cut short.
+    // Stopped, the engine's own calls are not cut short: 40 step draws, each refined whole.
+    const uint64_t before = e.model().tokensRefined();
     EXPECT_EQ(e.refineExtra(Budget::steps(40)), 40u);
+    EXPECT_EQ(e.model().tokensRefined() - before, 40u * e.model().wordsInStep(0))
+        << "a step of the one observation in the model: 40 draws of it";
 }
 
 TEST(EngineThreads, SynchronousCallsAreRefusedWhileRunningAndStartTwiceIsAnError) {

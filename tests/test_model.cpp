@@ -44,10 +44,6 @@ void randomFrame(rost::Rng& r, const rost::Config& c, uint32_t n, std::vector<ui
     }
 }
 
-// Randomised sequences of adds (including over-full frames and cells),
-// refinements of cells, steps and batch sweeps, under both eviction
-// policies and several cell.time values: every count table must match the
-// labels after every operation.
 // Rng::state() and setState() carry the whole generator: another Rng given
 // the state draws what this one draws, word for word.
 TEST(RngState, SetStateCarriesEveryWord) {
@@ -82,6 +78,10 @@ TEST(StateLayoutSections, OverflowIsMarkedAndClearedWithTheSections) {
     EXPECT_EQ(layout.find("again")->bytes, sizeof(int32_t));
 }
 
+// Randomised sequences of adds (including over-full frames and cells),
+// refinements of cells, steps and batch sweeps, under both eviction
+// policies and several cell.time values: every count table must match the
+// labels after every operation.
 TEST(ModelInvariants, HoldAfterEveryOperationInRandomSequences) {
     for (auto policy : {rost::EvictionPolicy::Keep, rost::EvictionPolicy::Subtract})
         for (int cellTime : {1, 3}) {

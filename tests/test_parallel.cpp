@@ -676,14 +676,6 @@ TEST(ParallelMeasure, TwoThreadsMeasuringAtOnceGetTheSerialBits) {
     EXPECT_EQ(wrong.load(), 0);
 }
 
-// The final pass's measurements of many observations at once (a task an
-// observation on the workers): each observation's step perplexity and
-// labels are the bits stepPerplexity and observationLabels give one at a
-// time, on one thread or several, with several observations a step (the
-// step's perplexity computed once and copied), with growth, on a word
-// stream (steps of one cell, which the per-cell measurements leave
-// serial), and with a stride shorter than an observation (its first labels
-// only, the rest of the buffer untouched). One pool job a call.
 // The workers' grouping scratch lies in one buffer, a stride each: every word
 // a worker uses lies inside its own stride, which starts on a cache line
 // (the overlap a stride one word short makes is a race the test below sees
@@ -698,6 +690,14 @@ TEST(ParallelMeasure, EachWorkersGroupingScratchFitsItsStride) {
         }
 }
 
+// The final pass's measurements of many observations at once (a task an
+// observation on the workers): each observation's step perplexity and
+// labels are the bits stepPerplexity and observationLabels give one at a
+// time, on one thread or several, with several observations a step (the
+// step's perplexity computed once and copied), with growth, on a word
+// stream (steps of one cell, which the per-cell measurements leave
+// serial), and with a stride shorter than an observation (its first labels
+// only, the rest of the buffer untouched). One pool job a call.
 TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     const syn::Data d = measureData();
     Config twoPerStep = d.config();
@@ -714,10 +714,12 @@ TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     full.max_words_per_frame = static_cast<int>(
         std::min_element(d.words.begin(), d.words.end(), [](const auto& a, const auto& b) { return a.size() < b.size(); })
             ->size());
-    // And (cells + max.words) a multiple of 8, where a worker's grouping scratch
-    // (2 cells + 1 + 2 max.words words) would fill its 16-word stride to the last word.
+    // And (cells + max.words) a multiple of 8: a worker's grouping scratch
+    // (2 cells + 1 + 2 max.words words) then leaves 15 words of its 16-word
+    // rounding, and a stride one word short would run into the next worker's.
     Config edge = full;
     edge.max_words_per_frame -= (Model(edge).cellsPerStep() + edge.max_words_per_frame) % 8;
+    ASSERT_GT(edge.max_words_per_frame, 0);
     for (const Config& base : {d.config(), twoPerStep, growing, oneCell, full, edge}) {
         std::vector<uint64_t> reference;  // one thread, one measurement at a time
         for (const int threads : {1, 2, 3}) {

@@ -210,7 +210,7 @@ public:
     explicit Engine(const EngineConfig& cfg);
     // Non-throwing factory: nullptr and `status` set on a bad configuration.
     static std::unique_ptr<Engine> create(const EngineConfig& cfg, Status& status);
-    ~Engine();  // stops the refiner if running (draining nothing)
+    ~Engine();  // stops the refiner if running: stop(Discard), the budget in hand cut short
 
     Engine(const Engine&) = delete;
     Engine& operator=(const Engine&) = delete;

@@ -721,7 +721,7 @@ void Engine::refinerMain() noexcept {
     int idle = 0;
     for (;;) {
         const int req = stop_request_.load(std::memory_order_acquire);
-        if (req == 2) break;
+        if (req == 2 || cut_short_.load(std::memory_order_relaxed)) break;  // cut_short_ is stored first
         if (takeUpOne(nullptr)) {
             idle = 0;
             continue;
