@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -682,6 +683,71 @@ TEST(ObservationQueue, DropOldestDropsTheNewestInsteadWhileTheConsumerIsReadingT
     EXPECT_EQ(q.droppedNewest(), 1u);
     EXPECT_EQ(q.droppedOldest(), 1u);
     EXPECT_EQ(q.pushed(), 5u);
+}
+
+// The queue alone under a producer and a consumer on two threads: every
+// observation claimed is whole (its size, time stamp, words and positions
+// are the ones pushed with its sequence number, never a slot's earlier
+// contents or a half-written one), in push order, and each push is either
+// claimed or counted as dropped. Both policies; the slots are few and the
+// pushes many, so every slot is reused thousands of times while read.
+TEST(ObservationQueue, ConcurrentReadersSeeEachObservationWholeAndInOrder) {
+    constexpr uint32_t kSlots = 3, kMaxWords = 48;
+    constexpr uint64_t kPushes = 40000;
+    auto sizeOf = [](uint64_t seq) { return static_cast<uint32_t>(1 + seq * 7 % kMaxWords); };
+    auto wordOf = [](uint64_t seq, uint32_t i) { return static_cast<uint32_t>(seq * 131 + i); };
+    for (const bool dropOldest : {false, true}) {
+        ObservationQueue q(kSlots, kMaxWords, 1);
+        std::atomic<bool> done{false};
+        uint64_t claimed = 0, torn = 0, outOfOrder = 0;
+        int64_t last = -1;
+        std::thread consumer([&] {
+            ObservationQueue::Item it;
+            for (;;) {
+                if (!q.claim(it)) {
+                    if (done.load(std::memory_order_acquire) && !q.pending()) break;
+                    continue;
+                }
+                bool whole = it.size == sizeOf(it.sequence) && it.timestamp == static_cast<int64_t>(it.sequence) * 10;
+                for (uint32_t i = 0; whole && i < it.size; ++i)
+                    whole = it.words[i] == wordOf(it.sequence, i) && it.positions[i].x == static_cast<int>(i) &&
+                            it.positions[i].y == static_cast<int>(it.sequence % 1000);
+                torn += whole ? 0 : 1;
+                outOfOrder += static_cast<int64_t>(it.sequence) > last ? 0 : 1;
+                last = static_cast<int64_t>(it.sequence);
+                ++claimed;
+                q.release();
+            }
+        });
+        std::vector<uint32_t> words(kMaxWords);
+        std::vector<Position> positions(kMaxWords);
+        for (uint64_t seq = 0; seq < kPushes; ++seq) {
+            const uint32_t n = sizeOf(seq);
+            for (uint32_t i = 0; i < n; ++i) {
+                words[i] = wordOf(seq, i);
+                positions[i] = {static_cast<int>(i), static_cast<int>(seq % 1000)};
+            }
+            // Drop newest: each push waits for a free slot, so all are read
+            // and each slot is reused right after its release. Drop oldest:
+            // every other push does not wait, its discard racing the claims.
+            while ((!dropOldest || seq % 2 == 0) && !q.hasSpace()) {
+            }
+            q.tryPush(static_cast<int64_t>(seq) * 10, {words.data(), n}, {positions.data(), n}, dropOldest);
+        }
+        done.store(true, std::memory_order_release);
+        consumer.join();
+        SCOPED_TRACE(dropOldest ? "drop oldest" : "drop newest");
+        EXPECT_EQ(torn, 0u) << "observations claimed with contents other than those pushed, of " << claimed;
+        EXPECT_EQ(outOfOrder, 0u);
+        EXPECT_EQ(claimed + q.droppedNewest() + q.droppedOldest(), kPushes);
+        EXPECT_EQ(q.pushed(), kPushes);
+        if (dropOldest) {
+            EXPECT_GT(claimed, 0u);
+            EXPECT_GT(q.droppedOldest(), 0u);
+        } else {
+            EXPECT_EQ(claimed, kPushes);
+        }
+    }
 }
 
 static_assert(noexcept(std::declval<ObservationQueue&>().tryPush(0, {}, {}, true)));
