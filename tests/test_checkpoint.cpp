@@ -444,53 +444,51 @@ TEST(CheckpointLoad, ARestoredWindowGoesThroughTheEvictionHookAfterAFlush) {
     EXPECT_EQ(seen, (std::vector<uint64_t>{2, 3, 4})) << "the restored window's oldest left the ring unseen";
 }
 
-// An engine of baseConfig() and its periodic writer into a fresh directory,
-// which goes when the test ends (the writer first: it may hold a temporary file).
-struct EngineWithWriter {
-    explicit EngineWithWriter(const std::string& name)
-        : dir(tempDir(name)), path((dir / "run.ckpt").string()), cfg(baseConfig()), e(cfg) {
+// Each test's engine and its periodic writer (open()) in a directory of the
+// test's own, which goes when the test ends (the writer first: it may hold a
+// temporary file).
+class CheckpointWriterImage : public ::testing::Test {
+protected:
+    void open(const EngineConfig& c) {
+        cfg = c;
+        e = std::make_unique<Engine>(cfg);
         Status st;
-        w = CheckpointWriter::create(e, path, st);
-        why = st.message();
+        w = CheckpointWriter::create(*e, path, st);
+        ASSERT_TRUE(w) << st.message();
     }
-    ~EngineWithWriter() {
+    void TearDown() override {
         w.reset();
+        e.reset();
         fs::remove_all(dir);
     }
-    fs::path dir;
-    std::string path;
+    fs::path dir = tempDir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::string path = (dir / "run.ckpt").string();
     EngineConfig cfg;
-    Engine e;
+    std::unique_ptr<Engine> e;
     std::unique_ptr<CheckpointWriter> w;
-    std::string why;  // create()'s error, if any
 };
 
 // The end of a mission: a periodic image may still be being written when the
 // engine stops (its fsync takes milliseconds), and a capture() then is
 // skipped; finish() waits it out, so the file holds the state at the end.
-TEST(CheckpointWriterImage, FinishWritesTheFinalStateEvenWhileAPeriodicWriteIsInProgress) {
-    EngineWithWriter ew("finish");
-    ASSERT_TRUE(ew.w) << ew.why;
-    const EngineConfig& cfg = ew.cfg;
-    const std::string& path = ew.path;
-    Engine& e = ew.e;
-    CheckpointWriter* w = ew.w.get();
-    e.captureCheckpoints(w, 40);
-    for (const Frame& f : stream(cfg, 40, 21)) e.processNow(f.view());  // the 40th captures and wakes the writer
+TEST_F(CheckpointWriterImage, FinishWritesTheFinalStateEvenWhileAPeriodicWriteIsInProgress) {
+    ASSERT_NO_FATAL_FAILURE(open(baseConfig()));
+    e->captureCheckpoints(w.get(), 40);
+    for (const Frame& f : stream(cfg, 40, 21)) e->processNow(f.view());  // the 40th captures and wakes the writer
     // At once, while that image is (most likely) still being checksummed,
     // written and fsync'ed: a capture() here would be skipped.
     ASSERT_TRUE(w->finish().ok());
     std::string data;
     ASSERT_TRUE(readFile(path, data).ok());
-    const std::vector<uint8_t> file(data.begin(), data.end()), now = stateOf(e);
+    const std::vector<uint8_t> file(data.begin(), data.end()), now = stateOf(*e);
     EXPECT_TRUE(file == now) << "sections differ: " << differingSections(file, now);
     EXPECT_EQ(w->stats().written, 2u) << "finish() wrote no image of its own";
     EXPECT_EQ(w->stats().skipped, 0u);
     // And when the state moved on after the last image: the file follows it.
-    e.finalPass(1);
+    e->finalPass(1);
     ASSERT_TRUE(w->finish().ok());
     ASSERT_TRUE(readFile(path, data).ok());
-    const std::vector<uint8_t> after(data.begin(), data.end()), moved = stateOf(e);
+    const std::vector<uint8_t> after(data.begin(), data.end()), moved = stateOf(*e);
     EXPECT_FALSE(moved == now) << "the final pass changed nothing";
     EXPECT_TRUE(after == moved) << "sections differ: " << differingSections(after, moved);
 }
@@ -498,25 +496,20 @@ TEST(CheckpointWriterImage, FinishWritesTheFinalStateEvenWhileAPeriodicWriteIsIn
 // A running engine's state read from another thread would be torn (a file
 // that does not load): encodeCheckpoint and capture() refuse it there, and
 // take it on the refiner thread (an observation hook) and once stopped.
-TEST(CheckpointWriterImage, ARunningEngineIsSavedOnlyFromItsRefinerThread) {
-    EngineWithWriter ew("running");
-    ASSERT_TRUE(ew.w) << ew.why;
-    const EngineConfig& cfg = ew.cfg;
-    const std::string& path = ew.path;
-    Engine& e = ew.e;
-    CheckpointWriter* w = ew.w.get();
+TEST_F(CheckpointWriterImage, ARunningEngineIsSavedOnlyFromItsRefinerThread) {
+    ASSERT_NO_FATAL_FAILURE(open(baseConfig()));
     std::atomic<int> inHook{0};
-    e.setObservationHook([&](const ObservationResult&, const Model&) {
+    e->setObservationHook([&](const ObservationResult&, const Model&) {
         std::vector<uint8_t> bytes;  // the hook may allocate: its own choice
-        if (encodeCheckpoint(e, bytes).ok() && e.onRefinerThread()) inHook.fetch_add(1);
+        if (encodeCheckpoint(*e, bytes).ok() && e->onRefinerThread()) inHook.fetch_add(1);
     });
-    ASSERT_TRUE(e.start().ok());
-    EXPECT_FALSE(e.onRefinerThread());
+    ASSERT_TRUE(e->start().ok());
+    EXPECT_FALSE(e->onRefinerThread());
     std::vector<uint8_t> bytes;
-    const Status refused = encodeCheckpoint(e, bytes);
+    const Status refused = encodeCheckpoint(*e, bytes);
     ASSERT_FALSE(refused.ok());
     EXPECT_NE(refused.message().find("cannot save a running engine"), std::string::npos) << refused.message();
-    const Status refusedSave = saveCheckpoint(e, path);
+    const Status refusedSave = saveCheckpoint(*e, path);
     EXPECT_TRUE(refusedSave.message().starts_with(path + ": checkpoint: cannot save a running engine"))
         << refusedSave.message();
     EXPECT_FALSE(fs::exists(path));
@@ -524,48 +517,41 @@ TEST(CheckpointWriterImage, ARunningEngineIsSavedOnlyFromItsRefinerThread) {
     EXPECT_EQ(w->stats().failed, 1u);
     EXPECT_EQ(w->stats().captured, 0u);
     EXPECT_FALSE(w->finish().ok());
-    for (const Frame& f : stream(cfg, 6, 22)) ASSERT_TRUE(e.pushWait(f.view()));
-    e.stop();
+    for (const Frame& f : stream(cfg, 6, 22)) ASSERT_TRUE(e->pushWait(f.view()));
+    e->stop();
     EXPECT_EQ(inHook.load(), 6);
-    ASSERT_TRUE(encodeCheckpoint(e, bytes).ok());
+    ASSERT_TRUE(encodeCheckpoint(*e, bytes).ok());
     ASSERT_TRUE(w->finish().ok());
     CheckpointInfo info;
     ASSERT_TRUE(readCheckpointInfo(path, info).ok());
     EXPECT_EQ(info.observations, 6u);
 }
 
-TEST(CheckpointWriterImage, IncrementalCapturesEqualAFreshEncodingEveryTime) {
-    // The writer refreshes its image incrementally (steps already captured
-    // keep their words); after every capture the file must be exactly what
-    // a fresh encoding of the engine gives, across ring wraps, partially
-    // filled steps (cell.time 3) and frames that fill cells past capacity.
-    EngineConfig cfg = baseConfig();
-    cfg.model.cell_time = 3;
-    cfg.model.cell_capacity = 8;
-    const fs::path dir = tempDir("incremental");
-    const std::string path = (dir / "run.ckpt").string();
-    Engine e(cfg);
-    Status st;
-    auto w = CheckpointWriter::create(e, path, st);
-    ASSERT_TRUE(w) << st.message();
+// The writer refreshes its image incrementally (steps already captured keep
+// their words); after every capture the file must be exactly what a fresh
+// encoding of the engine gives, across ring wraps, partially filled steps
+// (cell.time 3) and frames that fill cells past capacity.
+TEST_F(CheckpointWriterImage, IncrementalCapturesEqualAFreshEncodingEveryTime) {
+    EngineConfig c = baseConfig();
+    c.model.cell_time = 3;
+    c.model.cell_capacity = 8;
+    ASSERT_NO_FATAL_FAILURE(open(c));
     const auto frames = stream(cfg, 80, 12);
     Rng r(4);
     int captures = 0;
     for (const Frame& f : frames) {
-        e.processNow(f.view());
+        e->processNow(f.view());
         if (r.below(3) != 0) continue;
         ASSERT_TRUE(w->capture());
         ASSERT_TRUE(w->flush().ok());
         ++captures;
         std::string data;
         ASSERT_TRUE(readFile(path, data).ok());
-        const std::vector<uint8_t> file(data.begin(), data.end()), fresh = stateOf(e);
-        ASSERT_TRUE(file == fresh) << "after observation " << e.model().observations() << ": "
+        const std::vector<uint8_t> file(data.begin(), data.end()), fresh = stateOf(*e);
+        ASSERT_TRUE(file == fresh) << "after observation " << e->model().observations() << ": "
                                    << differingSections(file, fresh);
     }
     EXPECT_GT(captures, 15);
-    w.reset();
-    fs::remove_all(dir);
 }
 
 // ---- the documented format ----------------------------------------------------
