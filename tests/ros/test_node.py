@@ -7,7 +7,9 @@ footage with a hard cut (mire-2, then diver.mov: the scene change of
 tests/test_vision_curiosity.cpp), starts rost_node, plays the bag with
 `rosbag play --wait-for-subscribers`, and checks with a rospy subscriber that
 ~frame arrives for every image with the image's stamp and frame_id, and that
-surprise peaks at the cut. Then the services: pause, get_topic_model,
+surprise peaks at the cut; ~topic_map, ~surprise_map, ~perplexity and
+~surprise carry each frame's cells and numbers, and a frame's perplexity after
+refinement is below its surprise. Then the services: pause, get_topic_model,
 set_topic_model (a mismatched K is refused), save_checkpoint. Then a bad
 parameter: rost_node exits non-zero naming it. Every process started here
 is stopped by its PID.
@@ -79,6 +81,54 @@ def write_bag(path):
     return stamps
 
 
+def check_maps(got, topic_maps, surprise_maps, perplexities, surprises):
+    """~topic_map, ~surprise_map, ~perplexity and ~surprise against ~frame,
+    image by image (matched by stamp; the last ones may be in flight)."""
+    import struct
+    wait_until(lambda: len(topic_maps) == len(got) and len(surprise_maps) == len(got) and
+               len(perplexities) == len(got) and len(surprises) == len(got), 10)
+    frame_of = {m.header.stamp.to_nsec(): m for m in got}
+    check(len(topic_maps) == len(got) and len(surprise_maps) == len(got),
+          "~topic_map and ~surprise_map for every ~frame (%d and %d of %d)" % (len(topic_maps), len(surprise_maps), len(got)))
+    colour_of, wrong = {}, []
+    for img in topic_maps:
+        m = frame_of.get(img.header.stamp.to_nsec())
+        if m is None or img.encoding != "rgb8" or (img.width, img.height, img.step) != (m.cells_x * 64, m.cells_y * 64, m.cells_x * 192):
+            wrong.append("%s %dx%d" % (img.encoding, img.width, img.height))
+            continue
+        data = bytes(img.data)
+        for cy in range(m.cells_y):
+            for cx in range(m.cells_x):
+                k = m.cell_topics[cy * m.cells_x + cx]
+                rows = {data[y * img.step + cx * 192:y * img.step + (cx + 1) * 192] for y in range(cy * 64, (cy + 1) * 64)}
+                px = {r[i:i + 3] for r in rows for i in range(0, 192, 3)}
+                if len(px) != 1:
+                    wrong.append("frame %d cell (%d, %d): %d colours" % (m.frame, cx, cy, len(px)))
+                elif (k < 0) != (px == {bytes(3)}) or colour_of.setdefault(k, px) != px:
+                    wrong.append("frame %d cell (%d, %d): topic %d in %s" % (m.frame, cx, cy, k, px))
+    colours = [c for k, c in colour_of.items() if k >= 0]
+    check(not wrong and len(colours) >= 2 and len(set(map(frozenset, colours))) == len(colours),
+          "~topic_map: each frame's cells (64 pixels square) in their topic's colour, one colour a topic (%d topics "
+          "seen), black without words %s" % (len(colours), wrong[:3]))
+    wrong = []
+    for img in surprise_maps:
+        m = frame_of.get(img.header.stamp.to_nsec())
+        values = struct.unpack("<%df" % (len(img.data) // 4), bytes(img.data))
+        if m is None or img.encoding != "32FC1" or (img.width, img.height, img.step) != (m.cells_x, m.cells_y, m.cells_x * 4) \
+                or list(values) != list(m.cell_surprise):
+            wrong.append(m.frame if m else img.header.stamp.to_nsec())
+    check(not wrong and any(v > 0 for m in got for v in m.cell_surprise),
+          "~surprise_map: each frame's cell_surprise as a cells_x x cells_y 32FC1 image %s" % wrong[:3])
+    check(perplexities == [m.perplexity for m in got] and surprises == [m.surprise for m in got],
+          "~perplexity and ~surprise: each frame's numbers, in order")
+    # A frame's words fit the model better once they are in it and refined
+    # than before (its surprise), and both are perplexities: at least 1.
+    ok = [m for m in got[WARM_UP:] if 1 <= m.perplexity < m.surprise]
+    check(all(m.perplexity >= 1 for m in got) and len(ok) >= 0.9 * len(got[WARM_UP:]),
+          "~frame's perplexity: at least 1, below the frame's surprise in %d of %d frames after the warm-up" %
+          (len(ok), len(got[WARM_UP:])))
+
+
 def run():
     bag = os.path.join(work, "cut.bag")
     stamps = write_bag(bag)
@@ -90,6 +140,14 @@ def run():
     rospy.init_node("rost_test", anonymous=True, disable_signals=True)
     got = []
     frame_sub = rospy.Subscriber("/rost/frame", FrameTopics, lambda m: got.append(m), queue_size=1000)
+    # The maps (published while someone subscribes) and the simplest consumers' numbers.
+    from sensor_msgs.msg import Image
+    from std_msgs.msg import Float32
+    topic_maps, surprise_maps, perplexities, surprises = [], [], [], []
+    side_subs = [rospy.Subscriber("/rost/topic_map", Image, topic_maps.append, queue_size=1000),
+                 rospy.Subscriber("/rost/surprise_map", Image, surprise_maps.append, queue_size=1000),
+                 rospy.Subscriber("/rost/perplexity", Float32, lambda m: perplexities.append(m.data), queue_size=1000),
+                 rospy.Subscriber("/rost/surprise", Float32, lambda m: surprises.append(m.data), queue_size=1000)]
 
     ckpt = os.path.join(work, "node.ckpt")
     if os.path.exists(ckpt):
@@ -99,7 +157,7 @@ def run():
                   "_checkpoint:=" + ckpt], "rost_node.log")
     # This process's subscription to ~frame connects after the node advertises
     # it: the first image waits for that, or its ~frame could go unseen.
-    wait_until(lambda: frame_sub.get_num_connections() > 0 or node.poll() is not None, 60)
+    wait_until(lambda: all(x.get_num_connections() > 0 for x in [frame_sub] + side_subs) or node.poll() is not None, 60)
     # --keep-alive: a player that exits at once may take its last, still unsent
     # image with it (seen under load); it is stopped once every image is in.
     player = start(["rosbag", "play", "--wait-for-subscribers", "--keep-alive", "-q", bag], "rosbag.log")
@@ -125,6 +183,8 @@ def run():
     peak = max(after_warm_up, key=lambda i: sur[i])
     check(peak == PER_SCENE, "surprise peaks at the cut (frame %d: %.1f; before it at most %.1f)" %
           (peak, sur[peak], max(sur[WARM_UP:PER_SCENE])))
+
+    check_maps(got, topic_maps, surprise_maps, perplexities, surprises)
 
     from std_srvs.srv import SetBool, Trigger
     from rost_msgs.srv import GetTopicModel, SetTopicModel
