@@ -21,3 +21,7 @@ foreach(_t IN ITEMS launch transport fleet)
   rost_add_ros_test(${_t})
   set_tests_properties(ros_${_t} PROPERTIES TIMEOUT 180)
 endforeach()
+
+# The bridge's library side (no ROS master): frames and topic models named by
+# slot, the lifting read through them.
+rost_add_test(test_ros_bridge SOURCES test_ros_bridge.cpp LIBS rost_ros_bridge rost::vision)

@@ -457,7 +457,8 @@ TEST(EngineSnapshot, HoldsTheNewestObservationsLabelsHistogramsSurpriseAndCounte
 
 // With growth, the snapshot's labels and histograms number the open topics
 // 0..A-1 and it reports A: also when a closed slot lies below an open one (a
-// prior in slots 0 and 2), where the numbering is not the slots'.
+// prior in slots 0 and 2), where the numbering is not the slots'. A published
+// result says each label's slot (what a label names once topics renumber).
 TEST(EngineSnapshot, WithGrowingTopicsNumbersOpenTopicsFromZeroAndReportsTheirCount) {
     for (const bool gap : {false, true}) {
         SCOPED_TRACE(gap ? "a prior in slots 0 and 2" : "no prior");
@@ -474,6 +475,8 @@ TEST(EngineSnapshot, WithGrowingTopicsNumbersOpenTopicsFromZeroAndReportsTheirCo
             ASSERT_TRUE(e.model().addTopicCounts(prior).ok());
         }
         Snapshot s = e.makeSnapshot();
+        ASSERT_TRUE(e.publishResults(4).ok());
+        PublishedResult pr = e.makeResult();
         const auto frames = makeStream(c.model, 25, 180, 9);
         int most = 0, renumbered = 0;
         for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -499,6 +502,14 @@ TEST(EngineSnapshot, WithGrowingTopicsNumbersOpenTopicsFromZeroAndReportsTheirCo
                 }
                 for (int k = s.active_topics; k < m.K(); ++k) ASSERT_EQ(out[k], 0);
             }
+            ASSERT_TRUE(e.readResult(pr));
+            std::vector<uint16_t> slots(static_cast<std::size_t>(m.K()));
+            m.slotsInLabelOrder(slots);
+            ASSERT_EQ(pr.topic_slots, slots);
+            for (int cell = 0; cell < m.cellsPerStep(); ++cell)
+                for (int l = 0; l < s.active_topics; ++l)
+                    ASSERT_EQ(pr.histograms[static_cast<std::size_t>(cell * m.K() + l)],
+                              m.cellHistogram(r.step, cell)[pr.topic_slots[static_cast<std::size_t>(l)]]);
         }
         EXPECT_GT(most, 1) << "topics grew";
         if (gap) {

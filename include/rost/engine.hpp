@@ -155,6 +155,10 @@ struct PublishedResult {
     // The observation's time step after its budget (empty content when rejected):
     std::vector<int32_t> histograms;   // cells x K topic counts, cell-major
     std::vector<float> cell_surprise;  // per cell
+    // K: the model's slot of each label (Model::slotsInLabelOrder) when the
+    // result was published. A topic keeps its slot while it is open, where
+    // with topics.grow its label moves as topics below it close and open.
+    std::vector<uint16_t> topic_slots;
 };
 
 // An observation leaving the window: its final labels (Engine::readFinal).

@@ -103,7 +103,7 @@ struct Pipeline::Impl {
     std::atomic<uint64_t> taken_up{0};    // observations the hook has seen (refiner)
     uint64_t accepted_before = 0;         // observations accepted before the hook was set
     static constexpr int kNoCopy = 0, kAsked = 1, kCopied = 2;
-    void copyCounts(const Model& model, int32_t* out) const noexcept;
+    void copyCounts(const Model& model, int32_t* out, bool bySlot) const noexcept;
     uint64_t accepted() const noexcept;
 
     std::string makeExtractor();
@@ -163,7 +163,7 @@ std::string Pipeline::Impl::makeEngine(const NodeSettings& given, int width, int
     // observations seen (release: the model's writes before it).
     engine->setObservationHook([this](const ObservationResult&, const Model& model) {
         if (capture.load(std::memory_order_acquire) == kAsked) {
-            copyCounts(model, captured.data());
+            copyCounts(model, captured.data(), true);
             capture.store(kCopied, std::memory_order_release);
         }
         taken_up.fetch_add(1, std::memory_order_release);
@@ -266,7 +266,15 @@ bool Pipeline::next(FrameResult& out) {
         for (float& w : out.topic_weights) w = static_cast<float>(w / total);
     const std::size_t ns = std::min(m.record.cell_surprise.size(), out.cell_surprise.size());
     std::copy_n(m.record.cell_surprise.begin(), ns, out.cell_surprise.begin());
+    out.topic_slots.assign(m.record.topic_slots.begin(), m.record.topic_slots.end());
     return true;
+}
+
+void liftLabels(const std::vector<uint16_t>& topic_slots, const std::vector<int32_t>& lifting, int K,
+                std::vector<int32_t>& byLabel) {
+    byLabel.assign(static_cast<std::size_t>(std::max(K, 0)), -1);
+    for (std::size_t l = 0; l < byLabel.size() && l < topic_slots.size(); ++l)
+        if (topic_slots[l] < lifting.size()) byLabel[l] = lifting[topic_slots[l]];
 }
 
 uint64_t Pipeline::dropped() const { return impl_->engine->counters().dropped() + impl_->engine->resultsLost(); }
@@ -287,20 +295,22 @@ std::string Pipeline::getTopicModel(std::vector<int32_t>& counts) const {
     const bool was = m.engine->running();
     m.engine->stop(Engine::StopMode::Drain);
     counts.resize(static_cast<std::size_t>(m.ec.model.K) * static_cast<std::size_t>(m.ec.model.V));
-    m.copyCounts(m.engine->model(), counts.data());
+    m.copyCounts(m.engine->model(), counts.data(), false);
     return was ? m.engine->start().message() : std::string();
 }
 
-// K rows of V counts in label order (Model::slotsInLabelOrder): row i is the
-// topic the frames label i, the closed slots' zero rows last. On the refining
-// thread (the observation hook): no allocation.
-void Pipeline::Impl::copyCounts(const Model& model, int32_t* out) const noexcept {
+// K rows of V counts: by slot (~topic_model: row k is slot k, so a lifting
+// made from it names topics, not labels), or in label order
+// (Model::slotsInLabelOrder; ~get_topic_model, as topicmodel.csv): row i is
+// the topic the frames label i, the closed slots' zero rows last. On the
+// refining thread (the observation hook): no allocation.
+void Pipeline::Impl::copyCounts(const Model& model, int32_t* out, bool bySlot) const noexcept {
     const int K = ec.model.K, V = ec.model.V;
     uint16_t slots[1024];
     model.slotsInLabelOrder({slots, static_cast<std::size_t>(K)});
     std::size_t i = 0;
     for (int r = 0; r < K; ++r)
-        for (int v = 0; v < V; ++v) out[i++] = model.topicWordCount(slots[r], v);
+        for (int v = 0; v < V; ++v) out[i++] = model.topicWordCount(bySlot ? r : slots[r], v);
 }
 
 // Observations the engine accepted (pushed and not dropped): each is taken
@@ -328,7 +338,7 @@ bool Pipeline::copyModelIfIdle(std::vector<int32_t>& counts) {
     if (m.taken_up.load(std::memory_order_acquire) != m.accepted() - m.accepted_before) return false;
     if (takeModel(counts)) return true;  // made by the last observation's hook
     counts.resize(m.captured.size());
-    m.copyCounts(m.engine->model(), counts.data());
+    m.copyCounts(m.engine->model(), counts.data(), true);
     int expected = Impl::kAsked;  // nothing left to copy it for the request
     m.capture.compare_exchange_strong(expected, Impl::kNoCopy, std::memory_order_acq_rel);
     return true;

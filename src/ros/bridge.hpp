@@ -75,7 +75,19 @@ struct FrameResult {
     int32_t cells_x = 0, cells_y = 0;
     std::vector<int16_t> cell_topics;  // cells_x * cells_y, row-major; the cell's most frequent topic, -1 when empty
     std::vector<float> cell_surprise;  // cells_x * cells_y, row-major
+    // K: the model's slot of each label, as the frame was published. A topic
+    // keeps its slot while it is open; with topics.grow its label moves as
+    // topics below it close and open. The rows of ~topic_model are slots.
+    std::vector<uint16_t> topic_slots;
 };
+
+// The global topic of each of a frame's labels (K values, -1 for none):
+// `lifting` is indexed by the rows of the vehicle's ~topic_model, the
+// model's slots (K values), so a lifting made from an earlier model still
+// names each topic that is open in both, whatever its label now. A slot
+// past the lifting's, or a label past `topic_slots`, lifts to -1.
+void liftLabels(const std::vector<uint16_t>& topic_slots, const std::vector<int32_t>& lifting, int K,
+                std::vector<int32_t>& byLabel);
 
 // Words -> engine -> per-frame results, as the node runs it: the engine's
 // refiner thread refines; push() (the capture side) extracts the words of a
@@ -134,12 +146,13 @@ public:
     // Services (not concurrently with push): each stops the refiner, does
     // its work and starts it again. "" on success, else the error.
     std::string saveCheckpoint();
-    std::string getTopicModel(std::vector<int32_t>& counts) const;  // K x V, topic-major
+    std::string getTopicModel(std::vector<int32_t>& counts) const;  // K x V, topic-major, in label order
     // Adds K x V counts to the model as a prior (Model::addTopicCounts).
     std::string addTopicModel(int K, int V, const std::vector<int32_t>& counts);
 
-    // The model's counts (K x V, topic-major) for a reader thread (the node's
-    // model publisher), without stopping the refiner. requestModel() asks the
+    // The model's counts (K x V, topic-major, row k the model's slot k: with
+    // topics.grow a closed topic's row is zeros where it lies) for a reader
+    // thread (the node's model publisher), without stopping the refiner. requestModel() asks the
     // refiner for a copy at its next observation boundary (the observation
     // hook copies K x V counts into a buffer sized at open(): no allocation,
     // no lock, the stall of one copy); takeModel() hands the copy over once it

@@ -409,7 +409,7 @@ void Node::publish(const rost::bridge::FrameResult& r) {
     // Images received up to this one that no message carries (dropped, bad, too small, paused).
     frame.dropped = static_cast<uint32_t>(index + 1 > published_ ? index + 1 - published_ : 0);
     frame_pub_.publish(frame);
-    if (use_global_model_) publishGlobal(frame);
+    if (use_global_model_) publishGlobal(frame, r.topic_slots);
     if (topic_map_pub_.getNumSubscribers() > 0) {
         sensor_msgs::Image map;
         rost::bridge::fillTopicMap(r, pipeline_->cellSpace(), map);

@@ -89,7 +89,7 @@ private:
     void publishModel(std::vector<int32_t>& counts);
     void onLifting(const rost_msgs::TopicLiftingConstPtr& msg);
     bool readLifting(int32_t& G);  // publisher thread: the table into lift_copy_; false before any lifting
-    void publishGlobal(const rost_msgs::FrameTopics& local);
+    void publishGlobal(const rost_msgs::FrameTopics& local, const std::vector<uint16_t>& topic_slots);
 
     bool onSave(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
     bool onPause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
@@ -165,6 +165,7 @@ private:
     std::atomic<int32_t> lift_G_{0};
     std::atomic<uint32_t> lift_version_{0};  // odd while written; 0 before any lifting
     std::vector<int32_t> lift_copy_;         // publisher thread
+    std::vector<int32_t> lift_by_label_;     // publisher thread: lift_copy_ through a frame's topic slots
     bool local_logged_ = false;              // publisher thread
     bool lifting_logged_ = false, vehicle_missing_logged_ = false;  // ros::spin's thread
 };

@@ -174,9 +174,12 @@ bool Node::readLifting(int32_t& G) {
 // ~global_frame: the frame with its topics mapped through the lifting; each
 // global topic's weight sums those of the local topics lifted to it (a local
 // topic that was empty when the models were merged maps to none: its cells
-// are -1, its share of the words counts nowhere). Before any lifting, the
-// local labels, said once in the log.
-void Node::publishGlobal(const rost_msgs::FrameTopics& local) {
+// are -1, its share of the words counts nowhere). The lifting is by the
+// model's slots (the rows of ~topic_model), each label through the frame's
+// own slot, so topics that closed and renumbered the labels since the model
+// was merged change nothing. Before any lifting, the local labels, said once
+// in the log.
+void Node::publishGlobal(const rost_msgs::FrameTopics& local, const std::vector<uint16_t>& topic_slots) {
     rost_msgs::FrameTopics g = local;
     int32_t G = 0;
     if (!readLifting(G)) {
@@ -187,13 +190,14 @@ void Node::publishGlobal(const rost_msgs::FrameTopics& local) {
         global_frame_pub_.publish(g);
         return;
     }
+    rost::bridge::liftLabels(topic_slots, lift_copy_, lift_K_, lift_by_label_);
     g.active_topics = G;
     g.topic_weights.assign(static_cast<std::size_t>(G), 0.0f);
     const int K = std::min<int>(lift_K_, static_cast<int>(local.topic_weights.size()));
     for (int k = 0; k < K; ++k)
-        if (lift_copy_[k] >= 0) g.topic_weights[lift_copy_[k]] += local.topic_weights[k];
+        if (lift_by_label_[k] >= 0) g.topic_weights[lift_by_label_[k]] += local.topic_weights[k];
     for (int16_t& c : g.cell_topics)
-        if (c >= 0) c = c < lift_K_ ? static_cast<int16_t>(lift_copy_[c]) : -1;
+        if (c >= 0) c = c < lift_K_ ? static_cast<int16_t>(lift_by_label_[c]) : -1;
     global_frame_pub_.publish(g);
 }
 
