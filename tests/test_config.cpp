@@ -83,6 +83,43 @@ TEST(Config, TheTemporalNeighbourhoodFitsInTheRingAtItsEdge) {
     EXPECT_TRUE(c.validate().ok()) << c.validate().message();
 }
 
+// What the tables' sizes come from, each setting by its key (the engine's
+// out-of-memory message): a frame that is not square, so its sides are told apart.
+TEST(Config, TablesTextNamesEachSizeByItsSetting) {
+    rost::Config c;
+    c.K = 8;
+    c.V = 100;
+    c.ring_steps = 16;
+    c.frame_width = 640;
+    c.frame_height = 480;
+    c.cell_space = 32;  // 20 x 15 cells
+    c.cell_capacity = 64;
+    c.max_words_per_frame = 500;
+    c.threads = 1;
+    EXPECT_EQ(c.tablesText(), "K = 8, V = 100, ring.steps = 16, 300 cells a step (frame 640x480, cell.space = 32), "
+                              "cell.capacity = 64, max.words = 500");
+}
+
+// A frame that is not a whole number of cells wide or high: the cells cut
+// at its right and bottom edges count too (321 x 241 cells of 2 pixels for
+// 641 x 481), in the ring's bound and in the message.
+TEST(Config, ARingsSizeCountsTheCellsCutAtTheFramesEdges) {
+    rost::Config c;
+    c.frame_width = 641;
+    c.frame_height = 481;
+    c.cell_space = 2;
+    c.cell_capacity = 4096;
+    c.ring_steps = 28;
+    const rost::Status s = c.validate();
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.message().find("ring.steps = 28, allowed at most 27 for 77361 cells a step (frame.width = 641 by "
+                               "frame.height = 481 in cells of cell.space = 2)"),
+              std::string::npos)
+        << s.message();
+    c.ring_steps = 27;
+    EXPECT_TRUE(c.validate().ok()) << c.validate().message();
+}
+
 TEST(Config, NanAlphaRejected) {
     rost::Config c;
     c.alpha = std::numeric_limits<double>::quiet_NaN();

@@ -348,6 +348,27 @@ TEST(ModelPerplexity, FiniteAndBoundedByVocabularyForUniformModel) {
     }
 }
 
+// An observation's positions read back as given, to the frame's last pixel
+// on each side (65535: both coordinates use all 16 bits of their half).
+TEST(ModelIngest, PositionsReadBackAsGivenToTheFramesLastPixel) {
+    rost::Config c;
+    c.K = 2;
+    c.V = 4;
+    c.frame_width = c.frame_height = 65536;
+    c.cell_space = 4096;  // 16 x 16 cells
+    c.ring_steps = 2;
+    rost::Model m(c);
+    const std::vector<uint32_t> w = {0, 1, 2, 3};
+    const std::vector<rost::Position> p = {{65535, 65535}, {256, 40000}, {300, 5}, {0, 257}};
+    ASSERT_TRUE(m.addObservation(w, p).ok());
+    std::vector<rost::Position> back(p.size());
+    m.observationPositions(0, back);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        EXPECT_EQ(back[i].x, p[i].x) << i;
+        EXPECT_EQ(back[i].y, p[i].y) << i;
+    }
+}
+
 // Initial labels given instead of drawn (rost-cli's --in.topics): the
 // samples are exactly those labels, the counts agree with them, and a label
 // of K or a labels span of another length is refused before anything changes.
@@ -447,6 +468,108 @@ TEST(ModelPerplexity, WordLogProbIsTheNormalisedLeftOutConditional) {
             EXPECT_NEAR(m.wordLogProb(0, 0, i), std::log(leftOutConditional(m, w[i], w[i], z[i])), 1e-12);
         }
     }
+}
+
+// The maximum-likelihood labels break ties toward the lowest topic
+// (rost/model.hpp). K = 3, V = 1, one cell holding word 0 three times with
+// labels 0, 1, 2: left out, a word's own topic scores alpha and each other
+// topic (1 + beta) / (1 + beta) (1 + alpha), the same: labels 1, 0, 0.
+TEST(ModelLabels, TiesGoToTheLowestTopic) {
+    rost::Config c;
+    c.K = 3;
+    c.V = 1;
+    c.frame_width = c.frame_height = 1;
+    c.ring_steps = 2;
+    rost::Model m(c);
+    const std::vector<uint32_t> w = {0, 0, 0};
+    const std::vector<rost::Position> p(3, rost::Position{0, 0});
+    const std::vector<uint16_t> given = {0, 1, 2};
+    ASSERT_TRUE(m.addObservation(w, p, given).ok());
+    std::vector<uint16_t> labels(3);
+    m.observationLabels(0, labels);
+    EXPECT_EQ(labels, (std::vector<uint16_t>{1, 0, 0}));
+}
+
+// A word its full cell dropped is in no count, so nothing is left out for
+// it: its sample and its label are the argmax over the counts as they stand.
+// K = 2, V = 1, a cell of capacity 2 holding word 0 labelled 0 and 1: both
+// topics score (1 + beta) / (1 + beta) (1 + alpha), and the tie gives 0 (had
+// the word been taken for topic 0's own, topic 1 would win).
+TEST(ModelLabels, ADroppedWordIsLabelledFromTheCountsAsTheyStand) {
+    rost::Config c;
+    c.K = 2;
+    c.V = 1;
+    c.frame_width = c.frame_height = 1;
+    c.ring_steps = 2;
+    c.cell_time = 2;
+    c.cell_capacity = 2;
+    rost::Model m(c);
+    const std::vector<rost::Position> p(2, rost::Position{0, 0});
+    ASSERT_TRUE(m.addObservation(std::vector<uint32_t>{0, 0}, p, std::vector<uint16_t>{0, 1}).ok());
+    const rost::AddResult second = m.addObservation(std::vector<uint32_t>{0}, std::span(p).first(1));
+    ASSERT_TRUE(second.ok());
+    ASSERT_EQ(second.dropped_cell, 1u);
+    std::vector<uint16_t> sample(1, 9), label(1, 9);
+    m.observationSamples(1, sample);
+    m.observationLabels(1, label);
+    EXPECT_EQ(sample[0], 0);
+    EXPECT_EQ(label[0], 0);
+}
+
+// Nothing is measured outside the grid or past a cell's words, even where
+// the next step's slot of the ring holds words (one cell a step: cell 1 of
+// step 0 would be step 1's cell 0 if read past the grid).
+TEST(ModelPerplexity, NothingIsMeasuredOutsideTheGridOrPastACellsWords) {
+    rost::Config c;
+    c.K = 2;
+    c.V = 4;
+    c.frame_width = c.frame_height = 1;
+    c.ring_steps = 2;
+    rost::Model m(c);
+    const std::vector<uint32_t> w = {0, 1, 2};
+    const std::vector<rost::Position> p(3, rost::Position{0, 0});
+    ASSERT_TRUE(m.addObservation(w, p).ok());
+    ASSERT_TRUE(m.addObservation(w, p).ok());
+    ASSERT_EQ(m.cellsPerStep(), 1);
+    ASSERT_EQ(m.cellWordCount(1, 0), 3u);
+    for (const int cell : {-1, 1}) {
+        EXPECT_EQ(m.cellLogLoss(0, cell).words, 0u) << cell;
+        EXPECT_EQ(m.cellPluginLogLoss(0, cell).words, 0u) << cell;
+        EXPECT_TRUE(m.cellHistogram(0, cell).empty()) << cell;
+        EXPECT_EQ(m.cellWordCount(0, cell), 0u) << cell;
+        EXPECT_TRUE(std::isnan(m.wordLogProb(0, cell, 0))) << cell;
+    }
+    EXPECT_TRUE(std::isfinite(m.wordLogProb(0, 0, 2)));
+    EXPECT_TRUE(std::isnan(m.wordLogProb(0, 0, 3))) << "past the cell's 3 words";
+}
+
+// Growth, a word that is its topic's last: left out, it closes that topic
+// (one open topic fewer in the normaliser, none of its mass in the sum) and
+// frees the fresh mass for a new one. K = 4, labels 0, 0, 0, 1, 1, 2: word 5
+// is topic 2's only word; every word's wordLogProb is still the conditional
+// rebuilt from the public counts.
+TEST(ModelPerplexity, AWordThatIsItsTopicsLastClosesItWhenLeftOut) {
+    rost::Config c;
+    c.K = 4;
+    c.V = 6;
+    c.alpha = 0.4;
+    c.beta = 0.3;
+    c.frame_width = c.frame_height = 1;
+    c.ring_steps = 1;
+    c.grow = true;
+    c.gamma = 0.5;
+    rost::Model m(c);
+    const std::vector<uint32_t> w = {0, 1, 2, 3, 4, 5};
+    const std::vector<rost::Position> p(6, rost::Position{0, 0});
+    const std::vector<uint16_t> given = {0, 0, 0, 1, 1, 2};
+    ASSERT_TRUE(m.addObservation(w, p, given).ok());
+    ASSERT_EQ(m.activeTopics(), 3);
+    ASSERT_EQ(m.topicCount(2), 1);
+    std::vector<uint16_t> z(w.size());
+    m.observationSamples(0, z);
+    ASSERT_EQ(z, given);
+    for (uint32_t i = 0; i < w.size(); ++i)
+        EXPECT_NEAR(m.wordLogProb(0, 0, i), std::log(leftOutConditional(m, w[i], w[i], z[i])), 1e-12) << "word slot " << i;
 }
 
 // ---- plug-in perplexity (the 2013 ROST code's) ----------------------------------

@@ -768,6 +768,29 @@ TEST(ParallelMeasure, FinalMeasurementsOfManyObservationsGiveTheSerialBits) {
     }
 }
 
+// A batch that starts at a step's first observation (cell.time 2, from
+// observation 0): on the workers each step's perplexity is computed by the
+// task of its first observation and copied to the next, so the second
+// observation of the batch's first step gets it too, not what the span held.
+TEST(ParallelMeasure, FinalMeasurementsFromAStepsFirstObservationGiveEveryOneItsStepsPerplexity) {
+    const syn::Data d = measureData();
+    Config c = d.config();
+    c.cell_time = 2;
+    c.threads = 2;
+    Model m(c);
+    for (int t = 0; t < d.spec.steps; ++t) ASSERT_TRUE(m.addObservation(d.words[t], d.positions[t]).ok());
+    const auto count = static_cast<std::size_t>(m.observations());
+    const std::size_t stride = 4096;
+    std::vector<double> ppx(count, -1.0);
+    std::vector<uint16_t> labels(count * stride, 0);
+    const uint64_t jobs = m.poolJobs();
+    m.finalMeasurements(0, ppx, labels, stride);
+    ASSERT_EQ(m.poolJobs() - jobs, 1u) << "on the workers";
+    for (std::size_t f = 0; f < count; ++f)
+        EXPECT_EQ(std::bit_cast<uint64_t>(ppx[f]), std::bit_cast<uint64_t>(m.stepPerplexity(m.stepOfObservation(f))))
+            << "observation " << f << ": " << ppx[f];
+}
+
 // A batch larger than a pool job can hold (2^16 observations a part): the
 // same perplexities and labels as one at a time, across the parts' edges.
 TEST(ParallelMeasure, FinalMeasurementsOfMoreObservationsThanAJobHolds) {

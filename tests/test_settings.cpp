@@ -229,6 +229,16 @@ TEST(Settings, ErrorsNameTheKeyAndWhatWasExpected) {
     EXPECT_EQ(settingRange(*findSetting("drop")), "newest|oldest");
 }
 
+// An integer beyond its field's type is out of the key's range, below as
+// above: never wrapped into the type (-4294967288 would wrap to 8 in a
+// 32-bit field, a K in range).
+TEST(Settings, AnIntegerBeyondItsFieldsTypeIsOutOfRangeBelowAsAbove) {
+    Settings s;
+    EXPECT_EQ(setSetting(s, "K", "-4294967288").message(), "key 'K' = -4294967288, allowed [1, 1024]");
+    EXPECT_EQ(setSetting(s, "K", "4294967304").message(), "key 'K' = 4294967304, allowed [1, 1024]");
+    EXPECT_EQ(s.engine.model.K, Settings{}.engine.model.K) << "nothing set";
+}
+
 // The engine's part (rost/config_file.hpp) writes exactly the engine's keys,
 // in schema order: the configuration section of a checkpoint.
 TEST(Settings, TheEnginesPartIsTheCheckpointsConfigurationText) {

@@ -218,6 +218,53 @@ TEST(Strategy, NowAndQEqualOneAlwaysPickTheNewestStep) {
     }
 }
 
+// q = 1 (the top of its range, "(0, 1]"): the geometric part is all at t = T,
+// its mass in any window 1, so a mixture puts eta + (1 - eta) P_global(T) on
+// T and the rest as its global part does. Window [7, 10] of T = 10, eta = 0.5:
+// uni+exp gives T (0.5 + 0.05) / 0.7 and each older step 0.05 / 0.7; the
+// probabilities and the draws both.
+TEST(Strategy, QOfOneGivesTheMixturesTheirWholeLocalPartAtTheNewestStep) {
+    const double eta = 0.5;
+    const Strategy uniExp(StrategyConfig{StrategyKind::UniformExponential, eta, 1.0});
+    EXPECT_NEAR(uniExp.probability(10, 10, 4), 0.55 / 0.7, 1e-12);
+    EXPECT_NEAR(uniExp.probability(7, 10, 4), 0.05 / 0.7, 1e-12);
+    for (StrategyKind k : {StrategyKind::Exponential, StrategyKind::UniformExponential, StrategyKind::AgeProportionalExponential}) {
+        const Strategy s(StrategyConfig{k, eta, 1.0});
+        const auto expected = windowed(k, 10, 4, eta, 1.0);
+        for (int64_t t = 7; t <= 10; ++t)
+            EXPECT_NEAR(s.probability(t, 10, 4), expected[static_cast<std::size_t>(t - 7)], 1e-12) << toString(k) << " t=" << t;
+        Rng rng(41);
+        const uint64_t n = 100000;
+        std::vector<uint64_t> counts(4, 0);
+        for (uint64_t i = 0; i < n; ++i) {
+            const int64_t t = s.draw(10, 4, rng);
+            ASSERT_GE(t, 7);
+            ASSERT_LE(t, 10);
+            ++counts[static_cast<std::size_t>(t - 7)];
+        }
+        const Fit f = chiSquare(counts, expected, n);
+        EXPECT_FALSE(f.outside_window) << toString(k);
+        EXPECT_LT(f.stat, chiSquareCritical(f.df)) << toString(k) << ": chi-square " << f.stat << " with " << f.df << " df";
+    }
+}
+
+// A window wider than the steps there are (W > T, as a ring not yet full
+// would give) is clamped to them: every strategy's probabilities are those of
+// W = T, and its draws lie in [1, T].
+TEST(Strategy, AWindowWiderThanTheStepsIsClampedToThem) {
+    Rng rng(17);
+    for (StrategyKind k : kAll) {
+        const Strategy s(StrategyConfig{k, 0.3, 0.2});
+        for (int64_t t = 0; t <= 6; ++t)
+            EXPECT_DOUBLE_EQ(s.probability(t, 5, 300), s.probability(t, 5, 5)) << toString(k) << " t=" << t;
+        for (int i = 0; i < 2000; ++i) {
+            const int64_t t = s.draw(5, 300, rng);
+            ASSERT_GE(t, 1) << toString(k);
+            ASSERT_LE(t, 5) << toString(k);
+        }
+    }
+}
+
 TEST(StrategyNames, ParseRoundTripsEveryName) {
     for (StrategyKind k : kAll) {
         StrategyKind parsed = StrategyKind::Now;
@@ -245,6 +292,17 @@ TEST(StrategyConfig, ValidateNamesEtaOrQOutOfRange) {
     EXPECT_FALSE(c.validate().ok());
     c.q = 1.0;
     EXPECT_TRUE(c.validate().ok());
+}
+
+// A kind past the last name (an enum cast from a number) is refused naming
+// the setting, as a range: the names are the allowed values.
+TEST(StrategyConfig, ValidateRefusesAKindPastTheLastName) {
+    StrategyConfig c;
+    c.kind = static_cast<StrategyKind>(7);
+    EXPECT_TRUE(c.validate().ok());
+    c.kind = static_cast<StrategyKind>(8);
+    EXPECT_EQ(c.validate().message(),
+              "invalid configuration: sampler = 8, allowed now|uniform|agep|exp|uni+now|agep+now|uni+exp|agep+exp");
 }
 
 static_assert(noexcept(std::declval<const Strategy&>().draw(1, 1, std::declval<Rng&>())));

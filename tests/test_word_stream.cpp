@@ -58,6 +58,17 @@ TEST(WordStreamCsv, ErrorsNameFileLineAndColumn) {
     wide.width = 100;
     EXPECT_EQ(rost::parseWordStream("1,2\n", "1,150,3\n", wide, ws).message(),
               "positions.csv:1:3: position (150, 3) outside the frame (x in [0, 100))");
+    // The other side given and this one the largest a model can hold: each named by its own size.
+    rost::WordStreamLimits tall = limits();
+    tall.width = 65536;
+    tall.width_largest = true;
+    EXPECT_EQ(rost::parseWordStream("1,2\n", "1,70000,3\n", tall, ws).message(),
+              "positions.csv:1:3: position (70000, 3) outside the frame 480 high and at most 65536 wide");
+    rost::WordStreamLimits wider = limits();
+    wider.height = 65536;
+    wider.height_largest = true;
+    EXPECT_EQ(rost::parseWordStream("1,2\n", "1,3,70000\n", wider, ws).message(),
+              "positions.csv:1:5: position (3, 70000) outside the frame 640 wide and at most 65536 high");
     EXPECT_EQ(parseError("1,2\n", "2,0,0\n"), "positions.csv:1:1: timestamp 2 differs from words.csv's 1 for observation 1");
     EXPECT_EQ(parseError("1,2\n", "1,0\n"), "positions.csv:1:1: 1 coordinate for 1 word (expected 2)");
     EXPECT_EQ(parseError("1,2\n2,3\n", "1,0,0\n"), "positions.csv: 1 observation, but words.csv has 2");
