@@ -245,6 +245,37 @@ TEST(ModelSurprise, ACellsSurpriseIsItsNewestObservationsWordsAlone) {
     }
 }
 
+// A step of two observations (cell.time 2) whose second adds no word to a
+// cell: that cell keeps the surprise the first gave it (its words are the
+// first observation's), the cell the second adds words to gets the second's,
+// and a cell no observation of the step reached holds 0.
+TEST(ModelSurprise, ACellTheStepsLaterObservationMissesKeepsItsEarlierSurprise) {
+    rost::Config c = smallConfig();  // 4 x 3 cells of 16 pixels
+    c.cell_time = 2;
+    rost::Model m(c);
+    rost::Rng r(8);
+    std::vector<uint32_t> w;
+    std::vector<rost::Position> p;
+    for (int f = 0; f < 4; ++f) {  // a model to be surprised by
+        randomFrame(r, c, 30, w, p);
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+    }
+    const std::vector<rost::Position> both = {{1, 1}, {2, 2}, {3, 1}, {17, 1}, {18, 2}, {19, 3}};
+    ASSERT_TRUE(m.addObservation(std::vector<uint32_t>{3, 4, 5, 40, 41, 42}, both).ok());
+    const int64_t step = m.steps() - 1;
+    const std::vector<float> first(m.cellSurprise(step).begin(), m.cellSurprise(step).end());
+    ASSERT_GT(first[0], 0.f);
+    ASSERT_GT(first[1], 0.f);
+    EXPECT_EQ(first[5], 0.f) << "a cell without words";
+    ASSERT_TRUE(m.addObservation(std::vector<uint32_t>{7, 8}, std::vector<rost::Position>{{2, 3}, {4, 4}}).ok());
+    ASSERT_EQ(m.steps() - 1, step) << "one step";
+    const auto after = m.cellSurprise(step);
+    EXPECT_EQ(after[1], first[1]) << "the cell the second observation missed";
+    EXPECT_NEAR(after[0], m.observationSurprise(m.observations() - 1), 1e-3 * after[0]) << "the cell it reached";
+    EXPECT_NE(after[0], first[0]);
+    EXPECT_EQ(after[5], 0.f);
+}
+
 // The surprise formula itself (docs/design.md, "Curiosity"), from the
 // model's counts as they stood before the observation was added: a cell's
 // words' mean negative log of p(w) = sum_k phi_k(w) theta(k), phi_k(w) =

@@ -280,6 +280,10 @@ TEST(Settings, ChoiceNamesComeFromTheSchemasRow) {
     EXPECT_STREQ(toString(DropPolicy::DropOldest), "oldest");
     DropPolicy d{};
     EXPECT_EQ(parseDropPolicy("last", d).message(), "unknown drop policy 'last' (expected newest or oldest)");
+    EvictionPolicy ev{};
+    ASSERT_TRUE(parseEvictionPolicy("subtract", ev).ok());
+    EXPECT_EQ(ev, EvictionPolicy::Subtract);
+    EXPECT_EQ(parseEvictionPolicy("drop", ev).message(), "unknown eviction policy 'drop' (expected keep or subtract)");
     EXPECT_STREQ(choiceName(*findSetting("orb.search"), 1), "tree");
     EXPECT_STREQ(choiceName(*findSetting("K"), 0), "?") << "not a Choice";
 }

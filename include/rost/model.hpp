@@ -297,8 +297,10 @@ public:
     // shape, steps t-1 .. t-g.time; the global topic mix when that is empty).
     // Per cell, and per observation (over all its words).
     double observationSurprise(uint64_t frame) const noexcept;
-    // Surprise of each cell of the observation's step as of its latest
-    // observation; cells with no words hold 0.
+    // Surprise of each cell of the step: of the words the step's latest
+    // observation to add words to the cell brought (a cell a later
+    // observation of the step adds none to keeps its value); a cell with no
+    // words holds 0.
     std::span<const float> cellSurprise(int64_t step) const noexcept;
 
     // ---- outputs --------------------------------------------------------

@@ -24,7 +24,8 @@ const char* toString(EvictionPolicy p) noexcept { return choiceName(settingSpec(
 
 Status parseEvictionPolicy(const std::string& text, EvictionPolicy& out) {
     const int i = choiceIndexOf(settingSpec("eviction"), text);
-    if (i < 0) return Status::error("invalid eviction policy '" + text + "', allowed " + std::string(settingSpec("eviction").choices));
+    if (i < 0)
+        return Status::error("unknown eviction policy '" + text + "' (" + choiceExpected(settingSpec("eviction")) + ")");
     out = static_cast<EvictionPolicy>(i);
     return {};
 }
