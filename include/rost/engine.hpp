@@ -152,7 +152,7 @@ using ObservationHook = std::function<void(const ObservationResult&, const Model
 // not allocate.
 struct PublishedResult {
     ObservationResult result;
-    // The observation's time step after its budget (empty content when rejected):
+    // The observation's time step after its budget (zeros when rejected):
     std::vector<int32_t> histograms;   // cells x K topic counts, cell-major
     std::vector<float> cell_surprise;  // per cell
     // K: the model's slot of each label (Model::slotsInLabelOrder) when the

@@ -166,8 +166,10 @@ public:
     // i for i < activeTopics(), then the closed slots in slot order. A topic
     // model's rows in this order are what every face writes and reads
     // (topicmodel.csv holds the first activeTopics() of them; Python's
-    // topic_model() and rost_node's topic models all K, the closed slots' zero
-    // rows last). Without growth the identity. slots.size() >= K.
+    // topic_model() and rost_node's ~get_topic_model all K, the closed slots'
+    // zero rows last; rost_node's ~topic_model is by slot, and each published
+    // result carries this map, PublishedResult::topic_slots). Without growth
+    // the identity. slots.size() >= K.
     void slotsInLabelOrder(std::span<uint16_t> slots) const noexcept;
     int V() const noexcept;
     int cellsPerStep() const noexcept;

@@ -168,6 +168,9 @@ void Engine::publishResult(const ObservationResult& r) noexcept {
         const std::span<const float> cs = m.cellSurprise(r.step);
         for (std::size_t c = 0; c < cells; ++c) o->cell_surprise[c] = c < cs.size() ? cs[c] : 0.f;
         outputHistograms(m, r.step, cells, o->histograms.data());
+    } else {  // a reused record: none of its last occupant's content
+        std::fill(o->histograms.begin(), o->histograms.end(), 0);
+        std::fill(o->cell_surprise.begin(), o->cell_surprise.end(), 0.f);
     }
     model_->slotsInLabelOrder(o->topic_slots);
     pub_->results.commitPush();

@@ -65,6 +65,7 @@ void Node::startFleet() {
     lift_table_ = std::make_unique<std::atomic<int32_t>[]>(static_cast<std::size_t>(lift_K_));
     for (int k = 0; k < lift_K_; ++k) lift_table_[k].store(k, std::memory_order_relaxed);
     lift_copy_.assign(static_cast<std::size_t>(lift_K_), 0);
+    lift_by_label_.assign(static_cast<std::size_t>(lift_K_), -1);  // sized here: the publisher does not allocate for it
     lifting_sub_ = nh_.subscribe("lifting", 2, &Node::onLifting, this);
     ROS_INFO("rost: ~use_global_model: vehicle '%s' labels in the global topics of the lifting on %s (~global_frame)",
              vehicle_.c_str(), lifting_sub_.getTopic().c_str());

@@ -12,7 +12,9 @@ until its first ~frame comes:
 - `_topics_grow:=true _K:=32 _frame_width:=128` (the height follows the
   images' aspect ratio): then paused, its topic model's rows are in
   label order through ~get_topic_model and ~set_topic_model (a prior in the
-  last row comes back right after the open topics).
+  last row comes back right after the open topics); then, with
+  ~use_global_model and a lifting published by hand, ~global_frame lifts
+  that topic through its slot, not its label.
 Then the mistakes, each fatal at start-up (exit 2) naming the parameter: a
 transport no plugin provides, ~compressed disagreeing with ~image_transport,
 an ~image_transport that is not a name.
@@ -81,6 +83,49 @@ def topic_model_rows_in_label_order(node):
     nonzero = [k for k in range(K) if any(rows[k])]
     check(nonzero == list(range(A + 1)) and rows[A][3] == 5000 and sum(rows[A]) == 5000,
           "%s: the prior's topic is the next label, row %d (rows holding words: %s)" % (node, A, nonzero))
+    return A
+
+
+def global_frame_through_slots(node, A, pub, got, globals_):
+    """~global_frame with growth reads the lifting through each frame's slots: the prior's topic
+    sits in slot K-1, above closed slots (its label is the last open one, A' - 1), so a lifting
+    that sends slot k to global topic k gives it global topic K-1, where a lifting read by label
+    would give A' - 1. A wider prior on that topic (30 of every word) makes the frames use it."""
+    import rospy
+    from rost_msgs.msg import TopicLifting, VehicleLifting
+    from rost_msgs.srv import GetTopicModel, SetTopicModel
+    from std_srvs.srv import SetBool
+    m = rospy.ServiceProxy(node + "/get_topic_model", GetTopicModel)()
+    K, V = m.K, m.V
+    wide = [0] * (K * V)
+    for v in range(5000, 5256):  # the intensity words (V = 5436: ORB 5000, intensity 256, hue 180)
+        wide[A * V + v] = 200
+    check(rospy.ServiceProxy(node + "/set_topic_model", SetTopicModel)(K, V, wide).success,
+          "%s: ~set_topic_model: 30 of every word to the prior's topic (row %d)" % (node, A))
+    lifting = rospy.Publisher("/grow_lifting", TopicLifting, queue_size=1, latch=True)
+    wait_until(lambda: lifting.get_num_connections() > 0, 15)
+    lifting.publish(TopicLifting(G=K, vehicles=[VehicleLifting(vehicle=node.lstrip("/"), global_=list(range(K)))]))
+    rospy.ServiceProxy(node + "/pause", SetBool)(False)
+    images = [textured(W, H, i) for i in range(4)]
+    frame_of = {}
+
+    def lifted():
+        for f in got:
+            frame_of[f.header.stamp.to_nsec()] = f
+        pub.publish(image_msg(images[int(time.time() * 10) % 4], int(time.time() * 1e9)))
+        return any(g.active_topics == K and g.header.stamp.to_nsec() in frame_of for g in globals_)
+
+    wait_until(lifted, 60, step=0.3)
+    pairs = [(frame_of[g.header.stamp.to_nsec()], g) for g in globals_
+             if g.active_topics == K and g.header.stamp.to_nsec() in frame_of]
+    check(pairs, "%s: ~global_frame in the lifting's %d topics for a frame" % (node, K))
+    f, g = pairs[-1]
+    a = f.active_topics
+    check(0 < a < K and g.topic_weights[K - 1] > 0 and g.topic_weights[K - 1] == f.topic_weights[a - 1] and
+          abs(sum(g.topic_weights) - sum(f.topic_weights)) < 1e-4,
+          "%s: the prior's topic (label %d of %d, slot %d) lifted to global topic %d by its slot: weight %.3f "
+          "(global %s)" % (node, a - 1, a, K - 1, K - 1, f.topic_weights[a - 1] if a else -1,
+                           [round(w, 3) for w in g.topic_weights]))
 
 
 def run():
@@ -94,9 +139,11 @@ def run():
         "rost_raw": (["image:=/cam/raw"], "/cam/raw", Image),
         "rost_compressed": (["image:=/cam/png", "_image_transport:=compressed"], "/cam/png/compressed", CompressedImage),
         "rost_alias": (["image:=/cam/old", "_compressed:=true"], "/cam/old", CompressedImage),
-        "rost_grow": (["image:=/cam/grow", "_topics_grow:=true", "_K:=32", "_frame_width:=128"], "/cam/grow", Image),
+        "rost_grow": (["image:=/cam/grow", "_topics_grow:=true", "_K:=32", "_frame_width:=128",
+                       "_use_global_model:=true", "lifting:=/grow_lifting"], "/cam/grow", Image),
     }
-    got, pubs, nodes = {}, {}, {}
+    got, pubs, nodes, grow_globals = {}, {}, {}, []
+    rospy.Subscriber("/rost_grow/global_frame", FrameTopics, grow_globals.append, queue_size=100)
     for name, (params, topic, kind) in cases.items():
         got[name] = []
         rospy.Subscriber("/%s/frame" % name, FrameTopics, got[name].append, queue_size=100)
@@ -118,7 +165,8 @@ def run():
               (name, cases[name][1], cases[name][2].__name__))
     check(subscribers("/cam/png") == [] and subscribers("/cam/png/compressed") == ["/rost_compressed"],
           "_image_transport:=compressed subscribes <image>/compressed only")
-    topic_model_rows_in_label_order("/rost_grow")
+    A = topic_model_rows_in_label_order("/rost_grow")
+    global_frame_through_slots("/rost_grow", A, pubs["rost_grow"], got["rost_grow"], grow_globals)
     for p in nodes.values():
         Procs.stop(p)
     logs = {name: procs.log(name + ".log") for name in cases}
