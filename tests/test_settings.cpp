@@ -229,6 +229,26 @@ TEST(Settings, ErrorsNameTheKeyAndWhatWasExpected) {
     EXPECT_EQ(settingRange(*findSetting("drop")), "newest|oldest");
 }
 
+// What a message quotes is cut at 40 characters, "..." saying so; an
+// unknown key's guess is the nearest key within two edits, the first in the
+// schema's order on a tie.
+TEST(Settings, QuotedTextIsCutAtFortyCharactersAndATiedGuessIsTheSchemasFirstKey) {
+    Settings s;
+    const std::string forty(40, 'x');
+    EXPECT_EQ(setSetting(s, "orb.search", forty).message(),
+              "key 'orb.search': expected linear or tree, found '" + forty + "'");
+    EXPECT_EQ(setSetting(s, "orb.search", forty + "y").message(),
+              "key 'orb.search': expected linear or tree, found '" + forty + "...'");
+    EXPECT_EQ(setSetting(s, forty + "y", "1").message(), "unknown key '" + forty + "...'");
+    // "Q" is one edit from both "K" and "q": the schema lists K first.
+    const auto at = [](std::string_view key) {
+        const auto& specs = settingSpecs();
+        return std::find_if(specs.begin(), specs.end(), [&](const SettingSpec& x) { return x.key == key; }) - specs.begin();
+    };
+    ASSERT_LT(at("K"), at("q"));
+    EXPECT_EQ(setSetting(s, "Q", "1").message(), "unknown key 'Q' (did you mean 'K'?)");
+}
+
 // An integer beyond its field's type is out of the key's range, below as
 // above: never wrapped into the type (-4294967288 would wrap to 8 in a
 // 32-bit field, a K in range).
