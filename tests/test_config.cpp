@@ -21,7 +21,7 @@ TEST(Config, InvalidValueNamesFieldAndRange) {
         {"K", [](rost::Config& c) { c.K = 0; }, "[1, 1024]"},
         {"V", [](rost::Config& c) { c.V = -3; }, "[1, 16777216]"},
         {"alpha", [](rost::Config& c) { c.alpha = 0.0; }, "(0, "},
-        {"beta", [](rost::Config& c) { c.beta = -1.0; }, "(0, "},
+        {"beta", [](rost::Config& c) { c.beta = -1.0; }, "[1e-30, "},
         {"cell.space", [](rost::Config& c) { c.cell_space = 0; }, "[1, 65536]"},
         {"cell.time", [](rost::Config& c) { c.cell_time = 0; }, "[1, 1024]"},
         {"g.space", [](rost::Config& c) { c.g_space = -1; }, "[0, 16]"},
@@ -70,7 +70,8 @@ TEST(Config, ARingTooLargeNamesEverySettingItsSizeComesFrom) {
 
 // The temporal neighbourhood must fit in the ring, strictly: g.time =
 // ring.steps - 1 is the largest taken; ring.steps itself would reach the
-// slot being written (a ring of one step has no temporal neighbours).
+// slot being written. A ring of one step has no temporal neighbours: it
+// takes g.time's default of 1 and no more.
 TEST(Config, TheTemporalNeighbourhoodFitsInTheRingAtItsEdge) {
     rost::Config c;
     c.ring_steps = 4;
@@ -81,6 +82,12 @@ TEST(Config, TheTemporalNeighbourhoodFitsInTheRingAtItsEdge) {
     c.ring_steps = 1;
     c.g_time = 1;
     EXPECT_TRUE(c.validate().ok()) << c.validate().message();
+    // More than the default in a ring of one step: refused as in a ring of two.
+    c.g_time = 5;
+    EXPECT_EQ(c.validate().message(),
+              "invalid configuration: g.time = 5, allowed [0, 1]; a ring of ring.steps = 1 has no temporal neighbours");
+    c.ring_steps = 2;
+    EXPECT_EQ(c.validate().message(), "invalid configuration: g.time = 5, allowed [0, 1]; below ring.steps = 2");
 }
 
 // What the tables' sizes come from, each setting by its key (the engine's

@@ -214,7 +214,7 @@ TEST(ConfigFile, ReadsAFileAndNamesAMissingOne) {
     EXPECT_EQ(c.model.K, 12);
     ASSERT_TRUE(writeFileAtomic(path, "K = 12\nbeta = 0\n").ok());
     EXPECT_EQ(readConfigFile(path, c).message(),
-              path + ":2: key 'beta': invalid configuration: beta = 0, allowed (0, 1000000]");
+              path + ":2: key 'beta': invalid configuration: beta = 0, allowed [1e-30, 1000000]");
     EXPECT_EQ(readConfigFile("/nonexistent/x.conf", c).message(), "/nonexistent/x.conf: cannot open: No such file or directory");
     std::filesystem::remove_all(dir);
 }

@@ -379,6 +379,32 @@ TEST(ModelPerplexity, FiniteAndBoundedByVocabularyForUniformModel) {
     }
 }
 
+// beta's smallest value (1e-30, settings_schema.hpp) still gives finite
+// perplexities and surprise: the sampler's tables are single precision, and
+// a beta below float's smallest normal (1e-38 and less) made them NaN; the
+// check refuses those.
+TEST(ModelPerplexity, TheSmallestBetaTakenGivesFiniteMeasurements) {
+    rost::Config c = smallConfig();
+    c.beta = 1e-30;
+    ASSERT_TRUE(c.validate().ok()) << c.validate().message();
+    rost::Model m(c);
+    rost::Rng r(5);
+    std::vector<uint32_t> w;
+    std::vector<rost::Position> p;
+    for (int f = 0; f < 5; ++f) {
+        randomFrame(r, c, 30, w, p);
+        ASSERT_TRUE(m.addObservation(w, p).ok());
+        EXPECT_TRUE(std::isfinite(m.observationSurprise(static_cast<uint64_t>(f)))) << f;
+        m.refineAll(2);
+    }
+    for (int64_t t = m.oldestStep(); t < m.steps(); ++t) {
+        EXPECT_TRUE(std::isfinite(m.stepPerplexity(t))) << t;
+        EXPECT_TRUE(std::isfinite(m.stepPluginPerplexity(t))) << t;
+    }
+    c.beta = 1e-31;
+    EXPECT_EQ(c.validate().message(), "invalid configuration: beta = 1e-31, allowed [1e-30, 1000000]");
+}
+
 // An observation's positions read back as given, to the frame's last pixel
 // on each side (65535: both coordinates use all 16 bits of their half).
 TEST(ModelIngest, PositionsReadBackAsGivenToTheFramesLastPixel) {

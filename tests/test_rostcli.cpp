@@ -706,6 +706,24 @@ TEST_F(RostCli, PerplexityIterHoldsTheCorpusPerplexityEveryPpxRateSweeps) {
     EXPECT_EQ(r.err, "topics.refine.t: --ppx.rate: expected 1 or more, found '0' (see --help)\n");
 }
 
+// A flag where a value is due is refused, naming both, as the tool refuses
+// it: `--out.topics --online` wrote a batch run's labels to a file named
+// "--online"; a file named like a flag is given as ./--name.
+TEST_F(RostCli, AFlagWhereAValueIsDueIsRefusedNamingBoth) {
+    writeText(dir + "/k1.csv", "0,1,2\n1,2,0\n");
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 2 -n 5 --out.topics --online");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: --out.topics: needs a value; --online is an option (a file of that name: "
+                     "./--online) (see --help)\n");
+    EXPECT_FALSE(std::filesystem::exists(dir + "/--online"));
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -n 5 -K --threads 2");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: --ntopics: needs a value; --threads is an option (see --help)\n");
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i k1.csv -V 3 -K 2 -n 5 --out.topics ./--online");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(std::filesystem::exists(dir + "/--online"));
+}
+
 // Positions with fractions (rostpy's, a spectrogram's) are placed at their
 // floor: the same run as the positions with their fractions cut, every output
 // byte for byte; a negative one is still refused, naming it.
@@ -855,6 +873,21 @@ TEST_F(RostCli, AnOnlineRunThatFailsAtItsFirstDocumentLeavesTheEarlierOnlineFile
     EXPECT_EQ(r.err, "topics.refine.t: bad.csv:1:5: expected word id (a non-negative integer), found 'x'\n");
     EXPECT_EQ(readText(dir + "/topics.online.csv"), topics);
     EXPECT_EQ(readText(dir + "/perplexity.online.csv"), ppx);
+}
+
+// A device output that fails (/dev/full) fails the run before any file is
+// renamed: the earlier run's files stay whole, never a mix of two runs (the
+// devices were written after the renames before).
+TEST_F(RostCli, ADeviceOutputThatFailsLeavesTheEarlierRunsFiles) {
+    Result r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 2 --seed 1");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const char* files[] = {"topics.csv", "perplexity.csv", "topicmodel.csv", "topics.log"};
+    std::vector<std::string> before;
+    for (const char* f : files) before.push_back(readText(dir + "/" + f));
+    r = run(dir, bin(ROSTCLI_REFINE_T) + " -i words.csv -V 40 -K 4 -n 2 --seed 2 --out.topics.ml /dev/full");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err, "topics.refine.t: /dev/full: write failed: No space left on device\n");
+    for (std::size_t i = 0; i < std::size(files); ++i) EXPECT_EQ(readText(dir + "/" + files[i]), before[i]) << files[i];
 }
 
 // An online write that fails (here a file size limit, as a full disk) is cut

@@ -862,6 +862,45 @@ TEST(ToolCli, RefineOnOneThreadStartsNoThreadAndOnTwoGivesTheSameFiles) {
 #endif
 }
 
+// A process that may start some of the refinement's threads but not all (a
+// process or memory limit) stops with one error naming the setting, exit 2,
+// and no staging directory left: it aborted (std::terminate, a joinable
+// std::thread destroyed) before. The counter's limit lets the positions'
+// reader and one worker of --threads 4 start.
+TEST(ToolCli, ThreadsThatCannotAllStartAreAnErrorNotAnAbort) {
+#ifndef ROST_COUNT_THREADS
+    GTEST_SKIP() << "the thread counter is not built under a sanitizer";
+#else
+    TempDir t;
+    std::string words, positions;
+    for (int i = 0; i < 20; ++i) {
+        words += std::to_string(i);
+        positions += std::to_string(i);
+        for (int j = 0; j < 40; ++j) {
+            (words += ',') += std::to_string((i * 11 + j * 7) % 30);
+            (positions += ',') += std::to_string((j * 37) % 320) + ',' + std::to_string((j * 53) % 240);
+        }
+        words += "\n";
+        positions += "\n";
+    }
+    rost::testing::writeText(t / "w.csv", words);
+    rost::testing::writeText(t / "p.csv", positions);
+    for (const int limit : {0, 2}) {
+        const std::string out = "out" + std::to_string(limit);
+        std::filesystem::create_directory(t / out);
+        const RunResult r = rost::testing::runShell("ROST_TEST_THREADS_LIMIT=" + std::to_string(limit) + " LD_PRELOAD='" +
+                                                    ROST_COUNT_THREADS + "' " + tool() + " refine " + (t / "w.csv") +
+                                                    " --positions " + (t / "p.csv") + " -K 4 -q --threads 4 --out " +
+                                                    (t / out));
+        EXPECT_EQ(r.exit_code, 2) << r.err;
+        EXPECT_NE(r.err.find("rost: error: engine: cannot start the refinement's threads (threads = 4; lower it): "),
+                  std::string::npos)
+            << r.err;
+        EXPECT_TRUE(std::filesystem::is_empty(t / out)) << "limit " << limit << ": something was left in the output";
+    }
+#endif
+}
+
 // summary.png's surprise curve is filled below it, within its plot: the
 // fill's colour (a light blue blended 0.55 over white) covers much of the
 // plot's box and nothing outside it (the box's place is the summary's layout:

@@ -44,8 +44,8 @@
       "vocabulary size; word ids are 0..V-1 (the tool: the extractors' vocabulary, or the largest word id + 1, unless set)") \
     X("alpha", Real, Model, "0.1", 0, 1e6, "", "", "-a,--alpha", LoOpen, engine.model.alpha, \
       "Dirichlet prior on a neighbourhood's topic mix (paper: 0.1)") \
-    X("beta", Real, Model, "0.5", 0, 1e6, "", "", "-b,--beta=1.0", LoOpen, engine.model.beta, \
-      "Dirichlet prior on a topic's words (paper: 0.5)") \
+    X("beta", Real, Model, "0.5", 1e-30, 1e6, "", "", "-b,--beta=1.0", 0, engine.model.beta, \
+      "Dirichlet prior on a topic's words (paper: 0.5); from 1e-30, which the sampler's single-precision tables still hold") \
     X("topics.grow", Bool, Model, "false", 0, 0, "", "", "--grow.topics.size", 0, engine.model.grow, \
       "let topics grow: K is then the cap; split and merge moves between sweeps open and close topics as the data asks (rost-cli: --grow.topics.size)") \
     X("gamma", Real, Model, "0.1", 0, 1e6, "", "", "--gamma=1e-5", LoOpen, engine.model.gamma, \

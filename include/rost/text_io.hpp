@@ -253,7 +253,8 @@ Status writeFileAtomic(const std::string& path, std::string_view content);
 // directory never mixes two runs' files. (A rename that fails after others
 // succeeded, which needs the directory to change under the run, cannot be
 // undone; its error names the path.) Devices and FIFOs are written in place
-// after the renames.
+// before the renames (one that fails leaves every file as it was) and closed
+// after them.
 struct FileToWrite {
     std::string path;
     std::string_view content;

@@ -81,6 +81,10 @@ void bindMerge(py::module_& m) {
                    std::to_string(p.merged.global.K) + " global topics, V = " + std::to_string(p.merged.global.V) + ")";
         });
     m.def("merge_topic_models", [](const py::sequence& models, double threshold, double beta) {
+        // One path is a sequence of characters: refused, not read as many one-letter paths.
+        if (py::isinstance<py::str>(models) || py::isinstance<py::bytes>(models))
+            throw py::type_error("rost.merge_topic_models: models is a list of paths or arrays, not one path "
+                                 "(write [path])");
         std::vector<TopicCounts> in;
         for (std::size_t i = 0; i < models.size(); ++i) in.push_back(topicCounts(models[i], i));
         MergeOptions o;

@@ -64,6 +64,10 @@ def test_bad_input_is_named(tmp_path):
         rost.merge_topic_models([tmp_path / "missing.csv"])
     with pytest.raises(TypeError, match=r"models\[0\]: expected a path or a 2-D integer numpy array"):
         rost.merge_topic_models([np.zeros(3)])
+    # One path where a list is due: refused as such, not read as one-letter paths.
+    for one in (str(tmp_path / "a.csv"), b"a.csv"):
+        with pytest.raises(TypeError, match=r"models is a list of paths or arrays, not one path \(write \[path\]\)"):
+            rost.merge_topic_models(one)
     with pytest.raises(ValueError, match=r"merge threshold 2 out of range \[0, 1\]"):
         rost.merge_topic_models([planted([0])], threshold=2.0)
     with pytest.raises(ValueError, match="model 0: count of topic 0, word 3 is negative"):

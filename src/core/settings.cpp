@@ -298,9 +298,14 @@ std::optional<SettingProblem> modelCombinations(const Config& c) {
     if (c.fixed && c.grow)
         return SettingProblem{spec("topics.grow"), K::Range, "true", "false with {topicmodel.fixed} = true",
                               {spec("topicmodel.fixed")}, "a fixed topic model opens no topics (K is the given model's rows)"};
-    if (c.g_time >= c.ring_steps && c.ring_steps > 1)
-        return SettingProblem{spec("g.time"), K::Range, n(c.g_time), "[0, " + n(c.ring_steps - 1) + "]",
-                              {spec("ring.steps")}, "below {ring.steps} = " + n(c.ring_steps)};
+    // A ring of one step has no temporal neighbours; it keeps g.time's
+    // default of 1, but no more (a larger one would still set the rounds'
+    // colours, and change the draws, for neighbours that never exist).
+    if (c.g_time > std::max(c.ring_steps - 1, 1))
+        return SettingProblem{spec("g.time"), K::Range, n(c.g_time), "[0, " + n(std::max(c.ring_steps - 1, 1)) + "]",
+                              {spec("ring.steps")},
+                              c.ring_steps > 1 ? "below {ring.steps} = " + n(c.ring_steps)
+                                               : "a ring of {ring.steps} = 1 has no temporal neighbours"};
     // The grid in 64 bits first: cellsPerStep() multiplies ints, which a
     // 65536 x 65536 frame of 1-pixel cells would overflow.
     constexpr int64_t kMaxCells = int64_t{1} << 20;

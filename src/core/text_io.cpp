@@ -409,12 +409,12 @@ Status openInPlace(const std::string& path, int& fd) {
     return {};
 }
 
-// Writes `content` through `fd` (openInPlace's) and closes it.
+// Writes `content` through `fd` (openInPlace's), left open.
 Status writeThrough(int fd, const std::string& path, std::string_view content) {
-    const bool ok = writeAll(fd, content);
-    const int err = errno;
-    ::close(fd);
-    if (!ok) return Status::fromErrno(err, path + ": write failed: " + std::strerror(err));
+    if (!writeAll(fd, content)) {
+        const int err = errno;
+        return Status::fromErrno(err, path + ": write failed: " + std::strerror(err));
+    }
     return {};
 }
 
@@ -532,7 +532,9 @@ Status writeFileAtomic(const std::string& path, std::string_view content) {
     if (isDeviceOrFifo(path)) {
         int fd = -1;
         if (Status st = openInPlace(path, fd); !st.ok()) return st;
-        return writeThrough(fd, path, content);
+        const Status st = writeThrough(fd, path, content);
+        ::close(fd);
+        return st;
     }
     std::string target;
     if (Status st = linkTarget(path, target); !st.ok()) return st;
@@ -569,6 +571,16 @@ Status writeFilesAtomic(std::span<const FileToWrite> files) {
         }
         staged.push_back(std::move(s));
     }
+    // Devices and FIFOs are written before anything is renamed, so one that
+    // fails (a full device, a FIFO whose reader left: EPIPE, or SIGPIPE's
+    // default end of the process) leaves every file as it was; they are
+    // closed after, so their reader sees the end once the files are in place.
+    for (const Staged& s : staged)
+        if (s.fd >= 0)
+            if (Status st = writeThrough(s.fd, s.file->path, s.file->content); !st.ok()) {
+                dropTemporaries();
+                return st;
+            }
     Status result;
     for (Staged& s : staged) {
         if (s.tmp.empty()) continue;
@@ -577,15 +589,8 @@ Status writeFilesAtomic(std::span<const FileToWrite> files) {
         if (!st.ok()) result = st;
         s.tmp.clear();
     }
-    for (Staged& s : staged) {
-        if (s.fd < 0) continue;
-        if (result.ok()) {
-            if (Status st = writeThrough(s.fd, s.file->path, s.file->content); !st.ok()) result = st;
-        } else {
-            ::close(s.fd);
-        }
-        s.fd = -1;
-    }
+    for (Staged& s : staged)
+        if (s.fd >= 0) ::close(s.fd);
     return result;
 }
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <string>
+#include <system_error>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <emmintrin.h>
@@ -46,8 +48,20 @@ void WorkerPool::start(const ThreadSettings* settings) {
     // Each thread starts from the generation of now, so a job posted before
     // it first looks is not missed.
     const uint32_t gen = generation_.load(std::memory_order_relaxed);
-    for (int i = 1; i < workers_; ++i)
-        threads_.emplace_back([this, i, settings, gen] { workerMain(i, settings, gen); });
+    try {
+        for (int i = 1; i < workers_; ++i)
+            threads_.emplace_back([this, i, settings, gen] { workerMain(i, settings, gen); });
+    } catch (const std::system_error& e) {
+        // A process or memory limit, after some threads or none: those started
+        // are stopped and joined (a joinable std::thread destroyed would call
+        // std::terminate), and the error names the setting to lower.
+        stopThreads();
+        throw std::system_error(e.code(), "cannot start the refinement's threads (threads = " +
+                                              std::to_string(workers_) + "; lower it)");
+    } catch (...) {  // no memory for a thread's state: the same clean-up
+        stopThreads();
+        throw;
+    }
 }
 
 void WorkerPool::stopThreads() noexcept {

@@ -270,6 +270,11 @@ int topicsRefineMain(Command cmd, int argc, char** argv) {
     p.run.cmd = cmd;
     addFileFlags(app, p);
     addSettingFlags(app, p, cmd);
+    // A file flag's value that is a flag (`--out.topics --online`) is refused, as the tool refuses it.
+    refuseOptionsAsValues(app, [](const CLI::Option* o) {
+        const std::string& n = o->get_name();
+        return n.rfind("--in.", 0) == 0 || n.rfind("--out.", 0) == 0 || n == "--ppx.out" || n == "--logfile";
+    });
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -26,6 +26,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/utils/logger.hpp>
 
+#include "cli_given.hpp"
 #include "rost/version.hpp"
 #include "tool.hpp"
 
@@ -59,39 +60,15 @@ const CLI::Validator& nonNegative() {
     return v;
 }
 
-// An option that takes a value takes the next argument whatever it is
-// (CLI11 fills an option's values before it looks at them): `--checkpoint
-// --quiet` wrote a checkpoint named "--quiet" and was not quiet, `-K --out
-// o` said "--out is required". A value that is the name of one of the
-// command's options (alone or as `--name=value`) is refused, naming both,
-// before the option's own checks (a transform runs first: `--width --quiet`
-// is not "expected 0 or more"); a file named like an option can still be
-// given to a path option as ./--name, which its error says.
-bool takesAPath(CLI::Option* opt) {
+// An option whose value is another option's name is refused
+// (cli_given.hpp, refuseOptionsAsValues); one that takes a path says how a
+// file named like an option is given.
+bool takesAPath(const CLI::Option* opt) {
     try {
-        opt->get_validator(kPathValidator);
+        const_cast<CLI::Option*>(opt)->get_validator(kPathValidator);
         return true;
     } catch (const CLI::OptionNotFound&) {
         return false;
-    }
-}
-
-void refuseOptionsAsValues(CLI::App& cmd) {
-    for (CLI::Option* opt : cmd.get_options([](const CLI::Option* o) { return o->nonpositional() && o->get_type_size_max() > 0; })) {
-        const CLI::App* owner = &cmd;
-        const bool path = takesAPath(opt);
-        opt->transform(CLI::Validator(
-            [owner, path](std::string& value) -> std::string {
-                if (value.size() < 2 || value[0] != '-' || !(std::isalpha(static_cast<unsigned char>(value[1])) || value[1] == '-'))
-                    return {};
-                const std::string name = value.substr(0, value.find('='));
-                const CLI::App* parent = owner->get_parent();
-                if (owner->get_option_no_throw(name) == nullptr && (parent == nullptr || parent->get_option_no_throw(name) == nullptr) &&
-                    name != "--help" && name != "-h")
-                    return {};
-                return "needs a value; " + name + " is an option" + (path ? " (a file of that name: ./" + value + ")" : "");
-            },
-            ""));
     }
 }
 
@@ -155,7 +132,7 @@ void addRun(CLI::App& app, RunCli& r) {
         ->check(CLI::IsMember({"mp4", "avi"}))
         ->group(out);
     runCmd->add_flag("--no-summary", r.noSummary, "do not draw summary.png")->group(out);
-    runCmd->add_flag("--quiet,-q", run.quiet, "no progress bar and no notes on stderr (errors still)")->group(out);
+    runCmd->add_flag("--quiet,-q", run.quiet, "no progress bar and no notes on stderr but the input's own (errors still)")->group(out);
     runCmd->footer(
         "Writes into DIR: words.csv (timestamp,w1,w2,...), positions.csv (timestamp,x1,y1,...), topics.csv\n"
         "(timestamp,z1,z2,...: final maximum-likelihood labels), perplexity.csv (frame,instantaneous,final,\n"
@@ -331,7 +308,7 @@ int main(int argc, char** argv) {
     // ---- cameras
     CLI::App* camCmd = app.add_subcommand("cameras", "list the cameras libcamera can see");
 
-    for (CLI::App* cmd : app.get_subcommands([](const CLI::App*) { return true; })) refuseOptionsAsValues(*cmd);
+    for (CLI::App* cmd : app.get_subcommands([](const CLI::App*) { return true; })) rost::cli::refuseOptionsAsValues(*cmd, takesAPath);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

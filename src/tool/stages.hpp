@@ -50,8 +50,9 @@ struct WordsStage {
     const bag::BagFrameSource* bag = nullptr;  // the source, when the input is a bag
 
     Status open(const RunOptions& o);
-    // The source's notes (images skipped as too small, frames scaled), one
-    // "rost: " line each on stderr, even with -q: they say what was not modelled.
+    // The source's notes (images skipped as too small, frames scaled, a video
+    // shorter than its duration), one "rost: " line each on stderr, even with
+    // -q: they say how the results differ from the input (docs/tool.md).
     void printNotes() const;
 
 private:
