@@ -819,6 +819,28 @@ TEST(ToolWords, MaxWordsFollowsTheFrameSizeAndDroppedWordsAreReported) {
     EXPECT_EQ(runTxtLine(t / "quiet", "words dropped:"), runTxtLine(t / "cell", "words dropped:"));
 }
 
+#ifdef ROST_COUNT_THREADS
+namespace {
+// w.csv and p.csv in t: `steps` observations of `words` words in a 320 x 240
+// frame, the first half's words from 0..29, the second half's from 30..59.
+void writeTwoSceneStream(const TempDir& t, int steps, int words) {
+    std::string w, p;
+    for (int i = 0; i < steps; ++i) {
+        w += std::to_string(i);
+        p += std::to_string(i);
+        for (int j = 0; j < words; ++j) {
+            (w += ',') += std::to_string((i < steps / 2 ? 0 : 30) + (i * 11 + j * 7) % 30);
+            (p += ',') += std::to_string((j * 37) % 320) + ',' + std::to_string((j * 53) % 240);
+        }
+        w += "\n";
+        p += "\n";
+    }
+    rost::testing::writeText(t / "w.csv", w);
+    rost::testing::writeText(t / "p.csv", p);
+}
+} // namespace
+#endif
+
 // `--threads 1` is one thread from start to end: no reader beside the words,
 // no zeroing helper, no worker, no thread drawing summary.png (the tool's
 // whole command, what a user pinning rost to one core of a board expects).
@@ -829,19 +851,7 @@ TEST(ToolCli, RefineOnOneThreadStartsNoThreadAndOnTwoGivesTheSameFiles) {
     GTEST_SKIP() << "the thread counter is not built under a sanitizer";
 #else
     TempDir t;
-    std::string words, positions;
-    for (int i = 0; i < 40; ++i) {
-        words += std::to_string(i);
-        positions += std::to_string(i);
-        for (int j = 0; j < 60; ++j) {
-            (words += ',') += std::to_string((i < 20 ? 0 : 30) + (i * 11 + j * 7) % 30);
-            (positions += ',') += std::to_string((j * 37) % 320) + ',' + std::to_string((j * 53) % 240);
-        }
-        words += "\n";
-        positions += "\n";
-    }
-    rost::testing::writeText(t / "w.csv", words);
-    rost::testing::writeText(t / "p.csv", positions);
+    writeTwoSceneStream(t, 40, 60);
     const auto threadsStarted = [&](int threads, const std::string& out) {
         const RunResult r = rost::testing::runShell("ROST_TEST_THREADS_FILE=" + (t / (out + ".threads")) +
                                                     " LD_PRELOAD='" + ROST_COUNT_THREADS + "' " + tool() + " refine " +
@@ -872,19 +882,7 @@ TEST(ToolCli, ThreadsThatCannotAllStartAreAnErrorNotAnAbort) {
     GTEST_SKIP() << "the thread counter is not built under a sanitizer";
 #else
     TempDir t;
-    std::string words, positions;
-    for (int i = 0; i < 20; ++i) {
-        words += std::to_string(i);
-        positions += std::to_string(i);
-        for (int j = 0; j < 40; ++j) {
-            (words += ',') += std::to_string((i * 11 + j * 7) % 30);
-            (positions += ',') += std::to_string((j * 37) % 320) + ',' + std::to_string((j * 53) % 240);
-        }
-        words += "\n";
-        positions += "\n";
-    }
-    rost::testing::writeText(t / "w.csv", words);
-    rost::testing::writeText(t / "p.csv", positions);
+    writeTwoSceneStream(t, 20, 40);
     for (const int limit : {0, 2}) {
         const std::string out = "out" + std::to_string(limit);
         std::filesystem::create_directory(t / out);
