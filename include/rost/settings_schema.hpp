@@ -45,7 +45,7 @@
     X("alpha", Real, Model, "0.1", 0, 1e6, "", "", "-a,--alpha", LoOpen, engine.model.alpha, \
       "Dirichlet prior on a neighbourhood's topic mix (paper: 0.1)") \
     X("beta", Real, Model, "0.5", 1e-30, 1e6, "", "", "-b,--beta=1.0", 0, engine.model.beta, \
-      "Dirichlet prior on a topic's words (paper: 0.5); from 1e-30, which the sampler's single-precision tables still hold") \
+      "Dirichlet prior on a topic's words (paper: 0.5); the sampler's tables are single precision, hence the range's floor") \
     X("topics.grow", Bool, Model, "false", 0, 0, "", "", "--grow.topics.size", 0, engine.model.grow, \
       "let topics grow: K is then the cap; split and merge moves between sweeps open and close topics as the data asks (rost-cli: --grow.topics.size)") \
     X("gamma", Real, Model, "0.1", 0, 1e6, "", "", "--gamma=1e-5", LoOpen, engine.model.gamma, \

@@ -63,9 +63,9 @@ const CLI::Validator& nonNegative() {
 // An option whose value is another option's name is refused
 // (cli_given.hpp, refuseOptionsAsValues); one that takes a path says how a
 // file named like an option is given.
-bool takesAPath(const CLI::Option* opt) {
+bool takesAPath(CLI::Option* opt) {
     try {
-        const_cast<CLI::Option*>(opt)->get_validator(kPathValidator);
+        opt->get_validator(kPathValidator);
         return true;
     } catch (const CLI::OptionNotFound&) {
         return false;
